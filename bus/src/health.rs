@@ -1,0 +1,282 @@
+//! Per-agent health: stream counters (rate, bytes/s, capture->receipt latency
+//! percentiles), rejected inputs by kind (each kind logged once), a liveliness token
+//! at `health/<agent>` and a periodic [`HealthStats`] publication.
+
+use std::collections::{BTreeMap, HashSet};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use schemas::{HealthStats, Keys, RejectCount, StreamStats};
+use zenoh::Session;
+
+use crate::{now_ns, stream::Lane, Publisher, Shutdown};
+
+/// Latency samples kept per stream per reporting period (older ones are dropped).
+const MAX_LATENCY_SAMPLES: usize = 8192;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A panic while holding one of these short locks leaves plain counters behind,
+    // still meaningful: keep going rather than poison every later health report.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[derive(Debug)]
+struct Window {
+    started: Instant,
+    count_at_start: u64,
+    bytes_at_start: u64,
+    latencies_ms: Vec<f32>,
+}
+
+/// Counters of one stream.
+#[derive(Debug)]
+pub struct StreamCounter {
+    key: String,
+    inbound: bool,
+    count: AtomicU64,
+    bytes: AtomicU64,
+    rejects: AtomicU64,
+    window: Mutex<Window>,
+}
+
+impl StreamCounter {
+    fn new(key: &str, inbound: bool) -> Self {
+        Self {
+            key: key.to_string(),
+            inbound,
+            count: AtomicU64::new(0),
+            bytes: AtomicU64::new(0),
+            rejects: AtomicU64::new(0),
+            window: Mutex::new(Window {
+                started: Instant::now(),
+                count_at_start: 0,
+                bytes_at_start: 0,
+                latencies_ms: Vec::with_capacity(256),
+            }),
+        }
+    }
+
+    /// Count one message of `bytes` payload bytes, `latency_ms` old when seen.
+    pub fn record(&self, bytes: usize, latency_ms: Option<f32>) {
+        self.count.fetch_add(1, Ordering::Relaxed);
+        self.bytes.fetch_add(bytes as u64, Ordering::Relaxed);
+        if let Some(l) = latency_ms.filter(|l| l.is_finite()) {
+            let mut w = lock(&self.window);
+            if w.latencies_ms.len() < MAX_LATENCY_SAMPLES {
+                w.latencies_ms.push(l);
+            }
+        }
+    }
+
+    /// Messages since start.
+    pub fn count(&self) -> u64 {
+        self.count.load(Ordering::Relaxed)
+    }
+
+    /// Rejected payloads since start.
+    pub fn rejects(&self) -> u64 {
+        self.rejects.load(Ordering::Relaxed)
+    }
+
+    /// Close the current period and report it.
+    fn roll(&self) -> StreamStats {
+        let count = self.count();
+        let bytes = self.bytes.load(Ordering::Relaxed);
+        let mut w = lock(&self.window);
+        let secs = w.started.elapsed().as_secs_f32().max(1e-3);
+        let (p50, p99) = percentiles(&mut w.latencies_ms);
+        let stats = StreamStats {
+            key: self.key.clone(),
+            inbound: self.inbound,
+            count,
+            rate_hz: (count - w.count_at_start) as f32 / secs,
+            bytes_per_s: (bytes - w.bytes_at_start) as f32 / secs,
+            rejects: self.rejects(),
+            latency_p50_ms: p50,
+            latency_p99_ms: p99,
+        };
+        w.started = Instant::now();
+        w.count_at_start = count;
+        w.bytes_at_start = bytes;
+        w.latencies_ms.clear();
+        stats
+    }
+}
+
+/// Median and 99th percentile (nearest rank) of `samples`; NaN when empty.
+pub fn percentiles(samples: &mut [f32]) -> (f32, f32) {
+    if samples.is_empty() {
+        return (f32::NAN, f32::NAN);
+    }
+    samples.sort_by(|a, b| a.total_cmp(b));
+    let at = |q: f32| samples[((q * samples.len() as f32).ceil() as usize).clamp(1, samples.len()) - 1];
+    (at(0.5), at(0.99))
+}
+
+/// Health of one agent, shared by all its tasks.
+#[derive(Debug)]
+pub struct Health {
+    agent: String,
+    started: Instant,
+    streams: Mutex<Vec<Arc<StreamCounter>>>,
+    rejects: Mutex<BTreeMap<String, u64>>,
+    logged: Mutex<HashSet<(String, String)>>,
+    status: Mutex<(bool, String)>,
+}
+
+impl Health {
+    /// Health for `agent` (also its liveliness token name).
+    pub fn new(agent: &str) -> Arc<Self> {
+        Arc::new(Self {
+            agent: agent.to_string(),
+            started: Instant::now(),
+            streams: Mutex::new(Vec::new()),
+            rejects: Mutex::new(BTreeMap::new()),
+            logged: Mutex::new(HashSet::new()),
+            status: Mutex::new((true, "starting".to_string())),
+        })
+    }
+
+    /// Agent name.
+    pub fn agent(&self) -> &str {
+        &self.agent
+    }
+
+    /// Register a stream and get its counter.
+    pub fn stream(&self, key: &str, inbound: bool) -> Arc<StreamCounter> {
+        let counter = Arc::new(StreamCounter::new(key, inbound));
+        lock(&self.streams).push(counter.clone());
+        counter
+    }
+
+    /// Count a rejected input of `kind` seen on `source` (a key or a file); the first
+    /// rejection of each kind per source is logged with its reason, later ones only
+    /// counted, so a flood of garbage cannot flood the log.
+    pub fn reject(&self, source: &str, kind: &str, reason: &dyn std::fmt::Display) {
+        *lock(&self.rejects).entry(kind.to_string()).or_insert(0) += 1;
+        if let Some(c) = lock(&self.streams).iter().find(|c| c.key == source) {
+            c.rejects.fetch_add(1, Ordering::Relaxed);
+        }
+        if lock(&self.logged).insert((source.to_string(), kind.to_string())) {
+            tracing::warn!(agent = %self.agent, %source, kind, "rejected input: {reason} (further '{kind}' rejects on this source are only counted)");
+        }
+    }
+
+    /// Rejects of `kind` so far.
+    pub fn rejects_of(&self, kind: &str) -> u64 {
+        lock(&self.rejects).get(kind).copied().unwrap_or(0)
+    }
+
+    /// All rejects so far.
+    pub fn rejects_total(&self) -> u64 {
+        lock(&self.rejects).values().sum()
+    }
+
+    /// Set whether the agent is doing its job, and a short state summary.
+    pub fn set_status(&self, ok: bool, status: impl Into<String>) {
+        *lock(&self.status) = (ok, status.into());
+    }
+
+    /// Current status.
+    pub fn status(&self) -> (bool, String) {
+        lock(&self.status).clone()
+    }
+
+    /// Close the reporting period and return the stats message.
+    pub fn snapshot(&self) -> HealthStats {
+        let (ok, status) = self.status();
+        HealthStats {
+            agent: self.agent.clone(),
+            uptime_ms: self.started.elapsed().as_millis() as u64,
+            ok,
+            status,
+            streams: lock(&self.streams).iter().map(|c| c.roll()).collect(),
+            rejects: lock(&self.rejects)
+                .iter()
+                .map(|(kind, count)| RejectCount { kind: kind.clone(), count: *count })
+                .collect(),
+        }
+    }
+
+    /// Declare the liveliness token `health/<agent>` and publish stats every `period`
+    /// until shutdown. Dropping the token (on return or process death) tells every
+    /// watcher the agent is gone.
+    pub async fn serve(
+        self: Arc<Self>,
+        session: Session,
+        keys: Keys,
+        period: Duration,
+        shutdown: Shutdown,
+    ) -> anyhow::Result<()> {
+        let key = keys.health(&self.agent);
+        let token = session
+            .liveliness()
+            .declare_token(key.clone())
+            .await
+            .map_err(|e| anyhow::anyhow!("cannot declare liveliness token {key}: {e}"))?;
+        let mut publisher =
+            Publisher::<HealthStats>::declare(&session, key, &self.agent, Lane::Telemetry, None).await?;
+        let mut tick = tokio::time::interval(period);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        tick.tick().await;
+        loop {
+            tokio::select! {
+                _ = shutdown.triggered() => break,
+                _ = tick.tick() => {
+                    let stats = self.snapshot();
+                    if let Err(e) = publisher.put(now_ns(), &stats).await {
+                        tracing::warn!("health publish failed: {e:#}");
+                    }
+                }
+            }
+        }
+        drop(token);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_use_nearest_rank() {
+        let mut v: Vec<f32> = (1..=100).map(|i| i as f32).collect();
+        assert_eq!(percentiles(&mut v), (50.0, 99.0));
+        let mut one = vec![7.0];
+        assert_eq!(percentiles(&mut one), (7.0, 7.0));
+        assert!(percentiles(&mut []).0.is_nan());
+    }
+
+    #[test]
+    fn rejects_are_counted_per_kind_and_per_stream() {
+        let h = Health::new("test-agent");
+        let c = h.stream("wearnav/a/perception/hazard", true);
+        h.reject("wearnav/a/perception/hazard", "truncated", &"short");
+        h.reject("wearnav/a/perception/hazard", "truncated", &"short");
+        h.reject("file.pcd", "malformed", &"bad header");
+        assert_eq!(h.rejects_of("truncated"), 2);
+        assert_eq!(h.rejects_total(), 3);
+        assert_eq!(c.rejects(), 2);
+        let snap = h.snapshot();
+        assert_eq!(snap.rejects.len(), 2);
+        assert_eq!(snap.streams[0].rejects, 2);
+    }
+
+    #[test]
+    fn stream_stats_report_counts_and_latency() {
+        let h = Health::new("x");
+        let c = h.stream("k", true);
+        for i in 0..10 {
+            c.record(100, Some(i as f32));
+        }
+        let s = h.snapshot();
+        assert_eq!(s.streams[0].count, 10);
+        assert_eq!(s.streams[0].latency_p50_ms, 4.0);
+        assert_eq!(s.streams[0].latency_p99_ms, 9.0);
+        assert!(s.streams[0].bytes_per_s > 0.0);
+        // The next period starts empty.
+        assert!(h.snapshot().streams[0].latency_p50_ms.is_nan());
+    }
+}

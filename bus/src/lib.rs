@@ -1,0 +1,17 @@
+//! The wearnav bus: Zenoh sessions, typed publishers and subscribers that encode,
+//! decode and count rejects, per-stream QoS, liveliness and periodic health stats.
+//!
+//! This is the imperative shell shared by every agent: only code here and in each
+//! agent's `run` module touches Zenoh, Tokio or the clock.
+
+pub mod clock;
+pub mod health;
+pub mod session;
+pub mod shutdown;
+pub mod stream;
+
+pub use clock::now_ns;
+pub use health::{Health, StreamCounter};
+pub use session::{open_session, BusOptions};
+pub use shutdown::Shutdown;
+pub use stream::{Lane, Publisher, Received, Subscriber};

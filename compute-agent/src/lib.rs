@@ -1,0 +1,4 @@
+//! wearnav compute agent: obstacle perception (Taylor 2017 and beyond), later
+//! localization and route planning, as pure libraries plus one agent loop.
+
+pub mod perception;

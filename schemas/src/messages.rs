@@ -1,0 +1,464 @@
+//! Every message body of the key space, one struct per schema.
+//!
+//! Frames are named in field names: `camera` (optical: x right, y down, z forward),
+//! `user` (x forward, y left, z up, origin on the floor under the user) and `map`.
+//! Units are in names (`_m`, `_ns`, `_deg`, `_rad`, `_ms`). Angles in the user frame
+//! are positive to the left (counter-clockwise seen from above).
+//!
+//! Layout on the wire is bincode's legacy layout (see `wire`), so field order here *is*
+//! the wire format: reorder nothing without bumping the schema version, and mirror any
+//! change in `schemas/python/wearnav_schemas/messages.py` (the golden vectors catch drift).
+
+use serde::{Deserialize, Serialize};
+
+/// Pinhole intrinsics of an organized depth image, in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Intrinsics {
+    /// Focal length along x.
+    pub fx: f32,
+    /// Focal length along y.
+    pub fy: f32,
+    /// Principal point x.
+    pub cx: f32,
+    /// Principal point y.
+    pub cy: f32,
+}
+
+impl Intrinsics {
+    /// True when every parameter is finite and the focal lengths are positive.
+    pub fn is_valid(&self) -> bool {
+        [self.fx, self.fy, self.cx, self.cy].iter().all(|v| v.is_finite())
+            && self.fx > 0.0
+            && self.fy > 0.0
+    }
+}
+
+/// How the depth samples of a [`DepthFrame`] are packed (see `depth_codec`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DepthEncoding {
+    /// Little-endian u16 samples, uncompressed.
+    Raw,
+    /// Lossless compression; decodes to the exact samples.
+    Lossless,
+    /// Samples quantised to `step` depth units, so each is within `step / 2` of the truth.
+    Bounded {
+        /// Quantisation step in depth units (not metres).
+        step: u16,
+    },
+}
+
+/// Where the camera is believed to sit on the cane: a guess the perception may refine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MountGuess {
+    /// Camera height above the floor, metres.
+    pub height_m: f32,
+    /// Downward pitch of the optical axis below horizontal, degrees.
+    pub pitch_deg: f32,
+}
+
+/// One organized depth image from a cane camera, compressed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DepthFrame {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Metres per depth unit (0.001 for millimetres, 0.0002 for TUM's 5000 per metre).
+    pub depth_scale_m: f32,
+    /// Pinhole intrinsics.
+    pub intrinsics: Intrinsics,
+    /// Gravity direction in the camera frame (unit, pointing down towards the floor),
+    /// from the IMU at capture time, when the device has one.
+    pub gravity_camera: Option<[f32; 3]>,
+    /// Mounting guess (extrinsics prior).
+    pub mount: Option<MountGuess>,
+    /// Packing of `data`.
+    pub encoding: DepthEncoding,
+    /// Packed samples, row-major; 0 means invalid.
+    pub data: Vec<u8>,
+}
+
+/// One IMU reading in the device frame (camera optical frame for a cane camera).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ImuSample {
+    /// Sample time, nanoseconds on the sender's clock (same clock as capture stamps).
+    pub stamp_ns: u64,
+    /// Angular rate, rad/s.
+    pub gyro_rad_s: [f32; 3],
+    /// Specific force, m/s^2 (at rest: 9.81 pointing away from the floor).
+    pub accel_m_s2: [f32; 3],
+}
+
+/// A batch of IMU samples (100-200 Hz sensors are sent in batches).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImuBatch {
+    /// Samples in time order.
+    pub samples: Vec<ImuSample>,
+}
+
+/// Planar motion of the user between two stamps, in the user frame at `from_ns`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OdomIncrement {
+    /// Start of the interval, ns.
+    pub from_ns: u64,
+    /// End of the interval, ns.
+    pub to_ns: u64,
+    /// Forward translation, metres.
+    pub forward_m: f32,
+    /// Leftward translation, metres.
+    pub left_m: f32,
+    /// Heading change, radians, positive to the left.
+    pub yaw_rad: f32,
+}
+
+/// Ground-truth pose from the simulator (tests and monitors only; never for guidance).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GroundTruth {
+    /// User position on the map, metres.
+    pub x_m: f32,
+    /// User position on the map, metres.
+    pub y_m: f32,
+    /// User heading on the map, radians (0 = +x, positive counter-clockwise).
+    pub yaw_rad: f32,
+    /// Floor index.
+    pub floor: i32,
+    /// Camera height above the floor, metres.
+    pub camera_height_m: f32,
+    /// Camera pitch below horizontal, degrees.
+    pub camera_pitch_deg: f32,
+    /// Cane sweep angle relative to the heading, degrees, positive left.
+    pub sweep_deg: f32,
+}
+
+/// Nearest-point scan: the closest obstacle range in each angular bin, user frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Scan {
+    /// Bearing of the first bin's centre, degrees (negative = right).
+    pub angle_min_deg: f32,
+    /// Bin width, degrees.
+    pub angle_increment_deg: f32,
+    /// Horizontal range to the nearest obstacle point per bin, metres; `f32::INFINITY`
+    /// when the bin saw nothing within `range_max_m`.
+    pub ranges_m: Vec<f32>,
+    /// Largest range the sensor is trusted to.
+    pub range_max_m: f32,
+}
+
+/// Left / forward / right cost triple of one cost function.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SideCosts {
+    /// Cost of obstacles on the left.
+    pub left: f32,
+    /// Cost of obstacles straight ahead.
+    pub forward: f32,
+    /// Cost of obstacles on the right.
+    pub right: f32,
+}
+
+/// Taylor's two cost functions (thesis eq. 2.11-2.15).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CostFunction {
+    /// Fully-Integrated Cost Function.
+    Ficf,
+    /// Cushioned Avoidance Cost Function.
+    Cacf,
+}
+
+/// The 4-state rumble of Taylor's Table 2.1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Rumble {
+    /// Path clear: go straight.
+    None,
+    /// Obstacle on the right: rumble left, turn left.
+    Left,
+    /// Obstacle on the left: rumble right, turn right.
+    Right,
+    /// Blocked: stop and turn in place.
+    Both,
+}
+
+/// Whether the perception is actually seeing the floor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GroundState {
+    /// Ground plane found in this frame.
+    Found,
+    /// Ground not found in this frame; the previous plane is used.
+    Lost,
+    /// Ground lost for several frames: the output must not be trusted as "clear".
+    Degraded,
+}
+
+/// Time spent in one perception stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StageLatency {
+    /// Stage name (`decode`, `ground_plane`, `nearest_scan`, ...).
+    pub stage: String,
+    /// Duration, microseconds.
+    pub us: u32,
+}
+
+/// Obstacle hazard of one depth frame: what the rumble should say and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hazard {
+    /// Sequence number of the depth frame this came from.
+    pub frame_seq: u64,
+    /// Fully-Integrated costs.
+    pub ficf: SideCosts,
+    /// Cushioned Avoidance costs.
+    pub cacf: SideCosts,
+    /// The cost function driving `rumble`.
+    pub active: CostFunction,
+    /// Rumble state after hysteresis.
+    pub rumble: Rumble,
+    /// Ground state.
+    pub ground: GroundState,
+    /// Ground plane in the camera frame, `[a, b, c, d]` with unit normal pointing up.
+    pub plane_camera: [f32; 4],
+    /// Nearest obstacle range in the scan, metres (`INFINITY` if none).
+    pub nearest_m: f32,
+    /// Bearing of the nearest obstacle, degrees, positive left.
+    pub nearest_bearing_deg: f32,
+    /// Time to collision with the nearest approaching obstacle, seconds.
+    pub ttc_s: Option<f32>,
+    /// A drop-off or step down ahead.
+    pub dropoff_ahead: bool,
+    /// Per-stage latency of this frame.
+    pub latency: Vec<StageLatency>,
+}
+
+/// Pose on the floor map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Map x, metres.
+    pub x_m: f32,
+    /// Map y, metres.
+    pub y_m: f32,
+    /// Heading, radians (0 = +x, counter-clockwise).
+    pub yaw_rad: f32,
+    /// Floor index.
+    pub floor: i32,
+    /// Row-major 3x3 covariance of (x, y, yaw).
+    pub covariance: [f32; 9],
+}
+
+/// A point on the map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MapPoint {
+    /// Map x, metres.
+    pub x_m: f32,
+    /// Map y, metres.
+    pub y_m: f32,
+    /// Floor index.
+    pub floor: i32,
+}
+
+/// Progress along the current route.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RouteState {
+    /// Destination label, empty when no route is active.
+    pub destination: String,
+    /// Next waypoint, if a route is active.
+    pub next_waypoint: Option<MapPoint>,
+    /// Remaining distance, metres.
+    pub distance_left_m: f32,
+    /// The instruction last given ("turn left in 3 metres").
+    pub instruction: String,
+}
+
+/// Shape of a haptic cue.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum HapticPattern {
+    /// Continuous rumble.
+    Steady,
+    /// On/off pulses; the rate carries distance (faster = nearer).
+    Pulses {
+        /// Full period of one pulse, milliseconds.
+        period_ms: u32,
+        /// Fraction of the period the motor is on, 0..1.
+        duty: f32,
+    },
+}
+
+/// Device-neutral haptic intent: the feedback agent maps it to whatever devices exist.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HapticIntent {
+    /// Left actuator level, 0..1.
+    pub left: f32,
+    /// Right actuator level, 0..1.
+    pub right: f32,
+    /// Pattern.
+    pub pattern: HapticPattern,
+    /// Time to live from the capture stamp; a device stops when it expires.
+    pub ttl_ms: u32,
+}
+
+/// Speech priority, with speech-dispatcher's SSIP semantics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub enum Priority {
+    /// Imminent obstacle: spoken at once, never interrupted.
+    Important,
+    /// Turns: not interrupted by its own kind.
+    Message,
+    /// Landmarks: only the newest is kept.
+    Text,
+    /// Dropped by anything higher.
+    Notification,
+    /// Dropped by anything higher.
+    Progress,
+}
+
+/// Something to say to the user.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpeechIntent {
+    /// The words.
+    pub text: String,
+    /// Priority.
+    pub priority: Priority,
+    /// Cut off what is being spoken (subject to the priority rules).
+    pub interrupt: bool,
+    /// Drop the utterance if it cannot start within this time of its capture stamp.
+    pub ttl_ms: u32,
+    /// Utterances with the same non-empty key are not repeated within the dedup window.
+    pub dedup_key: String,
+}
+
+/// What a feedback device actually did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum AppliedAction {
+    /// Rumble levels now in force on a device.
+    Rumble {
+        /// Left level, 0..1.
+        left: f32,
+        /// Right level, 0..1.
+        right: f32,
+        /// Pattern being played.
+        pattern: HapticPattern,
+    },
+    /// An utterance began playing.
+    SpeechStarted {
+        /// The words.
+        text: String,
+        /// Priority.
+        priority: Priority,
+    },
+    /// An utterance played to its end.
+    SpeechFinished {
+        /// The words.
+        text: String,
+    },
+    /// An utterance was cut off.
+    SpeechInterrupted {
+        /// The words cut off.
+        text: String,
+    },
+    /// An utterance was never spoken (stale, duplicate, dropped by a higher priority).
+    SpeechDropped {
+        /// The words.
+        text: String,
+        /// Why.
+        reason: String,
+    },
+    /// Obstacle detection went offline (`offline == true`) or came back.
+    OfflineWarning {
+        /// True when going offline.
+        offline: bool,
+        /// What went stale.
+        reason: String,
+    },
+    /// Device came, went, or reported its state (battery, errors).
+    DeviceStatus {
+        /// Human-readable status.
+        text: String,
+    },
+}
+
+/// One action a feedback device performed, with the stamps that time it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Applied {
+    /// Device that did it (`console`, `wiimote-left`, `espeak`, `phone`).
+    pub device: String,
+    /// What it did.
+    pub action: AppliedAction,
+    /// When the device was driven, ns (wall clock, same epoch as capture stamps).
+    pub applied_ns: u64,
+    /// Capture stamp of the intent that caused it (0 when self-initiated).
+    pub cause_capture_ns: u64,
+}
+
+/// A user command.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Command {
+    /// Start guidance to a named destination.
+    Destination {
+        /// Destination label.
+        label: String,
+    },
+    /// Say where I am.
+    WhereAmI,
+    /// Mute or unmute speech (warnings still sound).
+    Mute {
+        /// True to mute.
+        muted: bool,
+    },
+    /// Repeat the last instruction.
+    Repeat,
+}
+
+impl Command {
+    /// The `cmd/<verb>` chunk this command is published under.
+    pub fn verb(&self) -> &'static str {
+        match self {
+            Command::Destination { .. } => "destination",
+            Command::WhereAmI => "where-am-i",
+            Command::Mute { .. } => "mute",
+            Command::Repeat => "repeat",
+        }
+    }
+}
+
+/// Counters of one stream an agent publishes or subscribes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StreamStats {
+    /// Key expression.
+    pub key: String,
+    /// True for a subscription, false for a publication.
+    pub inbound: bool,
+    /// Messages since start.
+    pub count: u64,
+    /// Messages per second over the last period.
+    pub rate_hz: f32,
+    /// Payload bytes per second over the last period.
+    pub bytes_per_s: f32,
+    /// Rejected payloads since start.
+    pub rejects: u64,
+    /// Median age at receipt (capture -> now), milliseconds, over the last period.
+    pub latency_p50_ms: f32,
+    /// 99th percentile age at receipt, milliseconds, over the last period.
+    pub latency_p99_ms: f32,
+}
+
+/// Count of rejected inputs of one kind.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RejectCount {
+    /// Kind (`truncated`, `unknown_version`, `nan_points`, ...).
+    pub kind: String,
+    /// How many since start.
+    pub count: u64,
+}
+
+/// Periodic health of one agent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HealthStats {
+    /// Agent name.
+    pub agent: String,
+    /// Time since the agent started, milliseconds.
+    pub uptime_ms: u64,
+    /// False when the agent knows it is not doing its job (source stalled, ground lost).
+    pub ok: bool,
+    /// Why not ok, or a short state summary.
+    pub status: String,
+    /// Per-stream counters.
+    pub streams: Vec<StreamStats>,
+    /// Rejected inputs by kind.
+    pub rejects: Vec<RejectCount>,
+}

@@ -1,0 +1,7 @@
+//! wearnav sensor agent: depth frames from a simulated world, recorded files or a real
+//! camera, compressed and published with IMU, odometry and (simulated) ground truth.
+
+pub mod formats;
+pub mod replay;
+pub mod sim;
+pub mod source;

@@ -1,0 +1,60 @@
+//! Where depth frames come from: the narrow trait every source implements (simulated
+//! world, recorded files, a real camera), so the agent loop never knows which it runs.
+
+use schemas::{GroundTruth, ImuSample, Intrinsics, MountGuess, OdomIncrement};
+
+/// One captured depth frame with whatever motion data came with it, uncompressed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceFrame {
+    /// Capture time, ns since the Unix epoch (sources that replay files re-stamp them).
+    pub stamp_ns: u64,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Metres per depth unit.
+    pub depth_scale_m: f32,
+    /// Pinhole intrinsics.
+    pub intrinsics: Intrinsics,
+    /// Row-major depth samples, 0 = invalid.
+    pub depth: Vec<u16>,
+    /// Gravity direction in the camera frame (unit, towards the floor), when known.
+    pub gravity_camera: Option<[f32; 3]>,
+    /// Mounting guess.
+    pub mount: Option<MountGuess>,
+    /// IMU samples since the previous frame.
+    pub imu: Vec<ImuSample>,
+    /// Odometry since the previous frame.
+    pub odom: Option<OdomIncrement>,
+    /// Ground truth (simulated sources only).
+    pub truth: Option<GroundTruth>,
+}
+
+/// Why a source could not deliver a frame. `Skipped` is not fatal: the stream goes on.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// One input (file, frame) was unusable; the source has moved past it.
+    #[error("skipped {what}: {reason}")]
+    Skipped {
+        /// What was skipped (a file name, a frame number).
+        what: String,
+        /// Why.
+        reason: String,
+    },
+    /// The source cannot go on (device gone, folder removed).
+    #[error("source failed: {0}")]
+    Fatal(String),
+}
+
+/// A stream of depth frames. `next_frame` is called at the source's own pace: it
+/// returns the capture stamp it wants the frame published at, and the agent loop
+/// sleeps until then (simulated and replayed sources), or returns as soon as a frame
+/// is ready (cameras).
+pub trait FrameSource: Send {
+    /// Short description for logs and health (`sim:taylor-course`, `pcd:/data/x.pcd`).
+    fn describe(&self) -> String;
+    /// The next frame, `Ok(None)` at the end of a finite recording.
+    fn next_frame(&mut self, now_ns: u64) -> Result<Option<SourceFrame>, SourceError>;
+    /// Nominal frame period, ns, for pacing (0 = as fast as frames come).
+    fn period_ns(&self) -> u64;
+}
