@@ -123,6 +123,7 @@ pub struct Health {
     rejects: Mutex<BTreeMap<String, u64>>,
     logged: Mutex<HashSet<(String, String)>>,
     status: Mutex<(bool, String)>,
+    nudge: tokio::sync::Notify,
 }
 
 impl Health {
@@ -135,6 +136,7 @@ impl Health {
             rejects: Mutex::new(BTreeMap::new()),
             logged: Mutex::new(HashSet::new()),
             status: Mutex::new((true, "starting".to_string())),
+            nudge: tokio::sync::Notify::new(),
         })
     }
 
@@ -173,9 +175,16 @@ impl Health {
         lock(&self.rejects).values().sum()
     }
 
-    /// Set whether the agent is doing its job, and a short state summary.
+    /// Set whether the agent is doing its job, and a short state summary. A change of
+    /// `ok` is published at once, not at the next period: watchers must learn within
+    /// the safety deadline that a source stalled.
     pub fn set_status(&self, ok: bool, status: impl Into<String>) {
-        *lock(&self.status) = (ok, status.into());
+        let mut current = lock(&self.status);
+        let changed = current.0 != ok;
+        *current = (ok, status.into());
+        if changed {
+            self.nudge.notify_one();
+        }
     }
 
     /// Current status.
@@ -223,12 +232,12 @@ impl Health {
         loop {
             tokio::select! {
                 _ = shutdown.triggered() => break,
-                _ = tick.tick() => {
-                    let stats = self.snapshot();
-                    if let Err(e) = publisher.put(now_ns(), &stats).await {
-                        tracing::warn!("health publish failed: {e:#}");
-                    }
-                }
+                _ = self.nudge.notified() => {}
+                _ = tick.tick() => {}
+            }
+            let stats = self.snapshot();
+            if let Err(e) = publisher.put(now_ns(), &stats).await {
+                tracing::warn!("health publish failed: {e:#}");
             }
         }
         drop(token);

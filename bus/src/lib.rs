@@ -6,6 +6,7 @@
 
 pub mod clock;
 pub mod health;
+pub mod logging;
 pub mod session;
 pub mod shutdown;
 pub mod stream;

@@ -9,7 +9,7 @@
 //! `MAX_BYTES` before anything is read, and bincode's allocation limit stops a forged
 //! length from reserving memory.
 
-use bincode::config::{Config, Fixint, LittleEndian, Limit};
+use bincode::config::{Fixint, LittleEndian, Limit};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use thiserror::Error;
 
@@ -414,4 +414,127 @@ impl Message for Command {
 impl Message for HealthStats {
     const SCHEMA: SchemaId = SchemaId::HealthStats;
     const MAX_BYTES: usize = 256 * 1024;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn intent() -> HapticIntent {
+        HapticIntent { left: 0.5, right: 1.0, pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 }, ttl_ms: 300 }
+    }
+
+    #[test]
+    fn round_trip_keeps_header_and_body() {
+        let bytes = encode("compute-agent", 7, 123_456_789, &intent());
+        let (h, body) = decode::<HapticIntent>(&bytes).unwrap();
+        assert_eq!(h.schema, SchemaId::HapticIntent as u16);
+        assert_eq!((h.version, h.sender.as_str(), h.seq, h.capture_ns), (1, "compute-agent", 7, 123_456_789));
+        assert_eq!(body, intent());
+    }
+
+    #[test]
+    fn header_layout_is_bincode_legacy() {
+        let bytes = encode("ab", 1, 2, &Command::Repeat);
+        // schema u16, version u16, sender (u64 len + bytes), seq u64, capture u64, variant u32.
+        assert_eq!(&bytes[0..2], &12u16.to_le_bytes());
+        assert_eq!(&bytes[2..4], &1u16.to_le_bytes());
+        assert_eq!(&bytes[4..12], &2u64.to_le_bytes());
+        assert_eq!(&bytes[12..14], b"ab");
+        assert_eq!(&bytes[14..22], &1u64.to_le_bytes());
+        assert_eq!(&bytes[22..30], &2u64.to_le_bytes());
+        assert_eq!(&bytes[30..34], &3u32.to_le_bytes());
+        assert_eq!(bytes.len(), 34);
+    }
+
+    #[test]
+    fn every_truncation_is_rejected_as_truncated() {
+        let bytes = encode("x", 0, 0, &intent());
+        for cut in 0..bytes.len() {
+            let err = decode::<HapticIntent>(&bytes[..cut]).unwrap_err();
+            assert_eq!(err, WireError::Truncated, "cut at {cut}");
+        }
+    }
+
+    #[test]
+    fn unknown_version_and_wrong_schema_are_named() {
+        let mut bytes = encode("x", 0, 0, &intent());
+        bytes[2] = 9;
+        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "unknown_version");
+        let other = encode("x", 0, 0, &Command::WhereAmI);
+        assert_eq!(
+            decode::<HapticIntent>(&other).unwrap_err(),
+            WireError::WrongSchema { expected: "haptic_intent", got: 12 }
+        );
+        let mut unknown = other.clone();
+        unknown[0] = 200;
+        assert_eq!(decode::<Command>(&unknown).unwrap_err(), WireError::UnknownSchema(200));
+    }
+
+    #[test]
+    fn oversized_and_forged_lengths_are_refused_without_allocating() {
+        let big = vec![0u8; HapticIntent::MAX_BYTES + 1];
+        assert_eq!(decode::<HapticIntent>(&big).unwrap_err().kind(), "too_large");
+        // A speech intent whose text claims 2^40 bytes.
+        let mut bytes = encode("x", 0, 0, &SpeechIntent {
+            text: "hi".into(),
+            priority: Priority::Text,
+            interrupt: false,
+            ttl_ms: 1,
+            dedup_key: String::new(),
+        });
+        let text_len_at = 4 + 8 + 1 + 8 + 8;
+        bytes[text_len_at..text_len_at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        let err = decode::<SpeechIntent>(&bytes).unwrap_err();
+        assert!(matches!(err, WireError::TooLarge { .. } | WireError::Truncated), "{err:?}");
+    }
+
+    #[test]
+    fn garbage_and_trailing_bytes_are_malformed_not_panics() {
+        let mut bytes = encode("x", 0, 0, &Command::Mute { muted: true });
+        bytes.push(0);
+        assert_eq!(decode::<Command>(&bytes).unwrap_err().kind(), "malformed");
+        let mut bad_variant = encode("x", 0, 0, &Command::Repeat);
+        let n = bad_variant.len();
+        bad_variant[n - 4..].copy_from_slice(&77u32.to_le_bytes());
+        assert_eq!(decode::<Command>(&bad_variant).unwrap_err().kind(), "malformed");
+        // Pseudo-random garbage never panics.
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for len in 0..300 {
+            let junk: Vec<u8> = (0..len)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    x as u8
+                })
+                .collect();
+            let _ = decode::<Hazard>(&junk);
+            let _ = decode::<DepthFrame>(&junk);
+        }
+    }
+
+    #[test]
+    fn nan_levels_and_empty_texts_are_invalid() {
+        let mut nan = intent();
+        nan.left = f32::NAN;
+        let bytes = encode("x", 0, 0, &nan);
+        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "invalid");
+        let empty = SpeechIntent {
+            text: "  ".into(),
+            priority: Priority::Important,
+            interrupt: true,
+            ttl_ms: 1,
+            dedup_key: String::new(),
+        };
+        assert_eq!(decode::<SpeechIntent>(&encode("x", 0, 0, &empty)).unwrap_err().kind(), "invalid");
+    }
+
+    #[test]
+    fn schema_ids_round_trip_and_name_the_encoding() {
+        for s in SchemaId::ALL {
+            assert_eq!(SchemaId::from_u16(s as u16), Some(s));
+        }
+        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v1");
+    }
 }

@@ -4,4 +4,5 @@
 pub mod formats;
 pub mod replay;
 pub mod sim;
+pub mod run;
 pub mod source;

@@ -1,0 +1,189 @@
+//! The sensor agent's loop: a source thread paces and compresses frames; the async
+//! side publishes depth, IMU, odometry and ground truth, and says in its health when
+//! the source stalls.
+
+use std::time::Duration;
+
+use anyhow::Context;
+use bus::{BusOptions, Health, Lane, Publisher, Shutdown};
+use schemas::{DepthEncoding, DepthFrame, GroundTruth, ImuBatch, OdomIncrement};
+use tokio::sync::mpsc;
+
+use crate::source::{FrameSource, SourceError, SourceFrame};
+
+/// Agent name: liveliness token `health/sensor-agent` and sender of its messages.
+pub const AGENT: &str = "sensor-agent";
+
+/// Everything the sensor agent needs to run.
+#[derive(Debug, Clone)]
+pub struct SensorConfig {
+    /// Bus and user.
+    pub bus: BusOptions,
+    /// Device name in the keys (`sensor/<device>/...`).
+    pub device: String,
+    /// How depth is packed on the wire.
+    pub encoding: DepthEncoding,
+    /// Health says "stalled" when no frame came for this long (safety rule 1).
+    pub stall_after: Duration,
+    /// Period of health stats.
+    pub health_period: Duration,
+}
+
+impl SensorConfig {
+    /// Defaults for `bus`: device `cane`, lossless frames, 500 ms stall deadline.
+    pub fn new(bus: BusOptions) -> Self {
+        Self {
+            bus,
+            device: "cane".to_string(),
+            encoding: DepthEncoding::Lossless,
+            stall_after: Duration::from_millis(500),
+            health_period: Duration::from_secs(1),
+        }
+    }
+}
+
+/// What the source thread hands to the publisher.
+enum Produced {
+    Frame { frame: SourceFrame, depth: DepthFrame },
+    Skipped(String),
+    End,
+    Failed(String),
+}
+
+fn pack(frame: &SourceFrame, encoding: DepthEncoding, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
+    schemas::depth_codec::encode(&frame.depth, frame.width, frame.height, encoding, buf).map_err(|e| e.to_string())?;
+    Ok(DepthFrame {
+        width: frame.width,
+        height: frame.height,
+        depth_scale_m: frame.depth_scale_m,
+        intrinsics: frame.intrinsics,
+        gravity_camera: frame.gravity_camera,
+        mount: frame.mount,
+        encoding,
+        data: std::mem::take(buf),
+    })
+}
+
+/// Pull frames from `source` at its pace (sleeping until each frame's stamp), pack
+/// them, hand them over. Runs on its own thread: rendering and compression are CPU
+/// work that must not stall the async publishers.
+fn produce(mut source: Box<dyn FrameSource>, encoding: DepthEncoding, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
+    let mut buf = Vec::new();
+    while !shutdown.is_triggered() {
+        let item = match source.next_frame(bus::now_ns()) {
+            Ok(Some(frame)) => {
+                let wait_ns = frame.stamp_ns.saturating_sub(bus::now_ns());
+                if wait_ns > 0 {
+                    std::thread::sleep(Duration::from_nanos(wait_ns.min(5_000_000_000)));
+                }
+                match pack(&frame, encoding, &mut buf) {
+                    Ok(depth) => Produced::Frame { frame, depth },
+                    Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
+                }
+            }
+            Ok(None) => Produced::End,
+            Err(SourceError::Skipped { what, reason }) => Produced::Skipped(format!("{what}: {reason}")),
+            Err(SourceError::Fatal(reason)) => Produced::Failed(reason),
+        };
+        let last = matches!(item, Produced::End | Produced::Failed(_));
+        if tx.blocking_send(item).is_err() || last {
+            return;
+        }
+    }
+}
+
+struct Outputs {
+    depth: Publisher<DepthFrame>,
+    imu: Publisher<ImuBatch>,
+    odom: Publisher<OdomIncrement>,
+    truth: Publisher<GroundTruth>,
+}
+
+/// Run the sensor agent on `source` until `shutdown` or the end of a finite recording.
+pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: Shutdown) -> anyhow::Result<()> {
+    let keys = config.bus.keys()?;
+    schemas::keys::check_chunk("device", &config.device).context("bad --device")?;
+    let session = bus::open_session(&config.bus).await?;
+    let health = Health::new(AGENT);
+    tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
+    let dev = &config.device;
+    let mut out = Outputs {
+        depth: Publisher::declare(&session, keys.depth(dev), AGENT, Lane::Bulk, Some(&health)).await?,
+        imu: Publisher::declare(&session, keys.imu(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
+        odom: Publisher::declare(&session, keys.odom(dev), AGENT, Lane::Events, Some(&health)).await?,
+        truth: Publisher::declare(&session, keys.truth(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
+    };
+    let described = source.describe();
+    tracing::info!(user = %config.bus.user, "sensor agent publishing {described} on {}", keys.depth(dev));
+    health.set_status(true, format!("streaming {described}"));
+
+    let (tx, mut rx) = mpsc::channel(2);
+    let producer = {
+        let shutdown = shutdown.clone();
+        let encoding = config.encoding;
+        std::thread::Builder::new()
+            .name("frame-source".into())
+            .spawn(move || produce(source, encoding, tx, shutdown))
+            .context("cannot start the frame source thread")?
+    };
+
+    let mut stalled = false;
+    loop {
+        let item = tokio::select! {
+            _ = shutdown.triggered() => break,
+            item = tokio::time::timeout(config.stall_after, rx.recv()) => item,
+        };
+        match item {
+            Err(_elapsed) => {
+                if !stalled {
+                    stalled = true;
+                    tracing::warn!("no frame from {described} for {} ms", config.stall_after.as_millis());
+                    health.set_status(false, format!("source stalled: no frame for {} ms", config.stall_after.as_millis()));
+                }
+            }
+            Ok(None) | Ok(Some(Produced::End)) => {
+                tracing::info!("{described} ended");
+                health.set_status(false, "source ended");
+                break;
+            }
+            Ok(Some(Produced::Failed(reason))) => {
+                health.set_status(false, format!("source failed: {reason}"));
+                anyhow::bail!("{described} failed: {reason}");
+            }
+            Ok(Some(Produced::Skipped(reason))) => health.reject(&described, "skipped_input", &reason),
+            Ok(Some(Produced::Frame { frame, depth })) => {
+                if stalled {
+                    stalled = false;
+                    tracing::info!("{described} delivering again");
+                    health.set_status(true, format!("streaming {described}"));
+                }
+                publish(&mut out, frame, depth).await;
+            }
+        }
+    }
+    drop(rx);
+    if producer.join().is_err() {
+        tracing::error!("frame source thread panicked");
+    }
+    session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
+    Ok(())
+}
+
+async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
+    let stamp = frame.stamp_ns;
+    let mut results = vec![out.depth.put(stamp, &depth).await];
+    if !frame.imu.is_empty() {
+        results.push(out.imu.put(stamp, &ImuBatch { samples: frame.imu }).await);
+    }
+    if let Some(odom) = frame.odom {
+        results.push(out.odom.put(stamp, &odom).await);
+    }
+    if let Some(truth) = frame.truth {
+        results.push(out.truth.put(stamp, &truth).await);
+    }
+    for r in results {
+        if let Err(e) = r {
+            tracing::warn!("{e:#}");
+        }
+    }
+}
