@@ -1,0 +1,207 @@
+//! Feedback agent configuration: which devices, the user's voice, the safety deadline.
+//! One struct serves the CLI (clap), config files (serde) and the in-process demo; the
+//! clap defaults are the only defaults (`Default` parses an empty command line).
+
+use std::path::PathBuf;
+
+use clap::{Parser, ValueEnum};
+use serde::{Deserialize, Serialize};
+
+use crate::espeak::EspeakConfig;
+use crate::feedback::StepSettings;
+use crate::haptic_cue::CueLimits;
+use crate::speech_queue::QueueConfig;
+use crate::wiimote::WiimoteConfig;
+
+/// A haptic backend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HapticBackend {
+    /// `RUMBLE left` lines on stdout.
+    Console,
+    /// Two Wii remotes over hidapi (one per hand).
+    Wiimote,
+}
+
+/// A speech backend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SpeechBackend {
+    /// `SPEAK "..."` lines on stdout, timed like a voice.
+    Console,
+    /// espeak-ng, played through aplay/paplay, or synthesised to WAV without one.
+    Espeak,
+}
+
+fn default_bus() -> bus::BusOptions {
+    bus::BusOptions::for_user("demo")
+}
+
+/// Everything the feedback agent needs to run.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FeedbackConfig {
+    /// Bus connection and user.
+    #[command(flatten)]
+    #[serde(skip, default = "default_bus")]
+    pub bus: bus::BusOptions,
+
+    /// Haptic backends, comma-separated; several run at once (e.g. `wiimote,console`).
+    #[arg(long, value_delimiter = ',', default_value = "console")]
+    pub haptic: Vec<HapticBackend>,
+
+    /// Speech backends, comma-separated (e.g. `espeak,console`).
+    #[arg(long, value_delimiter = ',', default_value = "console")]
+    pub speech: Vec<SpeechBackend>,
+
+    /// Obstacle detection counts as offline when no hazard arrived for this long, or
+    /// at once when the compute agent's liveliness token disappears (safety rule 1).
+    #[arg(long, default_value_t = 500, value_name = "MS")]
+    pub offline_after_ms: u64,
+
+    /// While offline, repeat the left-right alert rumble this often (0 = only once).
+    #[arg(long, default_value_t = 5000, value_name = "MS")]
+    pub offline_repeat_ms: u64,
+
+    /// Name of the agent whose liveliness token means "obstacle detection runs".
+    #[arg(long, default_value = "compute-agent", value_name = "AGENT")]
+    pub compute_agent: String,
+
+    /// Longest haptic TTL honoured; a cue never rumbles longer than this (rule 2).
+    #[arg(long, default_value_t = 2000, value_name = "MS")]
+    pub max_haptic_ttl_ms: u32,
+
+    /// An utterance with the same dedup key is not repeated within this window.
+    #[arg(long, default_value_t = 3000, value_name = "MS")]
+    pub dedup_window_ms: u64,
+
+    /// Also write every utterance as a WAV file into this directory (espeak backend).
+    #[arg(long, value_name = "DIR")]
+    pub speech_wav_dir: Option<PathBuf>,
+
+    /// espeak-ng voice (`espeak-ng --voices` lists them).
+    #[arg(long, default_value = "en", value_name = "VOICE")]
+    pub voice: String,
+
+    /// Speech rate, words per minute (espeak-ng accepts 80-500).
+    #[arg(long, default_value_t = 175, value_name = "WPM")]
+    pub rate_wpm: u32,
+
+    /// Speech volume, espeak-ng amplitude 0-200.
+    #[arg(long, default_value_t = 100, value_name = "AMP")]
+    pub volume: u32,
+
+    /// HID path (`/dev/hidraw3`) or serial (Bluetooth address) of the LEFT remote;
+    /// default: the first remote found. It lights player LED 1.
+    #[arg(long, value_name = "PATH_OR_SERIAL")]
+    pub wiimote_left: Option<String>,
+
+    /// HID path or serial of the RIGHT remote; default: the next remote found. It
+    /// lights player LED 2.
+    #[arg(long, value_name = "PATH_OR_SERIAL")]
+    pub wiimote_right: Option<String>,
+
+    /// Remote battery poll period.
+    #[arg(long, default_value_t = 60, value_name = "S")]
+    pub battery_poll_s: u64,
+
+    /// Battery at or below this percentage is announced as low.
+    #[arg(long, default_value_t = 15, value_name = "PERCENT")]
+    pub low_battery_percent: u8,
+
+    /// Health stats period.
+    #[arg(long, default_value_t = 1000, value_name = "MS")]
+    pub health_period_ms: u64,
+}
+
+#[derive(Parser)]
+struct DefaultsOnly {
+    #[command(flatten)]
+    config: FeedbackConfig,
+}
+
+impl Default for FeedbackConfig {
+    fn default() -> Self {
+        match DefaultsOnly::try_parse_from(["feedback-agent"]) {
+            Ok(d) => d.config,
+            // Only reachable if a default above stops parsing: a build-time bug that
+            // `defaults_parse_and_match_the_documentation` catches.
+            Err(e) => panic!("feedback-agent defaults do not parse: {e}"),
+        }
+    }
+}
+
+impl FeedbackConfig {
+    /// Defaults on the given bus (what `wearnav demo` uses).
+    pub fn with_bus(bus: bus::BusOptions) -> Self {
+        Self { bus, ..Self::default() }
+    }
+
+    /// Settings of the feedback step.
+    pub fn step_settings(&self) -> StepSettings {
+        StepSettings {
+            limits: CueLimits { max_ttl_ms: self.max_haptic_ttl_ms, ..CueLimits::default() },
+            queue: QueueConfig { dedup_window_ms: self.dedup_window_ms, ..QueueConfig::default() },
+            offline_after_ms: self.offline_after_ms,
+            alert_repeat_ms: self.offline_repeat_ms,
+            ..StepSettings::default()
+        }
+    }
+
+    /// espeak-ng settings.
+    pub fn espeak(&self) -> EspeakConfig {
+        EspeakConfig {
+            voice: self.voice.clone(),
+            rate_wpm: self.rate_wpm,
+            volume: self.volume,
+            wav_dir: self.speech_wav_dir.clone(),
+            ..EspeakConfig::default()
+        }
+    }
+
+    /// Wiimote settings.
+    pub fn wiimote(&self) -> WiimoteConfig {
+        WiimoteConfig {
+            left: self.wiimote_left.clone(),
+            right: self.wiimote_right.clone(),
+            battery_poll_ms: self.battery_poll_s.saturating_mul(1000),
+            low_battery_percent: self.low_battery_percent,
+            ..WiimoteConfig::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_parse_and_match_the_documentation() {
+        let c = FeedbackConfig::default();
+        assert_eq!(c.haptic, [HapticBackend::Console]);
+        assert_eq!(c.speech, [SpeechBackend::Console]);
+        assert_eq!(c.offline_after_ms, 500);
+        assert_eq!(c.rate_wpm, 175);
+        assert_eq!(c.compute_agent, "compute-agent");
+    }
+
+    #[test]
+    fn backends_are_comma_separated_lists() {
+        let d = DefaultsOnly::try_parse_from([
+            "feedback-agent", "--haptic", "wiimote,console", "--speech", "espeak,console", "--offline-after-ms", "300",
+        ])
+        .unwrap();
+        assert_eq!(d.config.haptic, [HapticBackend::Wiimote, HapticBackend::Console]);
+        assert_eq!(d.config.speech, [SpeechBackend::Espeak, SpeechBackend::Console]);
+        assert_eq!(d.config.step_settings().offline_after_ms, 300);
+        assert!(DefaultsOnly::try_parse_from(["x", "--haptic", "belt"]).is_err());
+    }
+
+    #[test]
+    fn config_files_fill_missing_fields_with_the_defaults() {
+        let c: FeedbackConfig = serde_json::from_str(r#"{"haptic": ["wiimote"], "rate_wpm": 200}"#).unwrap();
+        assert_eq!(c.haptic, [HapticBackend::Wiimote]);
+        assert_eq!(c.rate_wpm, 200);
+        assert_eq!(c.offline_after_ms, 500);
+    }
+}

@@ -1,0 +1,93 @@
+//! The narrow interfaces every feedback backend implements, so devices are chosen by
+//! configuration alone (ARCHITECTURE.md: compute never knows which devices exist).
+
+use schemas::{Applied, AppliedAction, HapticPattern};
+use thiserror::Error;
+
+use crate::haptic_cue::Levels;
+
+/// What devices did during one call, and what they need said to the user.
+#[derive(Debug, Default)]
+pub struct DeviceOutput {
+    /// Actions performed (published on `feedback/applied`).
+    pub applied: Vec<Applied>,
+    /// Device news for the user ("left controller disconnected"), spoken as messages.
+    pub say: Vec<String>,
+}
+
+impl DeviceOutput {
+    /// Record an action of `device` at `now_ns` caused by an intent captured at `cause_ns`.
+    pub fn applied(&mut self, device: &str, action: AppliedAction, now_ns: u64, cause_ns: u64) {
+        self.applied.push(Applied { device: device.to_string(), action, applied_ns: now_ns, cause_capture_ns: cause_ns });
+    }
+
+    /// Record a status change and have it spoken.
+    pub fn status(&mut self, device: &str, text: String, now_ns: u64) {
+        self.applied(device, AppliedAction::DeviceStatus { text: text.clone() }, now_ns, 0);
+        self.say.push(text);
+    }
+}
+
+/// A pair of actuators, left and right hand.
+pub trait HapticDevice: Send {
+    /// Backend name (`console`, `wiimote`, `phone`).
+    fn name(&self) -> &str;
+
+    /// Drive both sides to `levels`. `refresh` asks the device to write even when the
+    /// levels did not change (a new intent arrived); devices that only report changes
+    /// may ignore it. Actions go to `out`.
+    fn set_levels(
+        &mut self,
+        levels: Levels,
+        pattern: HapticPattern,
+        cause_ns: u64,
+        now_ns: u64,
+        refresh: bool,
+        out: &mut DeviceOutput,
+    );
+
+    /// Background work due at `now_ns` (battery polls, input reports, reconnects).
+    fn poll(&mut self, _now_ns: u64, _out: &mut DeviceOutput) {}
+
+    /// When `poll` must next run, if ever.
+    fn next_poll_ns(&self) -> Option<u64> {
+        None
+    }
+
+    /// Stop every motor at once (shutdown).
+    fn off(&mut self, now_ns: u64, out: &mut DeviceOutput);
+}
+
+/// Why a speech engine could not start an utterance.
+#[derive(Debug, Error)]
+pub enum SpeechError {
+    /// The synthesiser process could not be started.
+    #[error("cannot start {program}: {source}")]
+    Spawn {
+        /// Program name.
+        program: String,
+        /// OS error.
+        source: std::io::Error,
+    },
+    /// The engine is unusable on this machine.
+    #[error("{0}")]
+    Unavailable(String),
+}
+
+/// An utterance being spoken.
+pub trait SpeakingHandle: Send {
+    /// True once the audio has played to its end (or the engine gave up).
+    fn is_finished(&mut self, now_ns: u64) -> bool;
+
+    /// Stop at once.
+    fn cut(&mut self);
+}
+
+/// A text-to-speech engine.
+pub trait SpeechEngine: Send {
+    /// Backend name (`console`, `espeak`, `phone`).
+    fn name(&self) -> &str;
+
+    /// Start saying `text` at `now_ns`.
+    fn start(&mut self, text: &str, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError>;
+}

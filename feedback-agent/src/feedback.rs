@@ -1,0 +1,322 @@
+//! The feedback step: intents, hazards and liveliness in; device actions out.
+//!
+//! This joins the pure parts (`haptic_cue`, `speech_queue`, `watchdog`) to the devices
+//! behind their traits, with `now` always given by the caller: the same step runs under
+//! the bus loop (`run`), in tests with fake devices, and in the latency benchmark.
+//! Safety rules 1-3 of ARCHITECTURE.md are enforced here: the offline warning goes
+//! through every backend, every cue expires, and warnings pre-empt guidance speech.
+
+use schemas::{Applied, AppliedAction, Hazard, HapticIntent, HapticPattern, Priority, SpeechIntent};
+
+use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine};
+use crate::haptic_cue::{CueLimits, HapticCue, Levels};
+use crate::speech_queue::{QueueConfig, SpeechAction, SpeechQueue, Utterance};
+use crate::watchdog::{DetectionState, DetectionWatchdog, Transition};
+
+const MS: u64 = 1_000_000;
+
+/// Settings of the feedback step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepSettings {
+    /// Limits applied to haptic intents.
+    pub limits: CueLimits,
+    /// Speech queue settings.
+    pub queue: QueueConfig,
+    /// Hazards older than this (or liveliness lost) mean detection is offline, ms.
+    pub offline_after_ms: u64,
+    /// Half period of the left/right offline alert, ms.
+    pub alert_half_ms: u32,
+    /// Left-right cycles per alert.
+    pub alert_cycles: u32,
+    /// While offline, the alert rumble repeats this often, ms (0 = once).
+    pub alert_repeat_ms: u64,
+    /// How often a speaking utterance is checked for its end, ms.
+    pub speech_poll_ms: u64,
+}
+
+impl Default for StepSettings {
+    /// 500 ms deadline (ARCHITECTURE.md rule 1); alert 150 ms per side x 3 cycles
+    /// (~1 s, long enough to feel the alternation); repeated every 5 s while offline so
+    /// a user who missed it is reminded; speech end checked every 20 ms.
+    fn default() -> Self {
+        Self {
+            limits: CueLimits::default(),
+            queue: QueueConfig::default(),
+            offline_after_ms: 500,
+            alert_half_ms: 150,
+            alert_cycles: 3,
+            alert_repeat_ms: 5000,
+            speech_poll_ms: 20,
+        }
+    }
+}
+
+/// An input refused, with a short kind for the reject counters.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Reject {
+    /// Counter kind (`nan_level`, `empty_text`, ...).
+    pub kind: &'static str,
+    /// Human-readable reason.
+    pub reason: String,
+}
+
+/// TTL of the agent's own utterances, ms.
+const OWN_UTTERANCE_TTL_MS: u32 = 10_000;
+
+/// The feedback step with its devices.
+pub struct Feedback {
+    settings: StepSettings,
+    haptics: Vec<Box<dyn HapticDevice>>,
+    engines: Vec<Box<dyn SpeechEngine>>,
+    handles: Vec<(usize, Box<dyn SpeakingHandle>)>,
+    queue: SpeechQueue,
+    watchdog: DetectionWatchdog,
+    obstacle: Option<HapticCue>,
+    alert: Option<HapticCue>,
+    next_alert_ns: Option<u64>,
+    out: DeviceOutput,
+    actions: Vec<SpeechAction>,
+    applied: Vec<Applied>,
+}
+
+impl Feedback {
+    /// A step started at `now_ns` driving `haptics` and `engines`.
+    pub fn new(
+        settings: StepSettings,
+        haptics: Vec<Box<dyn HapticDevice>>,
+        engines: Vec<Box<dyn SpeechEngine>>,
+        now_ns: u64,
+    ) -> Self {
+        Self {
+            queue: SpeechQueue::new(settings.queue),
+            watchdog: DetectionWatchdog::new(now_ns, settings.offline_after_ms),
+            settings,
+            haptics,
+            engines,
+            handles: Vec::new(),
+            obstacle: None,
+            alert: None,
+            next_alert_ns: None,
+            out: DeviceOutput::default(),
+            actions: Vec::new(),
+            applied: Vec::new(),
+        }
+    }
+
+    /// Whether obstacle detection is believed to be running.
+    pub fn detection(&self) -> DetectionState {
+        self.watchdog.state()
+    }
+
+    /// Actions performed since the last drain, in order.
+    pub fn drain_applied(&mut self) -> std::vec::Drain<'_, Applied> {
+        self.applied.drain(..)
+    }
+
+    /// A haptic intent captured at `capture_ns` arrived at `now_ns`. Returns what was
+    /// clamped, if anything; refuses NaN.
+    pub fn on_haptic(&mut self, intent: &HapticIntent, capture_ns: u64, now_ns: u64) -> Result<Option<String>, Reject> {
+        let accepted = HapticCue::from_intent(intent, capture_ns, now_ns, &self.settings.limits, self.obstacle.as_ref())
+            .map_err(|e| Reject { kind: e.kind(), reason: e.to_string() })?;
+        self.obstacle = Some(accepted.cue);
+        self.drive_haptics(now_ns, true);
+        Ok(accepted.clamped)
+    }
+
+    /// A speech intent captured at `capture_ns` arrived at `now_ns`.
+    pub fn on_speech(&mut self, intent: &SpeechIntent, capture_ns: u64, now_ns: u64) -> Result<(), Reject> {
+        let mut actions = std::mem::take(&mut self.actions);
+        let offered = self.queue.offer(intent, capture_ns, now_ns, &mut actions);
+        self.actions = actions;
+        offered.map_err(|e| Reject { kind: e.kind(), reason: e.to_string() })?;
+        self.perform_speech(now_ns);
+        Ok(())
+    }
+
+    /// A hazard arrived at `now_ns`.
+    pub fn on_hazard(&mut self, hazard: &Hazard, now_ns: u64) {
+        self.watchdog.on_hazard(now_ns, hazard.ground);
+        self.check_detection(now_ns);
+    }
+
+    /// The compute agent's liveliness token appeared or disappeared.
+    pub fn on_compute_liveliness(&mut self, alive: bool, now_ns: u64) {
+        self.watchdog.on_compute_liveliness(alive);
+        self.check_detection(now_ns);
+    }
+
+    /// Advance timers to `now_ns`: watchdog, pulse edges, TTLs, speech ends, devices.
+    pub fn tick(&mut self, now_ns: u64) {
+        self.check_detection(now_ns);
+        if self.next_alert_ns.is_some_and(|at| now_ns >= at) {
+            self.alert = Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
+            self.next_alert_ns = Some(now_ns + self.settings.alert_repeat_ms * MS);
+        }
+        if self.queue.speaking().is_some() && self.handles.iter_mut().all(|(_, h)| h.is_finished(now_ns)) {
+            for (engine, _) in self.handles.drain(..) {
+                if let Some(u) = self.queue.speaking() {
+                    let action = AppliedAction::SpeechFinished { text: u.text.clone() };
+                    self.out.applied(self.engines[engine].name(), action, now_ns, u.capture_ns);
+                }
+            }
+            let mut actions = std::mem::take(&mut self.actions);
+            self.queue.finished(now_ns, &mut actions);
+            self.actions = actions;
+        }
+        let mut actions = std::mem::take(&mut self.actions);
+        self.queue.expire(now_ns, &mut actions);
+        self.actions = actions;
+        self.perform_speech(now_ns);
+        for d in &mut self.haptics {
+            if d.next_poll_ns().is_some_and(|t| now_ns >= t) {
+                d.poll(now_ns, &mut self.out);
+            }
+        }
+        self.drive_haptics(now_ns, false);
+    }
+
+    /// The next instant `tick` has work to do.
+    pub fn next_wake_ns(&self, now_ns: u64) -> u64 {
+        let mut next = u64::MAX;
+        let mut consider = |t: Option<u64>| {
+            if let Some(t) = t {
+                next = next.min(t);
+            }
+        };
+        consider(self.watchdog.next_check_ns());
+        consider(self.obstacle.and_then(|c| c.next_change_ns(now_ns)));
+        consider(self.alert.and_then(|c| c.next_change_ns(now_ns)));
+        consider(self.next_alert_ns);
+        consider(self.queue.next_expiry_ns());
+        consider(self.queue.speaking().map(|_| now_ns + self.settings.speech_poll_ms * MS));
+        for d in &self.haptics {
+            consider(d.next_poll_ns());
+        }
+        next.max(now_ns)
+    }
+
+    /// Stop everything: speech cut, motors off.
+    pub fn shutdown(&mut self, now_ns: u64) {
+        let mut actions = std::mem::take(&mut self.actions);
+        self.queue.clear(&mut actions);
+        self.actions = actions;
+        self.perform_speech(now_ns);
+        self.obstacle = None;
+        self.alert = None;
+        self.next_alert_ns = None;
+        for d in &mut self.haptics {
+            d.off(now_ns, &mut self.out);
+        }
+        self.applied.append(&mut self.out.applied);
+    }
+
+    fn check_detection(&mut self, now_ns: u64) {
+        let Some(transition) = self.watchdog.step(now_ns) else { return };
+        let (offline, reason, text) = match transition {
+            Transition::Offline(reason) => {
+                tracing::warn!("obstacle detection offline: {}", reason.describe());
+                self.alert = Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
+                self.next_alert_ns = (self.settings.alert_repeat_ms > 0).then(|| now_ns + self.settings.alert_repeat_ms * MS);
+                (true, reason.describe(), reason.utterance())
+            }
+            Transition::Back => {
+                tracing::info!("obstacle detection back");
+                self.alert = None;
+                self.next_alert_ns = None;
+                (false, "hazards fresh again", "obstacle detection back")
+            }
+        };
+        let names: Vec<String> = if self.haptics.is_empty() {
+            vec!["feedback-agent".to_string()]
+        } else {
+            self.haptics.iter().map(|d| d.name().to_string()).collect()
+        };
+        for name in names {
+            let action = AppliedAction::OfflineWarning { offline, reason: reason.to_string() };
+            self.out.applied(&name, action, now_ns, 0);
+        }
+        let mut actions = std::mem::take(&mut self.actions);
+        self.queue.offer_own(text, Priority::Important, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+        self.actions = actions;
+        self.perform_speech(now_ns);
+        self.drive_haptics(now_ns, false);
+    }
+
+    fn drive_haptics(&mut self, now_ns: u64, refresh: bool) {
+        let alert = self.alert.filter(|a| a.is_live(now_ns));
+        self.alert = alert;
+        let (levels, pattern, cause) = match (alert, self.obstacle) {
+            (Some(a), _) => (a.levels_at(now_ns), a.pattern(), 0),
+            (None, Some(o)) => (o.levels_at(now_ns), o.pattern(), o.cause_capture_ns),
+            (None, None) => (Levels::OFF, HapticPattern::Steady, 0),
+        };
+        if self.obstacle.is_some_and(|o| !o.is_live(now_ns)) {
+            self.obstacle = None;
+        }
+        for d in &mut self.haptics {
+            d.set_levels(levels, pattern, cause, now_ns, refresh, &mut self.out);
+        }
+        self.absorb_device_output(now_ns);
+    }
+
+    /// Move device records to `applied`, and speak device news.
+    fn absorb_device_output(&mut self, now_ns: u64) {
+        self.applied.append(&mut self.out.applied);
+        if self.out.say.is_empty() {
+            return;
+        }
+        let mut actions = std::mem::take(&mut self.actions);
+        for text in self.out.say.drain(..) {
+            self.queue.offer_own(&text, Priority::Message, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+        }
+        self.actions = actions;
+        self.perform_speech(now_ns);
+    }
+
+    fn perform_speech(&mut self, now_ns: u64) {
+        let mut actions = std::mem::take(&mut self.actions);
+        let mut k = 0;
+        while k < actions.len() {
+            match &actions[k] {
+                SpeechAction::Cut(u) => {
+                    for (engine, mut h) in self.handles.drain(..) {
+                        h.cut();
+                        let action = AppliedAction::SpeechInterrupted { text: u.text.clone() };
+                        self.out.applied(self.engines[engine].name(), action, now_ns, u.capture_ns);
+                    }
+                }
+                SpeechAction::Start(u) => {
+                    self.start_utterance(u, now_ns);
+                    if self.handles.is_empty() {
+                        // Nothing could speak it: move on rather than wait forever.
+                        self.queue.finished(now_ns, &mut actions);
+                    }
+                }
+                SpeechAction::Drop { utterance, reason } => {
+                    let action = AppliedAction::SpeechDropped { text: utterance.text.clone(), reason: reason.to_string() };
+                    self.out.applied("speech-queue", action, now_ns, utterance.capture_ns);
+                }
+            }
+            k += 1;
+        }
+        actions.clear();
+        self.actions = actions;
+        self.applied.append(&mut self.out.applied);
+    }
+
+    fn start_utterance(&mut self, u: &Utterance, now_ns: u64) {
+        for (k, engine) in self.engines.iter_mut().enumerate() {
+            match engine.start(&u.text, now_ns) {
+                Ok(handle) => {
+                    self.handles.push((k, handle));
+                    let action = AppliedAction::SpeechStarted { text: u.text.clone(), priority: u.priority };
+                    self.out.applied(engine.name(), action, now_ns, u.capture_ns);
+                }
+                Err(e) => {
+                    tracing::warn!("{} cannot speak: {e}", engine.name());
+                    self.out.applied(engine.name(), AppliedAction::DeviceStatus { text: e.to_string() }, now_ns, 0);
+                }
+            }
+        }
+    }
+}

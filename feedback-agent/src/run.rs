@@ -1,0 +1,181 @@
+//! The agent loop: the only place that touches the bus, the clock and the devices'
+//! lifetimes. One `select!` over the subscriptions, the liveliness of the compute agent,
+//! the next timer of the feedback step, and shutdown (dora-style event loop).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use bus::{now_ns, Health, Lane, Publisher, Shutdown, Subscriber};
+use schemas::{Applied, AppliedAction, HapticIntent, Hazard, SpeechIntent};
+use zenoh::sample::SampleKind;
+
+use crate::config::{FeedbackConfig, HapticBackend, SpeechBackend};
+use crate::console::{ConsoleHaptic, ConsoleSpeech};
+use crate::device::{HapticDevice, SpeechEngine};
+use crate::espeak::{find_player, EspeakEngine};
+use crate::feedback::Feedback;
+use crate::watchdog::DetectionState;
+use crate::wiimote::link::HidapiBus;
+use crate::wiimote::WiimoteBackend;
+
+/// The agent's name: its liveliness token, health key and `sender`.
+pub const AGENT: &str = "feedback-agent";
+
+/// The devices the agent drives, and what was noted while opening them.
+pub struct Devices {
+    /// Haptic backends.
+    pub haptics: Vec<Box<dyn HapticDevice>>,
+    /// Speech engines.
+    pub engines: Vec<Box<dyn SpeechEngine>>,
+    /// Start-up notes (`device`, text), published as device status.
+    pub notes: Vec<(String, String)>,
+}
+
+impl Devices {
+    /// Open the backends the configuration names. Fails when a named backend cannot
+    /// work at all (espeak-ng missing), rather than running silently without it.
+    pub fn from_config(config: &FeedbackConfig) -> anyhow::Result<Self> {
+        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new() };
+        for backend in &config.haptic {
+            match backend {
+                HapticBackend::Console => devices.haptics.push(Box::new(ConsoleHaptic::stdout())),
+                HapticBackend::Wiimote => {
+                    devices.haptics.push(Box::new(WiimoteBackend::new(Box::new(HidapiBus::new()), config.wiimote())))
+                }
+            }
+        }
+        for backend in &config.speech {
+            match backend {
+                SpeechBackend::Console => devices.engines.push(Box::new(ConsoleSpeech::stdout(config.rate_wpm))),
+                SpeechBackend::Espeak => {
+                    let engine = EspeakEngine::new(config.espeak(), find_player()).context("--speech espeak")?;
+                    devices.notes.push(("espeak".into(), engine.describe()));
+                    devices.engines.push(Box::new(engine));
+                }
+            }
+        }
+        Ok(devices)
+    }
+}
+
+/// Run the feedback agent with the devices its configuration names until `shutdown`.
+pub async fn run(config: FeedbackConfig, shutdown: Shutdown) -> anyhow::Result<()> {
+    let devices = Devices::from_config(&config)?;
+    run_with(config, devices, shutdown).await
+}
+
+async fn publish(publisher: &mut Publisher<Applied>, applied: Vec<Applied>) {
+    for a in applied {
+        if let AppliedAction::DeviceStatus { text } = &a.action {
+            tracing::info!(device = %a.device, "{text}");
+        }
+        // The envelope's capture stamp is the cause's, so a monitor reads the age of an
+        // applied record as the end-to-end latency of the intent behind it.
+        let stamp = if a.cause_capture_ns != 0 { a.cause_capture_ns } else { a.applied_ns };
+        if let Err(e) = publisher.put(stamp, &a).await {
+            tracing::warn!("cannot publish applied action: {e:#}");
+        }
+    }
+}
+
+fn status_of(state: DetectionState) -> (bool, String) {
+    match state {
+        DetectionState::Starting => (true, "waiting for the first hazard".into()),
+        DetectionState::Online => (true, "obstacle detection online".into()),
+        DetectionState::Offline(reason) => (false, format!("obstacle detection offline: {}", reason.describe())),
+    }
+}
+
+/// Run with the given devices (tests and benchmarks pass fakes) until `shutdown`.
+pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdown) -> anyhow::Result<()> {
+    let keys = config.bus.keys()?;
+    let session = bus::open_session(&config.bus).await?;
+    let health: Arc<Health> = Health::new(AGENT);
+    let health_task = tokio::spawn(health.clone().serve(
+        session.clone(),
+        keys.clone(),
+        Duration::from_millis(config.health_period_ms.max(100)),
+        shutdown.clone(),
+    ));
+
+    let haptic_key = keys.haptic();
+    let speech_key = keys.speech();
+    // Only the newest haptic intent matters; speech intents queue, none may be lost.
+    let haptic_sub = Subscriber::<HapticIntent>::declare(&session, haptic_key.clone(), true, &health).await?;
+    let speech_sub = Subscriber::<SpeechIntent>::declare(&session, speech_key.clone(), false, &health).await?;
+    let hazard_sub = Subscriber::<Hazard>::declare(&session, keys.hazard(), true, &health).await?;
+    let alive_key = keys.health(&config.compute_agent);
+    let liveliness = session
+        .liveliness()
+        .declare_subscriber(alive_key.clone())
+        .history(true)
+        .await
+        .map_err(|e| anyhow!("cannot watch the liveliness of {alive_key}: {e}"))?;
+    let mut applied_pub = Publisher::<Applied>::declare(&session, keys.applied(), AGENT, Lane::Events, Some(&health)).await?;
+
+    let started = now_ns();
+    let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
+    let notes = devices
+        .notes
+        .into_iter()
+        .map(|(device, text)| Applied { device, action: AppliedAction::DeviceStatus { text }, applied_ns: started, cause_capture_ns: 0 })
+        .collect();
+    publish(&mut applied_pub, notes).await;
+    tracing::info!(user = %config.bus.user, "feedback agent running (haptic {:?}, speech {:?})", config.haptic, config.speech);
+
+    let mut shown = status_of(feedback.detection());
+    health.set_status(shown.0, shown.1.clone());
+    loop {
+        let now = now_ns();
+        let wake = feedback.next_wake_ns(now);
+        if wake <= now {
+            // Timers are due: handle them before waiting, so a steady stream of
+            // intents can never starve pulse edges, TTLs or the watchdog.
+            feedback.tick(now);
+        } else {
+            let sleep = Duration::from_nanos(wake - now).min(Duration::from_millis(250));
+            tokio::select! {
+                biased;
+                _ = shutdown.triggered() => break,
+                Some(m) = haptic_sub.recv() => {
+                    match feedback.on_haptic(&m.body, m.header.capture_ns, now_ns()) {
+                        Ok(None) => {}
+                        Ok(Some(note)) => health.reject(&haptic_key, "clamped", &note),
+                        Err(r) => health.reject(&haptic_key, r.kind, &r.reason),
+                    }
+                }
+                Some(m) = hazard_sub.recv() => feedback.on_hazard(&m.body, now_ns()),
+                sample = liveliness.recv_async() => match sample {
+                    Ok(s) => feedback.on_compute_liveliness(s.kind() == SampleKind::Put, now_ns()),
+                    Err(e) => {
+                        tracing::error!("liveliness subscription closed: {e}");
+                        break;
+                    }
+                },
+                Some(m) = speech_sub.recv() => {
+                    if let Err(r) = feedback.on_speech(&m.body, m.header.capture_ns, now_ns()) {
+                        health.reject(&speech_key, r.kind, &r.reason);
+                    }
+                }
+                _ = tokio::time::sleep(sleep) => feedback.tick(now_ns()),
+            }
+        }
+        publish(&mut applied_pub, feedback.drain_applied().collect()).await;
+        let status = status_of(feedback.detection());
+        if status != shown {
+            health.set_status(status.0, status.1.clone());
+            shown = status;
+        }
+    }
+    feedback.shutdown(now_ns());
+    publish(&mut applied_pub, feedback.drain_applied().collect()).await;
+    drop(feedback);
+    shutdown.trigger();
+    match health_task.await {
+        Ok(r) => r.context("health task")?,
+        Err(e) => tracing::warn!("health task ended abnormally: {e}"),
+    }
+    session.close().await.map_err(|e| anyhow!("closing the session: {e}"))?;
+    Ok(())
+}
