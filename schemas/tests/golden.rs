@@ -1,0 +1,980 @@
+//! Golden vectors: the bytes Rust writes for representative values of every message,
+//! committed in `schemas/vectors/`, which `schemas/python/tests/test_vectors.py` decodes
+//! and re-encodes, so the Rust and Python sides of the wire contract cannot drift apart.
+//!
+//! - `<name>.bin` is `schemas::encode` of the value, `<name>.json` its header and body as
+//!   serde_json writes them (non-finite floats become `null`; depth frames also carry
+//!   the decoded `depth_samples`).
+//! - `reject/<case>.bin` are damaged payloads and `reject/<case>.json` the error kind
+//!   Rust's `decode` gives for them; Python must give the same kind.
+//! - `keys.json` and `schemas.json` hold the key builders' output and the schema table.
+//!
+//! A change in `messages.rs` fails this test with the command to regenerate:
+//! `UPDATE_VECTORS=1 cargo test -p schemas --test golden`, then review
+//! `git diff schemas/vectors` and run pytest.
+
+use std::fmt::Debug;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use schemas::depth_codec;
+use schemas::wire::{CURRENT_VERSION, MAX_PAYLOAD_BYTES};
+use schemas::*;
+use serde::Serialize;
+
+const SENDER: &str = "golden";
+/// 2025-11-22T02:00:00Z, so ages printed from these vectors look like real stamps.
+const CAPTURE_NS: u64 = 1_763_776_800_000_000_000;
+const REGENERATE: &str = "regenerate with `UPDATE_VECTORS=1 cargo test -p schemas --test golden`, \
+     review `git diff schemas/vectors`, then run `python3 -m pytest schemas/python`";
+
+fn vectors_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors")
+}
+
+fn updating() -> bool {
+    std::env::var_os("UPDATE_VECTORS").is_some_and(|v| v == "1")
+}
+
+/// One file to compare with (or write to) `schemas/vectors`, and the check that its
+/// committed bytes decode back in Rust.
+struct Golden {
+    path: String,
+    bytes: Vec<u8>,
+    check: Box<dyn Fn(&[u8]) -> Result<(), String>>,
+}
+
+fn no_check() -> Box<dyn Fn(&[u8]) -> Result<(), String>> {
+    Box::new(|_| Ok(()))
+}
+
+#[derive(Serialize)]
+struct VectorJson<'a, M> {
+    schema: &'static str,
+    schema_id: u16,
+    encoding_schema: String,
+    max_bytes: usize,
+    header: &'a Header,
+    body: &'a M,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    depth_samples: Option<Vec<u16>>,
+}
+
+fn json_text<T: Serialize>(value: &T) -> Vec<u8> {
+    let mut text = serde_json::to_string_pretty(value).expect("vectors serialise to JSON");
+    text.push('\n');
+    text.into_bytes()
+}
+
+/// `<name>.bin` and `<name>.json` for `body`, sent as the `seq`-th message.
+fn vector<M>(name: &str, seq: u64, body: M) -> [Golden; 2]
+where
+    M: Message + PartialEq + Debug + 'static,
+{
+    vector_with_samples(name, seq, body, None)
+}
+
+fn vector_with_samples<M>(
+    name: &str,
+    seq: u64,
+    body: M,
+    depth_samples: Option<Vec<u16>>,
+) -> [Golden; 2]
+where
+    M: Message + PartialEq + Debug + 'static,
+{
+    assert!(
+        name.starts_with(M::SCHEMA.name()),
+        "vector {name} must start with its schema name"
+    );
+    let capture_ns = CAPTURE_NS + seq * 33_000_000;
+    let bytes = encode(SENDER, seq, capture_ns, &body);
+    let header = Header {
+        schema: M::SCHEMA as u16,
+        version: M::VERSION,
+        sender: SENDER.to_string(),
+        seq,
+        capture_ns,
+    };
+    let json = json_text(&VectorJson {
+        schema: M::SCHEMA.name(),
+        schema_id: M::SCHEMA as u16,
+        encoding_schema: M::SCHEMA.encoding_schema(),
+        max_bytes: M::MAX_BYTES,
+        header: &header,
+        body: &body,
+        depth_samples,
+    });
+    let check = move |committed: &[u8]| match decode::<M>(committed) {
+        Ok((h, b)) if h == header && b == body => Ok(()),
+        Ok((h, b)) => Err(format!("decodes to {h:?} {b:?}")),
+        Err(e) => Err(format!("does not decode: {e}")),
+    };
+    [
+        Golden {
+            path: format!("{name}.bin"),
+            bytes,
+            check: Box::new(check),
+        },
+        Golden {
+            path: format!("{name}.json"),
+            bytes: json,
+            check: no_check(),
+        },
+    ]
+}
+
+fn depth_vector(name: &str, seq: u64, mut frame: DepthFrame, samples: &[u16]) -> [Golden; 2] {
+    depth_codec::encode(
+        samples,
+        frame.width,
+        frame.height,
+        frame.encoding,
+        &mut frame.data,
+    )
+    .expect("test image packs");
+    let mut decoded = Vec::new();
+    depth_codec::decode(
+        &frame.data,
+        frame.width,
+        frame.height,
+        frame.encoding,
+        &mut decoded,
+    )
+    .expect("test image unpacks");
+    vector_with_samples(name, seq, frame, Some(decoded))
+}
+
+/// A 4x3 depth image in millimetres with invalid (0) pixels and a near obstacle.
+const DEPTH_MM: [u16; 12] = [0, 1500, 1502, 1499, 800, 812, 0, 2750, 65535, 1, 2, 3000];
+
+fn depth_frames() -> Vec<[Golden; 2]> {
+    let frame = |encoding, gravity_camera, mount| DepthFrame {
+        width: 4,
+        height: 3,
+        depth_scale_m: 0.001,
+        intrinsics: Intrinsics {
+            fx: 3.5,
+            fy: 3.5,
+            cx: 1.5,
+            cy: 1.0,
+        },
+        gravity_camera,
+        mount,
+        encoding,
+        data: Vec::new(),
+    };
+    let mount = MountGuess {
+        height_m: 0.8,
+        pitch_deg: 30.0,
+    };
+    vec![
+        depth_vector(
+            "depth_frame_raw",
+            1,
+            frame(DepthEncoding::Raw, Some([0.0, 0.866, 0.5]), Some(mount)),
+            &DEPTH_MM,
+        ),
+        depth_vector(
+            "depth_frame_lossless",
+            2,
+            frame(DepthEncoding::Lossless, None, None),
+            &DEPTH_MM,
+        ),
+        depth_vector(
+            "depth_frame_bounded",
+            3,
+            frame(
+                DepthEncoding::Bounded { step: 4 },
+                Some([0.01, 0.99, -0.125]),
+                None,
+            ),
+            &DEPTH_MM,
+        ),
+    ]
+}
+
+fn sensor_vectors() -> Vec<[Golden; 2]> {
+    vec![
+        vector(
+            "imu_batch",
+            4,
+            ImuBatch {
+                samples: vec![
+                    ImuSample {
+                        stamp_ns: CAPTURE_NS,
+                        gyro_rad_s: [0.01, -0.02, 0.5],
+                        accel_m_s2: [0.1, -9.81, 0.25],
+                    },
+                    ImuSample {
+                        stamp_ns: CAPTURE_NS + 5_000_000,
+                        gyro_rad_s: [0.0, 0.0, -0.5],
+                        accel_m_s2: [0.0, -9.75, 0.5],
+                    },
+                ],
+            },
+        ),
+        vector(
+            "imu_batch_empty",
+            5,
+            ImuBatch {
+                samples: Vec::new(),
+            },
+        ),
+        vector(
+            "odom_increment",
+            6,
+            OdomIncrement {
+                from_ns: CAPTURE_NS,
+                to_ns: CAPTURE_NS + 33_333_333,
+                forward_m: 0.042,
+                left_m: -0.003,
+                yaw_rad: 0.0175,
+            },
+        ),
+        vector(
+            "ground_truth",
+            7,
+            GroundTruth {
+                x_m: 2.5,
+                y_m: -1.25,
+                yaw_rad: 1.5707964,
+                floor: -1,
+                camera_height_m: 0.82,
+                camera_pitch_deg: 35.0,
+                sweep_deg: -12.5,
+            },
+        ),
+    ]
+}
+
+fn perception_vectors() -> Vec<[Golden; 2]> {
+    let costs = |left, forward, right| SideCosts {
+        left,
+        forward,
+        right,
+    };
+    let latency = vec![
+        StageLatency {
+            stage: "decode".into(),
+            us: 850,
+        },
+        StageLatency {
+            stage: "ground_plane".into(),
+            us: 4200,
+        },
+    ];
+    let hazard = |rumble, ground, active| Hazard {
+        frame_seq: 41,
+        ficf: costs(0.0, 0.0, 0.0),
+        cacf: costs(0.0, 0.0, 0.0),
+        active,
+        rumble,
+        ground,
+        plane_camera: [0.0047, -0.9968, -0.0798, 1.2714],
+        nearest_m: f32::INFINITY,
+        nearest_bearing_deg: 0.0,
+        ttc_s: None,
+        dropoff_ahead: false,
+        latency: Vec::new(),
+    };
+    vec![
+        vector(
+            "scan",
+            8,
+            Scan {
+                angle_min_deg: -2.0,
+                angle_increment_deg: 1.0,
+                ranges_m: vec![f32::INFINITY, 1.75, 0.75, 2.5, f32::INFINITY],
+                range_max_m: 4.0,
+            },
+        ),
+        vector(
+            "scan_empty",
+            9,
+            Scan {
+                angle_min_deg: -22.5,
+                angle_increment_deg: 1.0,
+                ranges_m: Vec::new(),
+                range_max_m: 4.0,
+            },
+        ),
+        vector(
+            "hazard_clear",
+            10,
+            hazard(Rumble::None, GroundState::Found, CostFunction::Ficf),
+        ),
+        vector(
+            "hazard_left",
+            11,
+            Hazard {
+                ficf: costs(0.25, 1.5, 3.0),
+                cacf: costs(0.5, 2.0, 4.5),
+                nearest_m: 0.75,
+                nearest_bearing_deg: -10.0,
+                ttc_s: Some(1.5),
+                latency: latency.clone(),
+                ..hazard(Rumble::Left, GroundState::Lost, CostFunction::Cacf)
+            },
+        ),
+        vector(
+            "hazard_right",
+            12,
+            Hazard {
+                ficf: costs(2.0, 1.0, 0.0),
+                nearest_m: 1.25,
+                nearest_bearing_deg: 15.0,
+                ..hazard(Rumble::Right, GroundState::Degraded, CostFunction::Ficf)
+            },
+        ),
+        vector(
+            "hazard_both",
+            13,
+            Hazard {
+                ficf: costs(3.0, 3.0, 3.0),
+                nearest_m: 0.5,
+                dropoff_ahead: true,
+                ttc_s: Some(0.25),
+                latency,
+                ..hazard(Rumble::Both, GroundState::Found, CostFunction::Ficf)
+            },
+        ),
+    ]
+}
+
+fn localization_vectors() -> Vec<[Golden; 2]> {
+    vec![
+        vector(
+            "pose",
+            14,
+            Pose {
+                x_m: 12.5,
+                y_m: 3.25,
+                yaw_rad: -0.5,
+                floor: 2,
+                covariance: [0.04, 0.001, 0.0, 0.001, 0.04, 0.0, 0.0, 0.0, 0.01],
+            },
+        ),
+        vector(
+            "route_state_active",
+            15,
+            RouteState {
+                destination: "room 2.14".into(),
+                next_waypoint: Some(MapPoint {
+                    x_m: 14.0,
+                    y_m: 3.0,
+                    floor: 2,
+                }),
+                distance_left_m: 23.5,
+                instruction: "turn left in 3 metres".into(),
+            },
+        ),
+        vector(
+            "route_state_idle",
+            16,
+            RouteState {
+                destination: String::new(),
+                next_waypoint: None,
+                distance_left_m: 0.0,
+                instruction: String::new(),
+            },
+        ),
+    ]
+}
+
+fn feedback_vectors() -> Vec<[Golden; 2]> {
+    let pulses = HapticPattern::Pulses {
+        period_ms: 120,
+        duty: 0.5,
+    };
+    let speech = |text: &str, priority, interrupt| SpeechIntent {
+        text: text.into(),
+        priority,
+        interrupt,
+        ttl_ms: 2000,
+        dedup_key: String::new(),
+    };
+    let applied = |device: &str, action| Applied {
+        device: device.into(),
+        action,
+        applied_ns: CAPTURE_NS + 4_500_000,
+        cause_capture_ns: CAPTURE_NS,
+    };
+    vec![
+        vector(
+            "haptic_intent_steady",
+            17,
+            HapticIntent {
+                left: 1.0,
+                right: 0.0,
+                pattern: HapticPattern::Steady,
+                ttl_ms: 300,
+            },
+        ),
+        vector(
+            "haptic_intent_pulses",
+            18,
+            HapticIntent {
+                left: 0.75,
+                right: 0.75,
+                pattern: pulses,
+                ttl_ms: 250,
+            },
+        ),
+        vector(
+            "speech_intent_important",
+            19,
+            SpeechIntent {
+                dedup_key: "obstacle-ahead".into(),
+                ..speech(
+                    "Achtung: Tür links, 1,5 m — stufe ↓ 出口",
+                    Priority::Important,
+                    true,
+                )
+            },
+        ),
+        vector(
+            "speech_intent_message",
+            20,
+            speech("turn left in 3 metres", Priority::Message, false),
+        ),
+        vector(
+            "speech_intent_text",
+            21,
+            speech("door 2.14 on your right", Priority::Text, false),
+        ),
+        vector(
+            "speech_intent_notification",
+            22,
+            speech("battery 20 %", Priority::Notification, false),
+        ),
+        vector(
+            "speech_intent_progress",
+            23,
+            speech("23 metres left", Priority::Progress, false),
+        ),
+        vector(
+            "applied_rumble",
+            24,
+            applied(
+                "wiimote-left",
+                AppliedAction::Rumble {
+                    left: 1.0,
+                    right: 0.0,
+                    pattern: pulses,
+                },
+            ),
+        ),
+        vector(
+            "applied_speech_started",
+            25,
+            applied(
+                "espeak",
+                AppliedAction::SpeechStarted {
+                    text: "stop".into(),
+                    priority: Priority::Important,
+                },
+            ),
+        ),
+        vector(
+            "applied_speech_finished",
+            26,
+            applied(
+                "espeak",
+                AppliedAction::SpeechFinished {
+                    text: "Café straight ahead".into(),
+                },
+            ),
+        ),
+        vector(
+            "applied_speech_interrupted",
+            27,
+            applied(
+                "espeak",
+                AppliedAction::SpeechInterrupted {
+                    text: "turn left in 3 metres".into(),
+                },
+            ),
+        ),
+        vector(
+            "applied_speech_dropped",
+            28,
+            applied(
+                "console",
+                AppliedAction::SpeechDropped {
+                    text: "23 metres left".into(),
+                    reason: "stale".into(),
+                },
+            ),
+        ),
+        vector(
+            "applied_offline_warning",
+            29,
+            Applied {
+                cause_capture_ns: 0,
+                ..applied(
+                    "console",
+                    AppliedAction::OfflineWarning {
+                        offline: true,
+                        reason: "perception/hazard stale".into(),
+                    },
+                )
+            },
+        ),
+        vector(
+            "applied_device_status",
+            30,
+            applied(
+                "phone",
+                AppliedAction::DeviceStatus {
+                    text: "connected".into(),
+                },
+            ),
+        ),
+    ]
+}
+
+fn command_and_health_vectors() -> Vec<[Golden; 2]> {
+    vec![
+        vector(
+            "command_destination",
+            31,
+            Command::Destination {
+                label: "café".into(),
+            },
+        ),
+        vector("command_where_am_i", 32, Command::WhereAmI),
+        vector("command_mute", 33, Command::Mute { muted: true }),
+        vector("command_repeat", 34, Command::Repeat),
+        vector(
+            "health_stats",
+            35,
+            HealthStats {
+                agent: "compute-agent".into(),
+                uptime_ms: 12_345,
+                ok: false,
+                status: "ground lost".into(),
+                streams: vec![
+                    StreamStats {
+                        key: "wearnav/alice/sensor/cane/depth".into(),
+                        inbound: true,
+                        count: 300,
+                        rate_hz: 30.0,
+                        bytes_per_s: 1_843_200.0,
+                        rejects: 2,
+                        latency_p50_ms: 3.5,
+                        latency_p99_ms: 8.25,
+                    },
+                    StreamStats {
+                        key: "wearnav/alice/perception/hazard".into(),
+                        inbound: false,
+                        count: 298,
+                        rate_hz: 29.5,
+                        bytes_per_s: 4096.0,
+                        rejects: 0,
+                        latency_p50_ms: 0.0,
+                        latency_p99_ms: 0.0,
+                    },
+                ],
+                rejects: vec![RejectCount {
+                    kind: "truncated".into(),
+                    count: 2,
+                }],
+            },
+        ),
+    ]
+}
+
+fn message_vectors() -> Vec<Golden> {
+    [
+        depth_frames(),
+        sensor_vectors(),
+        perception_vectors(),
+        localization_vectors(),
+        feedback_vectors(),
+        command_and_health_vectors(),
+    ]
+    .into_iter()
+    .flatten()
+    .flatten()
+    .collect()
+}
+
+#[derive(Serialize)]
+struct RejectJson {
+    expect_schema: &'static str,
+    kind: &'static str,
+}
+
+/// `reject/<case>.bin|json`: `bytes` must fail `decode::<M>` with `kind`.
+fn reject<M: Message + Debug>(case: &str, bytes: Vec<u8>, kind: &'static str) -> [Golden; 2] {
+    let check = move |committed: &[u8]| match decode::<M>(committed) {
+        Err(e) if e.kind() == kind => Ok(()),
+        Err(e) => Err(format!("rejected as {} ({e}), expected {kind}", e.kind())),
+        Ok(got) => Err(format!("decoded to {got:?}, expected a {kind} error")),
+    };
+    let json = json_text(&RejectJson {
+        expect_schema: M::SCHEMA.name(),
+        kind,
+    });
+    [
+        Golden {
+            path: format!("reject/{case}.bin"),
+            bytes,
+            check: Box::new(check),
+        },
+        Golden {
+            path: format!("reject/{case}.json"),
+            bytes: json,
+            check: no_check(),
+        },
+    ]
+}
+
+/// Byte offset of the body: `schema u16, version u16, sender (u64 len + bytes), seq u64, capture_ns u64`.
+const BODY_AT: usize = 2 + 2 + 8 + SENDER.len() + 8 + 8;
+
+fn reject_vectors() -> Vec<Golden> {
+    let speech = SpeechIntent {
+        text: "stop".into(),
+        priority: Priority::Important,
+        interrupt: true,
+        ttl_ms: 1000,
+        dedup_key: String::new(),
+    };
+    let speech_bytes = encode(SENDER, 1, CAPTURE_NS, &speech);
+    let text_at = BODY_AT + 8;
+    let command_bytes = encode(SENDER, 1, CAPTURE_NS, &Command::Repeat);
+    let route_bytes = encode(
+        SENDER,
+        1,
+        CAPTURE_NS,
+        &RouteState {
+            destination: String::new(),
+            next_waypoint: None,
+            distance_left_m: 0.0,
+            instruction: String::new(),
+        },
+    );
+    let scan_bytes = encode(
+        SENDER,
+        1,
+        CAPTURE_NS,
+        &Scan {
+            angle_min_deg: 0.0,
+            angle_increment_deg: 1.0,
+            ranges_m: vec![1.0, 2.0],
+            range_max_m: 4.0,
+        },
+    );
+    let patched = |bytes: &[u8], at: usize, new: &[u8]| {
+        let mut b = bytes.to_vec();
+        b[at..at + new.len()].copy_from_slice(new);
+        b
+    };
+    let mut too_long = encode(
+        SENDER,
+        1,
+        CAPTURE_NS,
+        &HapticIntent {
+            left: 0.5,
+            right: 0.5,
+            pattern: HapticPattern::Steady,
+            ttl_ms: 100,
+        },
+    );
+    too_long.resize(300, 0);
+    let mut trailing = command_bytes.clone();
+    trailing.push(0);
+
+    [
+        reject::<SpeechIntent>(
+            "truncated_body",
+            speech_bytes[..speech_bytes.len() - 1].to_vec(),
+            "truncated",
+        ),
+        reject::<SpeechIntent>("truncated_header", speech_bytes[..5].to_vec(), "truncated"),
+        reject::<SpeechIntent>("empty", Vec::new(), "truncated"),
+        reject::<SpeechIntent>(
+            "wrong_version",
+            patched(&speech_bytes, 2, &2u16.to_le_bytes()),
+            "unknown_version",
+        ),
+        reject::<SpeechIntent>(
+            "unknown_schema",
+            patched(&speech_bytes, 0, &99u16.to_le_bytes()),
+            "unknown_schema",
+        ),
+        reject::<Hazard>("wrong_schema", scan_bytes.clone(), "wrong_schema"),
+        reject::<Hazard>("garbage_ff", vec![0xff; 40], "too_large"),
+        reject::<Hazard>(
+            "garbage_text",
+            b"this is not a wearnav payload at all".to_vec(),
+            "too_large",
+        ),
+        reject::<Command>("trailing_byte", trailing, "malformed"),
+        reject::<Command>(
+            "bad_variant_index",
+            patched(&command_bytes, BODY_AT, &9u32.to_le_bytes()),
+            "malformed",
+        ),
+        reject::<RouteState>(
+            "bad_option_tag",
+            patched(&route_bytes, BODY_AT + 8, &[2]),
+            "malformed",
+        ),
+        reject::<SpeechIntent>(
+            "bad_bool",
+            patched(&speech_bytes, text_at + 4 + 4, &[2]),
+            "malformed",
+        ),
+        reject::<SpeechIntent>(
+            "bad_utf8",
+            patched(&speech_bytes, text_at, &[0xff, 0xfe]),
+            "malformed",
+        ),
+        reject::<SpeechIntent>(
+            "forged_string_length",
+            patched(&speech_bytes, BODY_AT, &(1u64 << 40).to_le_bytes()),
+            "too_large",
+        ),
+        reject::<Scan>(
+            "forged_vec_length",
+            patched(&scan_bytes, BODY_AT + 8, &(1u64 << 40).to_le_bytes()),
+            "truncated",
+        ),
+        reject::<HapticIntent>("over_schema_limit", too_long, "too_large"),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+#[derive(Serialize)]
+struct KeyCase {
+    method: &'static str,
+    args: Vec<&'static str>,
+    key: Option<String>,
+}
+
+fn key_vectors() -> Golden {
+    let k = Keys::new("alice").expect("valid user");
+    let case = |method, args: &[&'static str], key: &str| KeyCase {
+        method,
+        args: args.to_vec(),
+        key: Some(key.to_string()),
+    };
+    let cases = vec![
+        case("prefix", &[], k.prefix()),
+        case("all", &[], &k.all()),
+        case("depth", &["cane"], &k.depth("cane")),
+        case("depth_any", &[], &k.depth_any()),
+        case("imu", &["cane"], &k.imu("cane")),
+        case("imu_any", &[], &k.imu_any()),
+        case("odom", &["cane"], &k.odom("cane")),
+        case("odom_any", &[], &k.odom_any()),
+        case("truth", &["sim"], &k.truth("sim")),
+        case("truth_any", &[], &k.truth_any()),
+        case("scan", &[], &k.scan()),
+        case("hazard", &[], &k.hazard()),
+        case("pose", &[], &k.pose()),
+        case("route_state", &[], &k.route_state()),
+        case("haptic", &[], &k.haptic()),
+        case("speech", &[], &k.speech()),
+        case("applied", &[], &k.applied()),
+        case("cmd", &["where-am-i"], &k.cmd("where-am-i")),
+        case("cmd_any", &[], &k.cmd_any()),
+        case("health", &["compute-agent"], &k.health("compute-agent")),
+        case("health_any", &[], &k.health_any()),
+        case("query", &["route"], &k.query("route")),
+        KeyCase {
+            method: "device_of",
+            args: vec!["wearnav/alice/sensor/cane/depth"],
+            key: k
+                .device_of("wearnav/alice/sensor/cane/depth")
+                .map(str::to_string),
+        },
+        KeyCase {
+            method: "device_of",
+            args: vec!["wearnav/bob/sensor/cane/depth"],
+            key: k
+                .device_of("wearnav/bob/sensor/cane/depth")
+                .map(str::to_string),
+        },
+        KeyCase {
+            method: "agent_of",
+            args: vec!["wearnav/alice/health/feedback-agent"],
+            key: k
+                .agent_of("wearnav/alice/health/feedback-agent")
+                .map(str::to_string),
+        },
+    ];
+    #[derive(Serialize)]
+    struct KeysJson {
+        user: &'static str,
+        cases: Vec<KeyCase>,
+        command_verbs: Vec<(&'static str, &'static str)>,
+    }
+    let command_verbs = vec![
+        (
+            "Destination",
+            Command::Destination {
+                label: String::new(),
+            }
+            .verb(),
+        ),
+        ("WhereAmI", Command::WhereAmI.verb()),
+        ("Mute", Command::Mute { muted: false }.verb()),
+        ("Repeat", Command::Repeat.verb()),
+    ];
+    Golden {
+        path: "keys.json".into(),
+        bytes: json_text(&KeysJson {
+            user: "alice",
+            cases,
+            command_verbs,
+        }),
+        check: no_check(),
+    }
+}
+
+fn schema_table() -> Golden {
+    #[derive(Serialize)]
+    struct SchemaJson {
+        id: u16,
+        name: &'static str,
+        encoding_schema: String,
+    }
+    #[derive(Serialize)]
+    struct TableJson {
+        current_version: u16,
+        max_payload_bytes: usize,
+        schemas: Vec<SchemaJson>,
+    }
+    let schemas = SchemaId::ALL
+        .iter()
+        .map(|s| SchemaJson {
+            id: *s as u16,
+            name: s.name(),
+            encoding_schema: s.encoding_schema(),
+        })
+        .collect();
+    let table = TableJson {
+        current_version: CURRENT_VERSION,
+        max_payload_bytes: MAX_PAYLOAD_BYTES,
+        schemas,
+    };
+    Golden {
+        path: "schemas.json".into(),
+        bytes: json_text(&table),
+        check: no_check(),
+    }
+}
+
+fn all_goldens() -> Vec<Golden> {
+    let mut all = message_vectors();
+    all.extend(reject_vectors());
+    all.push(key_vectors());
+    all.push(schema_table());
+    all
+}
+
+/// Every committed file under `dir` (relative paths), to spot stale vectors.
+fn committed_files(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    for sub in ["", "reject"] {
+        let Ok(entries) = fs::read_dir(dir.join(sub)) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            if entry.path().is_file() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                found.push(if sub.is_empty() {
+                    name
+                } else {
+                    format!("{sub}/{name}")
+                });
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+#[test]
+fn vectors_match_committed_files_and_decode_back() {
+    let dir = vectors_dir();
+    let goldens = all_goldens();
+    let mut problems = Vec::new();
+    if updating() {
+        fs::create_dir_all(dir.join("reject")).expect("create schemas/vectors/reject");
+        for stale in committed_files(&dir) {
+            if !goldens.iter().any(|g| g.path == stale) {
+                fs::remove_file(dir.join(&stale)).expect("remove a stale vector");
+            }
+        }
+        for g in &goldens {
+            fs::write(dir.join(&g.path), &g.bytes).expect("write a vector");
+        }
+    }
+    for g in &goldens {
+        match fs::read(dir.join(&g.path)) {
+            Err(e) => problems.push(format!("{}: cannot read ({e})", g.path)),
+            Ok(committed) => {
+                if committed != g.bytes {
+                    problems.push(format!(
+                        "{}: committed file differs from what Rust writes now",
+                        g.path
+                    ));
+                }
+                if let Err(e) = (g.check)(&committed) {
+                    problems.push(format!("{}: {e}", g.path));
+                }
+            }
+        }
+    }
+    for file in committed_files(&dir) {
+        if !goldens.iter().any(|g| g.path == file) {
+            problems.push(format!("{file}: stale, no vector writes it any more"));
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "golden vectors out of date:\n  {}\n{REGENERATE}",
+        problems.join("\n  ")
+    );
+}
+
+#[test]
+fn every_schema_has_a_vector() {
+    let goldens = all_goldens();
+    for schema in SchemaId::ALL {
+        let name = schema.name();
+        assert!(
+            goldens.iter().any(|g| !g.path.starts_with("reject/")
+                && g.path.starts_with(name)
+                && g.path.ends_with(".bin")),
+            "no golden vector for {name}"
+        );
+    }
+}
+
+#[test]
+fn infinity_survives_the_wire_and_becomes_null_in_json() {
+    let goldens = all_goldens();
+    let scan = goldens
+        .iter()
+        .find(|g| g.path == "scan.bin")
+        .expect("scan vector");
+    let (_, decoded) = decode::<Scan>(&scan.bytes).expect("scan decodes");
+    assert_eq!(decoded.ranges_m[0], f32::INFINITY);
+    let json = goldens
+        .iter()
+        .find(|g| g.path == "scan.json")
+        .expect("scan json");
+    let text = String::from_utf8(json.bytes.clone()).expect("utf-8 json");
+    assert!(
+        text.contains("null"),
+        "serde_json writes INFINITY as null: {text}"
+    );
+}
