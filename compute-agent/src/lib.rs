@@ -1,4 +1,5 @@
 //! wearnav compute agent: obstacle perception (Taylor 2017 and beyond), later
-//! localization and route planning, as pure libraries plus one agent loop.
+//! localization and route planning, as pure libraries plus one agent loop (`run`).
 
 pub mod perception;
+pub mod run;

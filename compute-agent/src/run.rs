@@ -3,14 +3,15 @@
 //! the frame's capture time so every downstream latency is measured from capture.
 
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::Context;
 use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
 use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Scan, StageLatency};
 
 use crate::perception::{
-    cue, CueConfig, DepthInput, FrameContext, Motion, Perception, PerceptionConfig, Pipeline, StageTimer,
+    cue, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception, PerceptionConfig, Pipeline,
+    StageTimer,
 };
 
 /// Agent name: liveliness token `health/compute-agent` and sender of its messages.
@@ -37,26 +38,6 @@ impl ComputeConfig {
             perception: PerceptionConfig::default(),
             cue: CueConfig::default(),
             health_period: Duration::from_secs(1),
-        }
-    }
-}
-
-/// Records per-stage durations for the hazard's latency breakdown.
-#[derive(Debug, Default)]
-struct StageClock {
-    current: Option<(&'static str, Instant)>,
-    stages: Vec<StageLatency>,
-}
-
-impl StageTimer for StageClock {
-    fn start(&mut self, stage: &'static str) {
-        self.stop();
-        self.current = Some((stage, Instant::now()));
-    }
-
-    fn stop(&mut self) {
-        if let Some((stage, t0)) = self.current.take() {
-            self.stages.push(StageLatency { stage: stage.to_string(), us: t0.elapsed().as_micros() as u32 });
         }
     }
 }
@@ -133,10 +114,11 @@ async fn process(
     out: &mut Outputs,
 ) {
     let f = &frame.body;
-    let mut clock = StageClock::default();
+    let mut clock = InstantTimer::default();
     clock.start("decode");
-    if let Err(e) = schemas::depth_codec::decode(&f.data, f.width, f.height, f.encoding, depth) {
-        clock.stop();
+    let decoded = schemas::depth_codec::decode(&f.data, f.width, f.height, f.encoding, depth);
+    clock.stop();
+    if let Err(e) = decoded {
         health.reject(&frame.key, "depth_decode", &e);
         return;
     }
@@ -151,15 +133,18 @@ async fn process(
     let perception = match pipeline.process(input, &ctx, &mut clock) {
         Ok(p) => p.clone(),
         Err(e) => {
-            clock.stop();
             health.reject(&frame.key, e.kind(), &e);
             return;
         }
     };
-    clock.stop();
     let capture_ns = frame.header.capture_ns;
     let intent = cue(&perception, &config.cue);
-    let hazard = hazard_of(&perception, frame.header.seq, config, clock.stages);
+    let latency = clock
+        .stages
+        .iter()
+        .map(|(stage, d)| StageLatency { stage: stage.to_string(), us: d.as_micros() as u32 })
+        .collect();
+    let hazard = hazard_of(&perception, frame.header.seq, config, latency);
     let seeing = matches!(hazard.ground, schemas::GroundState::Found);
     health.set_status(seeing, format!("{:?} ground, rumble {:?}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.

@@ -1,0 +1,51 @@
+//! `compute-agent`: obstacle perception on the depth frames of the bus.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Parser;
+use compute_agent::perception::PerceptionConfig;
+use schemas::CostFunction;
+
+/// Find obstacles in the cane camera's depth frames and publish scan, hazard and
+/// haptic intents (Taylor 2017 pipeline, with memory, drop-offs, time to collision).
+#[derive(Debug, Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(flatten)]
+    bus: bus::BusOptions,
+    /// Perception parameters as TOML (fields of `PerceptionConfig`; missing ones keep
+    /// their documented defaults).
+    #[arg(long, value_name = "FILE")]
+    perception_config: Option<PathBuf>,
+    /// Cost function driving the rumble: `ficf` (Fully-Integrated) or `cacf`
+    /// (Cushioned Avoidance).
+    #[arg(long, value_parser = parse_cost)]
+    cost: Option<CostFunction>,
+}
+
+fn parse_cost(s: &str) -> Result<CostFunction, String> {
+    match s {
+        "ficf" => Ok(CostFunction::Ficf),
+        "cacf" => Ok(CostFunction::Cacf),
+        other => Err(format!("unknown cost function {other:?}: use ficf or cacf")),
+    }
+}
+
+#[tokio::main]
+async fn main() -> anyhow::Result<()> {
+    bus::logging::init();
+    let cli = Cli::parse();
+    let mut config = compute_agent::run::ComputeConfig::new(cli.bus);
+    if let Some(path) = &cli.perception_config {
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        config.perception = toml::from_str::<PerceptionConfig>(&text)
+            .with_context(|| format!("bad perception config {}", path.display()))?;
+    }
+    if let Some(cost) = cli.cost {
+        config.perception.cost_function = cost;
+    }
+    let shutdown = bus::Shutdown::new();
+    shutdown.trigger_on_signals();
+    compute_agent::run::run(config, shutdown).await
+}
