@@ -320,3 +320,182 @@ impl Feedback {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::console::ConsoleSpeech;
+    use crate::wiimote::fake::FakeHid;
+    use crate::wiimote::{WiimoteBackend, WiimoteConfig};
+    use schemas::{CostFunction, GroundState, Rumble, SideCosts};
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+    const LEFT: &str = "/dev/hidraw0";
+    const RIGHT: &str = "/dev/hidraw1";
+
+    fn setup() -> (FakeHid, Feedback) {
+        let hid = FakeHid::new();
+        hid.attach(LEFT, "l");
+        hid.attach(RIGHT, "r");
+        let wii = WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default());
+        let speech = ConsoleSpeech::new(Box::new(std::io::sink()), 175);
+        let mut f = Feedback::new(StepSettings::default(), vec![Box::new(wii)], vec![Box::new(speech)], T0);
+        f.tick(T0);
+        f.drain_applied();
+        hid.clear_written();
+        (hid, f)
+    }
+
+    fn hazard(ground: GroundState) -> Hazard {
+        Hazard {
+            frame_seq: 0,
+            ficf: SideCosts::default(),
+            cacf: SideCosts::default(),
+            active: CostFunction::Ficf,
+            rumble: Rumble::None,
+            ground,
+            plane_camera: [0.0, -1.0, 0.0, 1.2],
+            nearest_m: f32::INFINITY,
+            nearest_bearing_deg: 0.0,
+            ttc_s: None,
+            dropoff_ahead: false,
+            latency: vec![],
+        }
+    }
+
+    fn steady(left: f32, right: f32, ttl_ms: u32) -> HapticIntent {
+        HapticIntent { left, right, pattern: HapticPattern::Steady, ttl_ms }
+    }
+
+    fn spoken(f: &mut Feedback) -> Vec<String> {
+        f.drain_applied()
+            .filter_map(|a| match a.action {
+                AppliedAction::SpeechStarted { text, .. } => Some(format!("start {text}")),
+                AppliedAction::SpeechInterrupted { text } => Some(format!("cut {text}")),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Keep detection online with a fresh hazard at `now`.
+    fn fresh(f: &mut Feedback, now: u64) {
+        f.on_hazard(&hazard(GroundState::Found), now);
+    }
+
+    #[test]
+    fn stale_intent_stops_rumble_within_ttl() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0);
+        f.on_haptic(&steady(1.0, 0.0, 200), T0, T0 + MS).unwrap();
+        assert_eq!(hid.written_to(LEFT), vec![vec![0x10, 0x01]]);
+        assert!(f.next_wake_ns(T0 + MS) <= T0 + 200 * MS, "woken up by the TTL at the latest");
+        fresh(&mut f, T0 + 199 * MS);
+        f.tick(T0 + 199 * MS);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x01]);
+        f.tick(T0 + 200 * MS);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
+        let rumble: Vec<(f32, u64)> = f
+            .drain_applied()
+            .filter_map(|a| match a.action {
+                AppliedAction::Rumble { left, .. } if a.device == "wiimote-left" => Some((left, a.cause_capture_ns)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(rumble, [(1.0, T0), (0.0, T0)]);
+    }
+
+    #[test]
+    fn silence_at_start_is_announced_with_the_alternating_alert() {
+        let (hid, mut f) = setup();
+        assert_eq!(f.next_wake_ns(T0 + MS), T0 + 50 * MS, "the wiimote input poll comes first");
+        f.tick(T0 + 500 * MS);
+        let applied: Vec<Applied> = f.drain_applied().collect();
+        assert!(applied.iter().any(|a| a.action
+            == AppliedAction::OfflineWarning { offline: true, reason: "no hazard received since start".into() }));
+        assert!(applied.iter().any(|a| a.action
+            == AppliedAction::SpeechStarted { text: "obstacle detection not yet running".into(), priority: Priority::Important }));
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x01]);
+        assert_eq!(hid.written_to(RIGHT), Vec::<Vec<u8>>::new(), "right stays off in the first half");
+        f.tick(T0 + 650 * MS);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
+        assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x10, 0x01]);
+        // After the alert the motors rest, and the reminder comes back 5 s later.
+        f.tick(T0 + 1400 * MS);
+        assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x10, 0x00]);
+        f.tick(T0 + 5500 * MS);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x01]);
+    }
+
+    #[test]
+    fn hazards_resuming_are_announced_as_back_and_stop_the_alert() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0 + 10 * MS);
+        f.tick(T0 + 600 * MS);
+        assert_eq!(spoken(&mut f), ["start obstacle detection offline"]);
+        fresh(&mut f, T0 + 700 * MS);
+        let applied: Vec<Applied> = f.drain_applied().collect();
+        assert!(applied.iter().any(|a| matches!(&a.action, AppliedAction::OfflineWarning { offline: false, .. })));
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00], "alert cut short");
+        // "back" waits for "offline" to finish (both important), then is said once.
+        let mut said = Vec::new();
+        for k in 1..=30 {
+            fresh(&mut f, T0 + (700 + k * 100) * MS);
+            f.tick(T0 + (700 + k * 100) * MS);
+            said.extend(spoken(&mut f));
+        }
+        assert_eq!(said, ["start obstacle detection back"]);
+    }
+
+    #[test]
+    fn compute_liveliness_loss_warns_at_once() {
+        let (_, mut f) = setup();
+        f.on_compute_liveliness(true, T0);
+        fresh(&mut f, T0 + 10 * MS);
+        f.on_compute_liveliness(false, T0 + 20 * MS);
+        assert_eq!(spoken(&mut f), ["start obstacle detection offline"]);
+    }
+
+    #[test]
+    fn warning_preempts_guidance_speech() {
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        let say = |text: &str, priority| SpeechIntent { text: text.into(), priority, interrupt: false, ttl_ms: 3000, dedup_key: String::new() };
+        f.on_speech(&say("in ten metres turn left at the lift", Priority::Message), T0, T0).unwrap();
+        f.on_speech(&say("stop", Priority::Important), T0 + 5 * MS, T0 + 5 * MS).unwrap();
+        assert_eq!(
+            spoken(&mut f),
+            ["start in ten metres turn left at the lift", "cut in ten metres turn left at the lift", "start stop"]
+        );
+    }
+
+    #[test]
+    fn nan_intent_is_rejected_and_leaves_the_motors_alone() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0);
+        let r = f.on_haptic(&steady(f32::NAN, 1.0, 200), T0, T0).unwrap_err();
+        assert_eq!(r.kind, "nan_level");
+        assert!(hid.written().is_empty());
+        let clamped = f.on_haptic(&steady(3.0, 0.0, 200), T0, T0).unwrap();
+        assert!(clamped.is_some());
+        assert_eq!(hid.written_to(LEFT), vec![vec![0x10, 0x01]]);
+    }
+
+    #[test]
+    fn remote_disconnect_is_spoken() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0);
+        hid.detach(RIGHT);
+        f.on_haptic(&steady(0.0, 1.0, 200), T0, T0 + MS).unwrap();
+        assert_eq!(spoken(&mut f), ["start right controller disconnected"]);
+    }
+
+    #[test]
+    fn shutdown_turns_rumble_off() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0);
+        f.on_haptic(&steady(1.0, 1.0, 1000), T0, T0).unwrap();
+        f.shutdown(T0 + MS);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
+        assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x10, 0x00]);
+    }
+}

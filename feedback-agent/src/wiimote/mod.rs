@@ -128,7 +128,7 @@ pub struct WiimoteBackend {
     /// "not found" / "disconnected" already said for this hand since it was last seen.
     absence_said: [bool; 2],
     next_scan_ns: u64,
-    next_battery_ns: u64,
+    next_battery_ns: Option<u64>,
     next_read_ns: u64,
     buf: [u8; 32],
 }
@@ -144,7 +144,7 @@ impl WiimoteBackend {
             remotes: [None, None],
             absence_said: [false, false],
             next_scan_ns: 0,
-            next_battery_ns: 0,
+            next_battery_ns: None,
             next_read_ns: 0,
             buf: [0; 32],
         }
@@ -229,8 +229,13 @@ impl WiimoteBackend {
                 Ok(()) => {
                     tracing::info!(path = %remote.id.path, serial = %remote.id.serial, "{} remote connected", hand.word());
                     self.remotes[hand as usize] = Some(remote);
-                    self.absence_said[hand as usize] = false;
-                    out.status(hand.device(), format!("{} controller connected", hand.word()), now_ns);
+                    let text = format!("{} controller connected", hand.word());
+                    // Spoken only when its absence was: no chatter at a normal start.
+                    if std::mem::take(&mut self.absence_said[hand as usize]) {
+                        out.status(hand.device(), text, now_ns);
+                    } else {
+                        out.applied(hand.device(), AppliedAction::DeviceStatus { text }, now_ns, 0);
+                    }
                 }
                 Err(e) => {
                     tracing::warn!("{} remote did not answer: {e}", hand.word());
@@ -326,8 +331,11 @@ impl HapticDevice for WiimoteBackend {
             self.next_read_ns = now_ns + self.config.read_poll_ms * MS;
             self.read_inputs(now_ns, out);
         }
-        if now_ns >= self.next_battery_ns {
-            self.next_battery_ns = now_ns + self.config.battery_poll_ms * MS;
+        // Remotes ask for their status when they connect; the periodic poll starts
+        // one period after the first look.
+        let due = *self.next_battery_ns.get_or_insert(now_ns + self.config.battery_poll_ms * MS);
+        if now_ns >= due {
+            self.next_battery_ns = Some(now_ns + self.config.battery_poll_ms * MS);
             for hand in Hand::BOTH {
                 let Some(remote) = self.remotes[hand as usize].as_mut() else { continue };
                 let rumble = remote.rumble;
@@ -339,7 +347,7 @@ impl HapticDevice for WiimoteBackend {
     }
 
     fn next_poll_ns(&self) -> Option<u64> {
-        let mut next = self.next_read_ns.min(self.next_battery_ns);
+        let mut next = self.next_read_ns.min(self.next_battery_ns.unwrap_or(0));
         if self.remotes.iter().any(Option::is_none) {
             next = next.min(self.next_scan_ns);
         }
@@ -348,5 +356,147 @@ impl HapticDevice for WiimoteBackend {
 
     fn off(&mut self, now_ns: u64, out: &mut DeviceOutput) {
         self.set_levels(Levels::OFF, HapticPattern::Steady, 0, now_ns, true, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fake::FakeHid;
+    use super::*;
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+    const LEFT: &str = "/dev/hidraw0";
+    const RIGHT: &str = "/dev/hidraw1";
+
+    fn pair(config: WiimoteConfig) -> (FakeHid, WiimoteBackend, DeviceOutput) {
+        let hid = FakeHid::new();
+        hid.attach(RIGHT, "00:19:1d:00:00:02");
+        hid.attach(LEFT, "00:19:1d:00:00:01");
+        let mut backend = WiimoteBackend::new(Box::new(hid.clone()), config);
+        let mut out = DeviceOutput::default();
+        backend.poll(T0, &mut out);
+        (hid, backend, out)
+    }
+
+    fn left_on() -> Levels {
+        Levels { left: 1.0, right: 0.0 }
+    }
+
+    #[test]
+    fn connecting_lights_led1_left_led2_right_sets_mode_and_asks_status() {
+        let (hid, b, out) = pair(WiimoteConfig::default());
+        assert!(b.is_connected(Hand::Left) && b.is_connected(Hand::Right));
+        assert_eq!(hid.written_to(LEFT), vec![vec![0x11, 0x10], vec![0x12, 0x00, 0x30], vec![0x15, 0x00]]);
+        assert_eq!(hid.written_to(RIGHT), vec![vec![0x11, 0x20], vec![0x12, 0x00, 0x30], vec![0x15, 0x00]]);
+        assert!(out.say.is_empty(), "a normal start is silent: {:?}", out.say);
+        assert_eq!(out.applied.len(), 2);
+    }
+
+    #[test]
+    fn remotes_are_mapped_by_serial_when_configured() {
+        let config = WiimoteConfig { right: Some("00:19:1D:00:00:01".into()), ..Default::default() };
+        let (hid, _, _) = pair(config);
+        assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x20], "hidraw0 carries the right-hand serial");
+        assert_eq!(hid.written_to(RIGHT)[0], [0x11, 0x10]);
+    }
+
+    #[test]
+    fn rumble_bit_rides_on_every_later_report() {
+        let (hid, mut b, mut out) = pair(WiimoteConfig::default());
+        hid.clear_written();
+        b.set_levels(left_on(), HapticPattern::Steady, T0, T0 + MS, true, &mut out);
+        assert_eq!(hid.written_to(LEFT), vec![vec![0x10, 0x01]]);
+        assert_eq!(hid.written_to(RIGHT), vec![vec![0x10, 0x00]], "refresh writes the unchanged side too");
+        // A status answer while rumbling: the mode re-send keeps the motor on.
+        hid.push_input(LEFT, &[0x20, 0x00, 0x00, 0x10, 0x00, 0x00, 0xc0]);
+        b.poll(T0 + 100 * MS, &mut out);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x12, 0x01, 0x30]);
+        // The periodic battery poll keeps it on too.
+        b.poll(T0 + 60_000 * MS, &mut out);
+        assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x15, 0x01]);
+        assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x15, 0x00]);
+    }
+
+    #[test]
+    fn only_changes_are_reported_as_applied() {
+        let (_, mut b, mut out) = pair(WiimoteConfig::default());
+        out.applied.clear();
+        b.set_levels(left_on(), HapticPattern::Steady, 42, T0 + MS, true, &mut out);
+        b.set_levels(left_on(), HapticPattern::Steady, 43, T0 + 2 * MS, true, &mut out);
+        b.set_levels(Levels::OFF, HapticPattern::Steady, 44, T0 + 3 * MS, false, &mut out);
+        let rumbles: Vec<(String, u64)> = out.applied.iter().map(|a| (a.device.clone(), a.cause_capture_ns)).collect();
+        assert_eq!(rumbles, [("wiimote-left".to_string(), 42), ("wiimote-left".to_string(), 44)]);
+    }
+
+    #[test]
+    fn low_battery_is_said_once_per_discharge() {
+        let (hid, mut b, mut out) = pair(WiimoteConfig::default());
+        out.say.clear();
+        let low = [0x20, 0x00, 0x00, 0x20, 0x00, 0x00, 0x20]; // 12 %
+        hid.push_input(RIGHT, &low);
+        b.poll(T0 + 100 * MS, &mut out);
+        hid.push_input(RIGHT, &low);
+        b.poll(T0 + 200 * MS, &mut out);
+        assert_eq!(out.say, ["right controller battery low"]);
+        assert!(out.applied.iter().any(|a| a.action == AppliedAction::DeviceStatus { text: "battery 12 %".into() }));
+    }
+
+    #[test]
+    fn remote_lost_mid_write_is_said_and_reconnected() {
+        let (hid, mut b, mut out) = pair(WiimoteConfig::default());
+        out.say.clear();
+        hid.detach(LEFT);
+        b.set_levels(left_on(), HapticPattern::Steady, T0, T0 + MS, true, &mut out);
+        assert!(!b.is_connected(Hand::Left));
+        assert_eq!(out.say, ["left controller disconnected"]);
+        // Still gone at the next scan: not said again.
+        b.poll(T0 + 2_001 * MS, &mut out);
+        assert_eq!(out.say.len(), 1);
+        hid.attach(LEFT, "00:19:1d:00:00:01");
+        hid.clear_written();
+        b.poll(T0 + 4_002 * MS, &mut out);
+        assert!(b.is_connected(Hand::Left));
+        assert_eq!(out.say.last().unwrap(), "left controller connected");
+        assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x10], "LED 1 lit again on the left");
+    }
+
+    #[test]
+    fn dropping_the_backend_switches_rumble_off() {
+        let (hid, mut b, mut out) = pair(WiimoteConfig::default());
+        b.set_levels(Levels { left: 1.0, right: 1.0 }, HapticPattern::Steady, T0, T0, false, &mut out);
+        hid.clear_written();
+        drop(b);
+        assert_eq!(hid.written_to(LEFT), vec![vec![0x10, 0x00]]);
+        assert_eq!(hid.written_to(RIGHT), vec![vec![0x10, 0x00]]);
+    }
+
+    #[test]
+    fn a_panic_while_rumbling_still_switches_rumble_off() {
+        let hid = FakeHid::new();
+        hid.attach(LEFT, "a");
+        let probe = hid.clone();
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+            let mut b = WiimoteBackend::new(Box::new(hid), WiimoteConfig::default());
+            let mut out = DeviceOutput::default();
+            b.poll(T0, &mut out);
+            b.set_levels(Levels { left: 1.0, right: 0.0 }, HapticPattern::Steady, T0, T0, false, &mut out);
+            panic!("simulated bug while rumbling");
+        }));
+        assert!(result.is_err());
+        assert_eq!(probe.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
+    }
+
+    #[test]
+    fn no_remote_is_said_once_and_looked_for_again() {
+        let hid = FakeHid::new();
+        let mut b = WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default());
+        let mut out = DeviceOutput::default();
+        b.poll(T0, &mut out);
+        b.poll(T0 + 2_000 * MS, &mut out);
+        assert_eq!(out.say, ["left controller not found", "right controller not found"]);
+        assert_eq!(b.next_poll_ns(), Some(T0 + 2_000 * MS + 50 * MS));
+        hid.attach(LEFT, "a");
+        b.poll(T0 + 4_000 * MS, &mut out);
+        assert!(b.is_connected(Hand::Left));
     }
 }
