@@ -44,8 +44,15 @@ struct Golden {
     check: Box<dyn Fn(&[u8]) -> Result<(), String>>,
 }
 
-fn no_check() -> Box<dyn Fn(&[u8]) -> Result<(), String>> {
-    Box::new(|_| Ok(()))
+impl Golden {
+    /// A file with nothing to decode (the JSON side of a vector, the key table).
+    fn plain(path: String, bytes: Vec<u8>) -> Self {
+        Self {
+            path,
+            bytes,
+            check: Box::new(|_| Ok(())),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -116,11 +123,7 @@ where
             bytes,
             check: Box::new(check),
         },
-        Golden {
-            path: format!("{name}.json"),
-            bytes: json,
-            check: no_check(),
-        },
+        Golden::plain(format!("{name}.json"), json),
     ]
 }
 
@@ -623,11 +626,7 @@ fn reject<M: Message + Debug>(case: &str, bytes: Vec<u8>, kind: &'static str) ->
             bytes,
             check: Box::new(check),
         },
-        Golden {
-            path: format!("reject/{case}.json"),
-            bytes: json,
-            check: no_check(),
-        },
+        Golden::plain(format!("reject/{case}.json"), json),
     ]
 }
 
@@ -827,15 +826,12 @@ fn key_vectors() -> Golden {
         ("Mute", Command::Mute { muted: false }.verb()),
         ("Repeat", Command::Repeat.verb()),
     ];
-    Golden {
-        path: "keys.json".into(),
-        bytes: json_text(&KeysJson {
-            user: "alice",
-            cases,
-            command_verbs,
-        }),
-        check: no_check(),
-    }
+    let table = KeysJson {
+        user: "alice",
+        cases,
+        command_verbs,
+    };
+    Golden::plain("keys.json".into(), json_text(&table))
 }
 
 fn schema_table() -> Golden {
@@ -864,11 +860,7 @@ fn schema_table() -> Golden {
         max_payload_bytes: MAX_PAYLOAD_BYTES,
         schemas,
     };
-    Golden {
-        path: "schemas.json".into(),
-        bytes: json_text(&table),
-        check: no_check(),
-    }
+    Golden::plain("schemas.json".into(), json_text(&table))
 }
 
 fn all_goldens() -> Vec<Golden> {
