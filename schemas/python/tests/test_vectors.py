@@ -4,6 +4,8 @@ reject here exactly as in Rust. Regenerate them with
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -140,3 +142,16 @@ def test_vectors_cover_every_enum_variant_and_both_option_states():
         _walk(schema(message.schema).body, message.body, message.schema, seen)
     missing = sorted(" ".join(n) for n in need - seen)
     assert not missing, f"no golden vector exercises: {missing} (add one in golden.rs)"
+
+
+def test_package_decodes_depth_frames_without_numpy_or_zstandard():
+    # Pixels need the optional codec (depth.py); headers, sizes and bytes must not.
+    code = (
+        "import sys; sys.modules['numpy'] = None; sys.modules['zstandard'] = None\n"
+        "from wearnav_schemas import decode\n"
+        f"m = decode(open({str(VECTORS / 'depth_frame_lossless.bin')!r}, 'rb').read())\n"
+        "print(m.body['width'], m.body['height'], m.body['encoding'])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.stdout.split() == ["4", "3", "Lossless"]
