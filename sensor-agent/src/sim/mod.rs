@@ -1,0 +1,32 @@
+//! The simulated world: scene files, a ray-cast depth camera with the Xtion's error
+//! model, a cane-mounted camera carried by a scripted walker, IMU and odometry from the
+//! true motion, and `SimSource` (`sim:<world>`) that streams it all as frames.
+//!
+//! The pieces are usable on their own, which is what the closed-loop virtual user
+//! (issue 6) does: load a [`World`], move a [`CameraPose`] however it likes, and call
+//! [`Renderer::render`]; ask [`World::nearest_to_body`] / [`World::nearest_to_segment`]
+//! for contacts. Camera model from Taylor (2017, sec. 2.1) and Khoshelham & Elberink
+//! (2012); see each module.
+
+pub mod camera;
+pub mod cane;
+pub mod imu;
+pub mod odometry;
+pub mod pose;
+pub mod random;
+pub mod render;
+pub mod scene;
+pub mod shape;
+pub mod source;
+pub mod walker;
+pub mod world;
+
+pub use camera::CameraProfile;
+pub use cane::CaneMount;
+pub use pose::CameraPose;
+pub use random::SimRng;
+pub use render::Renderer;
+pub use scene::SceneError;
+pub use source::{SimConfig, SimSource};
+pub use walker::ScriptedWalker;
+pub use world::{Nearest, ObstacleId, ObstacleKind, UserPose, World};

@@ -1,0 +1,519 @@
+//! Depth rendering by ray casting, then the camera's error model.
+//!
+//! Per frame every shape of the camera's floor is moved once into its own frame of
+//! reference and given a screen rectangle (its corners clipped at the near plane and
+//! projected); only pixels inside that rectangle test it, with an analytic ray–box,
+//! ray–cylinder or ray–hole intersection. Pixel ray directions are precomputed; the
+//! buffers are allocated once. The floor is the plane z = 0 of the camera's floor.
+//! The clean depth then goes through the model of [`CameraProfile`]: shadow bands at
+//! depth edges, range-dependent dropouts, noise growing with range squared, u16 mm.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use schemas::Intrinsics;
+
+use super::camera::CameraProfile;
+use super::pose::CameraPose;
+use super::random::SimRng;
+use super::shape::{DropOff, OrientedBox, VerticalCylinder};
+use super::world::{ObstacleId, World};
+
+/// Id written for a pixel that sees the floor.
+pub const FLOOR_PIXEL: u32 = u32::MAX - 1;
+/// Id written for a pixel that sees nothing.
+pub const EMPTY_PIXEL: u32 = u32::MAX;
+
+/// Depth units per metre of the output (millimetres).
+pub const DEPTH_UNITS_PER_M: f32 = 1000.0;
+
+/// Nearest distance a surface is rendered at, metres (nearer geometry is clipped).
+const NEAR_M: f64 = 0.02;
+/// Standard normal samples the noise draws from (a power of two).
+const NORMAL_TABLE_LEN: usize = 4096;
+/// Widest projector shadow band, pixels.
+const MAX_SHADOW_PX: usize = 64;
+
+/// A screen rectangle, inclusive pixel bounds.
+#[derive(Debug, Clone, Copy)]
+struct Rect {
+    u0: usize,
+    u1: usize,
+    v0: usize,
+    v1: usize,
+}
+
+/// A box in its own frame for this frame: ray origin, camera-to-box rotation, size.
+#[derive(Debug, Clone, Copy)]
+struct FrameBox {
+    origin: [f32; 3],
+    rot: [[f32; 3]; 3],
+    half: [f32; 3],
+    rect: Rect,
+    id: u32,
+}
+
+/// A vertical cylinder for this frame: origin relative to the axis, camera-to-map rotation.
+#[derive(Debug, Clone, Copy)]
+struct FrameCylinder {
+    origin: [f32; 3],
+    radius2: f32,
+    bottom: f32,
+    top: f32,
+    rect: Rect,
+    id: u32,
+}
+
+/// A floor hole in its own frame.
+#[derive(Debug, Clone, Copy)]
+struct FrameHole {
+    origin: [f32; 3],
+    rot: [[f32; 3]; 3],
+    half: [f32; 2],
+    depth: f32,
+    rect: Rect,
+    id: u32,
+}
+
+/// Renders depth images of a [`World`] for one camera profile. Reuse it across
+/// frames: all buffers are allocated in [`Renderer::new`].
+#[derive(Debug, Clone)]
+pub struct Renderer {
+    profile: CameraProfile,
+    intrinsics: Intrinsics,
+    width: usize,
+    height: usize,
+    ray_x: Vec<f32>,
+    ray_y: Vec<f32>,
+    normals: Vec<f32>,
+    depth_m: Vec<f32>,
+    ids: Vec<u32>,
+    boxes: Vec<FrameBox>,
+    cylinders: Vec<FrameCylinder>,
+    holes: Vec<FrameHole>,
+    camera_to_map: [[f32; 3]; 3],
+}
+
+fn to_f32_rows(m: &Matrix3<f64>) -> [[f32; 3]; 3] {
+    // Stored by columns: rot[c] is column c, so d = rot[0]*x + rot[1]*y + rot[2]*z.
+    let mut out = [[0f32; 3]; 3];
+    for (c, col) in out.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = m[(r, c)] as f32;
+        }
+    }
+    out
+}
+
+impl Renderer {
+    /// A renderer for this camera.
+    pub fn new(profile: CameraProfile) -> Self {
+        let k = profile.intrinsics();
+        let width = profile.width as usize;
+        let height = profile.height as usize;
+        let ray_x = (0..width).map(|u| (u as f32 - k.cx) / k.fx).collect();
+        let ray_y = (0..height).map(|v| (v as f32 - k.cy) / k.fy).collect();
+        // A fixed table: the per-frame seed picks from it, so frames stay reproducible
+        // while the inner loop pays one table lookup instead of a Box–Muller transform.
+        let mut table_rng = SimRng::seed_from(0x5eed_4e01);
+        let normals = (0..NORMAL_TABLE_LEN).map(|_| table_rng.gaussian() as f32).collect();
+        Renderer {
+            profile,
+            intrinsics: k,
+            width,
+            height,
+            ray_x,
+            ray_y,
+            normals,
+            depth_m: vec![f32::INFINITY; width * height],
+            ids: vec![EMPTY_PIXEL; width * height],
+            boxes: Vec::with_capacity(256),
+            cylinders: Vec::with_capacity(256),
+            holes: Vec::with_capacity(16),
+            camera_to_map: [[0.0; 3]; 3],
+        }
+    }
+
+    /// The camera profile.
+    pub fn profile(&self) -> &CameraProfile {
+        &self.profile
+    }
+
+    /// The pinhole intrinsics of the images.
+    pub fn intrinsics(&self) -> Intrinsics {
+        self.intrinsics
+    }
+
+    /// Which obstacle each pixel of the last rendered frame saw (an [`ObstacleId`]'s
+    /// number, [`FLOOR_PIXEL`] or [`EMPTY_PIXEL`]), before the error model; row-major.
+    pub fn obstacle_ids(&self) -> &[u32] {
+        &self.ids
+    }
+
+    /// True when any pixel of the last frame saw `id` at a depth the camera reports
+    /// (within its range limits, before dropouts): "was it in the field of view".
+    pub fn saw_obstacle(&self, id: ObstacleId) -> bool {
+        let (lo, hi) = (self.profile.min_depth_m as f32, self.profile.max_depth_m as f32);
+        self.ids.iter().zip(&self.depth_m).any(|(&i, &z)| i == id.0 && z.abs() >= lo && z.abs() <= hi)
+    }
+
+    /// Renders what the camera at `pose` sees at time `t_s` into `out` (row-major u16
+    /// millimetres, 0 = no reading), drawing noise from `rng`.
+    pub fn render(&mut self, world: &World, pose: &CameraPose, t_s: f64, rng: &mut SimRng, out: &mut Vec<u16>) {
+        self.render_clean(world, pose, t_s);
+        self.mark_shadow_edges();
+        self.apply_sensor_model(rng, out);
+    }
+
+    /// Ray-casts the exact depth (metres along the optical axis) into the z-buffer.
+    fn render_clean(&mut self, world: &World, pose: &CameraPose, t_s: f64) {
+        let r = pose.camera_to_map;
+        let c = pose.position_m;
+        let geometry = world.geometry(pose.floor);
+        self.boxes.clear();
+        self.cylinders.clear();
+        self.holes.clear();
+        self.camera_to_map = to_f32_rows(r.matrix());
+        for (b, id) in &geometry.boxes {
+            self.prepare_box(b, *id, &r, &c);
+        }
+        for (cyl, id) in &geometry.cylinders {
+            self.prepare_cylinder(cyl, *id, &r, &c);
+        }
+        for person in world.people().iter().filter(|p| p.floor == pose.floor) {
+            self.prepare_cylinder(&person.shape_at(t_s), person.id, &r, &c);
+        }
+        for (d, id) in &geometry.drop_offs {
+            self.prepare_hole(d, *id, &r, &c);
+        }
+        self.draw_floor(&r, c.z);
+        self.draw_holes();
+        self.draw_boxes();
+        self.draw_cylinders();
+    }
+
+    /// Screen rectangle of a convex solid given by its 8 corners (map frame, bit 0 =
+    /// x side, bit 1 = y side, bit 2 = top), or `None` when it is behind the camera,
+    /// off screen or entirely beyond the camera's range.
+    fn screen_rect(&self, corners: &[Vector3<f64>; 8], r: &Rotation3<f64>, c: &Vector3<f64>) -> Option<Rect> {
+        let k = &self.intrinsics;
+        let cam: [Vector3<f64>; 8] = corners.map(|p| r.inverse() * (p - c));
+        let (mut u_min, mut u_max, mut v_min, mut v_max) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        let mut z_min = f64::MAX;
+        let mut any = false;
+        let mut add = |p: &Vector3<f64>| {
+            let u = k.fx as f64 * p.x / p.z + k.cx as f64;
+            let v = k.fy as f64 * p.y / p.z + k.cy as f64;
+            u_min = u_min.min(u);
+            u_max = u_max.max(u);
+            v_min = v_min.min(v);
+            v_max = v_max.max(v);
+            z_min = z_min.min(p.z);
+            any = true;
+        };
+        for p in &cam {
+            if p.z >= NEAR_M {
+                add(p);
+            }
+        }
+        for a in 0..8usize {
+            for bit in [1usize, 2, 4] {
+                let b = a | bit;
+                if b == a {
+                    continue;
+                }
+                let (pa, pb) = (&cam[a], &cam[b]);
+                if (pa.z < NEAR_M) != (pb.z < NEAR_M) {
+                    let f = (NEAR_M - pa.z) / (pb.z - pa.z);
+                    add(&(pa + (pb - pa) * f));
+                }
+            }
+        }
+        if !any || z_min > self.profile.max_depth_m {
+            return None;
+        }
+        let u0 = u_min.floor().max(0.0);
+        let u1 = u_max.ceil().min(self.width as f64 - 1.0);
+        let v0 = v_min.floor().max(0.0);
+        let v1 = v_max.ceil().min(self.height as f64 - 1.0);
+        if u0 > u1 || v0 > v1 {
+            return None;
+        }
+        Some(Rect { u0: u0 as usize, u1: u1 as usize, v0: v0 as usize, v1: v1 as usize })
+    }
+
+    fn footprint_corners(center: [f64; 2], half: [f64; 2], yaw: f64, bottom: f64, top: f64) -> [Vector3<f64>; 8] {
+        let (s, co) = yaw.sin_cos();
+        std::array::from_fn(|i| {
+            let x = if i & 1 == 0 { -half[0] } else { half[0] };
+            let y = if i & 2 == 0 { -half[1] } else { half[1] };
+            let z = if i & 4 == 0 { bottom } else { top };
+            Vector3::new(center[0] + co * x - s * y, center[1] + s * x + co * y, z)
+        })
+    }
+
+    fn prepare_box(&mut self, b: &OrientedBox, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
+        let corners = Self::footprint_corners(b.center_m, b.half_size_m, b.yaw_rad, b.bottom_m, b.top_m);
+        let Some(rect) = self.screen_rect(&corners, r, c) else { return };
+        let to_box = Rotation3::from_axis_angle(&Vector3::z_axis(), -b.yaw_rad);
+        let mid = Vector3::new(b.center_m[0], b.center_m[1], (b.bottom_m + b.top_m) / 2.0);
+        let o = to_box * (c - mid);
+        self.boxes.push(FrameBox {
+            origin: [o.x as f32, o.y as f32, o.z as f32],
+            rot: to_f32_rows((to_box * r).matrix()),
+            half: [b.half_size_m[0] as f32, b.half_size_m[1] as f32, ((b.top_m - b.bottom_m) / 2.0) as f32],
+            rect,
+            id: id.0,
+        });
+    }
+
+    fn prepare_cylinder(&mut self, cyl: &VerticalCylinder, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
+        let corners =
+            Self::footprint_corners(cyl.center_m, [cyl.radius_m, cyl.radius_m], 0.0, cyl.bottom_m, cyl.top_m);
+        let Some(rect) = self.screen_rect(&corners, r, c) else { return };
+        self.cylinders.push(FrameCylinder {
+            origin: [(c.x - cyl.center_m[0]) as f32, (c.y - cyl.center_m[1]) as f32, c.z as f32],
+            radius2: (cyl.radius_m * cyl.radius_m) as f32,
+            bottom: cyl.bottom_m as f32,
+            top: cyl.top_m as f32,
+            rect,
+            id: id.0,
+        });
+    }
+
+    fn prepare_hole(&mut self, d: &DropOff, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
+        let corners = Self::footprint_corners(d.center_m, d.half_size_m, d.yaw_rad, -d.depth_m, 0.0);
+        let Some(rect) = self.screen_rect(&corners, r, c) else { return };
+        let to_hole = Rotation3::from_axis_angle(&Vector3::z_axis(), -d.yaw_rad);
+        let o = to_hole * (c - Vector3::new(d.center_m[0], d.center_m[1], 0.0));
+        self.holes.push(FrameHole {
+            origin: [o.x as f32, o.y as f32, o.z as f32],
+            rot: to_f32_rows((to_hole * r).matrix()),
+            half: [d.half_size_m[0] as f32, d.half_size_m[1] as f32],
+            depth: d.depth_m as f32,
+            rect,
+            id: id.0,
+        });
+    }
+
+    /// The floor plane under the camera, everywhere (holes are cut next).
+    fn draw_floor(&mut self, r: &Rotation3<f64>, height_m: f64) {
+        let m = r.matrix();
+        let (gx, gy, gz) = (m[(2, 0)] as f32, m[(2, 1)] as f32, m[(2, 2)] as f32);
+        let h = height_m as f32;
+        for (v, &ry) in self.ray_y.iter().enumerate() {
+            let row_dz = gy * ry + gz;
+            let row = v * self.width;
+            let depth = &mut self.depth_m[row..row + self.width];
+            let ids = &mut self.ids[row..row + self.width];
+            for ((z, id), &rx) in depth.iter_mut().zip(ids.iter_mut()).zip(&self.ray_x) {
+                let dz = gx * rx + row_dz;
+                if dz < 0.0 && h > 0.0 {
+                    *z = -h / dz;
+                    *id = FLOOR_PIXEL;
+                } else {
+                    *z = f32::INFINITY;
+                    *id = EMPTY_PIXEL;
+                }
+            }
+        }
+    }
+
+    /// Where a ray meets the floor inside a hole, the far side of the hole is seen.
+    fn draw_holes(&mut self) {
+        for hole in &self.holes {
+            let [ox, oy, oz] = hole.origin;
+            if oz <= 0.0 {
+                continue;
+            }
+            let [c0, c1, c2] = hole.rot;
+            for v in hole.rect.v0..=hole.rect.v1 {
+                let ry = self.ray_y[v];
+                let base = [c1[0] * ry + c2[0], c1[1] * ry + c2[1], c1[2] * ry + c2[2]];
+                for u in hole.rect.u0..=hole.rect.u1 {
+                    let rx = self.ray_x[u];
+                    let d = [c0[0] * rx + base[0], c0[1] * rx + base[1], c0[2] * rx + base[2]];
+                    if d[2] >= 0.0 {
+                        continue;
+                    }
+                    let t_floor = -oz / d[2];
+                    let px = ox + t_floor * d[0];
+                    let py = oy + t_floor * d[1];
+                    if px.abs() > hole.half[0] || py.abs() > hole.half[1] {
+                        continue;
+                    }
+                    let tx = if d[0] != 0.0 { (hole.half[0].copysign(d[0]) - ox) / d[0] } else { f32::INFINITY };
+                    let ty = if d[1] != 0.0 { (hole.half[1].copysign(d[1]) - oy) / d[1] } else { f32::INFINITY };
+                    let tz = (-hole.depth - oz) / d[2];
+                    let i = v * self.width + u;
+                    self.depth_m[i] = tx.min(ty).min(tz);
+                    self.ids[i] = hole.id;
+                }
+            }
+        }
+    }
+
+    fn draw_boxes(&mut self) {
+        for b in &self.boxes {
+            let [ox, oy, oz] = b.origin;
+            let [hx, hy, hz] = b.half;
+            let [c0, c1, c2] = b.rot;
+            let inside = ox.abs() <= hx && oy.abs() <= hy && oz.abs() <= hz;
+            for v in b.rect.v0..=b.rect.v1 {
+                let ry = self.ray_y[v];
+                let base = [c1[0] * ry + c2[0], c1[1] * ry + c2[1], c1[2] * ry + c2[2]];
+                let row = v * self.width;
+                for u in b.rect.u0..=b.rect.u1 {
+                    let rx = self.ray_x[u];
+                    let i = row + u;
+                    if inside {
+                        // A camera inside a solid sees nothing it could range.
+                        self.depth_m[i] = 0.0;
+                        self.ids[i] = b.id;
+                        continue;
+                    }
+                    let ix = 1.0 / (c0[0] * rx + base[0]);
+                    let iy = 1.0 / (c0[1] * rx + base[1]);
+                    let iz = 1.0 / (c0[2] * rx + base[2]);
+                    let (x1, x2) = ((-hx - ox) * ix, (hx - ox) * ix);
+                    let (y1, y2) = ((-hy - oy) * iy, (hy - oy) * iy);
+                    let (z1, z2) = ((-hz - oz) * iz, (hz - oz) * iz);
+                    let t_in = x1.min(x2).max(y1.min(y2)).max(z1.min(z2));
+                    let t_out = x1.max(x2).min(y1.max(y2)).min(z1.max(z2));
+                    if t_in <= t_out && t_in > 0.0 && t_in < self.depth_m[i] {
+                        self.depth_m[i] = t_in;
+                        self.ids[i] = b.id;
+                    }
+                }
+            }
+        }
+    }
+
+    fn draw_cylinders(&mut self) {
+        // Cylinders are vertical, so the map frame (shifted to the axis) is their frame.
+        let [c0, c1, c2] = self.camera_to_map;
+        for cyl in &self.cylinders {
+            let [ox, oy, oz] = cyl.origin;
+            let c = ox * ox + oy * oy - cyl.radius2;
+            let inside = c <= 0.0 && oz >= cyl.bottom && oz <= cyl.top;
+            for v in cyl.rect.v0..=cyl.rect.v1 {
+                let ry = self.ray_y[v];
+                let base = [c1[0] * ry + c2[0], c1[1] * ry + c2[1], c1[2] * ry + c2[2]];
+                let row = v * self.width;
+                for u in cyl.rect.u0..=cyl.rect.u1 {
+                    let rx = self.ray_x[u];
+                    let i = row + u;
+                    if inside {
+                        self.depth_m[i] = 0.0;
+                        self.ids[i] = cyl.id;
+                        continue;
+                    }
+                    let d = [c0[0] * rx + base[0], c0[1] * rx + base[1], c0[2] * rx + base[2]];
+                    let mut t_hit = f32::INFINITY;
+                    let a = d[0] * d[0] + d[1] * d[1];
+                    let b = ox * d[0] + oy * d[1];
+                    let disc = b * b - a * c;
+                    if c > 0.0 && disc >= 0.0 && a > 0.0 {
+                        let t = (-b - disc.sqrt()) / a;
+                        let z = oz + t * d[2];
+                        if t > 0.0 && z >= cyl.bottom && z <= cyl.top {
+                            t_hit = t;
+                        }
+                    }
+                    let cap = if oz > cyl.top && d[2] < 0.0 {
+                        Some(cyl.top)
+                    } else if oz < cyl.bottom && d[2] > 0.0 {
+                        Some(cyl.bottom)
+                    } else {
+                        None
+                    };
+                    if let Some(zc) = cap {
+                        let t = (zc - oz) / d[2];
+                        let (px, py) = (ox + t * d[0], oy + t * d[1]);
+                        if px * px + py * py <= cyl.radius2 && t < t_hit {
+                            t_hit = t;
+                        }
+                    }
+                    if t_hit < self.depth_m[i] {
+                        self.depth_m[i] = t_hit;
+                        self.ids[i] = cyl.id;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Projector shadows: where depth jumps, the background next to the edge gets no
+    /// depth. The shadow falls on the background's left (projector to the camera's
+    /// right), as wide as the disparity jump; other edges lose one mixed pixel.
+    /// Marked pixels are negated so the comparisons that follow still see their depth.
+    fn mark_shadow_edges(&mut self) {
+        let ratio = self.profile.edge_jump_ratio as f32;
+        let disparity_px = self.intrinsics.fx * self.profile.baseline_m as f32;
+        let max_m = self.profile.max_depth_m as f32;
+        let w = self.width;
+        let usable = |z: f32| z > 0.0 && z.is_finite() && z.abs() <= max_m;
+        for v in 0..self.height {
+            let row = &mut self.depth_m[v * w..(v + 1) * w];
+            for u in 0..w - 1 {
+                let (a, b) = (row[u].abs(), row[u + 1].abs());
+                if !(usable(a) && usable(b)) {
+                    continue;
+                }
+                if b < a * (1.0 - ratio) {
+                    let band = ((disparity_px * (1.0 / b - 1.0 / a)).ceil() as usize).clamp(1, MAX_SHADOW_PX);
+                    for z in &mut row[(u + 1).saturating_sub(band)..=u] {
+                        *z = -z.abs();
+                    }
+                } else if a < b * (1.0 - ratio) {
+                    row[u + 1] = -b;
+                }
+            }
+        }
+        for v in 0..self.height - 1 {
+            for u in 0..w {
+                let (i, j) = (v * w + u, (v + 1) * w + u);
+                let (a, b) = (self.depth_m[i].abs(), self.depth_m[j].abs());
+                if !(usable(a) && usable(b)) {
+                    continue;
+                }
+                if b < a * (1.0 - ratio) {
+                    self.depth_m[i] = -a;
+                } else if a < b * (1.0 - ratio) {
+                    self.depth_m[j] = -b;
+                }
+            }
+        }
+    }
+
+    /// Range limits, dropouts and noise; metres to u16 millimetres.
+    fn apply_sensor_model(&self, rng: &mut SimRng, out: &mut Vec<u16>) {
+        let p = &self.profile;
+        let (min_m, max_m) = (p.min_depth_m as f32, p.max_depth_m as f32);
+        let (near_m, far_m) = (p.reliable_from_m as f32, p.reliable_to_m as f32);
+        let base = p.dropout as f32;
+        let edge = p.edge_dropout as f32;
+        let near_slope = (edge - base) / (near_m - min_m).max(1e-6);
+        let far_slope = (edge - base) / (max_m - far_m).max(1e-6);
+        let noise = p.noise_per_m2 as f32;
+        let mask = (NORMAL_TABLE_LEN - 1) as u64;
+        out.clear();
+        out.resize(self.depth_m.len(), 0);
+        for (o, &z) in out.iter_mut().zip(&self.depth_m) {
+            if !(z >= min_m && z <= max_m) {
+                continue;
+            }
+            let bits = rng.next_u64();
+            let dropout = if z < near_m {
+                base + (near_m - z) * near_slope
+            } else if z > far_m {
+                base + (z - far_m) * far_slope
+            } else {
+                base
+            };
+            if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
+                continue;
+            }
+            let measured = z + noise * z * z * self.normals[(bits & mask) as usize];
+            *o = (measured * DEPTH_UNITS_PER_M).round().clamp(1.0, u16::MAX as f32) as u16;
+        }
+    }
+}

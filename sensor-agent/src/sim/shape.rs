@@ -1,0 +1,214 @@
+//! The three solid shapes every scene item is built from, in the map frame of one floor
+//! (x, y horizontal, z up, z = 0 on that floor), with the exact distance queries the
+//! contact counter of the virtual user study needs.
+//!
+//! Walls, boxes, table tops, chairs, steps and hanging obstacles are boxes turned about
+//! the vertical axis; cylinders, poles, table legs and people are vertical cylinders;
+//! drop-offs are holes cut into the floor.
+
+/// A box with vertical sides, turned by `yaw_rad` about the vertical axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrientedBox {
+    /// Centre of the footprint, map metres.
+    pub center_m: [f64; 2],
+    /// Half the footprint size along the box's own x and y axes, metres.
+    pub half_size_m: [f64; 2],
+    /// Turn of the box's x axis from the map x axis, radians, counter-clockwise.
+    pub yaw_rad: f64,
+    /// Height of the underside above the floor, metres.
+    pub bottom_m: f64,
+    /// Height of the top above the floor, metres.
+    pub top_m: f64,
+}
+
+/// A cylinder with a vertical axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VerticalCylinder {
+    /// Axis position, map metres.
+    pub center_m: [f64; 2],
+    /// Radius, metres.
+    pub radius_m: f64,
+    /// Height of the underside above the floor, metres.
+    pub bottom_m: f64,
+    /// Height of the top above the floor, metres.
+    pub top_m: f64,
+}
+
+/// A rectangular hole in the floor (a drop-off, a step down, a stair opening).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DropOff {
+    /// Centre of the opening, map metres.
+    pub center_m: [f64; 2],
+    /// Half the opening size along its own axes, metres.
+    pub half_size_m: [f64; 2],
+    /// Turn of the opening's x axis from the map x axis, radians.
+    pub yaw_rad: f64,
+    /// How far the floor drops, metres (positive).
+    pub depth_m: f64,
+}
+
+/// One shape of an obstacle at a moment in time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// A turned box.
+    Box(OrientedBox),
+    /// A vertical cylinder.
+    Cylinder(VerticalCylinder),
+    /// A hole in the floor.
+    DropOff(DropOff),
+}
+
+/// Coordinates of a map point in a footprint's own frame (centre, turned by yaw).
+fn to_local(center_m: [f64; 2], yaw_rad: f64, x_m: f64, y_m: f64) -> [f64; 2] {
+    let (s, c) = yaw_rad.sin_cos();
+    let dx = x_m - center_m[0];
+    let dy = y_m - center_m[1];
+    [c * dx + s * dy, -s * dx + c * dy]
+}
+
+/// Horizontal distance from a point to a turned rectangle (0 inside).
+fn rect_distance_m(center_m: [f64; 2], half_m: [f64; 2], yaw_rad: f64, x_m: f64, y_m: f64) -> f64 {
+    let p = to_local(center_m, yaw_rad, x_m, y_m);
+    let ex = (p[0].abs() - half_m[0]).max(0.0);
+    let ey = (p[1].abs() - half_m[1]).max(0.0);
+    ex.hypot(ey)
+}
+
+/// Gap between the intervals [a0, a1] and [b0, b1] (0 when they overlap).
+fn interval_gap(a0: f64, a1: f64, b0: f64, b1: f64) -> f64 {
+    (b0 - a1).max(a0 - b1).max(0.0)
+}
+
+impl Shape {
+    /// Distance from a point (map x, y, height z above the floor) to the shape's
+    /// surface, 0 inside. A drop-off counts as the volume of its hole: a point over
+    /// the opening at floor level or below is in it.
+    pub fn point_distance_m(&self, p: [f64; 3]) -> f64 {
+        match self {
+            Shape::Box(b) => {
+                let h = rect_distance_m(b.center_m, b.half_size_m, b.yaw_rad, p[0], p[1]);
+                h.hypot(interval_gap(p[2], p[2], b.bottom_m, b.top_m))
+            }
+            Shape::Cylinder(c) => {
+                let r = (p[0] - c.center_m[0]).hypot(p[1] - c.center_m[1]);
+                (r - c.radius_m).max(0.0).hypot(interval_gap(p[2], p[2], c.bottom_m, c.top_m))
+            }
+            Shape::DropOff(d) => {
+                let h = rect_distance_m(d.center_m, d.half_size_m, d.yaw_rad, p[0], p[1]);
+                h.hypot(interval_gap(p[2], p[2], -d.depth_m, 0.0))
+            }
+        }
+    }
+
+    /// Exact distance from a standing body — a vertical cylinder of `radius_m` from the
+    /// floor to `height_m` at (x, y) — to this shape, 0 on contact. For a drop-off the
+    /// body's axis (where the feet are) must be over the opening to touch it: walking
+    /// past an edge with a shoulder over it is not a fall.
+    pub fn body_distance_m(&self, x_m: f64, y_m: f64, radius_m: f64, height_m: f64) -> f64 {
+        match self {
+            Shape::Box(b) => {
+                let h = rect_distance_m(b.center_m, b.half_size_m, b.yaw_rad, x_m, y_m) - radius_m;
+                h.max(0.0).hypot(interval_gap(0.0, height_m, b.bottom_m, b.top_m))
+            }
+            Shape::Cylinder(c) => {
+                let h = (x_m - c.center_m[0]).hypot(y_m - c.center_m[1]) - c.radius_m - radius_m;
+                h.max(0.0).hypot(interval_gap(0.0, height_m, c.bottom_m, c.top_m))
+            }
+            Shape::DropOff(d) => rect_distance_m(d.center_m, d.half_size_m, d.yaw_rad, x_m, y_m),
+        }
+    }
+
+    /// Distance from the segment `a`–`b` (e.g. a cane from hand to tip) to the shape,
+    /// sampled every `SEGMENT_STEP_M` along the segment, so it is exact to within half
+    /// that step (5 mm).
+    pub fn segment_distance_m(&self, a: [f64; 3], b: [f64; 3]) -> f64 {
+        let length_m = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+        let steps = (length_m / SEGMENT_STEP_M).ceil().max(1.0) as usize;
+        let mut best = f64::INFINITY;
+        for i in 0..=steps {
+            let f = i as f64 / steps as f64;
+            let p = [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])];
+            best = best.min(self.point_distance_m(p));
+        }
+        best
+    }
+
+    /// Axis-aligned bounds `[min, max]` of the shape in map coordinates (x, y, z).
+    pub fn bounds_m(&self) -> ([f64; 3], [f64; 3]) {
+        let footprint = |center: [f64; 2], half: [f64; 2], yaw: f64| {
+            let (s, c) = yaw.sin_cos();
+            let ex = (c * half[0]).abs() + (s * half[1]).abs();
+            let ey = (s * half[0]).abs() + (c * half[1]).abs();
+            ([center[0] - ex, center[1] - ey], [center[0] + ex, center[1] + ey])
+        };
+        match self {
+            Shape::Box(b) => {
+                let (lo, hi) = footprint(b.center_m, b.half_size_m, b.yaw_rad);
+                ([lo[0], lo[1], b.bottom_m], [hi[0], hi[1], b.top_m])
+            }
+            Shape::Cylinder(c) => {
+                let r = c.radius_m;
+                (
+                    [c.center_m[0] - r, c.center_m[1] - r, c.bottom_m],
+                    [c.center_m[0] + r, c.center_m[1] + r, c.top_m],
+                )
+            }
+            Shape::DropOff(d) => {
+                let (lo, hi) = footprint(d.center_m, d.half_size_m, d.yaw_rad);
+                ([lo[0], lo[1], -d.depth_m], [hi[0], hi[1], 0.0])
+            }
+        }
+    }
+}
+
+/// Sampling step of [`Shape::segment_distance_m`], metres.
+pub const SEGMENT_STEP_M: f64 = 0.01;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_box_turned_45() -> Shape {
+        Shape::Box(OrientedBox {
+            center_m: [0.0, 0.0],
+            half_size_m: [0.5, 0.5],
+            yaw_rad: std::f64::consts::FRAC_PI_4,
+            bottom_m: 0.0,
+            top_m: 1.0,
+        })
+    }
+
+    #[test]
+    fn body_beside_turned_box_measures_to_its_corner() {
+        // The 45-degree box's corner points along +x at 0.5 * sqrt(2).
+        let d = unit_box_turned_45().body_distance_m(2.0, 0.0, 0.25, 1.8);
+        assert!((d - (2.0 - 0.5 * 2f64.sqrt() - 0.25)).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn body_under_head_high_sign_touches_only_when_tall_enough() {
+        let sign = Shape::Box(OrientedBox {
+            center_m: [0.0, 0.0],
+            half_size_m: [0.3, 0.1],
+            yaw_rad: 0.0,
+            bottom_m: 1.6,
+            top_m: 1.9,
+        });
+        assert_eq!(sign.body_distance_m(0.0, 0.0, 0.25, 1.8), 0.0);
+        assert!((sign.body_distance_m(0.0, 0.0, 0.25, 1.5) - 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn cane_segment_distance_to_pole_is_within_sampling_step() {
+        let pole = Shape::Cylinder(VerticalCylinder { center_m: [1.0, 0.3], radius_m: 0.02, bottom_m: 0.0, top_m: 2.0 });
+        let d = pole.segment_distance_m([0.0, 0.0, 1.0], [2.0, 0.0, 0.0]);
+        assert!((d - 0.28).abs() <= SEGMENT_STEP_M / 2.0 + 1e-9, "{d}");
+    }
+
+    #[test]
+    fn drop_off_catches_the_feet_not_the_shoulder() {
+        let hole = Shape::DropOff(DropOff { center_m: [0.0, 0.0], half_size_m: [1.0, 1.0], yaw_rad: 0.0, depth_m: 0.2 });
+        assert!((hole.body_distance_m(1.2, 0.0, 0.25, 1.8) - 0.2).abs() < 1e-9);
+        assert_eq!(hole.body_distance_m(0.9, 0.0, 0.25, 1.8), 0.0);
+    }
+}

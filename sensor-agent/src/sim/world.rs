@@ -1,0 +1,558 @@
+//! A loaded simulated world: the scene's items turned into solid shapes per floor,
+//! moving people, labelled landmarks, start and goal, and the geometry queries the
+//! virtual user needs (how close is the cane or the body to the nearest obstacle).
+
+use std::path::Path;
+
+use super::scene::{
+    self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, RoomSpec, SceneError,
+    SceneFile, StairsSpec, WalkerSpec, LEG_INSET_M,
+};
+use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
+
+/// The built-in worlds, by name, embedded in the binary.
+pub const BUILTIN_WORLDS: [(&str, &str); 4] = [
+    ("taylor-course", include_str!("../../worlds/taylor-course.toml")),
+    ("corridor", include_str!("../../worlds/corridor.toml")),
+    ("building", include_str!("../../worlds/building.toml")),
+    ("approach", include_str!("../../worlds/approach.toml")),
+];
+
+/// What an obstacle is, for contact reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ObstacleKind {
+    /// A wall segment.
+    Wall,
+    /// A box on the floor.
+    Box,
+    /// A vertical cylinder.
+    Cylinder,
+    /// A thin pole.
+    Pole,
+    /// A table (top and legs).
+    Table,
+    /// A chair (seat, back and legs).
+    Chair,
+    /// An obstacle hanging free of the floor.
+    Hanging,
+    /// A raised floor region (step up).
+    Step,
+    /// A hole in the floor (drop-off, step down, stair opening).
+    DropOff,
+    /// A flight of stairs seen from below.
+    Stairs,
+    /// A walking person.
+    Person,
+}
+
+/// Index of an obstacle in [`World::obstacles`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ObstacleId(pub u32);
+
+/// One obstacle of the scene (several shapes may belong to it, e.g. a table).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Obstacle {
+    /// What it is.
+    pub kind: ObstacleKind,
+    /// Its label, or `<table>[<index>]` when the scene gave none.
+    pub label: String,
+    /// Floor index.
+    pub floor: i32,
+}
+
+/// The user's pose on the map.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UserPose {
+    /// Map x, metres.
+    pub x_m: f64,
+    /// Map y, metres.
+    pub y_m: f64,
+    /// Heading, radians, counter-clockwise from +x.
+    pub yaw_rad: f64,
+    /// Floor index.
+    pub floor: i32,
+}
+
+/// Where a walk should end.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Goal {
+    /// Map x, metres.
+    pub x_m: f64,
+    /// Map y, metres.
+    pub y_m: f64,
+    /// Floor index.
+    pub floor: i32,
+    /// Name.
+    pub label: String,
+}
+
+/// One floor's static solid geometry, each shape tagged with its obstacle.
+#[derive(Debug, Clone, Default)]
+pub struct FloorGeometry {
+    /// Floor index.
+    pub index: i32,
+    /// Floor name.
+    pub name: String,
+    /// Height above the building's zero, metres.
+    pub elevation_m: f64,
+    /// Boxes (walls, boxes, table tops, chair parts, hanging obstacles, steps, stairs).
+    pub boxes: Vec<(OrientedBox, ObstacleId)>,
+    /// Vertical cylinders (cylinders, poles, legs).
+    pub cylinders: Vec<(VerticalCylinder, ObstacleId)>,
+    /// Holes in the floor.
+    pub drop_offs: Vec<(DropOff, ObstacleId)>,
+}
+
+/// A person walking back and forth along a path.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Person {
+    /// Obstacle id.
+    pub id: ObstacleId,
+    /// Floor index.
+    pub floor: i32,
+    waypoints: Vec<[f64; 2]>,
+    length_m: f64,
+    speed_m_s: f64,
+    phase_s: f64,
+    /// Body radius, metres.
+    pub radius_m: f64,
+    /// Height, metres.
+    pub height_m: f64,
+}
+
+impl Person {
+    /// Position on the map at time `t_s`: out along the path, then back, forever.
+    pub fn position_at(&self, t_s: f64) -> [f64; 2] {
+        let travelled = (t_s + self.phase_s) * self.speed_m_s;
+        let lap = travelled.rem_euclid(2.0 * self.length_m);
+        let mut along = if lap <= self.length_m { lap } else { 2.0 * self.length_m - lap };
+        for w in self.waypoints.windows(2) {
+            let seg = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            if along <= seg && seg > 0.0 {
+                let f = along / seg;
+                return [w[0][0] + f * (w[1][0] - w[0][0]), w[0][1] + f * (w[1][1] - w[0][1])];
+            }
+            along -= seg;
+        }
+        self.waypoints[self.waypoints.len() - 1]
+    }
+
+    /// The person's cylinder at time `t_s`.
+    pub fn shape_at(&self, t_s: f64) -> VerticalCylinder {
+        VerticalCylinder { center_m: self.position_at(t_s), radius_m: self.radius_m, bottom_m: 0.0, top_m: self.height_m }
+    }
+}
+
+/// The nearest obstacle to something, as found by a contact query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nearest {
+    /// Distance to the obstacle's surface, metres (0 = touching or inside).
+    pub distance_m: f64,
+    /// Which obstacle.
+    pub id: ObstacleId,
+    /// What kind it is.
+    pub kind: ObstacleKind,
+}
+
+/// A loaded world. Cheap to query; build it once per run.
+#[derive(Debug, Clone)]
+pub struct World {
+    name: String,
+    description: String,
+    start: UserPose,
+    goal: Goal,
+    floors: Vec<FloorGeometry>,
+    obstacles: Vec<Obstacle>,
+    people: Vec<Person>,
+    doors: Vec<DoorSpec>,
+    corners: Vec<CornerSpec>,
+    rooms: Vec<RoomSpec>,
+    elevators: Vec<ElevatorSpec>,
+    stairs: Vec<StairsSpec>,
+    walker: Option<WalkerSpec>,
+}
+
+static NO_GEOMETRY: FloorGeometry =
+    FloorGeometry { index: i32::MIN, name: String::new(), elevation_m: 0.0, boxes: Vec::new(), cylinders: Vec::new(), drop_offs: Vec::new() };
+
+impl World {
+    /// A built-in world by name, or else a scene file at that path.
+    pub fn load(name_or_path: &str) -> Result<World, SceneError> {
+        if let Some(world) = Self::builtin(name_or_path) {
+            return world;
+        }
+        let path = Path::new(name_or_path);
+        if path.exists() {
+            return Self::from_file(path);
+        }
+        Err(SceneError::UnknownWorld {
+            name: name_or_path.to_string(),
+            known: BUILTIN_WORLDS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    /// A built-in world, `None` when no world has that name.
+    pub fn builtin(name: &str) -> Option<Result<World, SceneError>> {
+        BUILTIN_WORLDS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(n, text)| Self::from_toml(text, &format!("builtin:{n}")))
+    }
+
+    /// A world from a scene file.
+    pub fn from_file(path: &Path) -> Result<World, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| SceneError::Io { path: path.display().to_string(), source })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// A world from scene text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<World, SceneError> {
+        Ok(Self::from_scene(&parse_scene(text, origin)?))
+    }
+
+    /// Builds the shapes of a checked scene.
+    fn from_scene(scene: &SceneFile) -> World {
+        let mut floors: Vec<FloorGeometry> = floor_indexes(scene)
+            .into_iter()
+            .map(|index| FloorGeometry {
+                index,
+                name: scene
+                    .floors
+                    .iter()
+                    .find(|f| f.get_ref().index == index)
+                    .map(|f| f.get_ref().name.clone())
+                    .unwrap_or_default(),
+                elevation_m: scene::elevation_of(scene, index),
+                ..FloorGeometry::default()
+            })
+            .collect();
+        floors.sort_by_key(|f| f.index);
+        let mut build = Builder { floors, obstacles: Vec::new() };
+
+        for (i, w) in scene.walls.iter().map(|w| w.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Wall, &w.label, "walls", i, w.floor);
+            let (dx, dy) = (w.to[0] - w.from[0], w.to[1] - w.from[1]);
+            build.add_box(
+                w.floor,
+                id,
+                OrientedBox {
+                    center_m: [(w.from[0] + w.to[0]) / 2.0, (w.from[1] + w.to[1]) / 2.0],
+                    half_size_m: [dx.hypot(dy) / 2.0, w.thickness_m / 2.0],
+                    yaw_rad: dy.atan2(dx),
+                    bottom_m: 0.0,
+                    top_m: w.height_m,
+                },
+            );
+        }
+        for (i, b) in scene.boxes.iter().map(|b| b.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Box, &b.label, "boxes", i, b.floor);
+            build.add_box(b.floor, id, footprint_box(b.center, b.size_m, b.yaw_deg, b.bottom_m, b.top_m));
+        }
+        for (i, c) in scene.cylinders.iter().map(|c| c.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Cylinder, &c.label, "cylinders", i, c.floor);
+            build.add_cylinder(
+                c.floor,
+                id,
+                VerticalCylinder { center_m: c.center, radius_m: c.radius_m, bottom_m: c.bottom_m, top_m: c.top_m },
+            );
+        }
+        for (i, p) in scene.poles.iter().map(|p| p.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Pole, &p.label, "poles", i, p.floor);
+            build.add_cylinder(
+                p.floor,
+                id,
+                VerticalCylinder { center_m: p.center, radius_m: p.radius_m, bottom_m: 0.0, top_m: p.height_m },
+            );
+        }
+        for (i, t) in scene.tables.iter().map(|t| t.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Table, &t.label, "tables", i, t.floor);
+            build.add_box(t.floor, id, footprint_box(t.center, t.size_m, t.yaw_deg, t.height_m - t.top_thickness_m, t.height_m));
+            let inset = LEG_INSET_M + t.leg_radius_m;
+            for corner in corners_of(t.center, [t.size_m[0] / 2.0 - inset, t.size_m[1] / 2.0 - inset], t.yaw_deg) {
+                build.add_cylinder(
+                    t.floor,
+                    id,
+                    VerticalCylinder {
+                        center_m: corner,
+                        radius_m: t.leg_radius_m,
+                        bottom_m: 0.0,
+                        top_m: t.height_m - t.top_thickness_m,
+                    },
+                );
+            }
+        }
+        for (i, c) in scene.chairs.iter().map(|c| c.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Chair, &c.label, "chairs", i, c.floor);
+            let half = c.seat_size_m / 2.0;
+            let seat_bottom = c.seat_height_m - CHAIR_SEAT_THICKNESS_M;
+            build.add_box(c.floor, id, footprint_box(c.center, [c.seat_size_m; 2], c.yaw_deg, seat_bottom, c.seat_height_m));
+            let (s, co) = c.yaw_deg.to_radians().sin_cos();
+            let back_center = [c.center[0] - co * (half - 0.01), c.center[1] - s * (half - 0.01)];
+            build.add_box(
+                c.floor,
+                id,
+                footprint_box(back_center, [0.02, c.seat_size_m], c.yaw_deg, c.seat_height_m, c.back_height_m),
+            );
+            for corner in corners_of(c.center, [half - 0.03, half - 0.03], c.yaw_deg) {
+                build.add_cylinder(
+                    c.floor,
+                    id,
+                    VerticalCylinder { center_m: corner, radius_m: 0.015, bottom_m: 0.0, top_m: seat_bottom },
+                );
+            }
+        }
+        for (i, h) in scene.hanging.iter().map(|h| h.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Hanging, &h.label, "hanging", i, h.floor);
+            build.add_box(h.floor, id, footprint_box(h.center, h.size_m, h.yaw_deg, h.bottom_m, h.top_m));
+        }
+        for (i, r) in scene.floor_regions.iter().map(|r| r.get_ref()).enumerate() {
+            if r.height_m > 0.0 {
+                let id = build.obstacle(ObstacleKind::Step, &r.label, "floor_regions", i, r.floor);
+                build.add_box(r.floor, id, footprint_box(r.center, r.size_m, r.yaw_deg, 0.0, r.height_m));
+            } else {
+                let id = build.obstacle(ObstacleKind::DropOff, &r.label, "floor_regions", i, r.floor);
+                build.add_drop_off(
+                    r.floor,
+                    id,
+                    DropOff {
+                        center_m: r.center,
+                        half_size_m: [r.size_m[0] / 2.0, r.size_m[1] / 2.0],
+                        yaw_rad: r.yaw_deg.to_radians(),
+                        depth_m: -r.height_m,
+                    },
+                );
+            }
+        }
+        for (i, s) in scene.stairs.iter().map(|s| s.get_ref()).enumerate() {
+            let rise_m = scene::elevation_of(scene, s.to_floor) - scene::elevation_of(scene, s.from_floor);
+            let step_rise = rise_m / s.steps as f64;
+            let (sn, cs) = s.yaw_deg.to_radians().sin_cos();
+            let run_m = s.steps as f64 * s.tread_m;
+            let id = build.obstacle(ObstacleKind::Stairs, &s.label, "stairs", i, s.from_floor);
+            for k in 0..s.steps {
+                // Step k is solid from its front edge to the top of the flight.
+                let from = k as f64 * s.tread_m;
+                let mid = (from + run_m) / 2.0;
+                build.add_box(
+                    s.from_floor,
+                    id,
+                    OrientedBox {
+                        center_m: [s.start[0] + cs * mid, s.start[1] + sn * mid],
+                        half_size_m: [(run_m - from) / 2.0, s.width_m / 2.0],
+                        yaw_rad: s.yaw_deg.to_radians(),
+                        bottom_m: 0.0,
+                        top_m: (k + 1) as f64 * step_rise,
+                    },
+                );
+            }
+            let id = build.obstacle(ObstacleKind::DropOff, &s.label, "stairs", i, s.to_floor);
+            build.add_drop_off(
+                s.to_floor,
+                id,
+                DropOff {
+                    center_m: [s.start[0] + cs * run_m / 2.0, s.start[1] + sn * run_m / 2.0],
+                    half_size_m: [run_m / 2.0, s.width_m / 2.0],
+                    yaw_rad: s.yaw_deg.to_radians(),
+                    depth_m: rise_m,
+                },
+            );
+        }
+        let mut people = Vec::new();
+        for (i, p) in scene.people.iter().map(|p| p.get_ref()).enumerate() {
+            let id = build.obstacle(ObstacleKind::Person, &p.label, "people", i, p.floor);
+            people.push(Person {
+                id,
+                floor: p.floor,
+                waypoints: p.waypoints.clone(),
+                length_m: path_length_m(&p.waypoints),
+                speed_m_s: p.speed_m_s,
+                phase_s: p.phase_s,
+                radius_m: p.radius_m,
+                height_m: p.height_m,
+            });
+        }
+
+        let start = scene.start.get_ref();
+        let goal = scene.goal.get_ref();
+        World {
+            name: scene.name.clone(),
+            description: scene.description.clone(),
+            start: UserPose { x_m: start.x_m, y_m: start.y_m, yaw_rad: start.yaw_deg.to_radians(), floor: start.floor },
+            goal: Goal { x_m: goal.x_m, y_m: goal.y_m, floor: goal.floor, label: goal.label.clone() },
+            floors: build.floors,
+            obstacles: build.obstacles,
+            people,
+            doors: scene.doors.iter().map(|d| d.get_ref().clone()).collect(),
+            corners: scene.corners.iter().map(|d| d.get_ref().clone()).collect(),
+            rooms: scene.rooms.iter().map(|d| d.get_ref().clone()).collect(),
+            elevators: scene.elevators.iter().map(|d| d.get_ref().clone()).collect(),
+            stairs: scene.stairs.iter().map(|d| d.get_ref().clone()).collect(),
+            walker: scene.walker.as_ref().map(|w| w.get_ref().clone()),
+        }
+    }
+
+    /// World name (`taylor-course`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// What the world is for.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// The user's start pose.
+    pub fn start(&self) -> UserPose {
+        self.start
+    }
+
+    /// The goal.
+    pub fn goal(&self) -> &Goal {
+        &self.goal
+    }
+
+    /// The scripted walk of the scene, if it has one.
+    pub fn walker(&self) -> Option<&WalkerSpec> {
+        self.walker.as_ref()
+    }
+
+    /// Every floor, by ascending index.
+    pub fn floors(&self) -> &[FloorGeometry] {
+        &self.floors
+    }
+
+    /// Static geometry of one floor (empty for a floor the world does not have).
+    pub fn geometry(&self, floor: i32) -> &FloorGeometry {
+        self.floors.iter().find(|f| f.index == floor).unwrap_or(&NO_GEOMETRY)
+    }
+
+    /// Every obstacle; an [`ObstacleId`] indexes this.
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    /// The obstacle with this id.
+    pub fn obstacle(&self, id: ObstacleId) -> Option<&Obstacle> {
+        self.obstacles.get(id.0 as usize)
+    }
+
+    /// Walking people.
+    pub fn people(&self) -> &[Person] {
+        &self.people
+    }
+
+    /// Numbered doors.
+    pub fn doors(&self) -> &[DoorSpec] {
+        &self.doors
+    }
+
+    /// Corridor corners.
+    pub fn corners(&self) -> &[CornerSpec] {
+        &self.corners
+    }
+
+    /// Labelled rooms.
+    pub fn rooms(&self) -> &[RoomSpec] {
+        &self.rooms
+    }
+
+    /// Elevators.
+    pub fn elevators(&self) -> &[ElevatorSpec] {
+        &self.elevators
+    }
+
+    /// Flights of stairs.
+    pub fn stairs(&self) -> &[StairsSpec] {
+        &self.stairs
+    }
+
+    /// Every shape on `floor` at time `t_s` (people where they are then).
+    pub fn obstacles_at(&self, floor: i32, t_s: f64) -> impl Iterator<Item = (ObstacleId, Shape)> + '_ {
+        let g = self.geometry(floor);
+        g.boxes
+            .iter()
+            .map(|(b, id)| (*id, Shape::Box(*b)))
+            .chain(g.cylinders.iter().map(|(c, id)| (*id, Shape::Cylinder(*c))))
+            .chain(g.drop_offs.iter().map(|(d, id)| (*id, Shape::DropOff(*d))))
+            .chain(
+                self.people
+                    .iter()
+                    .filter(move |p| p.floor == floor)
+                    .map(move |p| (p.id, Shape::Cylinder(p.shape_at(t_s)))),
+            )
+    }
+
+    /// Nearest obstacle to a standing body (vertical cylinder of `radius_m`, from the
+    /// floor to `height_m`, at x, y) at time `t_s`; `None` on an empty floor.
+    pub fn nearest_to_body(&self, floor: i32, x_m: f64, y_m: f64, radius_m: f64, height_m: f64, t_s: f64) -> Option<Nearest> {
+        self.nearest_by(floor, t_s, |s| s.body_distance_m(x_m, y_m, radius_m, height_m))
+    }
+
+    /// Nearest obstacle to a segment (the cane, hand to tip; heights above the floor)
+    /// at time `t_s`. Drop-offs are left out: the cane tip dipping into one is how a
+    /// cane finds it, not a contact.
+    pub fn nearest_to_segment(&self, floor: i32, a: [f64; 3], b: [f64; 3], t_s: f64) -> Option<Nearest> {
+        self.nearest_by(floor, t_s, |s| match s {
+            Shape::DropOff(_) => f64::INFINITY,
+            _ => s.segment_distance_m(a, b),
+        })
+    }
+
+    fn nearest_by(&self, floor: i32, t_s: f64, distance: impl Fn(&Shape) -> f64) -> Option<Nearest> {
+        let mut best: Option<Nearest> = None;
+        for (id, shape) in self.obstacles_at(floor, t_s) {
+            let d = distance(&shape);
+            if d.is_finite() && best.is_none_or(|b| d < b.distance_m) {
+                let kind = self.obstacles[id.0 as usize].kind;
+                best = Some(Nearest { distance_m: d, id, kind });
+            }
+        }
+        best
+    }
+}
+
+/// Thickness of a chair seat, metres.
+const CHAIR_SEAT_THICKNESS_M: f64 = 0.04;
+
+fn footprint_box(center: [f64; 2], size_m: [f64; 2], yaw_deg: f64, bottom_m: f64, top_m: f64) -> OrientedBox {
+    OrientedBox { center_m: center, half_size_m: [size_m[0] / 2.0, size_m[1] / 2.0], yaw_rad: yaw_deg.to_radians(), bottom_m, top_m }
+}
+
+/// The four corners at +-half around a centre, turned by yaw.
+fn corners_of(center: [f64; 2], half: [f64; 2], yaw_deg: f64) -> [[f64; 2]; 4] {
+    let (s, c) = yaw_deg.to_radians().sin_cos();
+    [[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]
+        .map(|[a, b]| [center[0] + c * a * half[0] - s * b * half[1], center[1] + s * a * half[0] + c * b * half[1]])
+}
+
+struct Builder {
+    floors: Vec<FloorGeometry>,
+    obstacles: Vec<Obstacle>,
+}
+
+impl Builder {
+    fn obstacle(&mut self, kind: ObstacleKind, label: &str, table: &str, index: usize, floor: i32) -> ObstacleId {
+        let label = if label.is_empty() { format!("{table}[{index}]") } else { label.to_string() };
+        self.obstacles.push(Obstacle { kind, label, floor });
+        ObstacleId(self.obstacles.len() as u32 - 1)
+    }
+
+    fn floor(&mut self, index: i32) -> &mut FloorGeometry {
+        // The scene check guarantees every item's floor exists.
+        let slot = self.floors.iter().position(|f| f.index == index).unwrap_or(0);
+        &mut self.floors[slot]
+    }
+
+    fn add_box(&mut self, floor: i32, id: ObstacleId, b: OrientedBox) {
+        self.floor(floor).boxes.push((b, id));
+    }
+
+    fn add_cylinder(&mut self, floor: i32, id: ObstacleId, c: VerticalCylinder) {
+        self.floor(floor).cylinders.push((c, id));
+    }
+
+    fn add_drop_off(&mut self, floor: i32, id: ObstacleId, d: DropOff) {
+        self.floor(floor).drop_offs.push((d, id));
+    }
+}
