@@ -173,3 +173,12 @@ def test_garbage_never_raises_anything_but_wire_error():
             except WireError as err:
                 assert err.kind in {"unknown_schema", "unknown_version", "too_large",
                                     "truncated", "malformed"}
+
+
+def test_numpy_numbers_and_arrays_encode_like_python_ones():
+    np = pytest.importorskip("numpy")
+    scan = {"angle_min_deg": np.float32(-2.0), "angle_increment_deg": 1.0,
+            "ranges_m": np.array([1.5, np.inf], dtype=np.float32), "range_max_m": 4.0}
+    plain = dict(scan, angle_min_deg=-2.0, ranges_m=[1.5, math.inf])
+    assert encode("scan", scan, sender="t", seq=np.uint64(3), capture_ns=0) == \
+        encode("scan", plain, sender="t", seq=3, capture_ns=0)

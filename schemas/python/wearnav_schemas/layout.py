@@ -18,6 +18,8 @@ Errors are :class:`WireError` with the ``kind`` of Rust's ``WireError::kind()``.
 """
 
 import math
+import numbers
+import operator
 import struct
 
 #: Hard ceiling for any payload, and bincode's decode limit (wire.rs ``MAX_PAYLOAD_BYTES``).
@@ -87,7 +89,11 @@ class Int:
         return r.unpack(self.fmt, self.size)
 
     def write(self, out, value, path):
-        if not isinstance(value, int) or isinstance(value, bool):
+        try:
+            if isinstance(value, bool):
+                raise TypeError
+            value = operator.index(value)  # ints, and numpy integers too
+        except TypeError:
             _fail(path, f"expected an integer ({self.name}), got {value!r}")
         try:
             out += struct.pack(self.fmt, value)
@@ -110,7 +116,7 @@ class Float:
         return r.unpack(self.fmt, self.size)
 
     def write(self, out, value, path):
-        if not isinstance(value, (int, float)) or isinstance(value, bool):
+        if not isinstance(value, numbers.Real) or isinstance(value, bool):
             _fail(path, f"expected a number ({self.name}), got {value!r}")
         try:
             out += struct.pack(self.fmt, value)
@@ -149,6 +155,11 @@ class Bool:
 
 def _read_len(r):
     return r.unpack("<Q", 8)
+
+
+def _is_sequence(value):
+    """Lists, tuples and array-likes (numpy arrays), but not text, bytes or dicts."""
+    return hasattr(value, "__len__") and not isinstance(value, (str, bytes, bytearray, dict))
 
 
 class Text:
@@ -210,7 +221,7 @@ class Seq:
         return [self.item.read(r) for _ in range(count)]
 
     def write(self, out, value, path):
-        if not isinstance(value, (list, tuple)):
+        if not _is_sequence(value):
             _fail(path, f"expected a list, got {value!r}")
         out += struct.pack("<Q", len(value))
         for i, item in enumerate(value):
@@ -231,7 +242,7 @@ class Array:
         return [self.item.read(r) for _ in range(self.count)]
 
     def write(self, out, value, path):
-        if not isinstance(value, (list, tuple)) or len(value) != self.count:
+        if not _is_sequence(value) or len(value) != self.count:
             _fail(path, f"expected a list of {self.count} values, got {value!r}")
         for i, item in enumerate(value):
             self.item.write(out, item, f"{path}[{i}]")
