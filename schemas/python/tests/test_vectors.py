@@ -20,6 +20,7 @@ from wearnav_schemas import (
     encode,
     encoding_schema,
     schema,
+    summarise,
 )
 from wearnav_schemas.layout import Array, Enum, Optional, Seq, Struct
 
@@ -155,3 +156,25 @@ def test_package_decodes_depth_frames_without_numpy_or_zstandard():
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True,
                          cwd=Path(__file__).resolve().parents[1])
     assert out.stdout.split() == ["4", "3", "Lossless"]
+
+
+@pytest.mark.parametrize(
+    "name, line",
+    [
+        ("hazard_left", "rumble Left nearest 0.75 m at -10 deg ground Lost ttc 1.5 s"),
+        ("hazard_clear", "rumble None nearest none ground Found"),
+        ("applied_speech_started", "espeak: SpeechStarted Important 'stop'"),
+        ("applied_offline_warning", "console: OfflineWarning OFFLINE 'perception/hazard stale'"),
+        ("depth_frame_raw", "4x3 Raw 24 B"),
+        ("command_mute", "Mute on"),
+        ("scan", "5 bins, nearest 0.75 m at 0 deg"),
+    ],
+)
+def test_summary_says_what_matters(name, line):
+    assert summarise(decode((VECTORS / f"{name}.bin").read_bytes())) == line
+
+
+@pytest.mark.parametrize("path", MESSAGE_BINS, ids=lambda p: p.stem)
+def test_every_vector_has_a_one_line_summary(path):
+    line = summarise(decode(path.read_bytes()))
+    assert line and "\n" not in line

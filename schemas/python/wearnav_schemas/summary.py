@@ -94,14 +94,22 @@ def _applied(b):
         detail = f"left {fields['left']:.2f} right {fields['right']:.2f} {_pattern(fields['pattern'])}"
     elif action == "OfflineWarning":
         detail = ("OFFLINE " if fields["offline"] else "back online ") + repr(fields["reason"])
+    elif action == "SpeechStarted":
+        detail = f"{fields['priority']} {fields['text']!r}"
+    elif action == "SpeechDropped":
+        detail = f"{fields['text']!r} ({fields['reason']})"
     else:
-        detail = " ".join(repr(v) if isinstance(v, str) else str(v) for v in fields.values())
-    return f"{b['device']}: {action} {detail}".rstrip()
+        detail = " ".join(repr(v) for v in fields.values())
+    return f"{b['device']}: {action} {detail}"
 
 
 def _command(b):
     verb, fields = _variant(b)
-    return " ".join([verb] + [str(v) for v in fields.values()])
+    if verb == "Destination":
+        return f"Destination {fields['label']!r}"
+    if verb == "Mute":
+        return "Mute on" if fields["muted"] else "Mute off"
+    return verb
 
 
 def _health_stats(b):
