@@ -17,6 +17,7 @@ from wearnav_schemas import (
     SCHEMAS,
     WireError,
     decode,
+    depth_samples,
     encode,
     encoding_schema,
     schema,
@@ -178,3 +179,12 @@ def test_summary_says_what_matters(name, line):
 def test_every_vector_has_a_one_line_summary(path):
     line = summarise(decode(path.read_bytes()))
     assert line and "\n" not in line
+
+
+@pytest.mark.parametrize("path", sorted(VECTORS.glob("depth_frame*.bin")), ids=lambda p: p.stem)
+def test_depth_samples_of_a_vector_equal_what_the_rust_codec_unpacks(path):
+    np = pytest.importorskip("numpy")
+    pytest.importorskip("wearnav_schemas.depth", reason="pixel codec (depth.py) not present")
+    frame = decode(path.read_bytes()).body
+    samples = np.asarray(depth_samples(frame)).ravel().tolist()
+    assert samples == expected(path)["depth_samples"]
