@@ -120,9 +120,7 @@ impl DetectionWatchdog {
 
     /// Advance to `now_ns`; returns the transition to announce, if any.
     pub fn step(&mut self, now_ns: u64) -> Option<Transition> {
-        let Some(problem) = self.problem(now_ns) else {
-            return None;
-        };
+        let problem = self.problem(now_ns)?;
         match (self.state, problem) {
             (DetectionState::Offline(_), Some(_)) => None,
             (_, Some(reason)) => {
