@@ -1,1 +1,31 @@
-fn main() {}
+//! `wearnav`: the embedded launcher (every agent in one process) and the tools that
+//! run the libraries on recorded data.
+
+mod demo;
+
+use clap::{Parser, Subcommand};
+
+/// wearnav: a navigation aid for blind and visually impaired people. A depth camera on
+/// the white cane finds obstacles the cane misses; rumble and speech tell the user.
+#[derive(Debug, Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run every agent in this process on the simulated world, with console feedback
+    /// and a live status line.
+    Demo(demo::DemoArgs),
+}
+
+fn main() -> anyhow::Result<()> {
+    bus::logging::init();
+    let cli = Cli::parse();
+    let runtime = tokio::runtime::Runtime::new()?;
+    match cli.command {
+        Command::Demo(args) => runtime.block_on(demo::run(args)),
+    }
+}

@@ -22,7 +22,7 @@ pub struct SensorConfig {
     /// Device name in the keys (`sensor/<device>/...`).
     pub device: String,
     /// How depth is packed on the wire.
-    pub encoding: DepthEncoding,
+    pub codec: WireCodec,
     /// Health says "stalled" when no frame came for this long (safety rule 1).
     pub stall_after: Duration,
     /// Period of health stats.
@@ -35,9 +35,36 @@ impl SensorConfig {
         Self {
             bus,
             device: "cane".to_string(),
-            encoding: DepthEncoding::Lossless,
+            codec: WireCodec::Lossless,
             stall_after: Duration::from_millis(500),
             health_period: Duration::from_secs(1),
+        }
+    }
+}
+
+/// How depth is packed on the wire, independent of each source's depth unit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WireCodec {
+    /// Uncompressed.
+    Raw,
+    /// Exact samples.
+    Lossless,
+    /// Quantised to a step in millimetres (max error half a step).
+    BoundedMm(u16),
+}
+
+impl WireCodec {
+    /// The encoding for frames whose unit is `depth_scale_m` metres: a millimetre step
+    /// becomes a whole number of units, rounded down so the promised bound holds
+    /// (at least one unit).
+    pub fn encoding_for(self, depth_scale_m: f32) -> DepthEncoding {
+        match self {
+            WireCodec::Raw => DepthEncoding::Raw,
+            WireCodec::Lossless => DepthEncoding::Lossless,
+            WireCodec::BoundedMm(mm) => {
+                let units = (f64::from(mm) * 1e-3 / f64::from(depth_scale_m)).floor();
+                DepthEncoding::Bounded { step: units.clamp(1.0, f64::from(u16::MAX)) as u16 }
+            }
         }
     }
 }
@@ -50,7 +77,8 @@ enum Produced {
     Failed(String),
 }
 
-fn pack(frame: &SourceFrame, encoding: DepthEncoding, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
+fn pack(frame: &SourceFrame, codec: WireCodec, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
+    let encoding = codec.encoding_for(frame.depth_scale_m);
     schemas::depth_codec::encode(&frame.depth, frame.width, frame.height, encoding, buf).map_err(|e| e.to_string())?;
     Ok(DepthFrame {
         width: frame.width,
@@ -67,16 +95,25 @@ fn pack(frame: &SourceFrame, encoding: DepthEncoding, buf: &mut Vec<u8>) -> Resu
 /// Pull frames from `source` at its pace (sleeping until each frame's stamp), pack
 /// them, hand them over. Runs on its own thread: rendering and compression are CPU
 /// work that must not stall the async publishers.
-fn produce(mut source: Box<dyn FrameSource>, encoding: DepthEncoding, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
+fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
     let mut buf = Vec::new();
+    let period = Duration::from_nanos(source.period_ns());
+    let mut next_due = std::time::Instant::now();
     while !shutdown.is_triggered() {
+        // Sources that stamp frames "now" (simulator, camera) are paced by their period;
+        // recordings stamp frames in the future and are paced by the stamp below.
+        if let Some(wait) = next_due.checked_duration_since(std::time::Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        // Never burst to catch up after a slow frame: late frames are just late.
+        next_due = (next_due + period).max(std::time::Instant::now());
         let item = match source.next_frame(bus::now_ns()) {
             Ok(Some(frame)) => {
                 let wait_ns = frame.stamp_ns.saturating_sub(bus::now_ns());
                 if wait_ns > 0 {
                     std::thread::sleep(Duration::from_nanos(wait_ns.min(5_000_000_000)));
                 }
-                match pack(&frame, encoding, &mut buf) {
+                match pack(&frame, codec, &mut buf) {
                     Ok(depth) => Produced::Frame { frame, depth },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
                 }
@@ -120,10 +157,10 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     let (tx, mut rx) = mpsc::channel(2);
     let producer = {
         let shutdown = shutdown.clone();
-        let encoding = config.encoding;
+        let codec = config.codec;
         std::thread::Builder::new()
             .name("frame-source".into())
-            .spawn(move || produce(source, encoding, tx, shutdown))
+            .spawn(move || produce(source, codec, tx, shutdown))
             .context("cannot start the frame source thread")?
     };
 
@@ -185,5 +222,20 @@ async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
         if let Err(e) = r {
             tracing::warn!("{e:#}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn millimetre_step_becomes_whole_depth_units_without_loosening_the_bound() {
+        assert_eq!(WireCodec::BoundedMm(5).encoding_for(0.001), DepthEncoding::Bounded { step: 5 });
+        // TUM frames: 0.2 mm per unit -> 25 units of 0.2 mm = 5 mm.
+        assert_eq!(WireCodec::BoundedMm(5).encoding_for(0.0002), DepthEncoding::Bounded { step: 25 });
+        // A 1 cm unit cannot carry a 5 mm step: one unit, the finest there is.
+        assert_eq!(WireCodec::BoundedMm(5).encoding_for(0.01), DepthEncoding::Bounded { step: 1 });
+        assert_eq!(WireCodec::Lossless.encoding_for(0.001), DepthEncoding::Lossless);
     }
 }

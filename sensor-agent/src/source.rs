@@ -58,3 +58,53 @@ pub trait FrameSource: Send {
     /// Nominal frame period, ns, for pacing (0 = as fast as frames come).
     fn period_ns(&self) -> u64;
 }
+
+/// Options shared by every source kind; each uses the ones that apply to it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceOptions {
+    /// Simulated camera profile (`xtion`, `d435`).
+    pub camera: String,
+    /// Seed of the simulator's random draws.
+    pub seed: u64,
+    /// Replay speed multiplier (1.0 = real time).
+    pub rate: f64,
+    /// Start a recording again at its end.
+    pub loop_playback: bool,
+    /// Metres per depth unit of a plain PNG folder.
+    pub depth_scale_m: Option<f32>,
+    /// Intrinsics of a plain PNG folder.
+    pub intrinsics: Option<Intrinsics>,
+}
+
+impl Default for SourceOptions {
+    fn default() -> Self {
+        Self { camera: "xtion".into(), seed: 1, rate: 1.0, loop_playback: false, depth_scale_m: None, intrinsics: None }
+    }
+}
+
+/// Why a source spec could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// The spec has no known `kind:` prefix.
+    #[error("unknown source {0:?}: use sim:<world-or-scene-file>, pcd:<file-or-dir>, tum:<dir> or png:<dir>")]
+    UnknownKind(String),
+    /// The simulated camera profile is not known.
+    #[error("unknown camera profile {0:?}: use xtion or d435")]
+    UnknownCamera(String),
+    /// The world or scene file could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] crate::sim::scene::SceneError),
+}
+
+/// Open the source a spec names (`sim:approach`, `pcd:/data/frames/`, ...).
+pub fn open(spec: &str, opts: &SourceOptions) -> Result<Box<dyn FrameSource>, OpenError> {
+    match spec.split_once(':') {
+        Some(("sim", world)) => {
+            let camera = crate::sim::camera::CameraProfile::by_name(&opts.camera)
+                .ok_or_else(|| OpenError::UnknownCamera(opts.camera.clone()))?;
+            let config = crate::sim::SimConfig { world: world.to_string(), camera, seed: opts.seed, ..Default::default() };
+            Ok(Box::new(crate::sim::SimSource::new(config)?))
+        }
+        _ => Err(OpenError::UnknownKind(spec.to_string())),
+    }
+}

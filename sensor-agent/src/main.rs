@@ -1,0 +1,108 @@
+//! `sensor-agent`: publishes depth frames (simulated, replayed or from a camera) with
+//! IMU, odometry and ground truth.
+
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::{Parser, ValueEnum};
+use schemas::Intrinsics;
+use sensor_agent::run::WireCodec;
+use sensor_agent::source::SourceOptions;
+
+/// How depth frames are packed on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Codec {
+    /// Exact samples.
+    Lossless,
+    /// Quantised to --step-mm, each sample within half a step of the truth.
+    Bounded,
+    /// Uncompressed (614 kB per 640x480 frame: only for a wired link).
+    Raw,
+}
+
+/// Publish the cane camera's depth frames on the bus, compressed, with IMU,
+/// odometry and (simulated sources only) ground truth.
+#[derive(Debug, Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(flatten)]
+    bus: bus::BusOptions,
+    /// Frame source: `sim:<world>` (approach, taylor-course, corridor, building, or a
+    /// scene TOML file), `pcd:<file-or-dir>`, `tum:<dir>` (TUM RGB-D layout) or
+    /// `png:<dir>` (16-bit depth PNGs; give --depth-scale and --intrinsics).
+    #[arg(long, default_value = "sim:approach")]
+    source: String,
+    /// Device name in the keys: `wearnav/<user>/sensor/<device>/depth`.
+    #[arg(long, default_value = "cane")]
+    device: String,
+    /// Depth packing on the wire.
+    #[arg(long, value_enum, default_value_t = Codec::Lossless)]
+    codec: Codec,
+    /// Quantisation step of --codec bounded, millimetres (max error is half of it).
+    #[arg(long, default_value_t = 5)]
+    step_mm: u16,
+    /// Simulated camera profile: xtion (Asus Xtion Pro Live, the thesis's) or d435.
+    #[arg(long, default_value = "xtion")]
+    camera: String,
+    /// Seed of the simulator's noise and dropouts.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Replay speed (1 = real time, 2 = twice as fast).
+    #[arg(long, default_value_t = 1.0)]
+    rate: f64,
+    /// Replay the recording again from the start when it ends.
+    #[arg(long = "loop")]
+    loop_playback: bool,
+    /// Metres per depth unit of a png: folder (0.001 for millimetres).
+    #[arg(long)]
+    depth_scale: Option<f32>,
+    /// Intrinsics of a png: folder, `fx,fy,cx,cy` in pixels.
+    #[arg(long, value_parser = parse_intrinsics)]
+    intrinsics: Option<Intrinsics>,
+    /// Health reports the source stalled after this long without a frame.
+    #[arg(long, default_value_t = 500, value_name = "MS")]
+    stall_after_ms: u64,
+}
+
+fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let [fx, fy, cx, cy] = v[..] else {
+        return Err(format!("expected fx,fy,cx,cy, got {} numbers", v.len()));
+    };
+    let k = Intrinsics { fx, fy, cx, cy };
+    if !k.is_valid() {
+        return Err(format!("intrinsics {s} are not finite positive focal lengths"));
+    }
+    Ok(k)
+}
+
+#[tokio::main]
+async fn main() -> anyhow::Result<()> {
+    bus::logging::init();
+    let cli = Cli::parse();
+    let options = SourceOptions {
+        camera: cli.camera.clone(),
+        seed: cli.seed,
+        rate: cli.rate,
+        loop_playback: cli.loop_playback,
+        depth_scale_m: cli.depth_scale,
+        intrinsics: cli.intrinsics,
+    };
+    let source = sensor_agent::source::open(&cli.source, &options)
+        .with_context(|| format!("cannot open frame source {:?}", cli.source))?;
+    let mut config = sensor_agent::run::SensorConfig::new(cli.bus);
+    config.device = cli.device;
+    config.stall_after = Duration::from_millis(cli.stall_after_ms);
+    config.codec = match cli.codec {
+        Codec::Lossless => WireCodec::Lossless,
+        Codec::Raw => WireCodec::Raw,
+        Codec::Bounded if cli.step_mm == 0 => anyhow::bail!("--step-mm must be at least 1"),
+        Codec::Bounded => WireCodec::BoundedMm(cli.step_mm),
+    };
+    let shutdown = bus::Shutdown::new();
+    shutdown.trigger_on_signals();
+    sensor_agent::run::run(config, source, shutdown).await
+}

@@ -1,0 +1,226 @@
+//! `wearnav demo`: every agent in one process, each with its own Zenoh session, on the
+//! simulated world, with a live status line measured from the message stamps.
+
+use std::net::{Ipv4Addr, SocketAddr, TcpListener};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use bus::{BusOptions, Health, Shutdown, Subscriber};
+use schemas::{Applied, AppliedAction, Hazard, HealthStats};
+
+/// Run the whole system on the simulated world in this one process.
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// How long to run (`20s`, `2m`); without it, until Ctrl-C.
+    #[arg(long, value_parser = humantime::parse_duration)]
+    pub duration: Option<Duration>,
+    /// User name: the key prefix `wearnav/<user>`.
+    #[arg(long, default_value = "demo")]
+    pub user: String,
+    /// Frame source: `sim:<world>` (approach, taylor-course, corridor, building),
+    /// `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
+    #[arg(long, default_value = "sim:approach")]
+    pub source: String,
+    /// Extra endpoint the demo listens on, so a Python monitor or another machine can
+    /// join (`tcp/0.0.0.0:7447`). The demo always listens on a free loopback port too
+    /// and prints it.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Also find and join peers by multicast scouting (off: the demo stays to itself).
+    #[arg(long)]
+    pub multicast: bool,
+    /// Address of the phone page (port 0 picks a free one).
+    #[arg(long, default_value = "127.0.0.1:0")]
+    pub http: SocketAddr,
+    /// Speech backends of the feedback agent, comma-separated (`console`, `espeak`).
+    #[arg(long, value_delimiter = ',', default_value = "console")]
+    pub speech: Vec<feedback_agent::SpeechBackend>,
+    /// Haptic backends of the feedback agent, comma-separated (`console`, `wiimote`).
+    #[arg(long, value_delimiter = ',', default_value = "console")]
+    pub haptic: Vec<feedback_agent::HapticBackend>,
+}
+
+fn free_loopback_port() -> anyhow::Result<u16> {
+    let probe = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).context("no free loopback port")?;
+    Ok(probe.local_addr()?.port())
+}
+
+/// Latency and rate figures gathered from the bus.
+#[derive(Debug, Default)]
+struct Tally {
+    hazards: u64,
+    hazards_in_period: u64,
+    last: Option<Hazard>,
+    e2e_ms: Vec<f32>,
+    e2e_period_ms: Vec<f32>,
+    sensor_fps: Option<f32>,
+    applied: u64,
+    offline_warnings: u64,
+    rejects: u64,
+}
+
+impl Tally {
+    fn on_applied(&mut self, a: &Applied) {
+        self.applied += 1;
+        match &a.action {
+            AppliedAction::Rumble { .. } if a.cause_capture_ns > 0 => {
+                let ms = bus::clock::age_ms(a.cause_capture_ns, a.applied_ns) as f32;
+                self.e2e_ms.push(ms);
+                self.e2e_period_ms.push(ms);
+            }
+            AppliedAction::OfflineWarning { offline: true, .. } => self.offline_warnings += 1,
+            _ => {}
+        }
+    }
+
+    fn on_health(&mut self, h: &HealthStats) {
+        if h.agent == sensor_agent::run::AGENT {
+            if let Some(depth) = h.streams.iter().find(|s| s.key.ends_with("/depth") && !s.inbound) {
+                self.sensor_fps = Some(depth.rate_hz);
+            }
+        }
+    }
+
+    fn status_line(&mut self, elapsed: Duration, period: Duration) -> String {
+        let perceived = self.hazards_in_period as f32 / period.as_secs_f32();
+        self.hazards_in_period = 0;
+        let (p50, p99) = bus::health::percentiles(&mut self.e2e_period_ms);
+        self.e2e_period_ms.clear();
+        let state = match &self.last {
+            Some(h) => format!(
+                "rumble {:<5} nearest {} ground {:?}",
+                format!("{:?}", h.rumble).to_lowercase(),
+                if h.nearest_m.is_finite() { format!("{:.2} m", h.nearest_m) } else { "-".into() },
+                h.ground
+            ),
+            None => "no hazard yet".into(),
+        };
+        format!(
+            "[{:6.1}s] sensor {} fps | perceived {:.1}/s | {} | capture->applied p50 {} p99 {} ms | rejects {}",
+            elapsed.as_secs_f32(),
+            self.sensor_fps.map_or("-".into(), |f| format!("{f:.1}")),
+            perceived,
+            state,
+            fmt_ms(p50),
+            fmt_ms(p99),
+            self.rejects,
+        )
+    }
+}
+
+fn fmt_ms(v: f32) -> String {
+    if v.is_nan() {
+        "-".into()
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// Run the demo; `Ok` when it ran cleanly (frames perceived, every agent stopped well).
+pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
+    schemas::Keys::new(&args.user).with_context(|| format!("bad --user {:?}", args.user))?;
+    let hub = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let mut hub_bus = BusOptions::for_user(&args.user);
+    hub_bus.listen = std::iter::once(hub.clone()).chain(args.listen.iter().cloned()).collect();
+    hub_bus.no_multicast = !args.multicast;
+    let mut peer_bus = BusOptions::for_user(&args.user);
+    peer_bus.connect = vec![hub.clone()];
+    peer_bus.no_multicast = !args.multicast;
+
+    let source = sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
+        .with_context(|| format!("cannot open frame source {:?}", args.source))?;
+    let shutdown = Shutdown::new();
+    shutdown.trigger_on_signals();
+
+    // The hub (compute) must be listening before the others connect.
+    let compute = tokio::spawn(compute_agent::run::run(compute_agent::run::ComputeConfig::new(hub_bus), shutdown.clone()));
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let mut feedback_config = feedback_agent::FeedbackConfig::with_bus(peer_bus.clone());
+    feedback_config.speech = args.speech.clone();
+    feedback_config.haptic = args.haptic.clone();
+    let feedback = tokio::spawn(feedback_agent::run(feedback_config, shutdown.clone()));
+    let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
+    let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
+    phone_config.http = args.http;
+    let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
+    let sensor = tokio::spawn(sensor_agent::run::run(
+        sensor_agent::run::SensorConfig::new(peer_bus.clone()),
+        source,
+        shutdown.clone(),
+    ));
+
+    // The demo's own eyes: a fifth session that watches what the user would feel.
+    let session = bus::open_session(&peer_bus).await?;
+    let keys = peer_bus.keys()?;
+    let watch = Health::new("demo-monitor");
+    let hazards = Subscriber::<Hazard>::declare(&session, keys.hazard(), false, &watch).await?;
+    let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &watch).await?;
+    let health = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
+    if let Ok(addr) = bound_rx.await {
+        eprintln!("phone page: http://{addr}/");
+    }
+    eprintln!(
+        "wearnav demo for user {:?} on {}; watch it with:\n  python3 schemas/python/monitor.py --user {} --connect {hub}",
+        args.user, args.source, args.user
+    );
+
+    let started = Instant::now();
+    let period = Duration::from_secs(1);
+    let mut tick = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
+    let mut tally = Tally::default();
+    let deadline = async {
+        match args.duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::pin!(deadline);
+    loop {
+        tokio::select! {
+            _ = shutdown.triggered() => break,
+            _ = &mut deadline => break,
+            Some(h) = hazards.recv() => {
+                tally.hazards += 1;
+                tally.hazards_in_period += 1;
+                tally.last = Some(h.body);
+            }
+            Some(a) = applied.recv() => tally.on_applied(&a.body),
+            Some(h) = health.recv() => {
+                tally.rejects = h.body.rejects.iter().map(|r| r.count).sum::<u64>().max(tally.rejects);
+                tally.on_health(&h.body);
+            }
+            _ = tick.tick() => eprintln!("{}", tally.status_line(started.elapsed(), period)),
+        }
+    }
+    shutdown.trigger();
+    let mut failures = Vec::new();
+    for (name, task) in [("sensor-agent", sensor), ("compute-agent", compute), ("feedback-agent", feedback), ("phone-bridge", phone)] {
+        match tokio::time::timeout(Duration::from_secs(5), task).await {
+            Ok(Ok(Ok(()))) => {}
+            Ok(Ok(Err(e))) => failures.push(format!("{name}: {e:#}")),
+            Ok(Err(e)) => failures.push(format!("{name} panicked: {e}")),
+            Err(_) => failures.push(format!("{name} did not stop within 5 s")),
+        }
+    }
+    let _ = session.close().await;
+    let (p50, p99) = bus::health::percentiles(&mut tally.e2e_ms);
+    eprintln!(
+        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes, {} offline warnings, {} rejects",
+        started.elapsed().as_secs_f32(),
+        tally.hazards,
+        tally.hazards as f32 / started.elapsed().as_secs_f32(),
+        tally.applied,
+        fmt_ms(p50),
+        fmt_ms(p99),
+        tally.e2e_ms.len(),
+        tally.offline_warnings,
+        tally.rejects
+    );
+    if !failures.is_empty() {
+        bail!("agents failed: {}", failures.join("; "));
+    }
+    if tally.hazards == 0 {
+        bail!("no hazard was perceived: obstacle detection never ran");
+    }
+    Ok(())
+}

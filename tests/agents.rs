@@ -1,0 +1,212 @@
+//! Cross-agent tests with the real binaries: four agent processes, each with its own
+//! Zenoh session, on loopback. The test process is the hub they all connect to, and
+//! watches the bus like a monitor would.
+
+use std::net::{Ipv4Addr, TcpListener};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use bus::{BusOptions, Health, Lane, Publisher, Subscriber};
+use schemas::{Applied, AppliedAction, HapticIntent, HapticPattern, Hazard, HealthStats, Rumble};
+
+/// An agent process, killed when dropped so a failing test leaves nothing behind.
+struct Agent {
+    name: &'static str,
+    child: Child,
+}
+
+impl Drop for Agent {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn agent_bin(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_BIN_EXE_wearnav")).parent().expect("bin dir").to_path_buf();
+    let path = dir.join(name);
+    assert!(path.exists(), "{} missing: build the workspace first (cargo build --workspace)", path.display());
+    path
+}
+
+fn spawn(name: &'static str, hub: &str, user: &str, extra: &[&str]) -> Agent {
+    let child = Command::new(agent_bin(name))
+        .args(["--user", user, "--connect", hub, "--no-multicast"])
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+    Agent { name, child }
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).unwrap().local_addr().unwrap().port()
+}
+
+struct Hub {
+    session: zenoh::Session,
+    endpoint: String,
+    options: BusOptions,
+    health: std::sync::Arc<Health>,
+}
+
+async fn hub(user: &str) -> Hub {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let mut options = BusOptions::for_user(user);
+    options.listen = vec![endpoint.clone()];
+    options.no_multicast = true;
+    let session = bus::open_session(&options).await.expect("hub session");
+    Hub { session, endpoint, options, health: Health::new("test-hub") }
+}
+
+/// Wait for the first message satisfying `pred`, up to `limit`.
+async fn wait_for<M: schemas::Message>(
+    sub: &Subscriber<M>,
+    limit: Duration,
+    mut pred: impl FnMut(&bus::Received<M>) -> bool,
+) -> Option<bus::Received<M>> {
+    let deadline = tokio::time::Instant::now() + limit;
+    loop {
+        match tokio::time::timeout_at(deadline, sub.recv()).await {
+            Ok(Some(m)) if pred(&m) => return Some(m),
+            Ok(Some(_)) => continue,
+            _ => return None,
+        }
+    }
+}
+
+fn expected_sides(r: Rumble) -> (bool, bool) {
+    match r {
+        Rumble::None => (false, false),
+        Rumble::Left => (true, false),
+        Rumble::Right => (false, true),
+        Rumble::Both => (true, true),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hazards_reach_feedback_and_offline_warning_follows_a_killed_compute_agent() {
+    let user = "agents-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
+
+    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let _phone = spawn("phone-bridge", &hub.endpoint, user, &["--http", "127.0.0.1:0"]);
+    let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:approach"]);
+    let mut compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+
+    // Hazards flow and the feedback agent applies every rumble state it is sent. The
+    // approach world walks towards a wall and back, so the state changes.
+    let mut states_seen = std::collections::BTreeSet::new();
+    let mut matched = 0;
+    let deadline = Instant::now() + Duration::from_secs(40);
+    while Instant::now() < deadline && (states_seen.len() < 2 || matched < 2) {
+        let Some(h) = wait_for(&hazards, Duration::from_secs(10), |_| true).await else { break };
+        let rumble = h.body.rumble;
+        if !states_seen.insert(format!("{rumble:?}")) {
+            continue;
+        }
+        let want = expected_sides(rumble);
+        let got = wait_for(&applied, Duration::from_secs(2), |a| match a.body.action {
+            AppliedAction::Rumble { left, right, .. } => (left > 0.0, right > 0.0) == want,
+            _ => false,
+        })
+        .await;
+        if let Some(a) = got {
+            matched += 1;
+            let latency_ms = bus::clock::age_ms(a.body.cause_capture_ns, a.body.applied_ns);
+            assert!(latency_ms >= 0.0 && latency_ms < 200.0, "capture->applied {latency_ms} ms");
+        }
+    }
+    assert!(states_seen.len() >= 2, "hazard states did not change: {states_seen:?}");
+    assert!(matched >= 2, "feedback did not apply the hazard states {states_seen:?}");
+
+    // kill -9 the compute agent: the offline warning must be applied within 500 ms.
+    compute.child.kill().expect("kill compute-agent");
+    let killed_ns = bus::now_ns();
+    let _ = compute.child.wait();
+    let warning = wait_for(&applied, Duration::from_secs(3), |a| {
+        matches!(a.body.action, AppliedAction::OfflineWarning { offline: true, .. })
+    })
+    .await
+    .expect("no offline warning after the compute agent was killed");
+    let after_ms = bus::clock::age_ms(killed_ns, warning.body.applied_ns);
+    assert!(after_ms < 500.0, "offline warning {after_ms:.0} ms after the kill");
+
+    // Restart it: the user is told detection is back.
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+    let back = wait_for(&applied, Duration::from_secs(15), |a| {
+        matches!(a.body.action, AppliedAction::OfflineWarning { offline: false, .. })
+    })
+    .await;
+    assert!(back.is_some(), "no 'obstacle detection back' after the restart");
+    let _ = compute.name;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
+    let user = "garbage-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
+    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+    // Let both agents declare their subscriptions.
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "feedback-agent").await.expect("feedback health");
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+
+    let good = schemas::encode(
+        "test",
+        0,
+        bus::now_ns(),
+        &HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 },
+    );
+    let mut wrong_version = good.clone();
+    wrong_version[2] = 99;
+    let payloads: Vec<Vec<u8>> = vec![
+        good[..good.len() - 3].to_vec(),
+        wrong_version,
+        vec![0xAB; 1000],
+        vec![0u8; 9 * 1024 * 1024],
+        Vec::new(),
+    ];
+    let targets = [keys.haptic(), keys.speech(), keys.hazard(), keys.depth("cane"), keys.odom("cane")];
+    for key in &targets {
+        for p in &payloads {
+            hub.session.put(key.as_str(), p.clone()).await.unwrap();
+            // Depth and hazard consumers keep only the newest sample; pace the garbage
+            // so each one is actually read (and must be counted).
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
+    let rejects_of = |h: &HealthStats| h.rejects.iter().map(|r| r.count).sum::<u64>();
+    let fb = wait_for(&health, Duration::from_secs(10), |h| {
+        h.body.agent == "feedback-agent" && rejects_of(&h.body) >= 15
+    })
+    .await
+    .expect("feedback agent did not count the garbage on haptic, speech and hazard keys");
+    let kinds: Vec<&str> = fb.body.rejects.iter().map(|r| r.kind.as_str()).collect();
+    for kind in ["truncated", "unknown_version", "too_large"] {
+        assert!(kinds.contains(&kind), "feedback rejects {kinds:?} lack {kind}");
+    }
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent" && rejects_of(&h.body) >= 10)
+        .await
+        .expect("compute agent did not count the garbage on depth and odometry keys");
+
+    // Still alive and acting: a valid intent is applied.
+    let mut intents =
+        Publisher::<HapticIntent>::declare(&hub.session, keys.haptic(), "test", Lane::RealTime, None).await.unwrap();
+    let stamp = bus::now_ns();
+    intents
+        .put(stamp, &HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 1000 })
+        .await
+        .unwrap();
+    let a = wait_for(&applied, Duration::from_secs(5), |a| a.body.cause_capture_ns == stamp).await;
+    assert!(a.is_some(), "the feedback agent stopped acting after garbage");
+}
