@@ -1,0 +1,218 @@
+//! The agent loop on real Zenoh sessions over loopback: a test session listens, the
+//! agent connects to it; hazards, intents and garbage go in, `feedback/applied`,
+//! health stats and the fake remotes' bytes come out.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
+use feedback_agent::console::ConsoleSpeech;
+use feedback_agent::wiimote::fake::FakeHid;
+use feedback_agent::wiimote::{WiimoteBackend, WiimoteConfig};
+use feedback_agent::{Devices, FeedbackConfig};
+use schemas::{
+    Applied, AppliedAction, CostFunction, GroundState, HapticIntent, HapticPattern, Hazard, HealthStats, Keys,
+    Priority, Rumble, SideCosts, SpeechIntent,
+};
+
+const LEFT: &str = "/dev/hidraw0";
+const RIGHT: &str = "/dev/hidraw1";
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
+}
+
+fn hazard(seq: u64) -> Hazard {
+    Hazard {
+        frame_seq: seq,
+        ficf: SideCosts::default(),
+        cacf: SideCosts::default(),
+        active: CostFunction::Ficf,
+        rumble: Rumble::None,
+        ground: GroundState::Found,
+        plane_camera: [0.0, -1.0, 0.0, 1.2],
+        nearest_m: f32::INFINITY,
+        nearest_bearing_deg: 0.0,
+        ttc_s: None,
+        dropoff_ahead: false,
+        latency: vec![],
+    }
+}
+
+/// Publishes hazards at 30 Hz while `on` is set; remembers when the last one went out.
+struct HazardStream {
+    on: Arc<AtomicBool>,
+    last: Arc<Mutex<Instant>>,
+}
+
+impl HazardStream {
+    fn start(session: zenoh::Session, keys: Keys) -> Self {
+        let on = Arc::new(AtomicBool::new(true));
+        let last = Arc::new(Mutex::new(Instant::now()));
+        let (on2, last2) = (on.clone(), last.clone());
+        tokio::spawn(async move {
+            let mut p = Publisher::<Hazard>::declare(&session, keys.hazard(), "test-compute", Lane::Perception, None)
+                .await
+                .expect("hazard publisher");
+            let mut seq = 0;
+            loop {
+                if on2.load(Ordering::SeqCst) {
+                    if p.put(bus::now_ns(), &hazard(seq)).await.is_err() {
+                        return;
+                    }
+                    *last2.lock().unwrap() = Instant::now();
+                    seq += 1;
+                }
+                tokio::time::sleep(Duration::from_millis(33)).await;
+            }
+        });
+        Self { on, last }
+    }
+
+    fn set(&self, on: bool) {
+        self.on.store(on, Ordering::SeqCst);
+    }
+
+    fn last(&self) -> Instant {
+        *self.last.lock().unwrap()
+    }
+}
+
+async fn wait_applied(sub: &Subscriber<Applied>, within: Duration, pred: impl Fn(&Applied) -> bool) -> Applied {
+    let deadline = Instant::now() + within;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match tokio::time::timeout(left, sub.recv()).await {
+            Ok(Some(m)) if pred(&m.body) => return m.body,
+            Ok(Some(_)) => {}
+            _ => panic!("no matching applied action within {within:?}"),
+        }
+    }
+}
+
+fn offline_warning(a: &Applied, offline: bool) -> bool {
+    matches!(&a.action, AppliedAction::OfflineWarning { offline: o, .. } if *o == offline)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() {
+    let user = format!("fbtest{}", std::process::id());
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let test_bus = BusOptions { listen: vec![endpoint.clone()], no_multicast: true, ..BusOptions::for_user(&user) };
+    let agent_bus = BusOptions { connect: vec![endpoint], no_multicast: true, ..BusOptions::for_user(&user) };
+    let keys = Keys::new(&user).unwrap();
+    let session = bus::open_session(&test_bus).await.expect("test session");
+    let test_health = Health::new("test");
+    let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &test_health).await.unwrap();
+    let stats = Subscriber::<HealthStats>::declare(&session, keys.health("feedback-agent"), false, &test_health)
+        .await
+        .unwrap();
+    let token = session.liveliness().declare_token(keys.health("compute-agent")).await.unwrap();
+    let hazards = HazardStream::start(session.clone(), keys.clone());
+
+    let hid = FakeHid::new();
+    hid.attach(LEFT, "00:19:1d:00:00:01");
+    hid.attach(RIGHT, "00:19:1d:00:00:02");
+    let devices = Devices {
+        haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default()))],
+        engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
+        notes: vec![],
+    };
+    let config = FeedbackConfig { health_period_ms: 200, ..FeedbackConfig::with_bus(agent_bus) };
+    let shutdown = Shutdown::new();
+    let agent = tokio::spawn(feedback_agent::run_with(config, devices, shutdown.clone()));
+    // Let the sessions meet and the agent see fresh hazards.
+    tokio::time::sleep(Duration::from_millis(800)).await;
+
+    // A haptic intent turns the left remote on, stamped with its cause.
+    let mut haptic = Publisher::<HapticIntent>::declare(&session, keys.haptic(), "test-compute", Lane::RealTime, None)
+        .await
+        .unwrap();
+    let capture = bus::now_ns();
+    let left = HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 };
+    haptic.put(capture, &left).await.unwrap();
+    let a = wait_applied(&applied, Duration::from_secs(2), |a| a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 1.0)).await;
+    assert_eq!(a.cause_capture_ns, capture);
+    assert!(hid.written_to(LEFT).contains(&vec![0x10, 0x01]));
+    // ... and its TTL switches it off without any further message.
+    let off = wait_applied(&applied, Duration::from_secs(1), |a| a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 0.0)).await;
+    let rumble_ms = (off.applied_ns - a.applied_ns) as f64 / 1e6;
+    assert!((250.0..450.0).contains(&rumble_ms), "rumbled {rumble_ms} ms for a 300 ms TTL");
+
+    // Hazards stop: offline within 500 ms + a margin.
+    hazards.set(false);
+    tokio::time::sleep(Duration::from_millis(40)).await;
+    let stopped = hazards.last();
+    wait_applied(&applied, Duration::from_secs(2), |a| offline_warning(a, true)).await;
+    let after_ms = stopped.elapsed().as_secs_f64() * 1e3;
+    eprintln!("offline warning {after_ms:.0} ms after the last hazard");
+    assert!((450.0..800.0).contains(&after_ms), "offline warning after {after_ms:.0} ms");
+    // Hazards resume: back.
+    hazards.set(true);
+    wait_applied(&applied, Duration::from_secs(1), |a| offline_warning(a, false)).await;
+
+    // The compute agent's liveliness token goes: offline at once, even with hazards flowing.
+    let dropped = Instant::now();
+    drop(token);
+    let w = wait_applied(&applied, Duration::from_secs(1), |a| offline_warning(a, true)).await;
+    assert!(matches!(&w.action, AppliedAction::OfflineWarning { reason, .. } if reason.contains("liveliness")));
+    assert!(dropped.elapsed() < Duration::from_millis(300), "liveliness loss took {:?}", dropped.elapsed());
+    let _token = session.liveliness().declare_token(keys.health("compute-agent")).await.unwrap();
+    wait_applied(&applied, Duration::from_secs(1), |a| offline_warning(a, false)).await;
+
+    // Garbage on every subscribed key: counted, never acted on.
+    let nan = schemas::encode("evil", 0, bus::now_ns(), &HapticIntent { left: f32::NAN, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 });
+    let huge = SpeechIntent { text: "a".repeat(10 * 1024 * 1024), priority: Priority::Message, interrupt: false, ttl_ms: 1000, dedup_key: String::new() };
+    let huge = schemas::encode("evil", 0, bus::now_ns(), &huge);
+    let mut bad_priority = schemas::encode(
+        "evil",
+        0,
+        bus::now_ns(),
+        &SpeechIntent { text: "hi".into(), priority: Priority::Important, interrupt: false, ttl_ms: 1000, dedup_key: String::new() },
+    );
+    let (_, header_len) = schemas::decode_header(&bad_priority).unwrap();
+    bad_priority[header_len + 8 + 2] = 9; // priority variant index 9 does not exist
+    // Spaced out: haptic and hazard subscribers keep only the newest sample, so
+    // back-to-back garbage would be overwritten before the agent reads it.
+    let garbage = [
+        (keys.haptic(), vec![1u8, 2, 3]),
+        (keys.haptic(), nan),
+        (keys.speech(), huge),
+        (keys.speech(), bad_priority),
+        (keys.hazard(), vec![0xffu8; 40]),
+    ];
+    for (key, bytes) in garbage {
+        session.put(key, bytes).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let deadline = Instant::now() + Duration::from_secs(3);
+    let rejects = loop {
+        let m = tokio::time::timeout(deadline.saturating_duration_since(Instant::now()), stats.recv())
+            .await
+            .expect("health stats within 3 s")
+            .expect("health stream");
+        let total: u64 = m.body.rejects.iter().map(|r| r.count).sum();
+        if total >= 5 {
+            break m.body.rejects;
+        }
+    };
+    let kinds: Vec<&str> = rejects.iter().map(|r| r.kind.as_str()).collect();
+    eprintln!("rejects counted: {rejects:?}");
+    for kind in ["truncated", "invalid", "too_large", "malformed"] {
+        assert!(kinds.contains(&kind), "{kind} not counted in {kinds:?}");
+    }
+
+    // Still alive: a right-hand intent is applied.
+    let capture = bus::now_ns();
+    haptic.put(capture, &HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 }).await.unwrap();
+    let a = wait_applied(&applied, Duration::from_secs(1), |a| a.device == "wiimote-right" && a.cause_capture_ns == capture).await;
+    assert!(matches!(a.action, AppliedAction::Rumble { right, .. } if right == 1.0));
+
+    // Shutdown leaves both motors off.
+    shutdown.trigger();
+    agent.await.expect("agent task").expect("agent ran cleanly");
+    assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
+    assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x10, 0x00]);
+}
