@@ -1,0 +1,305 @@
+//! Every tunable of the perception pipeline, with where its default comes from.
+//!
+//! "Thesis" means Taylor 2017 (BYU, augmented white cane), chapter 2; "measured" means a
+//! measurement on this project's captures or synthetic frames, named in the field doc.
+
+use serde::Deserialize;
+
+use schemas::CostFunction;
+
+/// Configuration of the whole pipeline (serde, every field defaulted).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct PerceptionConfig {
+    /// Cost function that drives [`super::Perception::rumble`]. Default FICF: the thesis's
+    /// primary function.
+    pub cost_function: CostFunction,
+    /// Keep every n-th pixel of every n-th row. The thesis used a 1 cm approximate voxel
+    /// grid, which only cut ~290k points to ~200k on our captures (PCL baseline); striding
+    /// the organized image keeps its structure and costs nothing. 2 = 76,800 of 307,200
+    /// pixels: a 12 cm box at 1.5 m still covers hundreds of them (measured, synthetic).
+    pub stride_px: u32,
+    /// Ground-plane search.
+    pub ground: GroundConfig,
+    /// Obstacle classification and the nearest-point scan.
+    pub scan: ScanConfig,
+    /// Fully-Integrated Cost Function (thesis eq. 2.11-2.13).
+    pub ficf: CostConfig,
+    /// Cushioned Avoidance Cost Function (thesis eq. 2.14-2.15).
+    pub cacf: CostConfig,
+    /// Beyond the thesis: debounce of the rumble state.
+    pub hysteresis: HysteresisConfig,
+    /// Beyond the thesis: obstacles remembered outside the field of view.
+    pub memory: MemoryConfig,
+    /// Beyond the thesis: missing or lower ground ahead.
+    pub dropoff: DropoffConfig,
+    /// Beyond the thesis: time to collision with approaching obstacles.
+    pub ttc: TtcConfig,
+}
+
+impl Default for PerceptionConfig {
+    fn default() -> Self {
+        Self {
+            cost_function: CostFunction::Ficf,
+            stride_px: 2,
+            ground: GroundConfig::default(),
+            scan: ScanConfig::default(),
+            ficf: CostConfig::ficf(),
+            cacf: CostConfig::cacf(),
+            hysteresis: HysteresisConfig::default(),
+            memory: MemoryConfig::default(),
+            dropoff: DropoffConfig::default(),
+            ttc: TtcConfig::default(),
+        }
+    }
+}
+
+/// RANSAC ground plane with a prior on the up direction.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct GroundConfig {
+    /// Largest angle between the plane normal and the prior up axis. Thesis: 20 deg around
+    /// camera -y. With an IMU gravity prior the same cone holds at any cane pitch.
+    pub up_cone_deg: f32,
+    /// RANSAC hypotheses. Thesis: 1000 on the whole cloud; we score each on a small random
+    /// subset (`sample_points`), and 200 already find the floor in every capture we have
+    /// (measured: five_people, TUM, desk with gravity, synthetic 10/30 deg pitch).
+    pub ransac_iterations: u32,
+    /// Size of the random subset RANSAC scores hypotheses on.
+    pub sample_points: usize,
+    /// Inlier distance for RANSAC scoring and the first least-squares pass. Thesis: 0.1 m;
+    /// at 0.1 m a tilted plane through a floor and a step 20 cm below it scores well.
+    pub ransac_band_m: f32,
+    /// Inlier distance of the second least-squares pass. Tighter than the thesis so 5 cm
+    /// obstacles stay obstacles.
+    pub refine_band_m: f32,
+    /// Fewest RANSAC inliers (fraction of the scored subset) for a plane to count as ground.
+    pub min_inlier_fraction: f32,
+    /// Lowest camera height over a ground candidate; rules out planes through the camera.
+    pub min_camera_height_m: f32,
+    /// Thesis false-ground guard: a new plane whose offset D is further than this from the
+    /// running average is rejected (a table top) and the average plane used instead.
+    pub max_offset_jump_m: f32,
+    /// Weight of a new plane in the running average (exponential).
+    pub average_weight: f32,
+    /// After this many consecutive guard rejections the new plane is taken as the truth
+    /// (the user really stepped up, or the cane height changed for good).
+    pub reseed_after_frames: u32,
+    /// Ground not found for more than this many frames in a row -> `Degraded`. 5 frames is
+    /// 170 ms at 30 Hz: shorter than a step, longer than one bad frame.
+    pub max_lost_frames: u32,
+    /// Seed of the deterministic RANSAC sampler (replays give identical output).
+    pub seed: u64,
+}
+
+impl Default for GroundConfig {
+    fn default() -> Self {
+        Self {
+            up_cone_deg: 20.0,
+            ransac_iterations: 200,
+            sample_points: 768,
+            ransac_band_m: 0.05,
+            refine_band_m: 0.03,
+            min_inlier_fraction: 0.08,
+            min_camera_height_m: 0.2,
+            max_offset_jump_m: 0.2,
+            average_weight: 0.3,
+            reseed_after_frames: 10,
+            max_lost_frames: 5,
+            seed: 0x5eed_ca9e,
+        }
+    }
+}
+
+/// Which points are obstacles, and the scan they make.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct ScanConfig {
+    /// A point is an obstacle when it is more than this above the plane, plus the depth
+    /// noise term below. The thesis removed everything within 0.1 m of the plane, which
+    /// erases curbs and bags; 4 cm keeps a 5 cm step.
+    pub min_obstacle_height_m: f32,
+    /// Depth-noise allowance added to the band: this times depth squared (Kinect-class
+    /// sensors: sigma ~ 1.2 mm * z^2, so 3.6e-3 is 3 sigma).
+    pub noise_per_depth_sq: f32,
+    /// Points higher than this above the ground are above the head (thesis: ~2.0 m).
+    pub max_obstacle_height_m: f32,
+    /// Horizontal ranges beyond this are not trusted (sensor range).
+    pub range_max_m: f32,
+    /// Bin width, degrees. Thesis: 1.
+    pub bin_deg: f32,
+    /// Horizontal field of view for organized xyz input (no intrinsics); `None` measures it
+    /// from the frame's own rays. Depth input always derives it from the intrinsics.
+    pub xyz_horizontal_fov_deg: Option<f32>,
+    /// Fewest obstacle points in a bin before its range counts (rejects lone flying pixels).
+    pub min_points_per_bin: u32,
+    /// Band multiplier while the previous (average) plane stands in for a lost ground
+    /// (thesis: the average plane is used "with a wider inlier band").
+    pub fallback_band_scale: f32,
+}
+
+impl Default for ScanConfig {
+    fn default() -> Self {
+        Self {
+            min_obstacle_height_m: 0.04,
+            noise_per_depth_sq: 3.6e-3,
+            max_obstacle_height_m: 2.0,
+            range_max_m: 5.0,
+            bin_deg: 1.0,
+            xyz_horizontal_fov_deg: None,
+            min_points_per_bin: 2,
+            fallback_band_scale: 2.0,
+        }
+    }
+}
+
+/// One of Taylor's cost functions: a forward region and a side region in front of the
+/// user, and two thresholds (see `cost_function` for the formula).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct CostConfig {
+    /// Width of the forward region, metres.
+    pub forward_width_m: f32,
+    /// Depth of the forward region, metres.
+    pub forward_depth_m: f32,
+    /// Width of the region whose halves give the left and right costs, metres.
+    pub side_width_m: f32,
+    /// Depth of the side region, metres.
+    pub side_depth_m: f32,
+    /// Forward cost at or above which the user must turn.
+    pub forward_threshold: f32,
+    /// Left and right costs both at or above this: blocked, stop.
+    pub side_threshold: f32,
+    /// Scale of every cost term (our stand-in for the thesis's "/100"): calibrated on the
+    /// thesis's own wall test so the forward threshold is crossed with the cane tip 75 cm
+    /// from the wall (see `cost_function` tests).
+    pub scale: f32,
+}
+
+impl CostConfig {
+    /// Thesis FICF: path 0.75 m wide, 3.5 m deep; thresholds forward 3.0, left-right 6.0.
+    pub fn ficf() -> Self {
+        Self {
+            forward_width_m: 0.75,
+            forward_depth_m: 3.5,
+            side_width_m: 0.75,
+            side_depth_m: 3.5,
+            forward_threshold: 3.0,
+            side_threshold: 6.0,
+            scale: 0.0238,
+        }
+    }
+
+    /// Thesis CACF: inner 0.5 m x 2.0 m, outer 1.5 m x 2.0 m; thresholds 3.8 and 7.0.
+    pub fn cacf() -> Self {
+        Self {
+            forward_width_m: 0.5,
+            forward_depth_m: 2.0,
+            side_width_m: 1.5,
+            side_depth_m: 2.0,
+            forward_threshold: 3.8,
+            side_threshold: 7.0,
+            scale: 0.385,
+        }
+    }
+}
+
+impl Default for CostConfig {
+    fn default() -> Self {
+        Self::ficf()
+    }
+}
+
+/// Debounce of the rumble state.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct HysteresisConfig {
+    /// Switch. Off: the rumble is the raw Table 2.1 state of every frame.
+    pub enabled: bool,
+    /// Frames a calmer state (clear, or the other side) must persist before it replaces the
+    /// current one. Escalations (clear -> warn, warn -> both) act at once: a late warning
+    /// is worse than a long one. 4 frames = 133 ms at 30 Hz.
+    pub relax_frames: u32,
+}
+
+impl Default for HysteresisConfig {
+    fn default() -> Self {
+        Self { enabled: true, relax_frames: 4 }
+    }
+}
+
+/// Egocentric memory of obstacles that left the view.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct MemoryConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Cell size, metres.
+    pub cell_m: f32,
+    /// Half extent of the square grid around the user, metres.
+    pub radius_m: f32,
+    /// A remembered obstacle is forgotten after this long unseen, nanoseconds (3 s: a
+    /// walking user covers ~4 m, beyond every cost region).
+    pub ttl_ns: u64,
+    /// Assumed vertical field of view for the visibility test of xyz input, degrees
+    /// (Kinect-class: 45).
+    pub xyz_vertical_fov_deg: f32,
+}
+
+impl Default for MemoryConfig {
+    fn default() -> Self {
+        Self { enabled: true, cell_m: 0.1, radius_m: 5.0, ttl_ns: 3_000_000_000, xyz_vertical_fov_deg: 45.0 }
+    }
+}
+
+/// Drop-off (step down, stairwell, platform edge) detection.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct DropoffConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Ground lower than the plane by more than this is a step down (a stair riser is
+    /// 15-18 cm; a curb 10-15 cm).
+    pub min_drop_m: f32,
+    /// Look this far ahead along the path, metres.
+    pub lookahead_m: f32,
+    /// Width of the path checked, metres (the FICF path).
+    pub path_width_m: f32,
+    /// Fraction of the expected ground samples in one slice of the path (an eighth of
+    /// `lookahead_m`) that must be lower or missing.
+    pub min_fraction: f32,
+    /// Fewest expected ground samples over the whole path (split evenly over the slices)
+    /// before the check says anything.
+    pub min_samples: u32,
+}
+
+impl Default for DropoffConfig {
+    fn default() -> Self {
+        Self { enabled: true, min_drop_m: 0.08, lookahead_m: 2.0, path_width_m: 0.75, min_fraction: 0.5, min_samples: 80 }
+    }
+}
+
+/// Time to collision from the frame-to-frame change of the nearest range in the path.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct TtcConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Width of the path watched, metres.
+    pub path_width_m: f32,
+    /// Closing speeds below this are noise, m/s.
+    pub min_closing_speed_m_s: f32,
+    /// Weight of a new closing-speed measurement (exponential smoothing).
+    pub smoothing: f32,
+    /// An obstacle closer in time than this raises a warning even below the cost
+    /// thresholds (a person walking towards the user).
+    pub warn_s: f32,
+    /// Range jumps larger than this between frames are a different obstacle, not motion.
+    pub max_step_m: f32,
+}
+
+impl Default for TtcConfig {
+    fn default() -> Self {
+        Self { enabled: true, path_width_m: 0.75, min_closing_speed_m_s: 0.3, smoothing: 0.5, warn_s: 2.0, max_step_m: 0.5 }
+    }
+}

@@ -1,0 +1,415 @@
+//! Obstacle perception: Taylor 2017 (BYU thesis, augmented white cane, ch. 2) and beyond.
+//!
+//! One depth frame from the cane camera becomes a nearest-point scan in the user frame,
+//! Taylor's two cost functions and his 4-state rumble (none / left / right / both), plus
+//! what the thesis lacked: memory of obstacles that left the view, drop-offs, time to
+//! collision and a debounced rumble. One module per stage:
+//!
+//! | stage | module | thesis |
+//! | --- | --- | --- |
+//! | strided sample of the organized image | [`organized_cloud`] | 1 cm voxel grid |
+//! | ground plane (RANSAC in a cone, least squares, false-ground guard) | [`ground_plane`] | sec. 2.2 |
+//! | ground removal, above-head removal, user frame, 1-degree scan | [`nearest_scan`] | sec. 2.2-2.3 |
+//! | FICF / CACF costs and Table 2.1 | [`cost_function`] | sec. 2.4 |
+//! | drop-offs, memory, TTC, debounce | [`dropoff`], [`obstacle_memory`], [`time_to_collision`], [`hysteresis`] | beyond |
+//! | haptic intent | [`cue`] | Table 2.1 + ISANA's beep rate |
+//!
+//! Pure library: no clock is read and no bus touched ([`InstantTimer`] is the shell's
+//! tool, passed in). [`Pipeline`] owns every buffer and is reused frame after frame.
+//! Bad input is an `Err` ([`PerceptionError::kind`] names a counter); a frame with no
+//! ground is reported as such (`Lost`, then `Degraded`), never as a clear path.
+
+pub mod config;
+pub mod cost_function;
+pub mod cue;
+pub mod dropoff;
+pub mod ground_plane;
+pub mod hysteresis;
+pub mod nearest_scan;
+pub mod obstacle_memory;
+pub mod organized_cloud;
+pub mod synthetic_scene;
+pub mod time_to_collision;
+
+use std::time::{Duration, Instant};
+
+use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
+
+pub use config::PerceptionConfig;
+pub use cue::{cue, cue_unavailable, CueConfig};
+
+use cost_function::{rumble, scan_points, side_costs};
+use dropoff::PathGround;
+use ground_plane::{GroundSearch, GroundTracker};
+use hysteresis::RumbleDebounce;
+use nearest_scan::{BinLayout, ScanBuilder, UserFrame};
+use obstacle_memory::{ObstacleMemory, ViewCone};
+use organized_cloud::SampledCloud;
+use time_to_collision::{nearest_in_path, ClosingSpeed};
+
+/// One organized depth frame, borrowed.
+#[derive(Debug, Clone, Copy)]
+pub enum DepthInput<'a> {
+    /// u16 depth image, row-major, 0 = invalid.
+    Depth {
+        /// Samples, `width * height` of them.
+        samples: &'a [u16],
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Metres per depth unit.
+        depth_scale_m: f32,
+        /// Pinhole intrinsics.
+        intrinsics: Intrinsics,
+    },
+    /// Organized points in the camera optical frame, row-major, NaN = invalid.
+    Xyz {
+        /// Points, `width * height` of them.
+        points: &'a [[f32; 3]],
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+    },
+}
+
+/// Planar motion of the user since the previous frame (user frame of the previous frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Forward translation, metres.
+    pub forward_m: f32,
+    /// Leftward translation, metres.
+    pub left_m: f32,
+    /// Heading change, radians, positive left.
+    pub yaw_rad: f32,
+}
+
+/// What else is known about the frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameContext {
+    /// Capture stamp, ns.
+    pub stamp_ns: u64,
+    /// Gravity in the camera frame (pointing down, any length), from the IMU.
+    pub gravity_camera: Option<[f32; 3]>,
+    /// User motion since the previous frame (odometry / IMU).
+    pub motion: Option<Motion>,
+}
+
+/// Times the pipeline's stages. The library calls `start`/`stop` around each stage and
+/// never reads a clock itself.
+pub trait StageTimer {
+    /// A stage begins.
+    fn start(&mut self, stage: &'static str);
+    /// The stage begun last ends.
+    fn stop(&mut self);
+}
+
+/// A timer that records nothing (tests, replays).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoTimer;
+
+impl StageTimer for NoTimer {
+    fn start(&mut self, _stage: &'static str) {}
+    fn stop(&mut self) {}
+}
+
+/// Wall-clock stage timer for the agent and benchmarks: durations of the stages since
+/// the last [`InstantTimer::clear`].
+#[derive(Debug, Default, Clone)]
+pub struct InstantTimer {
+    running: Option<(&'static str, Instant)>,
+    /// Stage name and duration, in the order they ran.
+    pub stages: Vec<(&'static str, Duration)>,
+}
+
+impl InstantTimer {
+    /// Forgets the recorded stages (keeps the buffer).
+    pub fn clear(&mut self) {
+        self.running = None;
+        self.stages.clear();
+    }
+}
+
+impl StageTimer for InstantTimer {
+    fn start(&mut self, stage: &'static str) {
+        self.running = Some((stage, Instant::now()));
+    }
+    fn stop(&mut self) {
+        if let Some((stage, t0)) = self.running.take() {
+            self.stages.push((stage, t0.elapsed()));
+        }
+    }
+}
+
+/// Why a frame gave no perception. Each is counted by [`PerceptionError::kind`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PerceptionError {
+    /// The sample count does not match width x height.
+    #[error("frame is {width}x{height} but holds {len} samples")]
+    SizeMismatch {
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// Samples present.
+        len: usize,
+    },
+    /// Intrinsics non-finite or with non-positive focal lengths.
+    #[error("unusable intrinsics {0:?}")]
+    BadIntrinsics(Intrinsics),
+    /// Depth scale non-finite or non-positive.
+    #[error("unusable depth scale {0} m per unit")]
+    BadDepthScale(f32),
+    /// Not a single valid depth in the frame (all NaN / all zero).
+    #[error("no valid depth in the frame")]
+    NoValidPoints,
+    /// No ground found, and none ever found to stand in for it.
+    #[error("ground not found ({lost_frames} frames in a row) and no earlier ground to use")]
+    GroundNotFound {
+        /// Frames in a row without ground.
+        lost_frames: u32,
+    },
+    /// The camera looks straight along the ground normal: no forward direction.
+    #[error("camera looks straight down or up: no forward direction")]
+    CameraAlongVertical,
+}
+
+impl PerceptionError {
+    /// Short stable name for reject counters.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            PerceptionError::SizeMismatch { .. } => "size_mismatch",
+            PerceptionError::BadIntrinsics(_) => "bad_intrinsics",
+            PerceptionError::BadDepthScale(_) => "bad_depth_scale",
+            PerceptionError::NoValidPoints => "no_valid_points",
+            PerceptionError::GroundNotFound { .. } => "no_ground",
+            PerceptionError::CameraAlongVertical => "camera_vertical",
+        }
+    }
+}
+
+/// Perception of one frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Perception {
+    /// Ground plane `[a, b, c, d]`, unit normal pointing up, camera optical frame (`d` =
+    /// camera height). While the ground is `Lost`/`Degraded`: the running plane in use.
+    pub plane_camera: [f32; 4],
+    /// Whether the ground was found in this frame.
+    pub ground: GroundState,
+    /// Valid depth pixels in the full frame.
+    pub points_valid: usize,
+    /// Nearest obstacle per bearing bin, user frame, angles positive left.
+    pub scan: Scan,
+    /// Fully-Integrated costs.
+    pub ficf: SideCosts,
+    /// Cushioned Avoidance costs.
+    pub cacf: SideCosts,
+    /// Raw Table 2.1 state from the FICF costs.
+    pub rumble_ficf: Rumble,
+    /// Raw Table 2.1 state from the CACF costs.
+    pub rumble_cacf: Rumble,
+    /// State of the configured cost function, escalated by drop-off and TTC, after
+    /// hysteresis: what the user should feel.
+    pub rumble: Rumble,
+    /// Nearest obstacle (scan or remembered), horizontal range, metres; `INFINITY` if none.
+    pub nearest_m: f32,
+    /// Bearing of the nearest obstacle, degrees, positive left (0 if none).
+    pub nearest_bearing_deg: f32,
+    /// Time to collision with the nearest approaching obstacle in the path, seconds.
+    pub ttc_s: Option<f32>,
+    /// Ground ahead missing or lower than the plane.
+    pub dropoff_ahead: bool,
+    /// What the rays into the path ahead found (drop-off evidence).
+    pub path_ground: PathGround,
+    /// Remembered obstacles out of view that the costs included (one per degree).
+    pub remembered: usize,
+    /// Obstacle points (above the band, below head height) in the sample.
+    pub obstacle_points: usize,
+}
+
+impl Perception {
+    /// The state before any frame: ground `Degraded`, nothing measured.
+    pub fn empty() -> Self {
+        Self {
+            plane_camera: [0.0; 4],
+            ground: GroundState::Degraded,
+            points_valid: 0,
+            scan: Scan { angle_min_deg: 0.0, angle_increment_deg: 1.0, ranges_m: Vec::new(), range_max_m: 0.0 },
+            ficf: SideCosts::default(),
+            cacf: SideCosts::default(),
+            rumble_ficf: Rumble::None,
+            rumble_cacf: Rumble::None,
+            rumble: Rumble::None,
+            nearest_m: f32::INFINITY,
+            nearest_bearing_deg: 0.0,
+            ttc_s: None,
+            dropoff_ahead: false,
+            path_ground: PathGround::default(),
+            remembered: 0,
+            obstacle_points: 0,
+        }
+    }
+}
+
+/// The whole pipeline with its reusable buffers and the state carried between frames
+/// (running ground, memory grid, closing speed, debounce).
+#[derive(Debug)]
+pub struct Pipeline {
+    config: PerceptionConfig,
+    cloud: SampledCloud,
+    search: GroundSearch,
+    tracker: GroundTracker,
+    layout: Option<BinLayout>,
+    scan: ScanBuilder,
+    memory: ObstacleMemory,
+    closing: ClosingSpeed,
+    debounce: RumbleDebounce,
+    cost_points: Vec<[f32; 2]>,
+    out: Perception,
+}
+
+impl Pipeline {
+    /// A pipeline with `config`.
+    pub fn new(config: PerceptionConfig) -> Self {
+        Self {
+            search: GroundSearch::new(config.ground.seed),
+            config,
+            cloud: SampledCloud::default(),
+            tracker: GroundTracker::default(),
+            layout: None,
+            scan: ScanBuilder::default(),
+            memory: ObstacleMemory::default(),
+            closing: ClosingSpeed::default(),
+            debounce: RumbleDebounce::default(),
+            cost_points: Vec::new(),
+            out: Perception::empty(),
+        }
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &PerceptionConfig {
+        &self.config
+    }
+
+    /// Runs every stage on one frame.
+    pub fn process(
+        &mut self,
+        input: DepthInput<'_>,
+        ctx: &FrameContext,
+        timer: &mut dyn StageTimer,
+    ) -> Result<&Perception, PerceptionError> {
+        let cfg = &self.config;
+        timer.start("sample");
+        let sampled = match input {
+            DepthInput::Depth { samples, width, height, depth_scale_m, intrinsics } => {
+                self.cloud.from_depth(samples, width, height, depth_scale_m, intrinsics, cfg.stride_px)
+            }
+            DepthInput::Xyz { points, width, height } => self.cloud.from_xyz(
+                points,
+                width,
+                height,
+                cfg.stride_px,
+                cfg.scan.xyz_horizontal_fov_deg,
+                cfg.memory.xyz_vertical_fov_deg,
+            ),
+        };
+        timer.stop();
+        sampled?;
+        let gravity = ctx.gravity_camera.filter(|g| g.iter().all(|v| v.is_finite()));
+
+        timer.start("ground_plane");
+        let fit = if self.cloud.valid.len() >= 3 {
+            let up = self.tracker.prior_up(gravity, &cfg.ground);
+            self.search.fit(&self.cloud, up, &cfg.ground)
+        } else {
+            None
+        };
+        let decision = self.tracker.update(fit, gravity, &cfg.ground);
+        timer.stop();
+        if self.cloud.valid.is_empty() {
+            return Err(PerceptionError::NoValidPoints);
+        }
+        let decision = decision.ok_or(PerceptionError::GroundNotFound { lost_frames: self.tracker.lost_frames() })?;
+        let frame = UserFrame::from_plane(&decision.plane).ok_or(PerceptionError::CameraAlongVertical)?;
+        let view = self.cloud.view.unwrap_or(organized_cloud::ViewGeometry { half_hfov_rad: 0.5, half_vfov_rad: 0.4 });
+
+        timer.start("nearest_scan");
+        let layout = match self.layout.take() {
+            Some(l) if l.fits(view.half_hfov_rad, cfg.scan.bin_deg) => l,
+            _ => BinLayout::for_fov(view.half_hfov_rad, cfg.scan.bin_deg),
+        };
+        let band_scale = if decision.state == GroundState::Found { 1.0 } else { cfg.scan.fallback_band_scale };
+        let out = &mut self.out;
+        self.scan.build(&self.cloud, &frame, &layout, &cfg.scan, band_scale, &mut out.scan);
+        timer.stop();
+
+        timer.start("dropoff");
+        out.path_ground =
+            if cfg.dropoff.enabled { dropoff::survey(&self.cloud, &frame, &cfg.dropoff) } else { PathGround::default() };
+        out.dropoff_ahead = cfg.dropoff.enabled && out.path_ground.is_dropoff();
+        timer.stop();
+
+        timer.start("memory");
+        self.cost_points.clear();
+        self.cost_points.extend(scan_points(&out.scan));
+        if cfg.memory.enabled {
+            let cone = ViewCone {
+                half_hfov_rad: view.half_hfov_rad,
+                half_vfov_rad: view.half_vfov_rad,
+                pitch_down_rad: frame.pitch_down_rad(),
+                camera_height_m: decision.plane.offset_m,
+                range_max_m: cfg.scan.range_max_m,
+            };
+            let heights = &self.scan.heights_m;
+            let seen = self.cost_points.iter().zip(
+                out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h),
+            );
+            self.memory.update(ctx.stamp_ns, ctx.motion, &cone, seen.map(|(p, h)| [p[0], p[1], h]), &cfg.memory);
+            self.cost_points.extend_from_slice(&self.memory.out_of_view);
+            out.remembered = self.memory.out_of_view.len();
+        } else {
+            out.remembered = 0;
+        }
+        timer.stop();
+
+        timer.start("cost_function");
+        out.ficf = side_costs(self.cost_points.iter().copied(), &cfg.ficf);
+        out.cacf = side_costs(self.cost_points.iter().copied(), &cfg.cacf);
+        out.rumble_ficf = rumble(&out.ficf, &cfg.ficf);
+        out.rumble_cacf = rumble(&out.cacf, &cfg.cacf);
+        let nearest = self.cost_points.iter().map(|p| (p[0].hypot(p[1]), p)).min_by(|a, b| a.0.total_cmp(&b.0));
+        (out.nearest_m, out.nearest_bearing_deg) = match nearest {
+            Some((r, p)) => (r, p[1].atan2(p[0]).to_degrees()),
+            None => (f32::INFINITY, 0.0),
+        };
+        out.ttc_s = if cfg.ttc.enabled {
+            let ahead = nearest_in_path(self.cost_points.iter().copied(), cfg.ttc.path_width_m);
+            self.closing.update(ctx.stamp_ns, ahead, &cfg.ttc)
+        } else {
+            None
+        };
+        let mut raw = match cfg.cost_function {
+            CostFunction::Ficf => out.rumble_ficf,
+            CostFunction::Cacf => out.rumble_cacf,
+        };
+        if raw == Rumble::None && out.ttc_s.is_some_and(|t| t < cfg.ttc.warn_s) {
+            // turn away from the side the approaching obstacle is on
+            raw = if out.nearest_bearing_deg >= 0.0 { Rumble::Right } else { Rumble::Left };
+        }
+        if out.dropoff_ahead {
+            raw = Rumble::Both;
+        }
+        out.rumble = self.debounce.update(raw, &cfg.hysteresis);
+        out.plane_camera = decision.plane.coefficients();
+        out.ground = decision.state;
+        out.points_valid = self.cloud.points_valid;
+        out.obstacle_points = self.scan.obstacle_points;
+        timer.stop();
+        self.layout = Some(layout);
+        Ok(&self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests;
