@@ -1,0 +1,61 @@
+//! Codec speed and ratio on the real depth PNGs in `../shared/data/real` (one core).
+//! `cargo bench -p schemas --bench depth_codec` prints, per file and mode, the packed
+//! size, the ratio to raw u16 and the median encode / decode time over 200 runs.
+
+use std::time::Instant;
+
+use schemas::depth_codec::{DepthDecoder, DepthEncoder};
+use schemas::DepthEncoding;
+
+fn median_us(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real");
+    let runs = 200;
+    // 5 mm in each file's units: TUM stores 5000 per metre, Redwood millimetres.
+    for (name, step_5mm) in [("tum_depth_640x480_u16_5000perm.png", 25), ("redwood_00000_depth_640x480_u16_mm.png", 5)] {
+        let path = format!("{dir}/{name}");
+        let Ok(file) = std::fs::File::open(&path) else {
+            println!("skipping {path}: not present");
+            continue;
+        };
+        let Ok(mut reader) = png::Decoder::new(std::io::BufReader::new(file)).read_info() else {
+            println!("skipping {path}: not a PNG");
+            continue;
+        };
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let Ok(info) = reader.next_frame(&mut buf) else {
+            println!("skipping {path}: does not decode");
+            continue;
+        };
+        let samples: Vec<u16> = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
+        let (w, h) = (info.width, info.height);
+        for mode in [DepthEncoding::Lossless, DepthEncoding::Bounded { step: step_5mm }] {
+            let mut enc = DepthEncoder::new();
+            let mut dec = DepthDecoder::new();
+            let mut packed = Vec::new();
+            let mut back = Vec::new();
+            let mut enc_us = Vec::with_capacity(runs);
+            let mut dec_us = Vec::with_capacity(runs);
+            for _ in 0..runs {
+                let t = Instant::now();
+                enc.encode(&samples, w, h, mode, &mut packed).expect("real frame packs");
+                enc_us.push(t.elapsed().as_secs_f64() * 1e6);
+                let t = Instant::now();
+                dec.decode(&packed, w, h, mode, &mut back).expect("own payload unpacks");
+                dec_us.push(t.elapsed().as_secs_f64() * 1e6);
+            }
+            let max_err = samples.iter().zip(&back).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
+            println!(
+                "{name:42} {mode:?}: {} bytes, {:.2}x, encode {:.0} us, decode {:.0} us, max error {max_err}",
+                packed.len(),
+                (samples.len() * 2) as f64 / packed.len() as f64,
+                median_us(enc_us),
+                median_us(dec_us),
+            );
+        }
+    }
+}

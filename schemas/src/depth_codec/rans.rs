@@ -1,0 +1,274 @@
+//! Range asymmetric numeral systems (rANS, Duda 2013, "Asymmetric numeral systems",
+//! arXiv:1311.2540, section 4) with per-context static models: a 32-bit state,
+//! 16-bit renormalisation and 12-bit probabilities.
+//!
+//! Symbols are encoded last to first so the decoder reads forward. The encoder starts
+//! from `STATE_LOW`; a decoder that does not end there, or runs out of words, has been
+//! fed a corrupt stream.
+
+/// Probability resolution: every model's frequencies sum to `1 << PROB_BITS`.
+pub const PROB_BITS: u32 = 12;
+const PROB_SCALE: u32 = 1 << PROB_BITS;
+const SLOT_MASK: u32 = PROB_SCALE - 1;
+/// Lower bound of the normalised state interval `[STATE_LOW, STATE_LOW << 16)`.
+const STATE_LOW: u32 = 1 << 16;
+
+/// Why a stream or a model does not decode.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RansError {
+    /// A model's frequencies do not sum to the probability scale.
+    BadModel,
+    /// The stream ended early, or left the state where the encoder did not start.
+    BadStream,
+}
+
+/// Normalised frequencies of one context: `freq[s]` out of `1 << PROB_BITS`.
+#[derive(Debug, Clone)]
+pub struct Model {
+    freq: [u16; 256],
+    start: [u16; 256],
+}
+
+impl Model {
+    /// A model from raw symbol counts: every counted symbol gets at least one slot.
+    /// All-zero counts give an empty model (no symbol can be coded with it).
+    pub fn from_counts(counts: &[u32; 256]) -> Model {
+        let total: u64 = counts.iter().map(|&c| c as u64).sum();
+        let mut freq = [0u16; 256];
+        if total == 0 {
+            return Model { freq, start: [0; 256] };
+        }
+        let mut sum: i64 = 0;
+        for (f, &c) in freq.iter_mut().zip(counts) {
+            if c > 0 {
+                *f = ((c as u64 * PROB_SCALE as u64 + total / 2) / total).max(1) as u16;
+                sum += *f as i64;
+            }
+        }
+        // Rounding leaves the sum a little off the scale: settle the difference on the
+        // most frequent symbols, never taking one below a single slot.
+        while sum != PROB_SCALE as i64 {
+            let (best, _) = freq
+                .iter()
+                .enumerate()
+                .filter(|(_, &f)| sum < PROB_SCALE as i64 || f > 1)
+                .max_by_key(|(i, &f)| (f, std::cmp::Reverse(*i)))
+                .unwrap_or((0, &0));
+            let step = (PROB_SCALE as i64 - sum).clamp(-(freq[best] as i64 - 1), PROB_SCALE as i64);
+            freq[best] = (freq[best] as i64 + step) as u16;
+            sum += step;
+        }
+        Model::from_freq(freq)
+    }
+
+    fn from_freq(freq: [u16; 256]) -> Model {
+        let mut start = [0u16; 256];
+        let mut acc = 0u32;
+        for (s, &f) in start.iter_mut().zip(&freq) {
+            *s = acc as u16;
+            acc += f as u32;
+        }
+        Model { freq, start }
+    }
+
+    /// Appends the model: the count of symbols up to the last used one, then each
+    /// frequency as a varint.
+    pub fn write(&self, out: &mut Vec<u8>) {
+        let used = self.freq.iter().rposition(|&f| f > 0).map_or(0, |i| i + 1);
+        super::put_varint(out, used as u32);
+        for &f in &self.freq[..used] {
+            super::put_varint(out, f as u32);
+        }
+    }
+
+    /// Reads a model written by [`Model::write`]; empty models are allowed.
+    pub fn read(cursor: &mut super::Cursor) -> Option<Result<Model, RansError>> {
+        let used = cursor.varint()? as usize;
+        if used > 256 {
+            return Some(Err(RansError::BadModel));
+        }
+        let mut freq = [0u16; 256];
+        let mut sum = 0u32;
+        for f in &mut freq[..used] {
+            let v = cursor.varint()?;
+            if v > PROB_SCALE {
+                return Some(Err(RansError::BadModel));
+            }
+            *f = v as u16;
+            sum += v;
+        }
+        if sum != PROB_SCALE && sum != 0 {
+            return Some(Err(RansError::BadModel));
+        }
+        Some(Ok(Model::from_freq(freq)))
+    }
+
+    fn is_empty(&self) -> bool {
+        self.freq.iter().all(|&f| f == 0)
+    }
+}
+
+/// Encodes `symbols[i]` with `models[contexts[i]]` into 16-bit words (cleared first),
+/// in the order the decoder reads them. Every symbol must have a non-zero frequency
+/// in its model (true when the models were counted from these symbols).
+pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec<u16>) {
+    words.clear();
+    let mut x = STATE_LOW;
+    for (&s, &c) in symbols.iter().zip(contexts).rev() {
+        let m = &models[c as usize];
+        let f = m.freq[s as usize] as u32;
+        debug_assert!(f > 0, "symbol {s} not in model {c}");
+        let limit = ((STATE_LOW >> PROB_BITS) as u64) << 16;
+        if x as u64 >= limit * f as u64 {
+            words.push(x as u16);
+            x >>= 16;
+        }
+        x = ((x / f) << PROB_BITS) + (x % f) + m.start[s as usize] as u32;
+    }
+    words.push(x as u16);
+    words.push((x >> 16) as u16);
+    words.reverse();
+}
+
+/// Decoding table of one model: per slot, the symbol, its frequency minus one and
+/// the slot's offset within the symbol's range, packed `sym | (freq-1) << 8 | off << 20`.
+#[derive(Debug, Clone)]
+pub struct Table {
+    entries: Vec<u32>,
+}
+
+impl Table {
+    /// An empty table; [`Table::fill`] makes it usable.
+    pub fn new() -> Table {
+        Table { entries: vec![0; PROB_SCALE as usize] }
+    }
+
+    /// Rebuilds the table for `model` (an empty model decodes nothing: every slot
+    /// yields an impossible frequency check failure at the end of the stream).
+    pub fn fill(&mut self, model: &Model) {
+        if model.is_empty() {
+            self.entries.iter_mut().for_each(|e| *e = 0);
+            return;
+        }
+        let mut slot = 0usize;
+        for s in 0..256usize {
+            let f = model.freq[s] as u32;
+            for off in 0..f {
+                self.entries[slot] = s as u32 | ((f - 1) << 8) | (off << 20);
+                slot += 1;
+            }
+        }
+    }
+}
+
+/// Reads symbols from a word stream written by [`encode`].
+pub struct Decoder<'a> {
+    words: &'a [u16],
+    pos: usize,
+    x: u32,
+    overrun: bool,
+}
+
+impl<'a> Decoder<'a> {
+    /// Starts decoding; a stream shorter than its two state words is corrupt.
+    pub fn new(words: &'a [u16]) -> Result<Decoder<'a>, RansError> {
+        match words {
+            [hi, lo, ..] => Ok(Decoder { words, pos: 2, x: (*hi as u32) << 16 | *lo as u32, overrun: false }),
+            _ => Err(RansError::BadStream),
+        }
+    }
+
+    /// The next symbol under `table`'s model.
+    #[inline(always)]
+    pub fn symbol(&mut self, table: &Table) -> u8 {
+        let slot = self.x & SLOT_MASK;
+        let e = table.entries[slot as usize];
+        let f = ((e >> 8) & 0xfff) + 1;
+        self.x = f * (self.x >> PROB_BITS) + (e >> 20);
+        if self.x < STATE_LOW {
+            match self.words.get(self.pos) {
+                Some(&w) => self.x = self.x << 16 | w as u32,
+                None => self.overrun = true,
+            }
+            self.pos += 1;
+        }
+        e as u8
+    }
+
+    /// Checks the stream ended where the encoder began: every word used, state back
+    /// at its start value.
+    pub fn finish(self) -> Result<(), RansError> {
+        if self.overrun || self.pos != self.words.len() || self.x != STATE_LOW {
+            return Err(RansError::BadStream);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn round_trip(symbols: &[u8], contexts: &[u8], n_ctx: usize) -> usize {
+        let mut counts = vec![[0u32; 256]; n_ctx];
+        for (&s, &c) in symbols.iter().zip(contexts) {
+            counts[c as usize][s as usize] += 1;
+        }
+        let models: Vec<Model> = counts.iter().map(Model::from_counts).collect();
+        let mut words = Vec::new();
+        encode(symbols, contexts, &models, &mut words);
+        let tables: Vec<Table> = models
+            .iter()
+            .map(|m| {
+                let mut t = Table::new();
+                t.fill(m);
+                t
+            })
+            .collect();
+        let mut dec = Decoder::new(&words).unwrap();
+        for (i, (&s, &c)) in symbols.iter().zip(contexts).enumerate() {
+            assert_eq!(dec.symbol(&tables[c as usize]), s, "symbol {i}");
+        }
+        dec.finish().unwrap();
+        words.len() * 2
+    }
+
+    #[test]
+    fn skewed_source_codes_below_one_bit_per_symbol() {
+        // 99 % zeros: entropy ~0.08 bit/symbol, far below Huffman's 1-bit floor.
+        let symbols: Vec<u8> = (0..100_000u32).map(|i| if i % 100 == 7 { (i % 5 + 1) as u8 } else { 0 }).collect();
+        let bytes = round_trip(&symbols, &vec![0; symbols.len()], 1);
+        assert!(bytes < 100_000 / 8 / 5, "{bytes} bytes");
+    }
+
+    #[test]
+    fn contexts_select_their_own_models() {
+        let symbols: Vec<u8> = (0..5000u32).map(|i| (i * 7 % 251) as u8).collect();
+        let contexts: Vec<u8> = (0..5000u32).map(|i| (i % 3) as u8).collect();
+        round_trip(&symbols, &contexts, 3);
+    }
+
+    #[test]
+    fn every_byte_value_round_trips() {
+        let symbols: Vec<u8> = (0..=255u8).chain(0..=255).collect();
+        round_trip(&symbols, &vec![0; symbols.len()], 1);
+    }
+
+    #[test]
+    fn single_symbol_model_costs_nothing() {
+        let bytes = round_trip(&[9; 10_000], &[0; 10_000], 1);
+        assert_eq!(bytes, 4);
+    }
+
+    #[test]
+    fn normalised_frequencies_sum_to_scale_and_keep_rare_symbols() {
+        let mut counts = [0u32; 256];
+        counts[0] = 10_000_000;
+        for c in counts.iter_mut().skip(1) {
+            *c = 1;
+        }
+        let m = Model::from_counts(&counts);
+        assert_eq!(m.freq.iter().map(|&f| f as u32).sum::<u32>(), PROB_SCALE);
+        assert!(m.freq.iter().all(|&f| f >= 1));
+    }
+}
