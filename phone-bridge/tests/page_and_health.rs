@@ -1,0 +1,82 @@
+//! The bridge serves its page and a health view that reflects the bus.
+
+use std::time::Duration;
+
+use bus::{BusOptions, Lane, Publisher, Shutdown};
+use schemas::{CostFunction, GroundState, Hazard, Rumble, SideCosts};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+async fn get(addr: std::net::SocketAddr, path: &str) -> (u16, String) {
+    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect to the bridge");
+    let request = format!("GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
+    stream.write_all(request.as_bytes()).await.unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).await.unwrap();
+    let status = response.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let body = response.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
+    (status, body)
+}
+
+fn hazard(rumble: Rumble) -> Hazard {
+    Hazard {
+        frame_seq: 1,
+        ficf: SideCosts::default(),
+        cacf: SideCosts::default(),
+        active: CostFunction::Ficf,
+        rumble,
+        ground: GroundState::Found,
+        plane_camera: [0.0, -1.0, 0.0, 1.0],
+        nearest_m: 0.7,
+        nearest_bearing_deg: 0.0,
+        ttc_s: None,
+        dropoff_ahead: false,
+        latency: vec![],
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn page_is_served_and_health_shows_agents_and_the_last_hazard() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let mut hub = BusOptions::for_user("phone-test");
+    hub.listen = vec![endpoint.clone()];
+    hub.no_multicast = true;
+    let session = bus::open_session(&hub).await.unwrap();
+
+    let mut bridge_bus = BusOptions::for_user("phone-test");
+    bridge_bus.connect = vec![endpoint];
+    bridge_bus.no_multicast = true;
+    let mut config = phone_bridge::PhoneConfig::new(bridge_bus);
+    config.http = "127.0.0.1:0".parse().unwrap();
+    let shutdown = Shutdown::new();
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let bridge = tokio::spawn(phone_bridge::run(config, shutdown.clone(), Some(tx)));
+    let addr = tokio::time::timeout(Duration::from_secs(10), rx).await.unwrap().unwrap();
+
+    let (status, page) = get(addr, "/").await;
+    assert_eq!(status, 200);
+    assert!(page.contains("<title>wearnav</title>") && page.contains("aria-live"), "{page}");
+
+    let keys = hub.keys().unwrap();
+    let _token = session.liveliness().declare_token(keys.health("compute-agent")).await.unwrap();
+    let mut publisher =
+        Publisher::<Hazard>::declare(&session, keys.hazard(), "test", Lane::Perception, None).await.unwrap();
+    let mut view = serde_json::Value::Null;
+    for _ in 0..50 {
+        publisher.put(bus::now_ns(), &hazard(Rumble::Left)).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        let (status, body) = get(addr, "/health").await;
+        assert_eq!(status, 200);
+        view = serde_json::from_str(&body).unwrap();
+        if view["last_rumble"] == "left" && view["agents_alive"].to_string().contains("compute-agent") {
+            break;
+        }
+    }
+    assert_eq!(view["last_rumble"], "left", "{view}");
+    assert_eq!(view["last_ground"], "found", "{view}");
+    assert!(view["agents_alive"].to_string().contains("compute-agent"), "{view}");
+    assert!(view["agents_alive"].to_string().contains("phone-bridge"), "{view}");
+
+    shutdown.trigger();
+    tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
+}
