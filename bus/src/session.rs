@@ -84,3 +84,35 @@ pub async fn open_session(opts: &BusOptions) -> anyhow::Result<Session> {
         .map_err(|e| anyhow!("{e}"))
         .context("cannot open the Zenoh session (check --connect/--listen endpoints and the config file)")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn deploy_configs_load_and_flags_override_them() {
+        for file in ["peer-lan.json5", "loopback-test.json5"] {
+            let mut opts = BusOptions::for_user("x");
+            opts.zenoh_config = Some(PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/")).join(file));
+            opts.connect = vec!["tcp/127.0.0.1:7447".into()];
+            let config = zenoh_config(&opts).unwrap_or_else(|e| panic!("{file}: {e:#}"));
+            let connect = config.get_json("connect/endpoints").unwrap();
+            assert!(connect.contains("tcp/127.0.0.1:7447"), "{file}: {connect}");
+        }
+    }
+
+    #[test]
+    fn a_missing_config_file_is_named_in_the_error() {
+        let mut opts = BusOptions::for_user("x");
+        opts.zenoh_config = Some(PathBuf::from("/nonexistent/zenoh.json5"));
+        let err = format!("{:#}", zenoh_config(&opts).unwrap_err());
+        assert!(err.contains("/nonexistent/zenoh.json5"), "{err}");
+    }
+
+    #[test]
+    fn bad_endpoints_are_refused() {
+        let mut opts = BusOptions::for_user("x");
+        opts.connect = vec!["not an endpoint".into()];
+        assert!(zenoh_config(&opts).is_err());
+    }
+}
