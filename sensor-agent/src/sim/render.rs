@@ -144,6 +144,7 @@ impl Renderer {
 
     /// Which obstacle each pixel of the last rendered frame saw (an [`ObstacleId`]'s
     /// number, [`FLOOR_PIXEL`] or [`EMPTY_PIXEL`]), before the error model; row-major.
+    /// Shapes wholly beyond the camera's range limit are not drawn at all.
     pub fn obstacle_ids(&self) -> &[u32] {
         &self.ids
     }
@@ -515,5 +516,190 @@ impl Renderer {
             let measured = z + noise * z * z * self.normals[(bits & mask) as usize];
             *o = (measured * DEPTH_UNITS_PER_M).round().clamp(1.0, u16::MAX as f32) as u16;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str = "name = \"t\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 1.0, y_m = 0.0 }\n";
+
+    fn world(items: &str) -> World {
+        match World::from_toml(&format!("{HEAD}{items}"), "test") {
+            Ok(w) => w,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    fn render(world: &World, pose: &CameraPose, seed: u64) -> (Renderer, Vec<u16>) {
+        let mut r = Renderer::new(CameraProfile::xtion());
+        let mut out = Vec::new();
+        r.render(world, pose, 0.0, &mut SimRng::seed_from(seed), &mut out);
+        (r, out)
+    }
+
+    /// Valid samples (mm) in a square window around a pixel.
+    fn window(depth: &[u16], u: usize, v: usize, half: usize) -> Vec<f64> {
+        let mut out = Vec::new();
+        for y in v - half..=v + half {
+            for x in u - half..=u + half {
+                let d = depth[y * 640 + x];
+                if d != 0 {
+                    out.push(d as f64);
+                }
+            }
+        }
+        out
+    }
+
+    fn mean(xs: &[f64]) -> f64 {
+        xs.iter().sum::<f64>() / xs.len() as f64
+    }
+
+    #[test]
+    fn empty_floor_seen_from_1m_pitched_30deg_reads_the_analytic_depth() {
+        let w = world("");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 1.0, 0.0, 30f64.to_radians(), 0);
+        let (r, depth) = render(&w, &pose, 1);
+        let k = r.intrinsics();
+        let sigma_mm = CameraProfile::xtion().noise_sigma_m(2.0) * 1000.0;
+        let mut analytic = Vec::new();
+        let mut measured = Vec::new();
+        for v in 236..=244usize {
+            for u in 316..=324usize {
+                let ray = Vector3::new((u as f64 - k.cx as f64) / k.fx as f64, (v as f64 - k.cy as f64) / k.fy as f64, 1.0);
+                let dz = (pose.camera_to_map * ray).z;
+                let exact_mm = -1.0 / dz * 1000.0;
+                let d = depth[v * 640 + u];
+                if d != 0 {
+                    assert!((d as f64 - exact_mm).abs() < 5.0 * sigma_mm, "pixel ({u},{v}): {d} vs {exact_mm}");
+                    analytic.push(exact_mm);
+                    measured.push(d as f64);
+                }
+            }
+        }
+        // The optical axis meets the floor 2 m away (1 m / sin 30 deg).
+        assert!((mean(&analytic) - 2000.0).abs() < 15.0, "{}", mean(&analytic));
+        assert!(measured.len() >= 75, "only {} of 81 pixels valid", measured.len());
+        let bias = mean(&measured) - mean(&analytic);
+        assert!(bias.abs() < 3.0 * sigma_mm / (measured.len() as f64).sqrt() + 0.5, "bias {bias} mm");
+    }
+
+    #[test]
+    fn wall_2m_straight_ahead_reads_2000mm_at_the_centre() {
+        // 10 cm thick wall centred at x = 2.05: its face is at 2.0 m.
+        let w = world("[[walls]]\nfrom = [2.05, -3.0]\nto = [2.05, 3.0]\n");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        let (r, depth) = render(&w, &pose, 2);
+        let samples = window(&depth, 320, 240, 3);
+        assert!(samples.len() >= 45, "{} valid", samples.len());
+        let sigma_mm = CameraProfile::xtion().noise_sigma_m(2.0) * 1000.0;
+        for s in &samples {
+            assert!((s - 2000.0).abs() < 5.0 * sigma_mm, "{s}");
+        }
+        assert!((mean(&samples) - 2000.0).abs() < 3.0, "{}", mean(&samples));
+        assert_eq!(r.obstacle_ids()[240 * 640 + 320], 0);
+    }
+
+    #[test]
+    fn head_high_obstacle_appears_only_in_the_upper_rows() {
+        let w = world("[[hanging]]\ncenter = [2.15, 0.0]\nsize_m = [0.3, 0.8]\nbottom_m = 1.55\ntop_m = 1.85\n");
+        // Level camera at the cane camera's height: the sign is 18-24 degrees up.
+        let level = CameraPose::from_yaw_pitch(0.0, 0.0, 0.885, 0.0, 0.0, 0);
+        let (r, depth) = render(&w, &level, 3);
+        let rows: Vec<usize> = (0..640 * 480).filter(|&i| r.obstacle_ids()[i] == 0 && depth[i] != 0).map(|i| i / 640).collect();
+        assert!(rows.len() > 1000, "sign covers {} valid pixels", rows.len());
+        let lowest = rows.iter().max().copied().unwrap_or(0);
+        // Bottom face's far edge: atan(0.665 / 2.3) = 16.1 deg up, row ~ 72.
+        assert!(lowest < 80, "sign seen down to row {lowest}");
+        // Pitched 30 degrees down, as on the cane, the camera's top ray is 7.5 degrees
+        // below the horizon: the head-high sign is out of view (Taylor's contacts).
+        let cane = CameraPose::from_yaw_pitch(0.0, 0.0, 0.885, 0.0, 30f64.to_radians(), 0);
+        let (r, _) = render(&w, &cane, 3);
+        assert!(!r.saw_obstacle(ObstacleId(0)));
+    }
+
+    #[test]
+    fn nothing_is_reported_beyond_the_range_limit() {
+        let far = world("[[walls]]\nfrom = [6.05, -5.0]\nto = [6.05, 5.0]\n");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        let (r, depth) = render(&far, &pose, 4);
+        assert!(window(&depth, 320, 240, 5).is_empty(), "wall at 6 m must read 0");
+        // Wholly beyond the range limit, the wall is not even drawn.
+        assert_eq!(r.obstacle_ids()[200 * 640 + 320], EMPTY_PIXEL);
+        let max_mm = depth.iter().copied().max().unwrap_or(0);
+        let limit_mm = 4500.0 + 4.0 * CameraProfile::xtion().noise_sigma_m(4.5) * 1000.0;
+        assert!((max_mm as f64) < limit_mm, "max reading {max_mm} mm");
+        // Between the reliable limit and the range limit readings thin out but exist.
+        let near = world("[[walls]]\nfrom = [4.05, -5.0]\nto = [4.05, 5.0]\n");
+        let (_, depth) = render(&near, &pose, 4);
+        let valid = window(&depth, 320, 200, 10).len();
+        assert!((200..400).contains(&valid), "{valid} of 441 valid at 4 m (about 75 % expected)");
+    }
+
+    #[test]
+    fn same_seed_renders_the_same_frame_and_another_seed_differs() {
+        let w = World::builtin("taylor-course").and_then(Result::ok).map_or_else(|| panic!("taylor-course"), |w| w);
+        let pose = CameraPose::from_yaw_pitch(0.7, 5.0, 0.885, 0.0, 30f64.to_radians(), 0);
+        let (_, a) = render(&w, &pose, 9);
+        let (_, b) = render(&w, &pose, 9);
+        let (_, c) = render(&w, &pose, 10);
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+    }
+
+    #[test]
+    fn projector_shadow_blanks_background_left_of_a_near_box() {
+        let w = world(
+            "[[walls]]\nfrom = [3.05, -5.0]\nto = [3.05, 5.0]\n[[boxes]]\ncenter = [1.25, -0.5]\nsize_m = [0.5, 1.0]\ntop_m = 2.0\n",
+        );
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        let (r, depth) = render(&w, &pose, 5);
+        let row = 240 * 640;
+        let ids = &r.obstacle_ids()[row..row + 640];
+        // The box spans y in [-1, 0] at x = 1: its left edge is at the image centre.
+        let edge = (0..640).find(|&u| ids[u] == 1).unwrap_or(640);
+        assert!((318..=322).contains(&edge), "box edge at column {edge}");
+        // Band width fx * baseline * (1/1 - 1/3) = 28.9 px of wall without depth.
+        let band = (0..edge).rev().take_while(|&u| depth[row + u] == 0).count();
+        assert!((26..=32).contains(&band), "shadow band {band} px");
+        let beyond: usize = (edge - 40..edge - 32).filter(|&u| depth[row + u] != 0).count();
+        assert!(beyond >= 6, "wall beyond the band must read");
+    }
+
+    #[test]
+    fn drop_off_reads_deeper_than_the_floor_around_it() {
+        let w = world("[[floor_regions]]\ncenter = [2.0, 0.0]\nsize_m = [1.0, 2.0]\nheight_m = -0.3\n");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 1.0, 0.0, 30f64.to_radians(), 0);
+        let (_, depth) = render(&w, &pose, 6);
+        // The optical axis passes the rim at 1.73 m and meets the pit floor 2.6 m out.
+        let centre = mean(&window(&depth, 320, 240, 2));
+        assert!((centre - 2600.0).abs() < 10.0, "{centre}");
+        // Near the bottom of the image the axis still meets the floor before the pit.
+        let bottom = mean(&window(&depth, 320, 470, 2));
+        assert!(bottom < 1500.0, "{bottom}");
+    }
+
+    #[test]
+    fn pole_and_walking_person_are_drawn_where_they_are() {
+        let w = world(
+            "[[poles]]\ncenter = [2.0, 0.0]\nradius_m = 0.1\nheight_m = 2.0\n[[people]]\nwaypoints = [[3.0, -3.0], [3.0, 3.0]]\nspeed_m_s = 1.0\n",
+        );
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        let (_, depth) = render(&w, &pose, 7);
+        let pole = mean(&window(&depth, 320, 240, 1));
+        assert!((pole - 1900.0).abs() < 15.0, "{pole}");
+        // At t = 3 s the person (radius 0.25) is straight ahead at 3 m; behind the pole
+        // it shows on both sides of it.
+        let mut r = Renderer::new(CameraProfile::xtion());
+        let mut out = Vec::new();
+        r.render(&w, &pose, 3.0, &mut SimRng::seed_from(7), &mut out);
+        // 50 px right of the axis the ray passes 0.26 m from the person's axis.
+        let person_u = 320 + 50;
+        let ids = r.obstacle_ids();
+        assert_eq!(ids[240 * 640 + 320], 0, "pole in front");
+        assert_eq!(ids[240 * 640 + 320 - 30], 1, "person left of the pole");
+        assert_ne!(ids[240 * 640 + person_u], 1, "0.26 m off-axis at 3 m is beside the person");
     }
 }

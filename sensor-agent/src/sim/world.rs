@@ -556,3 +556,145 @@ impl Builder {
         self.floor(floor).drop_offs.push((d, id));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::walker::ScriptedWalker;
+    use std::collections::BinaryHeap;
+
+    fn builtin(name: &str) -> World {
+        match World::builtin(name) {
+            Some(Ok(w)) => w,
+            Some(Err(e)) => panic!("{e}"),
+            None => panic!("no built-in {name}"),
+        }
+    }
+
+    fn count(w: &World, kind: ObstacleKind) -> usize {
+        w.obstacles().iter().filter(|o| o.kind == kind).count()
+    }
+
+    #[test]
+    fn every_builtin_world_loads_with_its_features() {
+        let t = builtin("taylor-course");
+        assert_eq!((count(&t, ObstacleKind::Wall), count(&t, ObstacleKind::Chair), count(&t, ObstacleKind::Hanging)), (6, 3, 2));
+        let heights: Vec<f64> = t.geometry(0).boxes.iter().filter(|(_, id)| t.obstacles()[id.0 as usize].kind == ObstacleKind::Hanging).map(|(b, _)| b.bottom_m).collect();
+        assert!(heights.iter().any(|&h| h < 1.0) && heights.iter().any(|&h| h > 1.5), "waist- and head-high: {heights:?}");
+
+        let c = builtin("corridor");
+        assert!(c.doors().len() >= 10 && c.corners().len() >= 2 && c.people().len() == 2);
+
+        let b = builtin("building");
+        assert_eq!(b.floors().iter().map(|f| f.index).collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(b.elevators()[0].floors, vec![0, 1]);
+        assert_eq!(b.stairs().len(), 1);
+        assert_eq!(b.geometry(0).drop_offs.len(), 0);
+        assert_eq!(b.geometry(1).drop_offs.len(), 1, "stair opening upstairs");
+        let top_step = b.geometry(0).boxes.iter().map(|(s, _)| s.top_m).fold(0.0, f64::max);
+        assert!((top_step - 3.5).abs() < 1e-9, "stairs rise to the next floor: {top_step}");
+        assert!(b.rooms().iter().any(|r| r.label == "room 204" && r.floor == 1));
+
+        let a = builtin("approach");
+        assert_eq!(count(&a, ObstacleKind::Wall), 1);
+    }
+
+    #[test]
+    fn unknown_world_lists_the_builtin_ones() {
+        let err = World::load("no-such-world").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("unknown world `no-such-world`") && err.contains("taylor-course, corridor, building, approach"), "{err}");
+    }
+
+    /// Shortest walking distance for a body of shoulder width on a 10 cm grid
+    /// (8-connected Dijkstra), or `None` when the goal cannot be reached.
+    fn walking_distance_m(w: &World, size_m: [f64; 2]) -> Option<f64> {
+        let cell = 0.1;
+        let (nx, ny) = ((size_m[0] / cell) as i64, (size_m[1] / cell) as i64);
+        let centre = |i: i64, j: i64| ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
+        let free: Vec<bool> = (0..nx * ny)
+            .map(|k| {
+                let (x, y) = centre(k % nx, k / nx);
+                w.nearest_to_body(0, x, y, 0.25, 1.8, 0.0).is_none_or(|n| n.distance_m > 0.0)
+            })
+            .collect();
+        let index = |x: f64, y: f64| ((y / cell) as i64) * nx + (x / cell) as i64;
+        let (s, g) = (index(w.start().x_m, w.start().y_m), index(w.goal().x_m, w.goal().y_m));
+        let mut dist = vec![f64::INFINITY; (nx * ny) as usize];
+        let mut heap = BinaryHeap::new();
+        dist[s as usize] = 0.0;
+        heap.push((std::cmp::Reverse(0u64), s));
+        while let Some((std::cmp::Reverse(dmm), k)) = heap.pop() {
+            let d = dmm as f64 / 1e6;
+            if k == g {
+                return Some(d);
+            }
+            if d > dist[k as usize] {
+                continue;
+            }
+            let (i, j) = (k % nx, k / nx);
+            for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
+                let (a, b) = (i + di, j + dj);
+                if a < 0 || b < 0 || a >= nx || b >= ny || !free[(b * nx + a) as usize] {
+                    continue;
+                }
+                if di != 0 && dj != 0 && !(free[(j * nx + a) as usize] && free[(b * nx + i) as usize]) {
+                    continue;
+                }
+                let nd = d + cell * ((di * di + dj * dj) as f64).sqrt();
+                if nd < dist[(b * nx + a) as usize] {
+                    dist[(b * nx + a) as usize] = nd;
+                    heap.push((std::cmp::Reverse((nd * 1e6) as u64), b * nx + a));
+                }
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn taylor_course_goal_is_15_to_25_m_of_walking_from_the_start() {
+        let w = builtin("taylor-course");
+        let walk = walking_distance_m(&w, [10.0, 10.0]);
+        let straight = (w.goal().x_m - w.start().x_m).hypot(w.goal().y_m - w.start().y_m);
+        let walk = walk.unwrap_or(f64::INFINITY);
+        assert!((15.0..=25.0).contains(&walk), "walking distance {walk:.1} m");
+        assert!(walk > 1.5 * straight, "the course must turn: {walk:.1} m vs {straight:.1} m straight");
+        let start = w.start();
+        assert!((start.x_m < 1.0) && (start.y_m - 5.0).abs() < 0.5 && start.yaw_rad == 0.0, "middle-left facing right");
+    }
+
+    #[test]
+    fn scripted_walks_of_the_builtin_worlds_never_touch_an_obstacle() {
+        for (name, _) in BUILTIN_WORLDS {
+            let w = builtin(name);
+            let Some(spec) = w.walker() else { continue };
+            let walker = ScriptedWalker::new(w.start(), spec);
+            let end_s = walker.script_duration_s() * 2.0;
+            let mut t = 0.0;
+            while t <= end_s {
+                let p = walker.pose_at(t);
+                if let Some(n) = w.nearest_to_body(p.floor, p.x_m, p.y_m, 0.25, 1.8, t) {
+                    assert!(n.distance_m > 0.0, "{name}: body touches {:?} at t = {t:.1} s, {p:?}", w.obstacle(n.id));
+                }
+                t += 0.05;
+            }
+        }
+    }
+
+    #[test]
+    fn cane_reaching_a_wall_is_a_contact_with_that_wall() {
+        let w = match World::from_toml(
+            "name = \"t\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 1.0, y_m = 0.0 }\n[[walls]]\nlabel = \"w\"\nfrom = [1.0, -1.0]\nto = [1.0, 1.0]\nthickness_m = 0.1\n[[floor_regions]]\ncenter = [0.5, 0.0]\nsize_m = [0.4, 0.4]\nheight_m = -0.2\n",
+            "t",
+        ) {
+            Ok(w) => w,
+            Err(e) => panic!("{e}"),
+        };
+        let hit = w.nearest_to_segment(0, [0.0, 0.0, 1.0], [1.2, 0.0, 0.0], 0.0);
+        assert!(hit.is_some_and(|n| n.distance_m == 0.0 && n.kind == ObstacleKind::Wall), "{hit:?}");
+        let short = w.nearest_to_segment(0, [0.0, 0.0, 1.0], [0.8, 0.0, 0.0], 0.0);
+        assert!(short.is_some_and(|n| (n.distance_m - 0.15).abs() < 0.01 && n.kind == ObstacleKind::Wall), "{short:?}");
+        // Standing in the hole is a contact with the drop-off.
+        let fall = w.nearest_to_body(0, 0.5, 0.0, 0.25, 1.8, 0.0);
+        assert!(fall.is_some_and(|n| n.distance_m == 0.0 && n.kind == ObstacleKind::DropOff), "{fall:?}");
+    }
+}
