@@ -640,7 +640,7 @@ mod tests {
 
     #[test]
     fn same_seed_renders_the_same_frame_and_another_seed_differs() {
-        let w = World::builtin("taylor-course").and_then(Result::ok).map_or_else(|| panic!("taylor-course"), |w| w);
+        let w = World::builtin("taylor-course").and_then(Result::ok).unwrap_or_else(|| panic!("taylor-course"));
         let pose = CameraPose::from_yaw_pitch(0.7, 5.0, 0.885, 0.0, 30f64.to_radians(), 0);
         let (_, a) = render(&w, &pose, 9);
         let (_, b) = render(&w, &pose, 9);

@@ -600,6 +600,22 @@ mod tests {
     }
 
     #[test]
+    fn scene_file_loads_by_path_and_a_missing_file_is_an_unknown_world() {
+        let path = std::env::temp_dir().join(format!("wearnav-sim-scene-{}.toml", std::process::id()));
+        let text = "name = \"mine\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 2.0, y_m = 0.0 }\n[[poles]]\ncenter = [1.0, 0.0]\nheight_m = 1.0\n";
+        if let Err(e) = std::fs::write(&path, text) {
+            panic!("cannot write {}: {e}", path.display());
+        }
+        let loaded = World::load(&path.display().to_string());
+        let _ = std::fs::remove_file(&path);
+        let w = loaded.unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(w.name(), "mine");
+        assert_eq!(w.geometry(0).cylinders.len(), 1);
+        let missing = World::load(&path.display().to_string()).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(missing.starts_with("unknown world `"), "{missing}");
+    }
+
+    #[test]
     fn unknown_world_lists_the_builtin_ones() {
         let err = World::load("no-such-world").err().map(|e| e.to_string()).unwrap_or_default();
         assert!(err.contains("unknown world `no-such-world`") && err.contains("taylor-course, corridor, building, approach"), "{err}");
@@ -656,6 +672,7 @@ mod tests {
         let walk = walking_distance_m(&w, [10.0, 10.0]);
         let straight = (w.goal().x_m - w.start().x_m).hypot(w.goal().y_m - w.start().y_m);
         let walk = walk.unwrap_or(f64::INFINITY);
+        println!("taylor-course: {walk:.1} m of walking, {straight:.1} m straight");
         assert!((15.0..=25.0).contains(&walk), "walking distance {walk:.1} m");
         assert!(walk > 1.5 * straight, "the course must turn: {walk:.1} m vs {straight:.1} m straight");
         let start = w.start();
