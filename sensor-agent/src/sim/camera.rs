@@ -4,7 +4,10 @@
 //!
 //! Noise: the axial error of structured light and stereo grows with the square of the
 //! range (Khoshelham & Elberink 2012, "Accuracy and resolution of Kinect depth data",
-//! Sensors 12(2): sigma ~ 1.4 mm at 1 m, ~ 2.9 cm at 4.5 m for the Kinect-class Xtion).
+//! Sensors 12(2): sigma ~ 1.4 mm at 1 m, ~ 2.9 cm at 4.5 m for the Kinect-class Xtion),
+//! because it is made in disparity: the simulated disparity gets Gaussian noise and is
+//! rounded to the matcher's sub-pixel step (1/8 px for the PrimeSense chip of the
+//! Xtion, Khoshelham & Elberink sec. 2), so depth comes in range-dependent layers.
 //! Close to the range limits a growing share of pixels carries no depth; at depth
 //! discontinuities the projector's shadow leaves a band without depth on the
 //! background side, as wide as the disparity jump.
@@ -32,7 +35,7 @@ pub struct CameraProfile {
     pub reliable_to_m: f64,
     /// Farther than this there is no depth at all, metres.
     pub max_depth_m: f64,
-    /// Axial noise sigma = `noise_per_m2` * depth^2, metres.
+    /// Axial noise sigma = `noise_per_m2` * depth^2, metres (before disparity rounding).
     pub noise_per_m2: f64,
     /// Share of pixels missing at random inside the reliable range.
     pub dropout: f64,
@@ -42,6 +45,9 @@ pub struct CameraProfile {
     pub baseline_m: f64,
     /// A neighbour farther by more than this share of the depth starts a shadow edge.
     pub edge_jump_ratio: f64,
+    /// Disparity resolution, pixels (0 = continuous): depth comes in the steps the
+    /// matcher's sub-pixel disparity allows, coarser with range.
+    pub disparity_step_px: f64,
     /// Frames per second.
     pub rate_hz: f64,
 }
@@ -65,6 +71,7 @@ impl CameraProfile {
             edge_dropout: 0.5,
             baseline_m: 0.075,
             edge_jump_ratio: 0.05,
+            disparity_step_px: 0.125,
             rate_hz: 30.0,
         }
     }
@@ -88,6 +95,7 @@ impl CameraProfile {
             edge_dropout: 0.5,
             baseline_m: 0.05,
             edge_jump_ratio: 0.05,
+            disparity_step_px: 1.0 / 32.0,
             rate_hz: 30.0,
         }
     }

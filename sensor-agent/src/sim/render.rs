@@ -6,7 +6,8 @@
 //! ray–cylinder or ray–hole intersection. Pixel ray directions are precomputed; the
 //! buffers are allocated once. The floor is the plane z = 0 of the camera's floor.
 //! The clean depth then goes through the model of [`CameraProfile`]: shadow bands at
-//! depth edges, range-dependent dropouts, noise growing with range squared, u16 mm.
+//! depth edges, range-dependent dropouts, disparity noise and rounding (so depth
+//! error grows with range squared, in layers), u16 mm.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use schemas::Intrinsics;
@@ -485,7 +486,7 @@ impl Renderer {
         }
     }
 
-    /// Range limits, dropouts and noise; metres to u16 millimetres.
+    /// Range limits, dropouts, disparity noise and rounding; metres to u16 millimetres.
     fn apply_sensor_model(&self, rng: &mut SimRng, out: &mut Vec<u16>) {
         let p = &self.profile;
         let (min_m, max_m) = (p.min_depth_m as f32, p.max_depth_m as f32);
@@ -494,7 +495,10 @@ impl Renderer {
         let edge = p.edge_dropout as f32;
         let near_slope = (edge - base) / (near_m - min_m).max(1e-6);
         let far_slope = (edge - base) / (max_m - far_m).max(1e-6);
-        let noise = p.noise_per_m2 as f32;
+        // Noise in disparity units gives the axial sigma noise_per_m2 * z^2 to first order.
+        let focal_baseline = self.intrinsics.fx * p.baseline_m as f32;
+        let disparity_sigma_px = p.noise_per_m2 as f32 * focal_baseline;
+        let step_px = p.disparity_step_px as f32;
         let mask = (NORMAL_TABLE_LEN - 1) as u64;
         out.clear();
         out.resize(self.depth_m.len(), 0);
@@ -513,7 +517,14 @@ impl Renderer {
             if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
                 continue;
             }
-            let measured = z + noise * z * z * self.normals[(bits & mask) as usize];
+            let mut disparity_px = focal_baseline / z + disparity_sigma_px * self.normals[(bits & mask) as usize];
+            if step_px > 0.0 {
+                disparity_px = (disparity_px / step_px).round() * step_px;
+            }
+            if disparity_px <= 0.0 {
+                continue;
+            }
+            let measured = focal_baseline / disparity_px;
             *o = (measured * DEPTH_UNITS_PER_M).round().clamp(1.0, u16::MAX as f32) as u16;
         }
     }
@@ -636,6 +647,29 @@ mod tests {
         let (_, depth) = render(&near, &pose, 4);
         let valid = window(&depth, 320, 200, 10).len();
         assert!((200..400).contains(&valid), "{valid} of 441 valid at 4 m (about 75 % expected)");
+    }
+
+    #[test]
+    fn xtion_depth_comes_in_eighth_pixel_disparity_layers() {
+        let w = world("");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 1.0, 0.0, 20f64.to_radians(), 0);
+        let (r, depth) = render(&w, &pose, 8);
+        let focal_baseline = r.intrinsics().fx as f64 * 0.075;
+        let mut layers = std::collections::BTreeSet::new();
+        for v in 150..200usize {
+            for &d in &depth[v * 640 + 300..v * 640 + 340] {
+                if d == 0 {
+                    continue;
+                }
+                // Back to disparity in eighths of a pixel: an integer, up to mm rounding.
+                let eighths = focal_baseline / (d as f64 / 1000.0) * 8.0;
+                assert!((eighths - eighths.round()).abs() < 0.05, "{d} mm is {eighths} eighths");
+                layers.insert(d);
+            }
+        }
+        // Rows 150-200 see the floor about 2.6-3.5 m out: a handful of layers, not a
+        // continuum of millimetres.
+        assert!((5..60).contains(&layers.len()), "{} distinct depths: {layers:?}", layers.len());
     }
 
     #[test]
