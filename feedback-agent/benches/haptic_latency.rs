@@ -34,7 +34,7 @@ fn fake_pair() -> FakeHid {
 }
 
 fn intent(k: u64) -> HapticIntent {
-    let on = if k % 2 == 0 { (1.0, 0.0) } else { (0.0, 1.0) };
+    let on = if k & 1 == 0 { (1.0, 0.0) } else { (0.0, 1.0) };
     HapticIntent { left: on.0, right: on.1, pattern: HapticPattern::Steady, ttl_ms: 200 }
 }
 
@@ -113,6 +113,7 @@ async fn over_bus(n: u64, hz: u64) -> anyhow::Result<()> {
         haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
+        phone: None,
     };
     let shutdown = Shutdown::new();
     let agent = tokio::spawn(feedback_agent::run_with(FeedbackConfig::with_bus(agent_bus), devices, shutdown.clone()));
@@ -156,8 +157,10 @@ async fn over_bus(n: u64, hz: u64) -> anyhow::Result<()> {
 }
 
 fn main() -> anyhow::Result<()> {
-    // `cargo test --benches` runs benches with `--bench`-less args; only run on request.
-    if std::env::args().any(|a| a == "--list") {
+    // `cargo bench` passes `--bench`; `cargo test --all-targets` does not, and must not
+    // spend minutes here.
+    if !std::env::args().any(|a| a == "--bench") {
+        println!("haptic_latency: run with `cargo bench -p feedback-agent --bench haptic_latency`");
         return Ok(());
     }
     let n = env_or("FEEDBACK_BENCH_INTENTS", 10_000);

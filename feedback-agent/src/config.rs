@@ -21,6 +21,8 @@ pub enum HapticBackend {
     Console,
     /// Two Wii remotes over hidapi (one per hand).
     Wiimote,
+    /// The phone's vibration, through the phone bridge (`phone/haptic`).
+    Phone,
 }
 
 /// A speech backend.
@@ -31,6 +33,8 @@ pub enum SpeechBackend {
     Console,
     /// espeak-ng, played through aplay/paplay, or synthesised to WAV without one.
     Espeak,
+    /// The phone's voice, through the phone bridge (`phone/speech`).
+    Phone,
 }
 
 fn default_bus() -> bus::BusOptions {
@@ -46,11 +50,12 @@ pub struct FeedbackConfig {
     #[serde(skip, default = "default_bus")]
     pub bus: bus::BusOptions,
 
-    /// Haptic backends, comma-separated; several run at once (e.g. `wiimote,console`).
+    /// Haptic backends, comma-separated; several run at once (e.g. `wiimote,console`,
+    /// `phone`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub haptic: Vec<HapticBackend>,
 
-    /// Speech backends, comma-separated (e.g. `espeak,console`).
+    /// Speech backends, comma-separated (e.g. `espeak,console`, `phone`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub speech: Vec<SpeechBackend>,
 

@@ -2,7 +2,7 @@
 //!
 //! The compute agent publishes haptic and speech intents and never knows which devices
 //! exist; this agent maps them to whatever backends the configuration names (two Wii
-//! remotes, espeak-ng, the console), publishes every action on `feedback/applied`, and
+//! remotes, espeak-ng, the console, the phone), publishes every action on `feedback/applied`, and
 //! enforces safety rules 1-3 of ARCHITECTURE.md: it warns when obstacle detection goes
 //! offline, stops every rumble when its intent expires, and never lets guidance speech
 //! talk over a warning.
@@ -16,6 +16,7 @@ pub mod device;
 pub mod espeak;
 pub mod feedback;
 pub mod haptic_cue;
+pub mod phone;
 pub mod run;
 pub mod speech_queue;
 pub mod watchdog;

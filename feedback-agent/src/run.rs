@@ -8,6 +8,7 @@ use std::time::Duration;
 use anyhow::{anyhow, Context};
 use bus::{now_ns, Health, Lane, Publisher, Shutdown, Subscriber};
 use schemas::{Applied, AppliedAction, HapticIntent, Hazard, SpeechIntent};
+use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
 use crate::config::{FeedbackConfig, HapticBackend, SpeechBackend};
@@ -15,6 +16,7 @@ use crate::console::{ConsoleHaptic, ConsoleSpeech};
 use crate::device::{HapticDevice, SpeechEngine};
 use crate::espeak::{find_player, EspeakEngine};
 use crate::feedback::Feedback;
+use crate::phone::{phone_channel, PhoneHaptic, PhoneLink, PhoneMessage, PhoneSpeech};
 use crate::watchdog::DetectionState;
 use crate::wiimote::link::HidapiBus;
 use crate::wiimote::WiimoteBackend;
@@ -30,18 +32,34 @@ pub struct Devices {
     pub engines: Vec<Box<dyn SpeechEngine>>,
     /// Start-up notes (`device`, text), published as device status.
     pub notes: Vec<(String, String)>,
+    /// Messages of the phone backends, published by the loop (`None` without them).
+    pub phone: Option<mpsc::UnboundedReceiver<PhoneMessage>>,
 }
 
 impl Devices {
     /// Open the backends the configuration names. Fails when a named backend cannot
     /// work at all (espeak-ng missing), rather than running silently without it.
     pub fn from_config(config: &FeedbackConfig) -> anyhow::Result<Self> {
-        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new() };
+        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new(), phone: None };
+        let mut phone_link: Option<PhoneLink> = None;
+        let mut phone = |devices: &mut Devices| -> PhoneLink {
+            phone_link
+                .get_or_insert_with(|| {
+                    let (link, rx) = phone_channel();
+                    devices.phone = Some(rx);
+                    link
+                })
+                .clone()
+        };
         for backend in &config.haptic {
             match backend {
                 HapticBackend::Console => devices.haptics.push(Box::new(ConsoleHaptic::stdout())),
                 HapticBackend::Wiimote => {
                     devices.haptics.push(Box::new(WiimoteBackend::new(Box::new(HidapiBus::new()), config.wiimote())))
+                }
+                HapticBackend::Phone => {
+                    let link = phone(&mut devices);
+                    devices.haptics.push(Box::new(PhoneHaptic::new(link)));
                 }
             }
         }
@@ -52,6 +70,10 @@ impl Devices {
                     let engine = EspeakEngine::new(config.espeak(), find_player()).context("--speech espeak")?;
                     devices.notes.push(("espeak".into(), engine.describe()));
                     devices.engines.push(Box::new(engine));
+                }
+                SpeechBackend::Phone => {
+                    let link = phone(&mut devices);
+                    devices.engines.push(Box::new(PhoneSpeech::new(link, config.rate_wpm)));
                 }
             }
         }
@@ -114,6 +136,10 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         .map_err(|e| anyhow!("cannot watch the liveliness of {alive_key}: {e}"))?;
     let mut applied_pub = Publisher::<Applied>::declare(&session, keys.applied(), AGENT, Lane::Events, Some(&health)).await?;
 
+    let phone_task = devices.phone.map(|rx| {
+        tokio::spawn(crate::phone::forward(session.clone(), keys.clone(), AGENT, rx, health.clone()))
+    });
+
     let started = now_ns();
     let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
     let notes = devices
@@ -172,6 +198,12 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     publish(&mut applied_pub, feedback.drain_applied().collect()).await;
     drop(feedback);
     shutdown.trigger();
+    if let Some(task) = phone_task {
+        match task.await {
+            Ok(r) => r.context("phone forwarding")?,
+            Err(e) => tracing::warn!("phone task ended abnormally: {e}"),
+        }
+    }
     match health_task.await {
         Ok(r) => r.context("health task")?,
         Err(e) => tracing::warn!("health task ended abnormally: {e}"),
