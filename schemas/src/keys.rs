@@ -3,7 +3,7 @@
 //! Key space (ARCHITECTURE.md), one user per prefix so several people can share a LAN:
 //! `wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}`, `perception/{scan,hazard}`,
 //! `localization/pose`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
-//! `health/<agent>`, `query/<service>`.
+//! `health/<agent>`, `query/<service>`, `phone/{haptic,speech}` (feedback agent -> phone bridge).
 
 use thiserror::Error;
 
@@ -144,6 +144,18 @@ impl Keys {
         format!("{}/feedback/applied", self.prefix)
     }
 
+    /// What the phone should vibrate now (the feedback agent's phone backend ->
+    /// the phone bridge): a `HapticIntent` with the levels in force and a short TTL.
+    pub fn phone_haptic(&self) -> String {
+        format!("{}/phone/haptic", self.prefix)
+    }
+
+    /// What the phone should say (the feedback agent's phone backend -> the phone
+    /// bridge): a `SpeechIntent` already ordered by the agent's speech queue.
+    pub fn phone_speech(&self) -> String {
+        format!("{}/phone/speech", self.prefix)
+    }
+
     /// One user command verb (`destination`, `where-am-i`, `mute`, `repeat`).
     pub fn cmd(&self, verb: &str) -> String {
         format!("{}/cmd/{verb}", self.prefix)
@@ -195,6 +207,8 @@ mod tests {
         assert_eq!(k.cmd("where-am-i"), "wearnav/alice/cmd/where-am-i");
         assert_eq!(k.health("compute-agent"), "wearnav/alice/health/compute-agent");
         assert_eq!(k.all(), "wearnav/alice/**");
+        assert_eq!(k.phone_haptic(), "wearnav/alice/phone/haptic");
+        assert_eq!(k.phone_speech(), "wearnav/alice/phone/speech");
     }
 
     #[test]
