@@ -39,7 +39,9 @@ pub fn survey(cloud: &SampledCloud, frame: &UserFrame, cfg: &DropoffConfig) -> P
     let mut expected = [0u32; SLICES];
     let mut absent = [0u32; SLICES];
     let mut g = PathGround::default();
-    for (i, p) in cloud.points.iter().enumerate() {
+    // every other sampled row and column: the slices need hundreds of rays, not thousands
+    for i in (0..cloud.rows).step_by(2).flat_map(|r| (0..cloud.cols).step_by(2).map(move |c| r * cloud.cols + c)) {
+        let p = &cloud.points[i];
         let valid = p[2].is_finite();
         let ray = if valid {
             *p

@@ -72,14 +72,21 @@ impl GroundSearch {
         Self { subset: Vec::new(), weights: Vec::new(), rng: seed | 1 }
     }
 
-    /// Best plane within `cfg.up_cone_deg` of `up` (unit), or `None` when nothing plane-like
-    /// below the camera holds enough points.
-    pub fn fit(&mut self, cloud: &SampledCloud, up: [f32; 3], cfg: &GroundConfig) -> Option<PlaneFit> {
+    /// Best plane within `cfg.up_cone_deg` of `up` (unit) and, when the running ground
+    /// gives an `expected_offset_m`, within `cfg.max_offset_jump_m` of it; `None` when
+    /// nothing plane-like below the camera holds enough points.
+    pub fn fit(
+        &mut self,
+        cloud: &SampledCloud,
+        up: [f32; 3],
+        expected_offset_m: Option<f32>,
+        cfg: &GroundConfig,
+    ) -> Option<PlaneFit> {
         let n_valid = cloud.valid.len();
         if n_valid < 3 {
             return None;
         }
-        // Subset of valid points below the camera along `up`.
+        // Subset of valid points below the prior horizon.
         self.subset.clear();
         let want = cfg.sample_points.max(3);
         for _ in 0..want * 3 {
@@ -87,7 +94,7 @@ impl GroundSearch {
                 break;
             }
             let p = cloud.points[cloud.valid[self.below(n_valid)] as usize];
-            if dot(&p, &up) < -cfg.min_camera_height_m {
+            if dot(&p, &up) < 0.0 {
                 self.subset.push(p);
             }
         }
@@ -101,6 +108,13 @@ impl GroundSearch {
         self.weights.clear();
         self.weights.extend(self.subset.iter().map(|p| 1.0 / p[2].max(0.5).powi(2)));
         let cos_cone = cfg.up_cone_deg.to_radians().cos();
+        // The thesis's false-ground guard, applied to each hypothesis: with a running
+        // ground, a plane at another height (a table top) is not a candidate at all.
+        let plausible = |p: &Plane| {
+            dot(&p.normal, &up) >= cos_cone
+                && p.offset_m >= cfg.min_camera_height_m
+                && expected_offset_m.is_none_or(|d| (p.offset_m - d).abs() <= cfg.max_offset_jump_m)
+        };
         let mut best: Option<(Plane, f32)> = None;
         for _ in 0..cfg.ransac_iterations {
             let (i, j, k) = (self.below(m), self.below(m), self.below(m));
@@ -109,7 +123,7 @@ impl GroundSearch {
             }
             let (a, b, c) = (self.subset[i], self.subset[j], self.subset[k]);
             let Some(plane) = plane_through(&a, &b, &c, &up) else { continue };
-            if dot(&plane.normal, &up) < cos_cone || plane.offset_m < cfg.min_camera_height_m {
+            if !plausible(&plane) {
                 continue;
             }
             let inv_band_sq = 1.0 / (cfg.ransac_band_m * cfg.ransac_band_m);
@@ -134,7 +148,7 @@ impl GroundSearch {
         let mut plane = coarse;
         for band in [cfg.ransac_band_m, cfg.refine_band_m] {
             match least_squares(cloud, &plane, band, &up) {
-                Some(refined) if dot(&refined.normal, &up) >= cos_cone && refined.offset_m >= cfg.min_camera_height_m => {
+                Some(refined) if plausible(&refined) => {
                     plane = refined;
                 }
                 _ => break,
@@ -166,12 +180,16 @@ fn plane_through(a: &[f32; 3], b: &[f32; 3], c: &[f32; 3], up: &[f32; 3]) -> Opt
     Some(Plane { normal: n, offset_m: -dot(&n, a) })
 }
 
+const LSQ_POINTS: usize = 16_384;
+
 /// Total least squares plane of the valid points within `band` of `around`.
 fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3]) -> Option<Plane> {
     let mut n = 0usize;
     let mut s = [0f64; 3];
     let mut ss = [0f64; 6]; // xx xy xz yy yz zz
-    for &i in &cloud.valid {
+    // ~16k evenly spread points fix a plane to well under a millimetre; more only cost
+    let step = (cloud.valid.len() / LSQ_POINTS).max(1);
+    for &i in cloud.valid.iter().step_by(step) {
         let p = cloud.points[i as usize];
         if around.height(&p).abs() < band {
             let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
@@ -246,6 +264,11 @@ impl GroundTracker {
             Some(avg) if self.lost_frames <= cfg.max_lost_frames => avg.normal,
             _ => [0.0, -1.0, 0.0],
         }
+    }
+
+    /// Offset the running ground expects, while it is trusted (not `Degraded`).
+    pub fn expected_offset_m(&self, cfg: &GroundConfig) -> Option<f32> {
+        self.average.filter(|_| self.lost_frames <= cfg.max_lost_frames).map(|a| a.offset_m)
     }
 
     /// Folds this frame's fit into the running ground. `None` when there has never been a

@@ -30,13 +30,13 @@ pub mod obstacle_memory;
 pub mod organized_cloud;
 pub mod synthetic_scene;
 pub mod time_to_collision;
-
-use std::time::{Duration, Instant};
+pub mod timing;
 
 use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
 pub use config::PerceptionConfig;
 pub use cue::{cue, cue_unavailable, CueConfig};
+pub use timing::{InstantTimer, NoTimer, StageMedians, StageTimer};
 
 use cost_function::{rumble, scan_points, side_costs};
 use dropoff::PathGround;
@@ -96,52 +96,6 @@ pub struct FrameContext {
     pub motion: Option<Motion>,
 }
 
-/// Times the pipeline's stages. The library calls `start`/`stop` around each stage and
-/// never reads a clock itself.
-pub trait StageTimer {
-    /// A stage begins.
-    fn start(&mut self, stage: &'static str);
-    /// The stage begun last ends.
-    fn stop(&mut self);
-}
-
-/// A timer that records nothing (tests, replays).
-#[derive(Debug, Default, Clone, Copy)]
-pub struct NoTimer;
-
-impl StageTimer for NoTimer {
-    fn start(&mut self, _stage: &'static str) {}
-    fn stop(&mut self) {}
-}
-
-/// Wall-clock stage timer for the agent and benchmarks: durations of the stages since
-/// the last [`InstantTimer::clear`].
-#[derive(Debug, Default, Clone)]
-pub struct InstantTimer {
-    running: Option<(&'static str, Instant)>,
-    /// Stage name and duration, in the order they ran.
-    pub stages: Vec<(&'static str, Duration)>,
-}
-
-impl InstantTimer {
-    /// Forgets the recorded stages (keeps the buffer).
-    pub fn clear(&mut self) {
-        self.running = None;
-        self.stages.clear();
-    }
-}
-
-impl StageTimer for InstantTimer {
-    fn start(&mut self, stage: &'static str) {
-        self.running = Some((stage, Instant::now()));
-    }
-    fn stop(&mut self) {
-        if let Some((stage, t0)) = self.running.take() {
-            self.stages.push((stage, t0.elapsed()));
-        }
-    }
-}
-
 /// Why a frame gave no perception. Each is counted by [`PerceptionError::kind`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PerceptionError {
@@ -197,7 +151,7 @@ pub struct Perception {
     pub plane_camera: [f32; 4],
     /// Whether the ground was found in this frame.
     pub ground: GroundState,
-    /// Valid depth pixels in the full frame.
+    /// Valid depth pixels in the full frame, estimated from the strided sample.
     pub points_valid: usize,
     /// Nearest obstacle per bearing bin, user frame, angles positive left.
     pub scan: Scan,
@@ -321,7 +275,7 @@ impl Pipeline {
         timer.start("ground_plane");
         let fit = if self.cloud.valid.len() >= 3 {
             let up = self.tracker.prior_up(gravity, &cfg.ground);
-            self.search.fit(&self.cloud, up, &cfg.ground)
+            self.search.fit(&self.cloud, up, self.tracker.expected_offset_m(&cfg.ground), &cfg.ground)
         } else {
             None
         };

@@ -8,8 +8,9 @@
 //! mirrors left and right) and defines bearing 0 as where the camera looks.
 //!
 //! Bins are centred on whole multiples of the bin width; the bin of a point is found
-//! from `y / x` against precomputed tangents of the bin edges (a binary search), so no
-//! point needs an `atan`, and ranges are compared squared (one `sqrt` per bin).
+//! from `y / x` with a table over the tangents of the bin edges (one look-up, one
+//! comparison), so no point needs an `atan`, and ranges are compared squared (one
+//! `sqrt` per bin).
 
 use schemas::Scan;
 
@@ -69,15 +70,30 @@ pub struct BinLayout {
     /// Bin width, degrees.
     pub bin_deg: f32,
     edges_tan: Vec<f32>,
+    // bin of the lower end of each of LUT_CELLS equal cells of tan between the outer
+    // edges; the cells are narrower than any bin, so one edge comparison finishes
+    lut: Vec<u16>,
+    lut_scale: f32,
 }
+
+const LUT_CELLS: usize = 4096;
 
 impl BinLayout {
     /// Bins covering a field of view of `2 * half_fov_rad`, with one margin bin each side
     /// (Taylor's 58 deg camera: 61 bins, -30..=30).
     pub fn for_fov(half_fov_rad: f32, bin_deg: f32) -> Self {
         let (half_bins, bin_deg) = Self::shape(half_fov_rad, bin_deg);
-        let edges_tan = (-half_bins..=half_bins + 1).map(|k| ((k as f32 - 0.5) * bin_deg).to_radians().tan()).collect();
-        Self { half_bins, bin_deg, edges_tan }
+        let edges_tan: Vec<f32> =
+            (-half_bins..=half_bins + 1).map(|k| ((k as f32 - 0.5) * bin_deg).to_radians().tan()).collect();
+        let (lo, hi) = (edges_tan[0], edges_tan[edges_tan.len() - 1]);
+        let lut_scale = LUT_CELLS as f32 / (hi - lo);
+        let lut = (0..LUT_CELLS)
+            .map(|c| {
+                let t = lo + c as f32 / lut_scale;
+                (edges_tan.partition_point(|&e| e <= t).max(1) - 1) as u16
+            })
+            .collect();
+        Self { half_bins, bin_deg, edges_tan, lut, lut_scale }
     }
 
     /// True when this layout is the one [`BinLayout::for_fov`] would build.
@@ -105,8 +121,15 @@ impl BinLayout {
     #[inline]
     pub fn bin_of(&self, x: f32, y: f32) -> Option<usize> {
         let t = y / x;
-        let idx = self.edges_tan.partition_point(|&e| e <= t);
-        (idx >= 1 && idx <= self.len()).then(|| idx - 1)
+        let cell = (t - self.edges_tan[0]) * self.lut_scale;
+        if !(cell >= 0.0 && cell < LUT_CELLS as f32) {
+            return None;
+        }
+        let mut b = self.lut[cell as usize] as usize;
+        if t >= self.edges_tan[b + 1] {
+            b += 1;
+        }
+        (b < self.len() && t >= self.edges_tan[b]).then_some(b)
     }
 
     /// Bearing of bin `i`'s centre, degrees, positive left.
@@ -221,6 +244,12 @@ mod tests {
         assert_eq!(at(-10.6), Some(-11.0));
         assert_eq!(at(30.4), Some(30.0));
         assert_eq!(at(31.0), None);
+        assert_eq!(at(-31.0), None);
+        // every bin edge lands on the bin above it, exactly as the tangents say
+        for k in -30..=30 {
+            let edge = (k as f32 - 0.5).to_radians();
+            assert_eq!(at(edge.to_degrees() + 1e-3), Some(k as f32), "edge below bin {k}");
+        }
     }
 
     #[test]

@@ -36,7 +36,8 @@ pub struct SampledCloud {
     pub row_ray: Vec<f32>,
     /// Field of view of this frame.
     pub view: Option<ViewGeometry>,
-    /// Valid pixels in the full image (before striding).
+    /// Valid pixels in the full image, estimated from the sample (`valid * stride^2`,
+    /// exact at stride 1): counting all 307,200 pixels would cost more than the sample.
     pub points_valid: usize,
     ray_key: Option<(u32, u32, u32, [u32; 4])>,
 }
@@ -75,8 +76,6 @@ impl SampledCloud {
         let top = ((k.cy + 0.5) / k.fy).atan();
         let bottom = ((height as f32 - 0.5 - k.cy) / k.fy).atan();
         self.view = Some(ViewGeometry { half_hfov_rad: left.max(right), half_vfov_rad: top.max(bottom) });
-        self.points_valid = samples.iter().filter(|&&s| s != 0).count();
-
         self.points.clear();
         self.valid.clear();
         let w = width as usize;
@@ -93,6 +92,7 @@ impl SampledCloud {
                 }
             }
         }
+        self.points_valid = estimate_full(self.valid.len(), stride as usize, samples.len());
         Ok(())
     }
 
@@ -115,7 +115,6 @@ impl SampledCloud {
         self.ray_key = None;
         self.cols = (width as usize).div_ceil(stride);
         self.rows = (height as usize).div_ceil(stride);
-        self.points_valid = points.iter().filter(|p| is_valid(p)).count();
         self.points.clear();
         self.valid.clear();
         let w = width as usize;
@@ -133,6 +132,7 @@ impl SampledCloud {
                 }
             }
         }
+        self.points_valid = estimate_full(self.valid.len(), stride, points.len());
         let half_hfov_rad = match hfov_deg {
             Some(deg) => (deg * 0.5).to_radians(),
             None => widest.atan(),
@@ -148,6 +148,10 @@ impl SampledCloud {
         }
         Some([self.col_ray[index % self.cols], self.row_ray[index / self.cols], 1.0])
     }
+}
+
+fn estimate_full(valid_sampled: usize, stride: usize, pixels: usize) -> usize {
+    (valid_sampled * stride * stride).min(pixels)
 }
 
 fn is_valid(p: &[f32; 3]) -> bool {
@@ -176,7 +180,7 @@ mod tests {
         samples[100 * 640 + 420] = 2000;
         let mut cloud = SampledCloud::default();
         cloud.from_depth(&samples, w, h, 0.001, K, 2).unwrap();
-        assert_eq!(cloud.points_valid, 1);
+        assert_eq!(cloud.points_valid, 4, "one sampled pixel stands for stride^2");
         assert_eq!(cloud.valid.len(), 1);
         let p = cloud.points[cloud.valid[0] as usize];
         assert!((p[0] - (420.0 - 319.5) / 525.0 * 2.0).abs() < 1e-5);
@@ -206,7 +210,7 @@ mod tests {
         let pts = vec![[f32::NAN, 0.0, 1.0], [0.1, 0.2, -1.0], [0.5, 0.0, 1.0], [0.0, 0.0, 0.0]];
         let mut cloud = SampledCloud::default();
         cloud.from_xyz(&pts, 2, 2, 1, None, 45.0).unwrap();
-        assert_eq!(cloud.points_valid, 1);
+        assert_eq!(cloud.points_valid, 1, "exact at stride 1");
         assert_eq!(cloud.valid, vec![2]);
         assert!((cloud.view.unwrap().half_hfov_rad - 0.5f32.atan()).abs() < 1e-6);
     }

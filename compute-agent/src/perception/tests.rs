@@ -314,7 +314,7 @@ fn five_people_floor_within_2_deg_and_3_cm_of_reference() {
     let Some(out) = real_xyz("five_people.pcd", &FrameContext::default(), PerceptionConfig::default()) else { return };
     let (deg, m) = plane_error(out.plane_camera, [0.0047, -0.9968, -0.0798, 1.2714]);
     assert!(deg < 2.0 && m < 0.03, "{deg} deg, {m} m: {:?}", out.plane_camera);
-    assert_eq!(out.points_valid, 239_075);
+    assert!((out.points_valid as f32 / 239_075.0 - 1.0).abs() < 0.01, "{}", out.points_valid);
     assert!(out.scan.ranges_m.iter().filter(|r| r.is_finite()).count() >= 10, "people in view: {:?}", out.scan.ranges_m);
 }
 
@@ -330,3 +330,4 @@ fn desk_frame_with_gravity_gives_the_desk_plane() {
     assert!((angle - 46.0).abs() < 5.0, "desk normal {angle} deg from camera -y: {n:?}");
     assert!(n[3] > 0.3 && n[3] < 1.5, "{n:?}");
 }
+

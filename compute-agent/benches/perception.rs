@@ -1,0 +1,119 @@
+//! Per-stage medians of the perception pipeline on the real captures and on synthetic
+//! frames at 10 and 30 deg pitch: `cargo bench -p compute-agent --bench perception`.
+//! One core, one frame at a time, the pipeline reused across runs as in the agent.
+//! `PERCEPTION_BENCH_RUNS` sets the runs per frame (default 200).
+
+use std::path::Path;
+use std::time::Instant;
+
+use compute_agent::perception::synthetic_scene::{Block, Scene};
+use compute_agent::perception::{DepthInput, FrameContext, InstantTimer, Pipeline, PerceptionConfig, StageMedians};
+use schemas::Intrinsics;
+
+enum Frame {
+    Depth { samples: Vec<u16>, width: u32, height: u32, scale_m: f32, k: Intrinsics },
+    Xyz { points: Vec<[f32; 3]>, width: u32, height: u32 },
+}
+
+struct Case {
+    name: String,
+    frame: Frame,
+    gravity: Option<[f32; 3]>,
+}
+
+const KINECT: Intrinsics = Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 };
+
+fn real_cases() -> Vec<Case> {
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real"));
+    if !dir.exists() {
+        eprintln!("skipping real captures: {} not found", dir.display());
+        return Vec::new();
+    }
+    let mut cases = Vec::new();
+    let (s, c) = 46f32.to_radians().sin_cos();
+    for (file, gravity) in [
+        ("five_people.pcd", None),
+        ("table_scene_mug_stereo_textured.pcd", None),
+        ("frame_20121214T142255.814212.pcd", Some([0.0, c, s])),
+    ] {
+        match sensor_agent::formats::pcd::read(&dir.join(file)) {
+            Ok(cloud) => cases.push(Case {
+                name: file.into(),
+                frame: Frame::Xyz { points: cloud.points, width: cloud.width, height: cloud.height },
+                gravity,
+            }),
+            Err(e) => eprintln!("skipping {file}: {e}"),
+        }
+    }
+    for (file, scale_m) in [("tum_depth_640x480_u16_5000perm.png", 0.0002), ("redwood_00000_depth_640x480_u16_mm.png", 0.001)] {
+        match sensor_agent::formats::depth_png::read(&dir.join(file)) {
+            Ok(png) => cases.push(Case {
+                name: file.into(),
+                frame: Frame::Depth { samples: png.samples, width: png.width, height: png.height, scale_m, k: KINECT },
+                gravity: None,
+            }),
+            Err(e) => eprintln!("skipping {file}: {e}"),
+        }
+    }
+    cases
+}
+
+fn synthetic_cases() -> Vec<Case> {
+    [10.0f32, 30.0]
+        .into_iter()
+        .map(|pitch| {
+            let mut scene = Scene::kinect(1.0, pitch);
+            scene.walls_x_m.push(3.5);
+            scene.blocks.push(Block { min: [1.5, -0.15, 0.0], max: [1.8, 0.15, 0.12] });
+            scene.blocks.push(Block { min: [2.2, 0.4, 0.0], max: [2.6, 0.9, 1.1] });
+            let [a, b, c, _] = scene.floor_plane_camera();
+            Case {
+                name: format!("synthetic floor+wall+boxes, pitch {pitch} deg"),
+                frame: Frame::Depth {
+                    samples: scene.render_depth(0.001),
+                    width: scene.width,
+                    height: scene.height,
+                    scale_m: 0.001,
+                    k: scene.intrinsics,
+                },
+                gravity: Some([-a, -b, -c]),
+            }
+        })
+        .collect()
+}
+
+fn main() {
+    let runs: usize = std::env::var("PERCEPTION_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(200);
+    println!("perception pipeline, {runs} runs per frame, medians in ms (shared machine: expect noise)");
+    for case in real_cases().into_iter().chain(synthetic_cases()) {
+        let mut pipeline = Pipeline::new(PerceptionConfig::default());
+        let mut timer = InstantTimer::default();
+        let mut medians = StageMedians::default();
+        let mut last = None;
+        for k in 0..runs {
+            let input = match &case.frame {
+                Frame::Depth { samples, width, height, scale_m, k } => DepthInput::Depth {
+                    samples,
+                    width: *width,
+                    height: *height,
+                    depth_scale_m: *scale_m,
+                    intrinsics: *k,
+                },
+                Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
+            };
+            let ctx = FrameContext { stamp_ns: k as u64 * 33_333_333, gravity_camera: case.gravity, motion: None };
+            timer.clear();
+            let t0 = Instant::now();
+            let result = pipeline.process(input, &ctx, &mut timer).map(|p| (p.ground, p.plane_camera));
+            medians.add(&timer.stages, t0.elapsed());
+            last = Some(result);
+        }
+        let stages: Vec<String> = medians.stages_ms().iter().map(|(n, ms)| format!("{n}={ms:.3}")).collect();
+        println!("{}\n  total={:.3}  {}", case.name, medians.total_ms(), stages.join(" "));
+        match last {
+            Some(Ok((ground, plane))) => println!("  ground {ground:?}, plane {plane:.4?}"),
+            Some(Err(e)) => println!("  error: {e}"),
+            None => {}
+        }
+    }
+}
