@@ -97,22 +97,21 @@ fn pack(frame: &SourceFrame, codec: WireCodec, buf: &mut Vec<u8>) -> Result<Dept
 /// work that must not stall the async publishers.
 fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
     let mut buf = Vec::new();
-    let period = Duration::from_nanos(source.period_ns());
-    let mut next_due = std::time::Instant::now();
+    let period_ns = source.period_ns();
+    // Paced sources (simulator, replay) are asked for the frame of the next capture
+    // moment a little ahead of it, so a frame of time t is in hand at t, like a camera
+    // with no readout delay: the capture -> applied latency then measures the agents,
+    // not how long the simulator takes to render. Compression happens after the stamp,
+    // as it would on a real device.
+    let lead_ns = period_ns * 3 / 4;
+    let mut next_due_ns = bus::now_ns() + lead_ns;
     while !shutdown.is_triggered() {
-        // Sources that stamp frames "now" (simulator, camera) are paced by their period;
-        // recordings stamp frames in the future and are paced by the stamp below.
-        if let Some(wait) = next_due.checked_duration_since(std::time::Instant::now()) {
-            std::thread::sleep(wait);
+        if period_ns > 0 {
+            sleep_until_ns(next_due_ns.saturating_sub(lead_ns));
         }
-        // Never burst to catch up after a slow frame: late frames are just late.
-        next_due = (next_due + period).max(std::time::Instant::now());
-        let item = match source.next_frame(bus::now_ns()) {
+        let item = match source.next_frame(next_due_ns.max(bus::now_ns())) {
             Ok(Some(frame)) => {
-                let wait_ns = frame.stamp_ns.saturating_sub(bus::now_ns());
-                if wait_ns > 0 {
-                    std::thread::sleep(Duration::from_nanos(wait_ns.min(5_000_000_000)));
-                }
+                sleep_until_ns(frame.stamp_ns);
                 match pack(&frame, codec, &mut buf) {
                     Ok(depth) => Produced::Frame { frame, depth },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
@@ -122,10 +121,21 @@ fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<
             Err(SourceError::Skipped { what, reason }) => Produced::Skipped(format!("{what}: {reason}")),
             Err(SourceError::Fatal(reason)) => Produced::Failed(reason),
         };
+        // Never burst to catch up after a slow frame: late frames are just late.
+        next_due_ns = (next_due_ns + period_ns).max(bus::now_ns());
         let last = matches!(item, Produced::End | Produced::Failed(_));
         if tx.blocking_send(item).is_err() || last {
             return;
         }
+    }
+}
+
+/// Sleep until the wall clock reaches `stamp_ns` (at most 5 s, so a bad stamp in a
+/// recording cannot freeze the stream).
+fn sleep_until_ns(stamp_ns: u64) {
+    let wait_ns = stamp_ns.saturating_sub(bus::now_ns());
+    if wait_ns > 0 {
+        std::thread::sleep(Duration::from_nanos(wait_ns.min(5_000_000_000)));
     }
 }
 
