@@ -62,7 +62,9 @@ impl WireCodec {
             WireCodec::Raw => DepthEncoding::Raw,
             WireCodec::Lossless => DepthEncoding::Lossless,
             WireCodec::BoundedMm(mm) => {
-                let units = (f64::from(mm) * 1e-3 / f64::from(depth_scale_m)).floor();
+                // The tolerance absorbs f32 scales like 0.001 that are a hair above
+                // their decimal value (5 mm / 0.001 must be 5 units, not 4.9999).
+                let units = (f64::from(mm) * 1e-3 / f64::from(depth_scale_m) + 1e-6).floor();
                 DepthEncoding::Bounded { step: units.clamp(1.0, f64::from(u16::MAX)) as u16 }
             }
         }
