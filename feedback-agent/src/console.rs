@@ -2,6 +2,7 @@
 //! (`RUMBLE left`, `RUMBLE off`, `SPEAK "..."`).
 
 use std::io::Write;
+use std::sync::{Arc, Mutex};
 
 use schemas::{AppliedAction, HapticPattern};
 
@@ -72,17 +73,26 @@ impl HapticDevice for ConsoleHaptic {
     }
 }
 
-/// Prints `SPEAK "..."` and pretends to speak for as long as a voice at `rate_wpm`
-/// would, so queueing and cut-offs behave as with a real voice.
+/// Prints `SPEAK "..."` (and `SPEAK cut "..."` when one is cut off) and pretends to
+/// speak for as long as a voice at `rate_wpm` would, so queueing and cut-offs behave
+/// as with a real voice.
 pub struct ConsoleSpeech {
-    sink: Sink,
+    sink: Arc<Mutex<Sink>>,
     rate_wpm: u32,
+}
+
+fn print_line(sink: &Mutex<Sink>, line: std::fmt::Arguments<'_>) {
+    // A console that cannot be written to must not stop the other devices.
+    let mut sink = sink.lock().unwrap_or_else(|e| e.into_inner());
+    let _ = sink.write_fmt(line);
+    let _ = sink.write_all(b"\n");
+    let _ = sink.flush();
 }
 
 impl ConsoleSpeech {
     /// Print to `sink`, timing utterances at `rate_wpm` words per minute.
     pub fn new(sink: Sink, rate_wpm: u32) -> Self {
-        Self { sink, rate_wpm: rate_wpm.max(1) }
+        Self { sink: Arc::new(Mutex::new(sink)), rate_wpm: rate_wpm.max(1) }
     }
 
     /// Print to stdout.
@@ -98,6 +108,8 @@ pub fn spoken_duration_ns(text: &str, rate_wpm: u32) -> u64 {
 }
 
 struct ConsoleUtterance {
+    sink: Arc<Mutex<Sink>>,
+    text: String,
     ends_ns: u64,
     cut: bool,
 }
@@ -108,7 +120,10 @@ impl SpeakingHandle for ConsoleUtterance {
     }
 
     fn cut(&mut self) {
-        self.cut = true;
+        if !self.cut {
+            self.cut = true;
+            print_line(&self.sink, format_args!("SPEAK cut {:?}", self.text));
+        }
     }
 }
 
@@ -118,16 +133,19 @@ impl SpeechEngine for ConsoleSpeech {
     }
 
     fn start(&mut self, text: &str, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
-        let _ = writeln!(self.sink, "SPEAK {text:?}");
-        let _ = self.sink.flush();
-        Ok(Box::new(ConsoleUtterance { ends_ns: now_ns + spoken_duration_ns(text, self.rate_wpm), cut: false }))
+        print_line(&self.sink, format_args!("SPEAK {text:?}"));
+        Ok(Box::new(ConsoleUtterance {
+            sink: self.sink.clone(),
+            text: text.to_string(),
+            ends_ns: now_ns + spoken_duration_ns(text, self.rate_wpm),
+            cut: false,
+        }))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::{Arc, Mutex};
 
     #[derive(Clone, Default)]
     struct Shared(Arc<Mutex<Vec<u8>>>);
@@ -165,7 +183,11 @@ mod tests {
         assert!(!h.is_finished(1_999_999_999));
         assert!(h.is_finished(2_000_000_000));
         h.cut();
+        h.cut();
         assert!(h.is_finished(0));
-        assert_eq!(String::from_utf8(buf.0.lock().unwrap().clone()).unwrap(), "SPEAK \"turn left now please\"\n");
+        assert_eq!(
+            String::from_utf8(buf.0.lock().unwrap().clone()).unwrap(),
+            "SPEAK \"turn left now please\"\nSPEAK cut \"turn left now please\"\n"
+        );
     }
 }
