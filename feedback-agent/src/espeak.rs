@@ -82,6 +82,20 @@ impl EspeakEngine {
                 config.program.display()
             )));
         }
+        // A bad voice makes every utterance fail silently: refuse it at start instead.
+        let voice_ok = Command::new(&config.program)
+            .args(["-q", "-v", &config.voice, "ok"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        if !voice_ok {
+            return Err(SpeechError::Unavailable(format!(
+                "espeak-ng has no voice {:?}; `espeak-ng --voices` lists them",
+                config.voice
+            )));
+        }
         if let Some(dir) = &config.wav_dir {
             std::fs::create_dir_all(dir).map_err(|e| {
                 SpeechError::Unavailable(format!("cannot create the WAV directory {}: {e}", dir.display()))
@@ -216,6 +230,17 @@ mod tests {
     fn leading_dash_is_not_taken_for_an_option() {
         assert_eq!(as_argument("-v stop"), " -v stop");
         assert_eq!(as_argument("stop"), "stop");
+    }
+
+    #[test]
+    fn unknown_voice_is_refused_at_start() {
+        if Command::new("espeak-ng").arg("--version").output().is_err() {
+            eprintln!("skipping unknown_voice_is_refused_at_start: espeak-ng not installed");
+            return;
+        }
+        let cfg = EspeakConfig { voice: "qqq-missing".into(), ..Default::default() };
+        let err = EspeakEngine::new(cfg, Playback::WavOnly).err().expect("must fail");
+        assert!(err.to_string().contains("no voice \"qqq-missing\""), "{err}");
     }
 
     #[test]
