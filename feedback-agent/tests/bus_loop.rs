@@ -234,4 +234,27 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     agent.await.expect("agent task").expect("agent ran cleanly");
     assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x00]);
     assert_eq!(hid.written_to(RIGHT).last().unwrap(), &vec![0x10, 0x00]);
+
+    // Restarted alone with other devices (one remote only) while the "compute" side
+    // keeps publishing: it picks up where the first left off.
+    let hid2 = FakeHid::new();
+    hid2.attach("/dev/hidraw7", "00:19:1d:00:00:07");
+    let devices = Devices {
+        haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid2.clone()), WiimoteConfig::default()))],
+        engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
+        notes: vec![],
+        phone: None,
+    };
+    let agent_bus = BusOptions { connect: test_bus.listen.clone(), no_multicast: true, ..BusOptions::for_user(&user) };
+    let shutdown = Shutdown::new();
+    let agent = tokio::spawn(feedback_agent::run_with(FeedbackConfig::with_bus(agent_bus), devices, shutdown.clone()));
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while !hid2.written_to("/dev/hidraw7").contains(&vec![0x10, 0x01]) {
+        assert!(Instant::now() < deadline, "restarted agent never rumbled");
+        haptic.put(bus::now_ns(), &left).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    shutdown.trigger();
+    agent.await.expect("agent task").expect("agent ran cleanly");
+    assert_eq!(hid2.written_to("/dev/hidraw7").last().unwrap(), &vec![0x10, 0x00]);
 }
