@@ -616,6 +616,27 @@ mod tests {
     }
 
     #[test]
+    fn d435_profile_renders_848_wide_and_reads_the_wall() {
+        let w = world("[[walls]]\nfrom = [2.05, -3.0]\nto = [2.05, 3.0]\n");
+        let pose = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        let mut r = Renderer::new(CameraProfile::d435());
+        let mut out = Vec::new();
+        r.render(&w, &pose, 0.0, &mut SimRng::seed_from(1), &mut out);
+        assert_eq!(out.len(), 848 * 480);
+        let centre: Vec<f64> = (236..=244)
+            .flat_map(|v| (420..=428).map(move |u| v * 848 + u))
+            .map(|i| out[i] as f64)
+            .filter(|&d| d != 0.0)
+            .collect();
+        assert!(centre.len() > 70, "{}", centre.len());
+        assert!((mean(&centre) - 2000.0).abs() < 8.0, "{}", mean(&centre));
+        // 58 degrees of vertical view: the bottom row looks 29 degrees down.
+        let k = r.intrinsics();
+        let bottom_angle = ((479.0 - k.cy) / k.fy).atan().to_degrees();
+        assert!((bottom_angle - 29.0).abs() < 0.2, "{bottom_angle}");
+    }
+
+    #[test]
     fn head_high_obstacle_appears_only_in_the_upper_rows() {
         let w = world("[[hanging]]\ncenter = [2.15, 0.0]\nsize_m = [0.3, 0.8]\nbottom_m = 1.55\ntop_m = 1.85\n");
         // Level camera at the cane camera's height: the sign is 18-24 degrees up.
