@@ -5,8 +5,9 @@
 //! - `Important` (imminent obstacle, detection offline): starts at once, cutting off
 //!   anything else that is speaking; never cut off; several queue in order.
 //! - `Message` (turns): waits for `Important`; never cut off by another `Message`.
-//! - `Text` (landmarks): only the newest is kept: a new one replaces a waiting one,
-//!   and cuts a speaking one off when its `interrupt` flag is set.
+//! - `Text` (landmarks): cut off by `Important` and `Message`; only the newest is kept:
+//!   a new one replaces a waiting one, and cuts a speaking one off when its `interrupt`
+//!   flag is set.
 //! - `Notification`, `Progress`: spoken only when nothing else speaks or waits, and
 //!   cut off by anything higher.
 //!
@@ -363,6 +364,17 @@ mod tests {
         next.interrupt = true;
         assert!(offer(&mut q, &next, T0 + MS).is_empty());
         assert_eq!(q.speaking().unwrap().text, "turn left");
+    }
+
+    #[test]
+    fn turn_instruction_cuts_a_landmark_but_not_the_reverse() {
+        let mut q = SpeechQueue::new(QueueConfig::default());
+        offer(&mut q, &say("cafeteria on your right", Priority::Text), T0);
+        let a = offer(&mut q, &say("turn left now", Priority::Message), T0 + MS);
+        assert_eq!(texts(&a), ["cut cafeteria on your right", "start turn left now"]);
+        let mut landmark = say("lift ahead", Priority::Text);
+        landmark.interrupt = true;
+        assert!(offer(&mut q, &landmark, T0 + 2 * MS).is_empty(), "waits behind the turn");
     }
 
     #[test]
