@@ -164,15 +164,15 @@ fn med(a: i32, b: i32, c: i32) -> i32 {
 }
 
 #[inline(always)]
-fn context(b: i32, c: i32, d: i32, last_zero: bool) -> usize {
+fn context(b: i32, c: i32, d: i32, calm_above: bool) -> usize {
     let activity = ((b - c).unsigned_abs() + (d - b).unsigned_abs()).min(7);
-    ACTIVITY_CLASS[activity as usize] as usize * 2 + last_zero as usize
+    ACTIVITY_CLASS[activity as usize] as usize * 2 + calm_above as usize
 }
 
 /// Packs depth images; keeps its buffers between frames so a stream allocates once.
 #[derive(Debug, Clone)]
 pub struct DepthEncoder {
-    present: Vec<u64>,
+    present: Vec<bool>,
     level_of: Vec<u16>,
     levels: Vec<u16>,
     rows: [Vec<i32>; 2],
@@ -180,6 +180,7 @@ pub struct DepthEncoder {
     contexts: Vec<u8>,
     side: Vec<u8>,
     side_contexts: Vec<u8>,
+    calm: Vec<bool>,
     escapes: Vec<u8>,
     words: Vec<u16>,
 }
@@ -194,7 +195,7 @@ impl DepthEncoder {
     /// An encoder with empty buffers.
     pub fn new() -> DepthEncoder {
         DepthEncoder {
-            present: vec![0; 1024],
+            present: vec![false; 65536],
             level_of: vec![0; 65536],
             levels: Vec::new(),
             rows: [Vec::new(), Vec::new()],
@@ -202,6 +203,7 @@ impl DepthEncoder {
             contexts: Vec::new(),
             side: Vec::new(),
             side_contexts: Vec::new(),
+            calm: Vec::new(),
             escapes: Vec::new(),
             words: Vec::new(),
         }
@@ -269,19 +271,18 @@ impl DepthEncoder {
     /// Groups the distinct valid values into levels at most `2 * half_step` wide and
     /// writes the level values to the side stream.
     fn build_levels(&mut self, samples: &[u16], half_step: u16) {
-        self.present.iter_mut().for_each(|w| *w = 0);
+        // Plain byte stores: a read-modify-write bitset would chain through memory.
+        self.present.fill(false);
         for &s in samples {
-            self.present[s as usize >> 6] |= 1 << (s & 63);
+            self.present[s as usize] = true;
         }
-        self.present[0] &= !1;
+        self.present[0] = false;
         self.levels.clear();
         let span = 2 * half_step as u32;
         let mut group: Option<(u32, u32)> = None;
-        for (wi, &word) in self.present.iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                let v = (wi as u32) << 6 | bits.trailing_zeros();
-                bits &= bits - 1;
+        for (v, _) in self.present.iter().enumerate().filter(|(_, &p)| p) {
+            let v = v as u32;
+            {
                 match group {
                     Some((lo, _)) if v - lo <= span => group = Some((lo, v)),
                     _ => {
@@ -332,22 +333,29 @@ impl DepthEncoder {
         prev.resize(width + 2, 0);
         cur.clear();
         cur.resize(width + 2, 0);
+        self.calm.clear();
+        self.calm.resize(width, true);
         for row in samples.chunks_exact(width) {
             cur[0] = prev[1];
-            let mut last_zero = true;
+            let (mut a, mut b, mut c) = (cur[0], prev[1], prev[0]);
             for (x, &s) in row.iter().enumerate() {
-                let (a, b, c, d) = (cur[x], prev[x + 1], prev[x], prev[x + 2]);
+                let d = prev[x + 2];
                 let pred = med(a, b, c);
+                let ctx = context(b, c, d, self.calm[x]) as u8;
+                (c, b) = (b, d);
                 if s == 0 {
                     cur[x + 1] = pred;
+                    a = pred;
+                    self.calm[x] = true;
                     continue;
                 }
                 let level = self.level_of[s as usize] as i32;
                 cur[x + 1] = level;
+                a = level;
                 let r = level - pred;
                 let z = ((r << 1) ^ (r >> 31)) as u32;
-                self.contexts.push(context(b, c, d, last_zero) as u8);
-                last_zero = z == 0;
+                self.contexts.push(ctx);
+                self.calm[x] = z == 0;
                 if z >= ESCAPE {
                     self.symbols.push(ESCAPE as u8);
                     put_varint(&mut self.escapes, z - ESCAPE);
@@ -369,7 +377,8 @@ pub struct DepthDecoder {
     levels: Vec<u16>,
     runs: Vec<u32>,
     rows: [Vec<i32>; 2],
-    tables: Vec<rans::Table>,
+    tables: rans::Tables,
+    calm: Vec<bool>,
 }
 
 impl Default for DepthDecoder {
@@ -387,7 +396,8 @@ impl DepthDecoder {
             levels: Vec::new(),
             runs: Vec::new(),
             rows: [Vec::new(), Vec::new()],
-            tables: (0..CONTEXTS).map(|_| rans::Table::new()).collect(),
+            tables: rans::Tables::new(),
+            calm: Vec::new(),
         }
     }
 
@@ -436,12 +446,12 @@ impl DepthDecoder {
         let side_model = rans::Model::read(&mut cur)
             .ok_or_else(|| corrupt("truncated side model"))?
             .map_err(|_| corrupt("bad side model"))?;
-        self.tables[0].fill(&side_model);
+        self.tables.fill(0, &side_model);
         let n_words = cur.varint().ok_or_else(|| corrupt("truncated side words"))? as usize;
         cur.words(n_words, &mut self.words).ok_or_else(|| corrupt("truncated side words"))?;
         let mut dec = rans::Decoder::new(&self.words).map_err(|_| corrupt("side stream too short"))?;
         self.side.clear();
-        self.side.extend((0..side_len).map(|_| dec.symbol(&self.tables[0])));
+        self.side.extend((0..side_len).map(|_| dec.symbol(&self.tables, 0)));
         dec.finish().map_err(|_| corrupt("side stream does not decode"))?;
 
         let mut side = Cursor::new(&self.side);
@@ -495,8 +505,8 @@ impl DepthDecoder {
                     .map_err(|_| corrupt("bad residual model"))?,
             );
         }
-        for (t, m) in self.tables.iter_mut().zip(&models) {
-            t.fill(m);
+        for (ctx, m) in models.iter().enumerate() {
+            self.tables.fill(ctx, m);
         }
         let n_words = cur.varint().ok_or_else(|| corrupt("truncated residual words"))? as usize;
         cur.words(n_words, &mut self.words).ok_or_else(|| corrupt("truncated residual words"))?;
@@ -510,41 +520,56 @@ impl DepthDecoder {
         prev.resize(width + 2, 0);
         row.clear();
         row.resize(width + 2, 0);
+        self.calm.clear();
+        self.calm.resize(width, true);
+        let calm = &mut self.calm[..];
+        let levels = &self.levels[..];
         let n_levels = n_levels as u32;
         let mut runs = self.runs.iter();
         for out_row in out.chunks_exact_mut(width) {
             row[0] = prev[1];
-            let mut last_zero = true;
             let mut x = 0usize;
-            while x < width {
+            loop {
                 let valid = *runs.next().ok_or_else(|| corrupt("validity runs"))? as usize;
-                for xi in x..x + valid {
-                    let (a, b, c, d) = (row[xi], prev[xi + 1], prev[xi], prev[xi + 2]);
-                    let sym = dec.symbol(&self.tables[context(b, c, d, last_zero)]) as u32;
+                let end = x + valid;
+                // Neighbours ride in registers: reloading the pixel just stored would put
+                // a store-to-load forward on the critical path of every pixel.
+                let (mut a, mut b, mut c) = (row[x], prev[x + 1], prev[x]);
+                for xi in x..end {
+                    let d = prev[xi + 2];
+                    let sym = dec.symbol(&self.tables, context(b, c, d, calm[xi])) as u32;
                     let z = if sym == ESCAPE {
                         side.varint().and_then(|e| e.checked_add(ESCAPE)).ok_or_else(|| corrupt("truncated escapes"))?
                     } else {
                         sym
                     };
-                    last_zero = z == 0;
+                    calm[xi] = z == 0;
                     let r = (z >> 1) as i32 ^ -((z & 1) as i32);
                     let level = med(a, b, c).wrapping_add(r);
                     if (level as u32).wrapping_sub(1) >= n_levels {
                         return Err(corrupt("level index out of range"));
                     }
                     row[xi + 1] = level;
-                    out_row[xi] = self.levels[level as usize];
+                    out_row[xi] = levels[level as usize];
+                    (a, c, b) = (level, b, d);
                 }
-                x += valid;
+                x = end;
                 if x == width {
                     break;
                 }
                 let invalid = *runs.next().ok_or_else(|| corrupt("validity runs"))? as usize;
-                for xi in x..x + invalid {
-                    row[xi + 1] = med(row[xi], prev[xi + 1], prev[xi]);
-                    out_row[xi] = 0;
+                let end = x + invalid;
+                let mut a = row[x];
+                for xi in x..end {
+                    a = med(a, prev[xi + 1], prev[xi]);
+                    row[xi + 1] = a;
                 }
-                x += invalid;
+                calm[x..end].fill(true);
+                out_row[x..end].fill(0);
+                x = end;
+                if x == width {
+                    break;
+                }
             }
             row[width + 1] = row[width];
             std::mem::swap(prev, row);
