@@ -75,6 +75,10 @@ pub struct GroundConfig {
     pub refine_band_m: f32,
     /// Fewest RANSAC inliers (fraction of the scored subset) for a plane to count as ground.
     pub min_inlier_fraction: f32,
+    /// Smallest spread (standard deviation) of the ground's inliers across their narrower
+    /// in-plane direction: a floor seen as a thin strip does not fix a plane's tilt. A
+    /// 20 cm strip has ~6 cm; the floor ahead of a cane camera 10-50 cm and more.
+    pub min_spread_m: f32,
     /// Lowest camera height over a ground candidate; rules out planes through the camera.
     pub min_camera_height_m: f32,
     /// Thesis false-ground guard: a new plane whose offset D is further than this from the
@@ -96,11 +100,12 @@ impl Default for GroundConfig {
     fn default() -> Self {
         Self {
             up_cone_deg: 20.0,
-            ransac_iterations: 200,
-            sample_points: 768,
+            ransac_iterations: 400,
+            sample_points: 1024,
             ransac_band_m: 0.05,
             refine_band_m: 0.03,
             min_inlier_fraction: 0.08,
+            min_spread_m: 0.07,
             min_camera_height_m: 0.2,
             max_offset_jump_m: 0.2,
             average_weight: 0.3,

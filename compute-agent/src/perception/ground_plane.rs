@@ -13,6 +13,12 @@
 //!   nearest the user, fitted tightly, not the largest plane. With a plain inlier count
 //!   a plane tilted 4 deg through the floor underfoot and the lower floor beyond a step
 //!   down wins (measured, synthetic step at 1.3 m, 30 deg pitch);
+//! - each new best hypothesis is refitted to its inliers and rescored (LO-RANSAC, Chum
+//!   et al. 2003);
+//! - the final inliers must spread in two directions (`min_spread_m`): with the floor
+//!   outside the cone, the best plane is a thin strip of floor at the image's edge with
+//!   the rest of the floor above it (PCL's wrong, tilted plane at 30 deg pitch); we say
+//!   "no ground" instead.
 //! - the winner is refined by least squares on its inliers, twice, with a shrinking band
 //!   (`ransac_band_m`, then `refine_band_m`), so the plane is good to ~1 cm and the
 //!   obstacle band can be tight; the scoring band itself is 5 cm, not 0.1 m (see
@@ -115,6 +121,17 @@ impl GroundSearch {
                 && p.offset_m >= cfg.min_camera_height_m
                 && expected_offset_m.is_none_or(|d| (p.offset_m - d).abs() <= cfg.max_offset_jump_m)
         };
+        let inv_band_sq = 1.0 / (cfg.ransac_band_m * cfg.ransac_band_m);
+        let score_of = |plane: &Plane, subset: &[[f32; 3]], weights: &[f32]| -> f32 {
+            subset
+                .iter()
+                .zip(weights)
+                .map(|(p, w)| {
+                    let h = plane.height(p);
+                    w * (1.0 - h * h * inv_band_sq).max(0.0)
+                })
+                .sum()
+        };
         let mut best: Option<(Plane, f32)> = None;
         for _ in 0..cfg.ransac_iterations {
             let (i, j, k) = (self.below(m), self.below(m), self.below(m));
@@ -126,18 +143,19 @@ impl GroundSearch {
             if !plausible(&plane) {
                 continue;
             }
-            let inv_band_sq = 1.0 / (cfg.ransac_band_m * cfg.ransac_band_m);
-            let score: f32 = self
-                .subset
-                .iter()
-                .zip(&self.weights)
-                .map(|(p, w)| {
-                    let h = plane.height(p);
-                    w * (1.0 - h * h * inv_band_sq).max(0.0)
-                })
-                .sum();
+            let score = score_of(&plane, &self.subset, &self.weights);
             if best.is_none_or(|(_, s)| score > s) {
                 best = Some((plane, score));
+                // Local optimisation (LO-RANSAC, Chum et al. 2003): a new best is refit
+                // to its subset inliers, so three noisy far points that happen to span a
+                // tilted plane cannot win over the floor they lie on.
+                let inliers = self.subset.iter().filter(|p| plane.height(p).abs() < cfg.ransac_band_m).copied();
+                if let Some((lo, _)) = fit_plane(inliers, &up).filter(|(lo, _)| plausible(lo)) {
+                    let lo_score = score_of(&lo, &self.subset, &self.weights);
+                    if lo_score > score {
+                        best = Some((lo, lo_score));
+                    }
+                }
             }
         }
         let (coarse, _) = best?;
@@ -146,13 +164,18 @@ impl GroundSearch {
             return None;
         }
         let mut plane = coarse;
-        for band in [cfg.ransac_band_m, cfg.refine_band_m] {
+        let mut spread_m = 0.0;
+        for band in [cfg.ransac_band_m, cfg.refine_band_m, cfg.refine_band_m] {
             match least_squares(cloud, &plane, band, &up) {
-                Some(refined) if plausible(&refined) => {
+                Some((refined, spread)) if plausible(&refined) => {
                     plane = refined;
+                    spread_m = spread;
                 }
                 _ => break,
             }
+        }
+        if spread_m < cfg.min_spread_m {
+            return None;
         }
         Some(PlaneFit { plane, subset_inliers: score, subset_len: m })
     }
@@ -183,27 +206,33 @@ fn plane_through(a: &[f32; 3], b: &[f32; 3], c: &[f32; 3], up: &[f32; 3]) -> Opt
 const LSQ_POINTS: usize = 16_384;
 
 /// Total least squares plane of the valid points within `band` of `around`.
-fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3]) -> Option<Plane> {
+fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3]) -> Option<(Plane, f32)> {
+    // ~16k evenly spread points fix a plane to well under a millimetre; more only cost
+    let step = (cloud.valid.len() / LSQ_POINTS).max(1);
+    let near = cloud.valid.iter().step_by(step).map(|&i| cloud.points[i as usize]).filter(|p| around.height(p).abs() < band);
+    fit_plane(near, up)
+}
+
+/// Total least squares plane through `points` (smallest eigenvector of their
+/// covariance), normal oriented along `up`, with the points' spread in their narrower
+/// in-plane direction (square root of the middle eigenvalue, metres); `None` for fewer
+/// than 3 or degenerate points.
+fn fit_plane(points: impl Iterator<Item = [f32; 3]>, up: &[f32; 3]) -> Option<(Plane, f32)> {
     let mut n = 0usize;
     let mut s = [0f64; 3];
     let mut ss = [0f64; 6]; // xx xy xz yy yz zz
-    // ~16k evenly spread points fix a plane to well under a millimetre; more only cost
-    let step = (cloud.valid.len() / LSQ_POINTS).max(1);
-    for &i in cloud.valid.iter().step_by(step) {
-        let p = cloud.points[i as usize];
-        if around.height(&p).abs() < band {
-            let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
-            n += 1;
-            s[0] += x;
-            s[1] += y;
-            s[2] += z;
-            ss[0] += x * x;
-            ss[1] += x * y;
-            ss[2] += x * z;
-            ss[3] += y * y;
-            ss[4] += y * z;
-            ss[5] += z * z;
-        }
+    for p in points {
+        let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
+        n += 1;
+        s[0] += x;
+        s[1] += y;
+        s[2] += z;
+        ss[0] += x * x;
+        ss[1] += x * y;
+        ss[2] += x * z;
+        ss[3] += y * y;
+        ss[4] += y * z;
+        ss[5] += z * z;
     }
     if n < 3 {
         return None;
@@ -223,6 +252,9 @@ fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3])
     );
     let eig = SymmetricEigen::new(cov);
     let k = eig.eigenvalues.imin();
+    let mut sorted = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+    sorted.sort_by(f64::total_cmp);
+    let spread_m = sorted[1].max(0.0).sqrt() as f32;
     let v = eig.eigenvectors.column(k);
     let mut normal = [v[0] as f32, v[1] as f32, v[2] as f32];
     let len = dot(&normal, &normal).sqrt();
@@ -232,7 +264,7 @@ fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3])
     let sign = if dot(&normal, up) < 0.0 { -1.0 } else { 1.0 };
     normal = [normal[0] * sign / len, normal[1] * sign / len, normal[2] * sign / len];
     let centroid = [m[0] as f32, m[1] as f32, m[2] as f32];
-    Some(Plane { normal, offset_m: -dot(&normal, &centroid) })
+    Some((Plane { normal, offset_m: -dot(&normal, &centroid) }, spread_m))
 }
 
 /// What the tracker decided for this frame.

@@ -310,10 +310,19 @@ fn real_xyz(name: &str, ctx: &FrameContext, cfg: PerceptionConfig) -> Option<Per
 }
 
 #[test]
-fn five_people_floor_within_2_deg_and_3_cm_of_reference() {
-    let Some(out) = real_xyz("five_people.pcd", &FrameContext::default(), PerceptionConfig::default()) else { return };
-    let (deg, m) = plane_error(out.plane_camera, [0.0047, -0.9968, -0.0798, 1.2714]);
-    assert!(deg < 2.0 && m < 0.03, "{deg} deg, {m} m: {:?}", out.plane_camera);
+fn five_people_floor_within_2_deg_and_3_cm_of_reference_frame_after_frame() {
+    let Some(path) = real_file("five_people.pcd") else { return };
+    let cloud = sensor_agent::formats::pcd::read(&path).unwrap();
+    let mut p = Pipeline::new(PerceptionConfig::default());
+    let input = DepthInput::Xyz { points: &cloud.points, width: cloud.width, height: cloud.height };
+    let mut worst = (0.0f32, 0.0f32);
+    for _ in 0..40 {
+        let out = p.process(input, &FrameContext::default(), &mut NoTimer).unwrap();
+        let (deg, m) = plane_error(out.plane_camera, [0.0047, -0.9968, -0.0798, 1.2714]);
+        worst = (worst.0.max(deg), worst.1.max(m));
+    }
+    assert!(worst.0 < 2.0 && worst.1 < 0.03, "worst {worst:?} over 40 frames");
+    let out = real_xyz("five_people.pcd", &FrameContext::default(), PerceptionConfig::default()).unwrap();
     assert!((out.points_valid as f32 / 239_075.0 - 1.0).abs() < 0.01, "{}", out.points_valid);
     assert!(out.scan.ranges_m.iter().filter(|r| r.is_finite()).count() >= 10, "people in view: {:?}", out.scan.ranges_m);
 }
@@ -331,3 +340,39 @@ fn desk_frame_with_gravity_gives_the_desk_plane() {
     assert!(n[3] > 0.3 && n[3] < 1.5, "{n:?}");
 }
 
+
+/// A noisy frame from the team's simulator (Xtion-class noise, dropouts, shadows):
+/// camera 1.0 m up at the corridor world's start, pitched `pitch_deg` down.
+pub(super) fn simulated(pitch_deg: f64) -> Option<(Vec<u16>, Intrinsics, [f32; 3], [f32; 4])> {
+    use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
+    let world = match World::builtin("corridor")? {
+        Ok(w) => w,
+        Err(e) => {
+            eprintln!("skipping simulator frame: {e}");
+            return None;
+        }
+    };
+    let start = world.start();
+    let pose = CameraPose::from_yaw_pitch(start.x_m, start.y_m, 1.0, start.yaw_rad, pitch_deg.to_radians(), start.floor);
+    let mut renderer = Renderer::new(CameraProfile::xtion());
+    let mut depth = Vec::new();
+    renderer.render(&world, &pose, 0.0, &mut SimRng::seed_from(7), &mut depth);
+    let g = pose.gravity_camera();
+    let gravity = [g.x as f32, g.y as f32, g.z as f32];
+    let plane = [-gravity[0], -gravity[1], -gravity[2], 1.0];
+    Some((depth, renderer.intrinsics(), gravity, plane))
+}
+
+#[test]
+fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm() {
+    for pitch in [10.0, 30.0] {
+        let Some((depth, k, gravity, truth)) = simulated(pitch) else { return };
+        let mut p = Pipeline::new(PerceptionConfig::default());
+        let input = DepthInput::Depth { samples: &depth, width: 640, height: 480, depth_scale_m: MM, intrinsics: k };
+        let ctx = FrameContext { gravity_camera: Some(gravity), ..Default::default() };
+        let out = p.process(input, &ctx, &mut NoTimer).unwrap();
+        let (deg, m) = plane_error(out.plane_camera, truth);
+        assert!(deg < 1.0 && m < 0.02, "pitch {pitch}: {deg} deg {m} m {:?}", out.plane_camera);
+        assert!(!out.dropoff_ahead, "flat corridor floor: {:?}", out.path_ground);
+    }
+}
