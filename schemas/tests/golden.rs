@@ -781,6 +781,8 @@ fn key_vectors() -> Golden {
         case("haptic", &[], &k.haptic()),
         case("speech", &[], &k.speech()),
         case("applied", &[], &k.applied()),
+        case("phone_haptic", &[], &k.phone_haptic()),
+        case("phone_speech", &[], &k.phone_speech()),
         case("cmd", &["where-am-i"], &k.cmd("where-am-i")),
         case("cmd_any", &[], &k.cmd_any()),
         case("health", &["compute-agent"], &k.health("compute-agent")),

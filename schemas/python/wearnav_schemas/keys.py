@@ -3,7 +3,8 @@
 
 Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}``,
 ``perception/{scan,hazard}``, ``localization/pose``, ``route/state``,
-``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``.
+``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``,
+``phone/{haptic,speech}`` (feedback agent -> phone bridge).
 """
 
 
@@ -100,6 +101,14 @@ class Keys:
     def applied(self):
         """What a device actually did."""
         return f"{self._prefix}/feedback/applied"
+
+    def phone_haptic(self):
+        """What the phone should vibrate now (feedback agent's phone backend -> phone bridge)."""
+        return f"{self._prefix}/phone/haptic"
+
+    def phone_speech(self):
+        """What the phone should say (feedback agent's phone backend -> phone bridge)."""
+        return f"{self._prefix}/phone/speech"
 
     def cmd(self, verb):
         """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``)."""
