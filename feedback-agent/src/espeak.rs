@@ -47,11 +47,23 @@ fn on_path(program: &str) -> bool {
         .unwrap_or(false)
 }
 
-/// The first audio player found on `PATH`.
+fn succeeds_with(program: &str, args: &[&str], needle: &str) -> bool {
+    Command::new(program)
+        .args(args)
+        .stdin(Stdio::null())
+        .stderr(Stdio::null())
+        .output()
+        .map(|o| o.status.success() && String::from_utf8_lossy(&o.stdout).contains(needle))
+        .unwrap_or(false)
+}
+
+/// The first audio player on `PATH` that has somewhere to play: `aplay` when ALSA
+/// lists a card, `paplay` when a PulseAudio/PipeWire server answers; else WAV only
+/// (a player without a sound card would fail on every utterance, silently).
 pub fn find_player() -> Playback {
-    if on_path("aplay") {
+    if on_path("aplay") && succeeds_with("aplay", &["-l"], "card ") {
         Playback::Player(vec!["aplay".into(), "-q".into()])
-    } else if on_path("paplay") {
+    } else if on_path("paplay") && succeeds_with("pactl", &["info"], "Server") {
         Playback::Player(vec!["paplay".into()])
     } else {
         Playback::WavOnly
@@ -110,7 +122,7 @@ impl EspeakEngine {
         match &self.playback {
             Playback::Player(cmd) => format!("espeak-ng playing through {}", cmd[0]),
             Playback::WavOnly => format!(
-                "espeak-ng: no audio player (aplay/paplay) found, synthesising to WAV only ({})",
+                "espeak-ng: no audio output (aplay with a sound card, or paplay with a sound server), synthesising to WAV only ({})",
                 self.config.wav_dir.as_deref().unwrap_or(&self.scratch_wav).display()
             ),
         }

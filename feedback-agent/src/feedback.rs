@@ -405,6 +405,22 @@ mod tests {
     }
 
     #[test]
+    fn pulses_are_timed_by_the_agent_on_the_remote() {
+        let (hid, mut f) = setup();
+        fresh(&mut f, T0);
+        let pulses = HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 }, ttl_ms: 1000 };
+        f.on_haptic(&pulses, T0, T0).unwrap();
+        assert_eq!(f.next_wake_ns(T0), T0 + 50 * MS, "wiimote input poll, then the off edge at 100 ms");
+        let mut at = Vec::new();
+        for ms in [50, 100, 150, 200, 300] {
+            fresh(&mut f, T0 + ms * MS);
+            f.tick(T0 + ms * MS);
+            at.push(hid.written_to(RIGHT).last().cloned().unwrap());
+        }
+        assert_eq!(at, [vec![0x10, 0x01], vec![0x10, 0x00], vec![0x10, 0x00], vec![0x10, 0x01], vec![0x10, 0x00]]);
+    }
+
+    #[test]
     fn silence_at_start_is_announced_with_the_alternating_alert() {
         let (hid, mut f) = setup();
         assert_eq!(f.next_wake_ns(T0 + MS), T0 + 50 * MS, "the wiimote input poll comes first");
