@@ -110,18 +110,18 @@ impl Model {
 }
 
 /// Encodes `symbols[i]` with `models[contexts[i]]` into 16-bit words (cleared first),
-/// in the order the decoder reads them. Two states alternate (even symbols, odd
-/// symbols) so their arithmetic overlaps. Every symbol must have a non-zero frequency
+/// in the order the decoder reads them. [`LANES`] states take turns (symbol `i` uses
+/// state `i % LANES`) so the decoder's table lookups overlap. Every symbol must have a non-zero frequency
 /// in its model (true when the models were counted from these symbols).
 pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec<u16>) {
     words.clear();
-    let mut states = [STATE_LOW; 2];
+    let mut states = [STATE_LOW; LANES];
     let limit = ((STATE_LOW >> PROB_BITS) as u64) << 16;
     for (i, (&s, &c)) in symbols.iter().zip(contexts).enumerate().rev() {
         let m = &models[c as usize];
         let f = m.freq[s as usize] as u32;
         debug_assert!(f > 0, "symbol {s} not in model {c}");
-        let x = &mut states[i & 1];
+        let x = &mut states[i % LANES];
         if *x as u64 >= limit * f as u64 {
             words.push(*x as u16);
             *x >>= 16;
@@ -135,6 +135,9 @@ pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec
     }
     words.reverse();
 }
+
+/// Interleaved rANS states.
+pub const LANES: usize = 2;
 
 /// Number of models a [`Tables`] holds.
 pub const MAX_CONTEXTS: usize = 8;
@@ -180,29 +183,27 @@ impl Tables {
 pub struct Decoder<'a> {
     words: &'a [u16],
     pos: usize,
-    /// The state of the symbol about to be decoded, then the other one.
-    x: u32,
-    other: u32,
+    /// States in the order they decode: `lanes[0]` serves the next symbol.
+    lanes: [u32; LANES],
 }
 
 impl<'a> Decoder<'a> {
-    /// Starts decoding; a stream shorter than its four state words is corrupt.
+    /// Starts decoding; a stream shorter than its state words is corrupt.
     pub fn new(words: &'a [u16]) -> Result<Decoder<'a>, RansError> {
-        match words {
-            [a, b, c, d, ..] => Ok(Decoder {
-                words,
-                pos: 4,
-                x: (*a as u32) << 16 | *b as u32,
-                other: (*c as u32) << 16 | *d as u32,
-            }),
-            _ => Err(RansError::BadStream),
+        if words.len() < 2 * LANES {
+            return Err(RansError::BadStream);
         }
+        let mut lanes = [0u32; LANES];
+        for (x, w) in lanes.iter_mut().zip(words.chunks_exact(2)) {
+            *x = (w[0] as u32) << 16 | w[1] as u32;
+        }
+        Ok(Decoder { words, pos: 2 * LANES, lanes })
     }
 
     /// The next symbol under context `ctx` (`< MAX_CONTEXTS`) of `tables`.
     #[inline(always)]
     pub fn symbol(&mut self, tables: &Tables, ctx: usize) -> u8 {
-        let x = self.x;
+        let x = self.lanes[0];
         let e = tables.entries[(ctx << PROB_BITS | (x & SLOT_MASK) as usize) & (TABLE_LEN - 1)];
         let f = ((e >> 8) & SLOT_MASK) + 1;
         let mut next = f * (x >> PROB_BITS) + (e >> (8 + PROB_BITS));
@@ -211,15 +212,15 @@ impl<'a> Decoder<'a> {
             next = next << 16 | self.words.get(self.pos).map_or(0, |&w| w as u32);
             self.pos += 1;
         }
-        self.x = self.other;
-        self.other = next;
+        self.lanes.rotate_left(1);
+        self.lanes[LANES - 1] = next;
         e as u8
     }
 
-    /// Checks the stream ended where the encoder began: every word used, both states
-    /// back at their start value.
+    /// Checks the stream ended where the encoder began: every word used, every state
+    /// back at its start value.
     pub fn finish(self) -> Result<(), RansError> {
-        if self.pos != self.words.len() || self.x != STATE_LOW || self.other != STATE_LOW {
+        if self.pos != self.words.len() || self.lanes.iter().any(|&x| x != STATE_LOW) {
             return Err(RansError::BadStream);
         }
         Ok(())
@@ -274,7 +275,7 @@ mod tests {
     #[test]
     fn single_symbol_model_costs_nothing() {
         let bytes = round_trip(&[9; 10_000], &[0; 10_000], 1);
-        assert_eq!(bytes, 8);
+        assert_eq!(bytes, 4 * LANES);
     }
 
     #[test]
