@@ -164,7 +164,8 @@ impl GroundSearch {
             return None;
         }
         let mut plane = coarse;
-        let mut spread_m = 0.0;
+        let support = self.subset.iter().filter(|p| coarse.height(p).abs() < cfg.ransac_band_m).copied();
+        let mut spread_m = fit_plane(support, &up).map_or(0.0, |(_, s)| s);
         for band in [cfg.ransac_band_m, cfg.refine_band_m, cfg.refine_band_m] {
             match least_squares(cloud, &plane, band, &up) {
                 Some((refined, spread)) if plausible(&refined) => {
