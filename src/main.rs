@@ -2,6 +2,7 @@
 //! run the libraries on recorded data.
 
 mod demo;
+mod perceive;
 
 use clap::{Parser, Subcommand};
 
@@ -19,6 +20,9 @@ enum Command {
     /// Run every agent in this process on the simulated world, with console feedback
     /// and a live status line.
     Demo(demo::DemoArgs),
+    /// Run the obstacle perception on recorded frames (PCD, 16-bit depth PNG) and
+    /// print plane, scan, costs, rumble and stage timings as JSON.
+    Perceive(perceive::PerceiveArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -27,5 +31,6 @@ fn main() -> anyhow::Result<()> {
     let runtime = tokio::runtime::Runtime::new()?;
     match cli.command {
         Command::Demo(args) => runtime.block_on(demo::run(args)),
+        Command::Perceive(args) => perceive::run(&args),
     }
 }
