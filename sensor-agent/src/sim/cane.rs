@@ -1,6 +1,7 @@
 //! The cane the camera rides on: where the hand holds it, how the camera is mounted
-//! below the handle, and the side-to-side sweep (Taylor 2017, sec. 2.1 and 3.1: camera
-//! a hand-width below the handle, pitched down, users sweeping a shoulder-width arc).
+//! below the handle, the side-to-side sweep (Taylor 2017, sec. 2.1 and 3.1: camera
+//! a hand-width below the handle, pitched down, users sweeping a shoulder-width arc),
+//! and the bob of the hand with each step while walking.
 
 use super::pose::CameraPose;
 use super::world::UserPose;
@@ -25,12 +26,21 @@ pub struct CaneMount {
     pub sweep_hz: f64,
     /// Sweep phase at t = 0, radians.
     pub sweep_phase_rad: f64,
+    /// Vertical bob of the hand at walking speed, metres (amplitude; scales with speed).
+    pub bob_m: f64,
+    /// Pitch wobble of the camera at walking speed, degrees (amplitude).
+    pub bob_pitch_deg: f64,
+    /// Steps per second at walking speed (the bob's frequency).
+    pub step_hz: f64,
+    /// Walking speed at which the bob has its full amplitude, m/s.
+    pub bob_speed_m_s: f64,
 }
 
 impl Default for CaneMount {
     /// A 1.3 m cane held at 1 m, camera 15 cm below the handle pitched 30 degrees
     /// down, sweeping +-17 degrees (the tip covers a 0.5 m, shoulder-width arc) in
-    /// step with a 1 m/s walk (0.7 Hz, one sweep per two steps).
+    /// step with a 1 m/s walk (0.7 Hz, one sweep per two steps); at 1 m/s the hand
+    /// bobs +-1.5 cm and the camera wobbles +-1.5 degrees in pitch at 1.8 steps/s.
     fn default() -> Self {
         CaneMount {
             handle_height_m: 1.0,
@@ -41,14 +51,40 @@ impl Default for CaneMount {
             sweep_amplitude_deg: 17.0,
             sweep_hz: 0.7,
             sweep_phase_rad: 0.0,
+            bob_m: 0.015,
+            bob_pitch_deg: 1.5,
+            step_hz: 1.8,
+            bob_speed_m_s: 1.0,
         }
     }
 }
 
 impl CaneMount {
-    /// The same mount with the cane held still, pointing straight ahead.
+    /// The same mount with the cane held still, pointing straight ahead, no bob.
     pub fn still(self) -> Self {
-        CaneMount { sweep_amplitude_deg: 0.0, ..self }
+        CaneMount { sweep_amplitude_deg: 0.0, bob_m: 0.0, bob_pitch_deg: 0.0, ..self }
+    }
+
+    /// Walking bob at time `t_s` for a walker moving at `speed_m_s`, -1..1 of the full
+    /// amplitude at `bob_speed_m_s` (larger when faster, capped at 1.5).
+    pub fn bob_at(&self, t_s: f64, speed_m_s: f64) -> f64 {
+        let scale = (speed_m_s / self.bob_speed_m_s).clamp(0.0, 1.5);
+        scale * (std::f64::consts::TAU * self.step_hz * t_s).sin()
+    }
+
+    /// Camera pose as [`CaneMount::camera_pose`], moved by a walking bob (from
+    /// [`CaneMount::bob_at`]): the hand higher and the camera tipped less when positive.
+    pub fn camera_pose_bobbing(&self, user: &UserPose, sweep_rad: f64, bob: f64) -> CameraPose {
+        let still = self.camera_pose(user, sweep_rad);
+        let pitch = (self.pitch_deg - bob * self.bob_pitch_deg).to_radians();
+        CameraPose::from_yaw_pitch(
+            still.position_m.x,
+            still.position_m.y,
+            still.position_m.z + bob * self.bob_m,
+            user.yaw_rad + sweep_rad,
+            pitch,
+            user.floor,
+        )
     }
 
     /// Sweep angle at time `t_s`, radians, positive left.
@@ -99,6 +135,19 @@ mod tests {
         assert!((cam.position_m.z - 0.8846).abs() < 1e-3, "{}", cam.position_m.z);
         assert!((cam.position_m.z - m.camera_height_m()).abs() < 1e-12);
         assert!((cam.pitch_down_rad() - 30f64.to_radians()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn walking_bob_raises_the_camera_and_tips_it_up_only_while_moving() {
+        let m = CaneMount::default();
+        let user = UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
+        let quarter_step_s = 0.25 / m.step_hz;
+        assert_eq!(m.bob_at(quarter_step_s, 0.0), 0.0);
+        let bob = m.bob_at(quarter_step_s, 1.0);
+        assert!((bob - 1.0).abs() < 1e-12);
+        let up = m.camera_pose_bobbing(&user, 0.0, bob);
+        assert!((up.position_m.z - m.camera_height_m() - 0.015).abs() < 1e-12);
+        assert!((up.pitch_down_rad().to_degrees() - 28.5).abs() < 1e-9);
     }
 
     #[test]

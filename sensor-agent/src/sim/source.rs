@@ -128,6 +128,17 @@ impl SimSource {
     }
 }
 
+/// Time step of the finite difference that gives the walker's speed, seconds.
+const SPEED_STEP_S: f64 = 0.01;
+
+/// The camera at `t_s`: the walker's pose, the cane's sweep and the walking bob.
+fn camera_pose_at(walker: &ScriptedWalker, mount: &CaneMount, t_s: f64) -> super::pose::CameraPose {
+    let user = walker.pose_at(t_s);
+    let (before, after) = (walker.pose_at(t_s - SPEED_STEP_S), walker.pose_at(t_s + SPEED_STEP_S));
+    let speed_m_s = (after.x_m - before.x_m).hypot(after.y_m - before.y_m) / (2.0 * SPEED_STEP_S);
+    mount.camera_pose_bobbing(&user, mount.sweep_rad(t_s), mount.bob_at(t_s, speed_m_s))
+}
+
 impl FrameSource for SimSource {
     fn describe(&self) -> String {
         format!("sim:{}", self.world.name())
@@ -141,12 +152,12 @@ impl FrameSource for SimSource {
 
         let user = self.walker.pose_at(t_s);
         let sweep = self.mount.sweep_rad(t_s);
-        let camera = self.mount.camera_pose(&user, sweep);
+        let (walker, mount) = (&self.walker, self.mount);
+        let camera_at = |t: f64| camera_pose_at(walker, &mount, t);
+        let camera = camera_at(t_s);
         self.renderer.render(&self.world, &camera, t_s, &mut self.depth_rng, &mut self.scratch);
 
         let mut imu = Vec::new();
-        let (walker, mount) = (&self.walker, self.mount);
-        let camera_at = |t: f64| mount.camera_pose(&walker.pose_at(t), mount.sweep_rad(t));
         loop {
             let t_k = self.next_imu as f64 / self.imu_rate_hz;
             if t_k > t_s {
@@ -249,6 +260,34 @@ mod tests {
         // The walker set off towards +x at up to 1 m/s.
         let moved = last.truth.map_or(0.0, |t| t.x_m - 0.7);
         assert!((0.4..1.0).contains(&moved), "moved {moved} m in 1 s");
+    }
+
+    #[test]
+    fn walking_bob_shows_in_camera_height_and_vertical_acceleration() {
+        let mut s = source(SimConfig { world: "corridor".into(), ..SimConfig::default() });
+        let period = s.period_ns();
+        let mut heights = Vec::new();
+        let mut up_accel = Vec::new();
+        for k in 0..=90u64 {
+            let f = frame(&mut s, k * period);
+            if k < 30 {
+                continue; // first second: setting off
+            }
+            heights.push(f.truth.map_or(0.0, |t| t.camera_height_m));
+            // Specific force along "up" (the reading at rest is +9.81 along -gravity).
+            let g = f.gravity_camera.unwrap_or([0.0; 3]);
+            for i in &f.imu {
+                up_accel.push(-(i.accel_m_s2[0] * g[0] + i.accel_m_s2[1] * g[1] + i.accel_m_s2[2] * g[2]) as f64);
+            }
+        }
+        let span = heights.iter().copied().fold(f32::MIN, f32::max) - heights.iter().copied().fold(f32::MAX, f32::min);
+        assert!((0.025..0.035).contains(&span), "camera height varies by {span} m");
+        let n = up_accel.len() as f64;
+        let mean = up_accel.iter().sum::<f64>() / n;
+        let sd = (up_accel.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n).sqrt();
+        // 1.5 cm at 1.8 Hz: (2 pi 1.8)^2 * 0.015 = 1.9 m/s^2 peak, 1.35 RMS.
+        assert!((mean - 9.81).abs() < 0.3, "mean {mean}");
+        assert!((1.0..1.8).contains(&sd), "vertical acceleration RMS {sd}");
     }
 
     #[test]
