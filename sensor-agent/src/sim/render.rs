@@ -739,6 +739,36 @@ mod tests {
     }
 
     #[test]
+    fn low_cylinder_shows_its_top_and_table_its_top_over_its_legs() {
+        // Camera 1 m up looking straight down: a 0.5 m stool top reads 500 mm.
+        let w = world("[[cylinders]]\ncenter = [0.0, 0.0]\nradius_m = 0.1\ntop_m = 0.5\n");
+        let down = CameraPose::from_yaw_pitch(0.0, 0.0, 1.0, 0.0, 90f64.to_radians(), 0);
+        let mut r = Renderer::new(CameraProfile::xtion());
+        let mut out = Vec::new();
+        r.render(&w, &down, 0.0, &mut SimRng::seed_from(1), &mut out);
+        assert_eq!(r.obstacle_ids()[240 * 640 + 320], 0);
+        // 0.5 m is inside the Xtion's minimum range ramp: some pixels read, near 500 mm.
+        let top = window(&out, 320, 240, 10);
+        assert!(!top.is_empty() && top.iter().all(|d| (d - 500.0).abs() < 5.0), "{top:?}");
+        // Beside the stool (its top spans rows 124-355) the floor reads 1 m.
+        assert!((mean(&window(&out, 320, 60, 3)) - 1000.0).abs() < 5.0);
+
+        // A table 1.5 m ahead: the level camera at 0.9 m sees its edge at 0.71-0.75 m
+        // just below the axis, and a leg below that.
+        let w = world("[[tables]]\ncenter = [2.0, 0.0]\nsize_m = [1.0, 1.6]\n");
+        let level = CameraPose::from_yaw_pitch(0.0, 0.0, 0.9, 0.0, 0.0, 0);
+        r.render(&w, &level, 0.0, &mut SimRng::seed_from(1), &mut out);
+        let k = r.intrinsics();
+        let row_of = |z: f64, x: f64| (k.cy as f64 + k.fy as f64 * (0.9 - z) / x).round() as usize;
+        let edge = mean(&window(&out, 320, row_of(0.73, 1.5), 1));
+        assert!((edge - 1500.0).abs() < 10.0, "table edge {edge}");
+        // Leg centres 0.075 m in from the corners: x = 1.575, y = +-0.725.
+        let leg_u = (k.cx as f64 - k.fx as f64 * 0.725 / 1.575).round() as usize;
+        let leg = r.obstacle_ids()[row_of(0.3, 1.575) * 640 + leg_u];
+        assert_eq!(leg, 0, "leg of the table at column {leg_u}");
+    }
+
+    #[test]
     fn pole_and_walking_person_are_drawn_where_they_are() {
         let w = world(
             "[[poles]]\ncenter = [2.0, 0.0]\nradius_m = 0.1\nheight_m = 2.0\n[[people]]\nwaypoints = [[3.0, -3.0], [3.0, 3.0]]\nspeed_m_s = 1.0\n",
