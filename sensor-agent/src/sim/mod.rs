@@ -3,10 +3,14 @@
 //! true motion, and `SimSource` (`sim:<world>`) that streams it all as frames.
 //!
 //! The pieces are usable on their own, which is what the closed-loop virtual user
-//! (issue 6) does: load a [`World`], move a [`CameraPose`] however it likes, and call
-//! [`Renderer::render`]; ask [`World::nearest_to_body`] / [`World::nearest_to_segment`]
-//! for contacts. Camera model from Taylor (2017, sec. 2.1) and Khoshelham & Elberink
-//! (2012); see each module.
+//! (issue 6) does: load a [`World`] ([`World::start`], [`World::goal`]), place the
+//! camera with [`CaneMount::camera_pose`] (or any [`CameraPose`]), call
+//! [`Renderer::render`] (then [`Renderer::saw_obstacle`]: was it in view), and count
+//! contacts with [`World::nearest_to_body`] and, for the cane from
+//! [`CaneMount::cane_segment`], [`World::nearest_to_segment`]. Nothing reads a clock:
+//! time is the `t_s` argument, so a course runs as fast as the CPU allows.
+//! Camera model from Taylor (2017, sec. 2.1) and Khoshelham & Elberink (2012); see
+//! each module.
 
 pub mod camera;
 pub mod cane;
