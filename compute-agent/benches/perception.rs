@@ -1,5 +1,6 @@
-//! Per-stage medians of the perception pipeline on the real captures and on synthetic
-//! frames at 10 and 30 deg pitch: `cargo bench -p compute-agent --bench perception`.
+//! Per-stage medians of the perception pipeline on the real captures, on analytic
+//! synthetic frames and on the simulator's noisy frames at 10 and 30 deg pitch:
+//! `cargo bench -p compute-agent --bench perception`.
 //! One core, one frame at a time, the pipeline reused across runs as in the agent.
 //! `PERCEPTION_BENCH_RUNS` sets the runs per frame (default 200).
 
@@ -82,10 +83,40 @@ fn synthetic_cases() -> Vec<Case> {
         .collect()
 }
 
+/// Noisy simulator frames (Xtion-class noise, dropouts, shadow bands) in the corridor
+/// world, camera 1.0 m up.
+fn simulator_cases() -> Vec<Case> {
+    use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
+    let world = match World::builtin("corridor") {
+        Some(Ok(w)) => w,
+        _ => {
+            eprintln!("skipping simulator frames: no corridor world");
+            return Vec::new();
+        }
+    };
+    let start = world.start();
+    [10.0f64, 30.0]
+        .into_iter()
+        .map(|pitch| {
+            let pose = CameraPose::from_yaw_pitch(start.x_m, start.y_m, 1.0, start.yaw_rad, pitch.to_radians(), start.floor);
+            let mut renderer = Renderer::new(CameraProfile::xtion());
+            let mut samples = Vec::new();
+            renderer.render(&world, &pose, 0.0, &mut SimRng::seed_from(7), &mut samples);
+            let g = pose.gravity_camera();
+            let p = renderer.profile();
+            Case {
+                name: format!("simulator corridor, pitch {pitch} deg"),
+                frame: Frame::Depth { samples, width: p.width, height: p.height, scale_m: 0.001, k: renderer.intrinsics() },
+                gravity: Some([g.x as f32, g.y as f32, g.z as f32]),
+            }
+        })
+        .collect()
+}
+
 fn main() {
     let runs: usize = std::env::var("PERCEPTION_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(200);
     println!("perception pipeline, {runs} runs per frame, medians in ms (shared machine: expect noise)");
-    for case in real_cases().into_iter().chain(synthetic_cases()) {
+    for case in real_cases().into_iter().chain(synthetic_cases()).chain(simulator_cases()) {
         let mut pipeline = Pipeline::new(PerceptionConfig::default());
         let mut timer = InstantTimer::default();
         let mut medians = StageMedians::default();

@@ -22,8 +22,9 @@
 //! - `scale` (our stand-in for the `/100`) is set per function so the forward threshold
 //!   is crossed with the cane tip 75 cm from a wall in the thesis calibration (camera on
 //!   the handle 1 m above the floor, 1.1 m cane, tip on the floor pointing at the wall).
-//!   FICF's left-right threshold is then crossed at ~38 cm (thesis: ~40 cm): the shape of
-//!   the cost, not a second tuned constant, puts it there.
+//!   FICF's left-right threshold is then crossed at 39 cm (thesis: ~40 cm): the shape of
+//!   the cost, not a second tuned constant, puts it there. CACF's (7.0 over its 1.5 m
+//!   cushion) is crossed at 68 cm: the cushion stops the user earlier.
 
 use schemas::{Rumble, SideCosts};
 
