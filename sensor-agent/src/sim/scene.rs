@@ -912,6 +912,19 @@ mod tests {
     }
 
     #[test]
+    fn example_scene_of_the_worlds_readme_loads() {
+        let readme = include_str!("../../worlds/README.md");
+        let example = readme
+            .split("## Example")
+            .nth(1)
+            .and_then(|rest| rest.split("```toml").nth(1))
+            .and_then(|block| block.split("```").next())
+            .unwrap_or_else(|| panic!("README has no toml example"));
+        let scene = parse_scene(example, "README.md").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((scene.walls.len(), scene.hanging.len(), scene.floor_regions.len()), (1, 1, 1));
+    }
+
+    #[test]
     fn wrong_type_is_a_syntax_error_with_line() {
         let text = format!("{HEAD}[[poles]]\ncenter = [1.0, 1.0]\nheight_m = \"tall\"\n");
         let err = parse_scene(&text, "x").unwrap_err();
