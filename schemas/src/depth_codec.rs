@@ -663,6 +663,71 @@ mod tests {
         }
     }
 
+    /// A synthetic 48x32 scene: a floor ramp, a box with a step edge, holes, noise
+    /// and the extreme values 1 and 65535, so vectors exercise escapes and every branch.
+    fn synthetic_scene() -> Vec<u16> {
+        let mut rng = Rng(2024);
+        let (w, h) = (48usize, 32usize);
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let r = rng.next();
+                if r % 17 == 0 || (x > 30 && y < 6) {
+                    0
+                } else if (10..20).contains(&x) && (8..20).contains(&y) {
+                    800 + (r % 3) as u16
+                } else if x == 47 && y == 31 {
+                    65535
+                } else if x == 0 && y == 31 {
+                    1
+                } else {
+                    4000 - (y as u16) * 60 + (x as u16) * 3 + (r % 5) as u16
+                }
+            })
+            .collect()
+    }
+
+    /// Writes (with `UPDATE_VECTORS=1`) or checks `schemas/vectors/depth_codec/<name>.bin`
+    /// (the packed payload) and `.json` (encoding, size and the samples it decodes to),
+    /// which `schemas/python/tests/test_depth.py` decodes with the Python codec.
+    #[test]
+    fn depth_codec_vectors_match_the_committed_files() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors/depth_codec");
+        let update = std::env::var_os("UPDATE_VECTORS").is_some_and(|v| v == "1");
+        let scene = synthetic_scene();
+        let cases: Vec<(&str, Vec<u16>, u32, u32, DepthEncoding)> = vec![
+            ("lossless_scene", scene.clone(), 48, 32, DepthEncoding::Lossless),
+            ("bounded_step5_scene", scene.clone(), 48, 32, DepthEncoding::Bounded { step: 5 }),
+            ("bounded_step1000_scene", scene, 48, 32, DepthEncoding::Bounded { step: 1000 }),
+            ("lossless_all_invalid", vec![0; 8 * 4], 8, 4, DepthEncoding::Lossless),
+            ("lossless_one_pixel", vec![1234], 1, 1, DepthEncoding::Lossless),
+            ("lossless_empty", vec![], 0, 0, DepthEncoding::Lossless),
+        ];
+        let mut stale = Vec::new();
+        for (name, samples, w, h, mode) in cases {
+            let (packed, back) = round_trip(&samples, w, h, mode);
+            if let DepthEncoding::Bounded { step } = mode {
+                assert_bounded(&samples, &back, step);
+            }
+            let json = serde_json::json!({ "encoding": mode, "width": w, "height": h, "samples": back });
+            let json = serde_json::to_vec_pretty(&json).unwrap();
+            for (file, bytes) in [(format!("{name}.bin"), packed), (format!("{name}.json"), json)] {
+                let path = dir.join(&file);
+                if update {
+                    std::fs::create_dir_all(&dir).unwrap();
+                    std::fs::write(&path, &bytes).unwrap();
+                } else if std::fs::read(&path).ok().as_deref() != Some(&bytes[..]) {
+                    stale.push(file);
+                }
+            }
+        }
+        assert!(
+            stale.is_empty(),
+            "{stale:?} differ from what the codec writes now: regenerate with \
+             `UPDATE_VECTORS=1 cargo test -p schemas --lib depth_codec_vectors`, review, run pytest"
+        );
+    }
+
     #[test]
     fn lossless_real_frames_round_trip_exactly_at_9x_or_better() {
         for name in REAL {
@@ -760,7 +825,7 @@ mod tests {
         let mut enc = DepthEncoder::new();
         let mut dec = DepthDecoder::new();
         for frame in 0..4 {
-            let samples: Vec<u16> = (0..40 * 30).map(|i| if rng.next() % 9 == 0 { 0 } else { 1000 + (i % 40) as u16 * frame }).collect();
+            let samples: Vec<u16> = (0..40 * 30).map(|i| if rng.next().is_multiple_of(9) { 0 } else { 1000 + (i % 40) as u16 * frame }).collect();
             let mut reused = Vec::new();
             enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused).unwrap();
             let (fresh, _) = round_trip(&samples, 40, 30, DepthEncoding::Lossless);
