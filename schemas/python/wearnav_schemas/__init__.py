@@ -32,7 +32,8 @@ from .wire import (
 
 def depth_samples(frame):
     """The depth samples of a decoded ``depth_frame`` body (row-major, 0 = invalid).
-    Imports the pixel codec only here, so the package itself needs no numpy/zstandard."""
+    Imports the pixel codec (``depth.py``, numpy) only here, so the package itself needs
+    nothing beyond the standard library."""
     from .depth import decode_depth
 
     return decode_depth(frame)
