@@ -31,7 +31,8 @@ from .wire import (
 
 
 def depth_samples(frame):
-    """The depth samples of a decoded ``depth_frame`` body (row-major, 0 = invalid).
+    """The depth samples of a decoded ``depth_frame`` body: a ``(height, width)`` uint16
+    array, 0 = invalid.
     Imports the pixel codec (``depth.py``, numpy) only here, so the package itself needs
     nothing beyond the standard library."""
     from .depth import decode_depth
