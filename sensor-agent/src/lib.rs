@@ -1,6 +1,8 @@
 //! wearnav sensor agent: depth frames from a simulated world, recorded files or a real
 //! camera, compressed and published with IMU, odometry and (simulated) ground truth.
 
+#[cfg(feature = "openni2")]
+pub mod camera;
 pub mod formats;
 pub mod replay;
 pub mod sim;
