@@ -236,11 +236,11 @@ fn plane_through(a: &[f32; 3], b: &[f32; 3], c: &[f32; 3], up: &[f32; 3]) -> Opt
     Some(Plane { normal: n, offset_m: -dot(&n, a) })
 }
 
-const LSQ_POINTS: usize = 16_384;
+const LSQ_POINTS: usize = 4096;
 
 /// Total least squares plane of the valid points within `band` of `around`.
 fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3]) -> Option<(Plane, f32)> {
-    // ~16k evenly spread points fix a plane to well under a millimetre; more only cost
+    // 4k evenly spread points fix a plane to well under a millimetre; more only cost
     let step = (cloud.valid.len() / LSQ_POINTS).max(1);
     let near = cloud.valid.iter().step_by(step).map(|&i| cloud.points[i as usize]).filter(|p| around.height(p).abs() < band);
     fit_plane(near, up)

@@ -378,4 +378,3 @@ fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm(
         assert!(!out.dropoff_ahead, "flat corridor floor: {:?}", out.path_ground);
     }
 }
-
