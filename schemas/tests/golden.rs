@@ -36,12 +36,15 @@ fn updating() -> bool {
     std::env::var_os("UPDATE_VECTORS").is_some_and(|v| v == "1")
 }
 
+/// What the committed bytes of a vector must do when Rust decodes them.
+type Check = Box<dyn Fn(&[u8]) -> Result<(), String>>;
+
 /// One file to compare with (or write to) `schemas/vectors`, and the check that its
 /// committed bytes decode back in Rust.
 struct Golden {
     path: String,
     bytes: Vec<u8>,
-    check: Box<dyn Fn(&[u8]) -> Result<(), String>>,
+    check: Check,
 }
 
 impl Golden {
