@@ -16,7 +16,10 @@ fn main() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real");
     let runs = 200;
     // 5 mm in each file's units: TUM stores 5000 per metre, Redwood millimetres.
-    for (name, step_5mm) in [("tum_depth_640x480_u16_5000perm.png", 25), ("redwood_00000_depth_640x480_u16_mm.png", 5)] {
+    for (name, step_5mm) in [
+        ("tum_depth_640x480_u16_5000perm.png", 25),
+        ("redwood_00000_depth_640x480_u16_mm.png", 5),
+    ] {
         let path = format!("{dir}/{name}");
         let Ok(file) = std::fs::File::open(&path) else {
             println!("skipping {path}: not present");
@@ -31,9 +34,15 @@ fn main() {
             println!("skipping {path}: does not decode");
             continue;
         };
-        let samples: Vec<u16> = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
+        let samples: Vec<u16> = buf
+            .chunks_exact(2)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]))
+            .collect();
         let (w, h) = (info.width, info.height);
-        for mode in [DepthEncoding::Lossless, DepthEncoding::Bounded { step: step_5mm }] {
+        for mode in [
+            DepthEncoding::Lossless,
+            DepthEncoding::Bounded { step: step_5mm },
+        ] {
             let mut enc = DepthEncoder::new();
             let mut dec = DepthDecoder::new();
             let mut packed = Vec::new();
@@ -42,13 +51,20 @@ fn main() {
             let mut dec_us = Vec::with_capacity(runs);
             for _ in 0..runs {
                 let t = Instant::now();
-                enc.encode(&samples, w, h, mode, &mut packed).expect("real frame packs");
+                enc.encode(&samples, w, h, mode, &mut packed)
+                    .expect("real frame packs");
                 enc_us.push(t.elapsed().as_secs_f64() * 1e6);
                 let t = Instant::now();
-                dec.decode(&packed, w, h, mode, &mut back).expect("own payload unpacks");
+                dec.decode(&packed, w, h, mode, &mut back)
+                    .expect("own payload unpacks");
                 dec_us.push(t.elapsed().as_secs_f64() * 1e6);
             }
-            let max_err = samples.iter().zip(&back).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
+            let max_err = samples
+                .iter()
+                .zip(&back)
+                .map(|(a, b)| a.abs_diff(*b))
+                .max()
+                .unwrap_or(0);
             println!(
                 "{name:42} {mode:?}: {} bytes, {:.2}x, encode {:.0} us, decode {:.0} us, max error {max_err}",
                 packed.len(),

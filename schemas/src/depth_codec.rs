@@ -117,7 +117,11 @@ impl<'a> Cursor<'a> {
             self.pos += 1;
             v |= ((b & 0x7f) as u32).checked_shl(shift)?;
             if b < 0x80 {
-                return if shift == 28 && b > 0x0f { None } else { Some(v) };
+                return if shift == 28 && b > 0x0f {
+                    None
+                } else {
+                    Some(v)
+                };
             }
         }
         None
@@ -133,7 +137,10 @@ impl<'a> Cursor<'a> {
         let end = self.pos.checked_add(count.checked_mul(2)?)?;
         let raw = self.bytes.get(self.pos..end)?;
         out.clear();
-        out.extend(raw.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])));
+        out.extend(
+            raw.chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]])),
+        );
         self.pos = end;
         Some(())
     }
@@ -220,7 +227,12 @@ impl DepthEncoder {
     ) -> Result<(), CodecError> {
         let expected = checked_len(width, height)?;
         if samples.len() != expected {
-            return Err(CodecError::SizeMismatch { width, height, expected, got: samples.len() });
+            return Err(CodecError::SizeMismatch {
+                width,
+                height,
+                expected,
+                got: samples.len(),
+            });
         }
         out.clear();
         let half_step = match mode {
@@ -252,7 +264,12 @@ impl DepthEncoder {
         side_model[0].write(out);
         self.side_contexts.clear();
         self.side_contexts.resize(self.side.len(), 0);
-        rans::encode(&self.side, &self.side_contexts, &side_model, &mut self.words);
+        rans::encode(
+            &self.side,
+            &self.side_contexts,
+            &side_model,
+            &mut self.words,
+        );
         put_words(out, &self.words);
 
         let mut counts = [[0u32; 256]; CONTEXTS];
@@ -414,10 +431,18 @@ impl DepthDecoder {
         match mode {
             DepthEncoding::Raw => {
                 if data.len() != expected * 2 {
-                    return Err(CodecError::SizeMismatch { width, height, expected, got: data.len() / 2 });
+                    return Err(CodecError::SizeMismatch {
+                        width,
+                        height,
+                        expected,
+                        got: data.len() / 2,
+                    });
                 }
                 out.clear();
-                out.extend(data.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])));
+                out.extend(
+                    data.chunks_exact(2)
+                        .map(|c| u16::from_le_bytes([c[0], c[1]])),
+                );
                 Ok(())
             }
             DepthEncoding::Bounded { step: 0 } => Err(CodecError::ZeroStep),
@@ -425,20 +450,31 @@ impl DepthDecoder {
                 out.clear();
                 out.resize(expected, 0);
                 if expected == 0 {
-                    return if data == [FORMAT_TAG] { Ok(()) } else { Err(corrupt("empty image with a body")) };
+                    return if data == [FORMAT_TAG] {
+                        Ok(())
+                    } else {
+                        Err(corrupt("empty image with a body"))
+                    };
                 }
                 self.decode_packed(data, width as usize, out)
             }
         }
     }
 
-    fn decode_packed(&mut self, data: &[u8], width: usize, out: &mut [u16]) -> Result<(), CodecError> {
+    fn decode_packed(
+        &mut self,
+        data: &[u8],
+        width: usize,
+        out: &mut [u16],
+    ) -> Result<(), CodecError> {
         let mut cur = Cursor::new(data);
         if cur.byte() != Some(FORMAT_TAG) {
             return Err(corrupt("bad format tag"));
         }
         // Side stream.
-        let side_len = cur.varint().ok_or_else(|| corrupt("truncated side length"))? as usize;
+        let side_len = cur
+            .varint()
+            .ok_or_else(|| corrupt("truncated side length"))? as usize;
         // Every pixel costs at most a run byte and a 5-byte escape; more is forged.
         if side_len > 8 * out.len() + (1 << 20) {
             return Err(corrupt("side stream longer than any image needs"));
@@ -447,15 +483,23 @@ impl DepthDecoder {
             .ok_or_else(|| corrupt("truncated side model"))?
             .map_err(|_| corrupt("bad side model"))?;
         self.tables.fill(0, &side_model);
-        let n_words = cur.varint().ok_or_else(|| corrupt("truncated side words"))? as usize;
-        cur.words(n_words, &mut self.words).ok_or_else(|| corrupt("truncated side words"))?;
-        let mut dec = rans::Decoder::new(&self.words).map_err(|_| corrupt("side stream too short"))?;
+        let n_words = cur
+            .varint()
+            .ok_or_else(|| corrupt("truncated side words"))? as usize;
+        cur.words(n_words, &mut self.words)
+            .ok_or_else(|| corrupt("truncated side words"))?;
+        let mut dec =
+            rans::Decoder::new(&self.words).map_err(|_| corrupt("side stream too short"))?;
         self.side.clear();
-        self.side.extend((0..side_len).map(|_| dec.symbol(&self.tables, 0)));
-        dec.finish().map_err(|_| corrupt("side stream does not decode"))?;
+        self.side
+            .extend((0..side_len).map(|_| dec.symbol(&self.tables, 0)));
+        dec.finish()
+            .map_err(|_| corrupt("side stream does not decode"))?;
 
         let mut side = Cursor::new(&self.side);
-        let n_levels = side.varint().ok_or_else(|| corrupt("truncated level count"))? as usize;
+        let n_levels = side
+            .varint()
+            .ok_or_else(|| corrupt("truncated level count"))? as usize;
         if n_levels > 65535 {
             return Err(corrupt("more levels than u16 values"));
         }
@@ -475,7 +519,10 @@ impl DepthDecoder {
         for _ in 0..height {
             let mut x = 0usize;
             loop {
-                let valid = side.varint().ok_or_else(|| corrupt("truncated validity runs"))? as usize;
+                let valid = side
+                    .varint()
+                    .ok_or_else(|| corrupt("truncated validity runs"))?
+                    as usize;
                 x += valid;
                 self.runs.push(valid as u32);
                 if x > width {
@@ -484,7 +531,10 @@ impl DepthDecoder {
                 if x == width {
                     break;
                 }
-                let invalid = side.varint().ok_or_else(|| corrupt("truncated validity runs"))? as usize;
+                let invalid = side
+                    .varint()
+                    .ok_or_else(|| corrupt("truncated validity runs"))?
+                    as usize;
                 x += invalid;
                 self.runs.push(invalid as u32);
                 if x > width {
@@ -508,12 +558,16 @@ impl DepthDecoder {
         for (ctx, m) in models.iter().enumerate() {
             self.tables.fill(ctx, m);
         }
-        let n_words = cur.varint().ok_or_else(|| corrupt("truncated residual words"))? as usize;
-        cur.words(n_words, &mut self.words).ok_or_else(|| corrupt("truncated residual words"))?;
+        let n_words = cur
+            .varint()
+            .ok_or_else(|| corrupt("truncated residual words"))? as usize;
+        cur.words(n_words, &mut self.words)
+            .ok_or_else(|| corrupt("truncated residual words"))?;
         if cur.pos != data.len() {
             return Err(corrupt("trailing bytes"));
         }
-        let mut dec = rans::Decoder::new(&self.words).map_err(|_| corrupt("residual stream too short"))?;
+        let mut dec =
+            rans::Decoder::new(&self.words).map_err(|_| corrupt("residual stream too short"))?;
 
         let [prev, row] = &mut self.rows;
         prev.clear();
@@ -539,7 +593,9 @@ impl DepthDecoder {
                     let d = prev[xi + 2];
                     let sym = dec.symbol(&self.tables, context(b, c, d, calm[xi])) as u32;
                     let z = if sym == ESCAPE {
-                        side.varint().and_then(|e| e.checked_add(ESCAPE)).ok_or_else(|| corrupt("truncated escapes"))?
+                        side.varint()
+                            .and_then(|e| e.checked_add(ESCAPE))
+                            .ok_or_else(|| corrupt("truncated escapes"))?
                     } else {
                         sym
                     };
@@ -574,7 +630,8 @@ impl DepthDecoder {
             row[width + 1] = row[width];
             std::mem::swap(prev, row);
         }
-        dec.finish().map_err(|_| corrupt("residual stream does not decode"))?;
+        dec.finish()
+            .map_err(|_| corrupt("residual stream does not decode"))?;
         if side.pos != self.side.len() {
             return Err(corrupt("unused escapes"));
         }
@@ -613,19 +670,30 @@ mod tests {
     /// A 16-bit grayscale PNG from `../shared/data/real`, or `None` (with a message)
     /// when the data folder is absent.
     fn real_png(name: &str) -> Option<(u32, u32, Vec<u16>)> {
-        let path = format!("{}/../../shared/data/real/{name}", env!("CARGO_MANIFEST_DIR"));
+        let path = format!(
+            "{}/../../shared/data/real/{name}",
+            env!("CARGO_MANIFEST_DIR")
+        );
         let Ok(file) = std::fs::File::open(&path) else {
             println!("skipping: {path} not present");
             return None;
         };
-        let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .unwrap();
         let mut buf = vec![0; reader.output_buffer_size()];
         let info = reader.next_frame(&mut buf).unwrap();
-        let samples = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
+        let samples = buf
+            .chunks_exact(2)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]))
+            .collect();
         Some((info.width, info.height, samples))
     }
 
-    const REAL: [&str; 2] = ["tum_depth_640x480_u16_5000perm.png", "redwood_00000_depth_640x480_u16_mm.png"];
+    const REAL: [&str; 2] = [
+        "tum_depth_640x480_u16_5000perm.png",
+        "redwood_00000_depth_640x480_u16_mm.png",
+    ];
 
     fn round_trip(samples: &[u16], w: u32, h: u32, mode: DepthEncoding) -> (Vec<u8>, Vec<u16>) {
         let mut packed = Vec::new();
@@ -645,7 +713,11 @@ mod tests {
             } else {
                 assert_ne!(b, 0, "valid pixel {i} ({o}) became invalid");
                 let err = o.abs_diff(b);
-                assert!(err <= step / 2, "pixel {i}: {o} -> {b}, error {err} > {}", step / 2);
+                assert!(
+                    err <= step / 2,
+                    "pixel {i}: {o} -> {b}, error {err} > {}",
+                    step / 2
+                );
                 worst = worst.max(err);
             }
         }
@@ -672,7 +744,7 @@ mod tests {
             .map(|i| {
                 let (x, y) = (i % w, i / w);
                 let r = rng.next();
-                if r % 17 == 0 || (x > 30 && y < 6) {
+                if r.is_multiple_of(17) || (x > 30 && y < 6) {
                     0
                 } else if (10..20).contains(&x) && (8..20).contains(&y) {
                     800 + (r % 3) as u16
@@ -696,11 +768,41 @@ mod tests {
         let update = std::env::var_os("UPDATE_VECTORS").is_some_and(|v| v == "1");
         let scene = synthetic_scene();
         let cases: Vec<(&str, Vec<u16>, u32, u32, DepthEncoding)> = vec![
-            ("lossless_scene", scene.clone(), 48, 32, DepthEncoding::Lossless),
-            ("bounded_step5_scene", scene.clone(), 48, 32, DepthEncoding::Bounded { step: 5 }),
-            ("bounded_step1000_scene", scene, 48, 32, DepthEncoding::Bounded { step: 1000 }),
-            ("lossless_all_invalid", vec![0; 8 * 4], 8, 4, DepthEncoding::Lossless),
-            ("lossless_one_pixel", vec![1234], 1, 1, DepthEncoding::Lossless),
+            (
+                "lossless_scene",
+                scene.clone(),
+                48,
+                32,
+                DepthEncoding::Lossless,
+            ),
+            (
+                "bounded_step5_scene",
+                scene.clone(),
+                48,
+                32,
+                DepthEncoding::Bounded { step: 5 },
+            ),
+            (
+                "bounded_step1000_scene",
+                scene,
+                48,
+                32,
+                DepthEncoding::Bounded { step: 1000 },
+            ),
+            (
+                "lossless_all_invalid",
+                vec![0; 8 * 4],
+                8,
+                4,
+                DepthEncoding::Lossless,
+            ),
+            (
+                "lossless_one_pixel",
+                vec![1234],
+                1,
+                1,
+                DepthEncoding::Lossless,
+            ),
             ("lossless_empty", vec![], 0, 0, DepthEncoding::Lossless),
         ];
         let mut stale = Vec::new();
@@ -709,9 +811,13 @@ mod tests {
             if let DepthEncoding::Bounded { step } = mode {
                 assert_bounded(&samples, &back, step);
             }
-            let json = serde_json::json!({ "encoding": mode, "width": w, "height": h, "samples": back });
+            let json =
+                serde_json::json!({ "encoding": mode, "width": w, "height": h, "samples": back });
             let json = serde_json::to_vec_pretty(&json).unwrap();
-            for (file, bytes) in [(format!("{name}.bin"), packed), (format!("{name}.json"), json)] {
+            for (file, bytes) in [
+                (format!("{name}.bin"), packed),
+                (format!("{name}.json"), json),
+            ] {
                 let path = dir.join(&file);
                 if update {
                     std::fs::create_dir_all(&dir).unwrap();
@@ -731,7 +837,9 @@ mod tests {
     #[test]
     fn lossless_real_frames_round_trip_exactly_at_9x_or_better() {
         for name in REAL {
-            let Some((w, h, samples)) = real_png(name) else { return };
+            let Some((w, h, samples)) = real_png(name) else {
+                return;
+            };
             let (packed, back) = round_trip(&samples, w, h, DepthEncoding::Lossless);
             assert_eq!(back, samples, "{name}");
             let ratio = (samples.len() * 2) as f64 / packed.len() as f64;
@@ -744,19 +852,26 @@ mod tests {
     fn bounded_5mm_real_frames_stay_within_2_5mm_on_every_pixel_at_12x_or_better() {
         // 5 mm in each file's units: TUM stores 5000 per metre, Redwood millimetres.
         for (name, step) in [(REAL[0], 25), (REAL[1], 5)] {
-            let Some((w, h, samples)) = real_png(name) else { return };
+            let Some((w, h, samples)) = real_png(name) else {
+                return;
+            };
             let mode = DepthEncoding::Bounded { step };
             let (packed, back) = round_trip(&samples, w, h, mode);
             let worst = assert_bounded(&samples, &back, step);
             let ratio = (samples.len() * 2) as f64 / packed.len() as f64;
-            println!("{name}: bounded step {step}: {} bytes, {ratio:.2}x, max error {worst}", packed.len());
+            println!(
+                "{name}: bounded step {step}: {} bytes, {ratio:.2}x, max error {worst}",
+                packed.len()
+            );
             assert!(ratio >= 12.0, "{name}: bounded ratio {ratio:.2}");
         }
     }
 
     #[test]
     fn extreme_values_keep_their_bound_for_every_step() {
-        let samples = [0, 1, 2, 3, 65535, 65534, 0, 1500, 1502, 1499, 800, 812, 0, 2750, 65533, 7];
+        let samples = [
+            0, 1, 2, 3, 65535, 65534, 0, 1500, 1502, 1499, 800, 812, 0, 2750, 65533, 7,
+        ];
         for step in [1, 2, 3, 4, 5, 25, 1000, 65535] {
             let (_, back) = round_trip(&samples, 4, 4, DepthEncoding::Bounded { step });
             assert_bounded(&samples, &back, step);
@@ -773,7 +888,11 @@ mod tests {
                 let samples: Vec<u16> = (0..w * h)
                     .map(|_| {
                         let r = rng.next();
-                        if r % 100 < sparsity { 0 } else { (r >> 16) as u16 }
+                        if r % 100 < sparsity {
+                            0
+                        } else {
+                            (r >> 16) as u16
+                        }
                     })
                     .collect();
                 let (_, back) = round_trip(&samples, w, h, DepthEncoding::Lossless);
@@ -790,7 +909,11 @@ mod tests {
         assert!(back.is_empty());
         let (packed, back) = round_trip(&[0; 640 * 480], 640, 480, DepthEncoding::Lossless);
         assert!(back.iter().all(|&s| s == 0));
-        assert!(packed.len() < 1000, "{} bytes for an empty frame", packed.len());
+        assert!(
+            packed.len() < 1000,
+            "{} bytes for an empty frame",
+            packed.len()
+        );
     }
 
     #[test]
@@ -805,16 +928,29 @@ mod tests {
         let mut out = Vec::new();
         assert!(matches!(
             encode(&[1, 2, 3], 2, 2, DepthEncoding::Lossless, &mut out),
-            Err(CodecError::SizeMismatch { expected: 4, got: 3, .. })
+            Err(CodecError::SizeMismatch {
+                expected: 4,
+                got: 3,
+                ..
+            })
         ));
-        assert_eq!(encode(&[1; 4], 2, 2, DepthEncoding::Bounded { step: 0 }, &mut out), Err(CodecError::ZeroStep));
+        assert_eq!(
+            encode(&[1; 4], 2, 2, DepthEncoding::Bounded { step: 0 }, &mut out),
+            Err(CodecError::ZeroStep)
+        );
         let mut back = Vec::new();
         assert!(matches!(
             decode(&[0; 6], 2, 2, DepthEncoding::Raw, &mut back),
             Err(CodecError::SizeMismatch { .. })
         ));
         assert!(matches!(
-            decode(&[FORMAT_TAG], 1 << 16, 1 << 16, DepthEncoding::Lossless, &mut back),
+            decode(
+                &[FORMAT_TAG],
+                1 << 16,
+                1 << 16,
+                DepthEncoding::Lossless,
+                &mut back
+            ),
             Err(CodecError::TooLarge { .. })
         ));
     }
@@ -825,24 +961,45 @@ mod tests {
         let mut enc = DepthEncoder::new();
         let mut dec = DepthDecoder::new();
         for frame in 0..4 {
-            let samples: Vec<u16> = (0..40 * 30).map(|i| if rng.next().is_multiple_of(9) { 0 } else { 1000 + (i % 40) as u16 * frame }).collect();
+            let samples: Vec<u16> = (0..40 * 30)
+                .map(|i| {
+                    if rng.next().is_multiple_of(9) {
+                        0
+                    } else {
+                        1000 + (i % 40) as u16 * frame
+                    }
+                })
+                .collect();
             let mut reused = Vec::new();
-            enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused).unwrap();
+            enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused)
+                .unwrap();
             let (fresh, _) = round_trip(&samples, 40, 30, DepthEncoding::Lossless);
             assert_eq!(reused, fresh);
             let mut back = Vec::new();
-            dec.decode(&reused, 40, 30, DepthEncoding::Lossless, &mut back).unwrap();
+            dec.decode(&reused, 40, 30, DepthEncoding::Lossless, &mut back)
+                .unwrap();
             assert_eq!(back, samples);
         }
     }
 
     #[test]
     fn every_truncation_of_a_payload_is_refused() {
-        let samples: Vec<u16> = (0..32 * 24).map(|i| if i % 11 == 0 { 0 } else { 900 + (i % 32) as u16 * 3 + (i / 32) as u16 }).collect();
+        let samples: Vec<u16> = (0..32 * 24)
+            .map(|i| {
+                if i % 11 == 0 {
+                    0
+                } else {
+                    900 + (i % 32) as u16 * 3 + (i / 32) as u16
+                }
+            })
+            .collect();
         let (packed, _) = round_trip(&samples, 32, 24, DepthEncoding::Lossless);
         let mut back = Vec::new();
         for cut in 0..packed.len() {
-            assert!(decode(&packed[..cut], 32, 24, DepthEncoding::Lossless, &mut back).is_err(), "cut at {cut}");
+            assert!(
+                decode(&packed[..cut], 32, 24, DepthEncoding::Lossless, &mut back).is_err(),
+                "cut at {cut}"
+            );
         }
         let mut longer = packed.clone();
         longer.push(0);
@@ -852,7 +1009,15 @@ mod tests {
     #[test]
     fn random_corruption_gives_an_error_or_an_image_never_a_panic() {
         let mut rng = Rng(7);
-        let samples: Vec<u16> = (0..64 * 48).map(|i| if i % 13 < 2 { 0 } else { 1200 + (i % 64) as u16 * 5 }).collect();
+        let samples: Vec<u16> = (0..64 * 48)
+            .map(|i| {
+                if i % 13 < 2 {
+                    0
+                } else {
+                    1200 + (i % 64) as u16 * 5
+                }
+            })
+            .collect();
         let (packed, _) = round_trip(&samples, 64, 48, DepthEncoding::Bounded { step: 5 });
         let mut back = Vec::new();
         let mut refused = 0;

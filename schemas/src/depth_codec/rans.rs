@@ -37,7 +37,10 @@ impl Model {
         let total: u64 = counts.iter().map(|&c| c as u64).sum();
         let mut freq = [0u16; 256];
         if total == 0 {
-            return Model { freq, start: [0; 256] };
+            return Model {
+                freq,
+                start: [0; 256],
+            };
         }
         let mut sum: i64 = 0;
         for (f, &c) in freq.iter_mut().zip(counts) {
@@ -154,7 +157,10 @@ pub struct Tables {
 impl Tables {
     /// Tables with every context empty.
     pub fn new() -> Tables {
-        let entries = vec![0u32; TABLE_LEN].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!());
+        let entries = vec![0u32; TABLE_LEN]
+            .into_boxed_slice()
+            .try_into()
+            .unwrap_or_else(|_| unreachable!());
         Tables { entries }
     }
 
@@ -197,7 +203,11 @@ impl<'a> Decoder<'a> {
         for (x, w) in lanes.iter_mut().zip(words.chunks_exact(2)) {
             *x = (w[0] as u32) << 16 | w[1] as u32;
         }
-        Ok(Decoder { words, pos: 2 * LANES, lanes })
+        Ok(Decoder {
+            words,
+            pos: 2 * LANES,
+            lanes,
+        })
     }
 
     /// The next symbol under context `ctx` (`< MAX_CONTEXTS`) of `tables`.
@@ -254,7 +264,9 @@ mod tests {
     #[test]
     fn skewed_source_codes_below_one_bit_per_symbol() {
         // 99 % zeros: entropy ~0.1 bit/symbol, far below Huffman's 1-bit floor.
-        let symbols: Vec<u8> = (0..100_000u32).map(|i| if i % 100 == 7 { (i % 5 + 1) as u8 } else { 0 }).collect();
+        let symbols: Vec<u8> = (0..100_000u32)
+            .map(|i| if i % 100 == 7 { (i % 5 + 1) as u8 } else { 0 })
+            .collect();
         let bytes = round_trip(&symbols, &vec![0; symbols.len()], 1);
         assert!(bytes < 100_000 / 8 / 5, "{bytes} bytes");
     }

@@ -74,12 +74,26 @@ mod ffi {
         pub fn oniGetExtendedError() -> *const c_char;
         pub fn oniDeviceOpen(uri: *const c_char, device: *mut OniDeviceHandle) -> OniStatus;
         pub fn oniDeviceClose(device: OniDeviceHandle) -> OniStatus;
-        pub fn oniDeviceCreateStream(device: OniDeviceHandle, sensor: c_int, stream: *mut OniStreamHandle) -> OniStatus;
+        pub fn oniDeviceCreateStream(
+            device: OniDeviceHandle,
+            sensor: c_int,
+            stream: *mut OniStreamHandle,
+        ) -> OniStatus;
         pub fn oniStreamDestroy(stream: OniStreamHandle);
         pub fn oniStreamStart(stream: OniStreamHandle) -> OniStatus;
         pub fn oniStreamStop(stream: OniStreamHandle);
-        pub fn oniStreamSetProperty(stream: OniStreamHandle, id: c_int, data: *const c_void, size: c_int) -> OniStatus;
-        pub fn oniStreamGetProperty(stream: OniStreamHandle, id: c_int, data: *mut c_void, size: *mut c_int) -> OniStatus;
+        pub fn oniStreamSetProperty(
+            stream: OniStreamHandle,
+            id: c_int,
+            data: *const c_void,
+            size: c_int,
+        ) -> OniStatus;
+        pub fn oniStreamGetProperty(
+            stream: OniStreamHandle,
+            id: c_int,
+            data: *mut c_void,
+            size: *mut c_int,
+        ) -> OniStatus;
         pub fn oniWaitForAnyStream(
             streams: *mut OniStreamHandle,
             count: c_int,
@@ -111,9 +125,17 @@ fn check(call: &'static str, status: ffi::OniStatus) -> Result<(), CameraError> 
     // null), valid until the next OpenNI call; it is copied out at once.
     let detail = unsafe {
         let p = ffi::oniGetExtendedError();
-        if p.is_null() { String::new() } else { CStr::from_ptr(p).to_string_lossy().into_owned() }
+        if p.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(p).to_string_lossy().into_owned()
+        }
     };
-    Err(CameraError { call, status, detail })
+    Err(CameraError {
+        call,
+        status,
+        detail,
+    })
 }
 
 /// What to ask the camera for.
@@ -135,7 +157,13 @@ pub struct OpenNi2Options {
 impl Default for OpenNi2Options {
     /// The Xtion Pro Live's VGA depth mode at 30 Hz (Taylor 2017 used it at VGA).
     fn default() -> Self {
-        OpenNi2Options { uri: None, width: 640, height: 480, fps: 30, wait_ms: 200 }
+        OpenNi2Options {
+            uri: None,
+            width: 640,
+            height: 480,
+            fps: 30,
+            wait_ms: 200,
+        }
     }
 }
 
@@ -188,9 +216,10 @@ impl OpenNi2Camera {
                 return Err(e);
             }
             let mut stream: ffi::OniStreamHandle = std::ptr::null_mut();
-            if let Err(e) =
-                check("oniDeviceCreateStream", ffi::oniDeviceCreateStream(device, ffi::ONI_SENSOR_DEPTH, &mut stream))
-            {
+            if let Err(e) = check(
+                "oniDeviceCreateStream",
+                ffi::oniDeviceCreateStream(device, ffi::ONI_SENSOR_DEPTH, &mut stream),
+            ) {
                 ffi::oniDeviceClose(device);
                 ffi::oniShutdown();
                 return Err(e);
@@ -199,7 +228,12 @@ impl OpenNi2Camera {
                 device,
                 stream,
                 description: format!("openni2:{}", opts.uri.as_deref().unwrap_or("any")),
-                intrinsics: intrinsics_from_fov(opts.width, opts.height, 58f32.to_radians(), 45f32.to_radians()),
+                intrinsics: intrinsics_from_fov(
+                    opts.width,
+                    opts.height,
+                    58f32.to_radians(),
+                    45f32.to_radians(),
+                ),
                 depth_scale_m: 0.001,
                 period_ns: 0,
                 wait_ms: opts.wait_ms,
@@ -239,11 +273,19 @@ impl OpenNi2Camera {
             ),
         )?;
         let mut fov = [0f32; 2];
-        for (v, id) in fov.iter_mut().zip([ffi::ONI_STREAM_PROPERTY_HORIZONTAL_FOV, ffi::ONI_STREAM_PROPERTY_VERTICAL_FOV]) {
+        for (v, id) in fov.iter_mut().zip([
+            ffi::ONI_STREAM_PROPERTY_HORIZONTAL_FOV,
+            ffi::ONI_STREAM_PROPERTY_VERTICAL_FOV,
+        ]) {
             let mut size = std::mem::size_of::<f32>() as c_int;
             check(
                 "oniStreamGetProperty(FOV)",
-                ffi::oniStreamGetProperty(self.stream, id, (v as *mut f32).cast::<c_void>(), &mut size),
+                ffi::oniStreamGetProperty(
+                    self.stream,
+                    id,
+                    (v as *mut f32).cast::<c_void>(),
+                    &mut size,
+                ),
             )?;
         }
         if fov.iter().all(|f| f.is_finite() && *f > 0.1 && *f < 3.0) {
@@ -278,7 +320,12 @@ impl FrameSource for OpenNi2Camera {
         // for null, its data read only within `data_size` and the dimensions it states,
         // and released exactly once.
         unsafe {
-            let status = ffi::oniWaitForAnyStream(streams.as_mut_ptr(), 1, &mut ready, self.wait_ms as c_int);
+            let status = ffi::oniWaitForAnyStream(
+                streams.as_mut_ptr(),
+                1,
+                &mut ready,
+                self.wait_ms as c_int,
+            );
             if status == ffi::ONI_STATUS_TIME_OUT {
                 return Err(SourceError::Skipped {
                     what: self.description.clone(),
@@ -287,10 +334,15 @@ impl FrameSource for OpenNi2Camera {
             }
             check("oniWaitForAnyStream", status).map_err(|e| SourceError::Fatal(e.to_string()))?;
             let mut frame: *mut ffi::OniFrame = std::ptr::null_mut();
-            check("oniStreamReadFrame", ffi::oniStreamReadFrame(self.stream, &mut frame))
-                .map_err(|e| SourceError::Fatal(e.to_string()))?;
+            check(
+                "oniStreamReadFrame",
+                ffi::oniStreamReadFrame(self.stream, &mut frame),
+            )
+            .map_err(|e| SourceError::Fatal(e.to_string()))?;
             if frame.is_null() {
-                return Err(SourceError::Fatal("oniStreamReadFrame returned no frame".into()));
+                return Err(SourceError::Fatal(
+                    "oniStreamReadFrame returned no frame".into(),
+                ));
             }
             let result = copy_depth(&*frame, self.intrinsics, self.depth_scale_m);
             ffi::oniFrameRelease(frame);
@@ -304,8 +356,15 @@ impl FrameSource for OpenNi2Camera {
 }
 
 /// Copies one OpenNI depth frame into a [`SourceFrame`], honouring the row stride.
-fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> Result<SourceFrame, SourceError> {
-    let bad = |reason: String| SourceError::Skipped { what: format!("openni2 frame {}", frame.frame_index), reason };
+fn copy_depth(
+    frame: &ffi::OniFrame,
+    intrinsics: Intrinsics,
+    mm_scale: f32,
+) -> Result<SourceFrame, SourceError> {
+    let bad = |reason: String| SourceError::Skipped {
+        what: format!("openni2 frame {}", frame.frame_index),
+        reason,
+    };
     let (w, h) = (frame.width.max(0) as usize, frame.height.max(0) as usize);
     let stride = frame.stride.max(0) as usize;
     let depth_scale_m = match frame.video_mode.pixel_format {
@@ -313,17 +372,31 @@ fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> R
         ffi::ONI_PIXEL_FORMAT_DEPTH_100_UM => mm_scale / 10.0,
         other => return Err(bad(format!("pixel format {other} is not a depth format"))),
     };
-    if w == 0 || h == 0 || stride < 2 * w || frame.data.is_null() || (frame.data_size.max(0) as usize) < stride * (h - 1) + 2 * w {
-        return Err(bad(format!("{w}x{h} frame with stride {stride} and {} bytes", frame.data_size)));
+    if w == 0
+        || h == 0
+        || stride < 2 * w
+        || frame.data.is_null()
+        || (frame.data_size.max(0) as usize) < stride * (h - 1) + 2 * w
+    {
+        return Err(bad(format!(
+            "{w}x{h} frame with stride {stride} and {} bytes",
+            frame.data_size
+        )));
     }
     // SAFETY: data is non-null and holds at least `stride * (h - 1) + 2w` bytes (checked).
-    let bytes = unsafe { std::slice::from_raw_parts(frame.data.cast::<u8>(), frame.data_size as usize) };
+    let bytes =
+        unsafe { std::slice::from_raw_parts(frame.data.cast::<u8>(), frame.data_size as usize) };
     let mut depth = Vec::with_capacity(w * h);
     for row in 0..h {
         let line = &bytes[row * stride..row * stride + 2 * w];
-        depth.extend(line.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])));
+        depth.extend(
+            line.chunks_exact(2)
+                .map(|b| u16::from_ne_bytes([b[0], b[1]])),
+        );
     }
-    let stamp_ns = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
+    let stamp_ns = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64);
     Ok(SourceFrame {
         stamp_ns,
         width: w as u32,
@@ -347,7 +420,10 @@ mod tests {
     fn xtion_fov_gives_its_known_focal_length() {
         // 58 x 45 degrees at VGA: fx ~ 570 px, the Xtion's usual calibration.
         let k = intrinsics_from_fov(640, 480, 58f32.to_radians(), 45f32.to_radians());
-        assert!((k.fx - 577.3).abs() < 1.0 && (k.fy - 579.4).abs() < 1.0, "{k:?}");
+        assert!(
+            (k.fx - 577.3).abs() < 1.0 && (k.fy - 579.4).abs() < 1.0,
+            "{k:?}"
+        );
         assert_eq!((k.cx, k.cy), (320.0, 240.0));
     }
 
@@ -362,7 +438,12 @@ mod tests {
             frame_index: 7,
             width: 2,
             height: 2,
-            video_mode: ffi::OniVideoMode { pixel_format: ffi::ONI_PIXEL_FORMAT_DEPTH_1_MM, resolution_x: 2, resolution_y: 2, fps: 30 },
+            video_mode: ffi::OniVideoMode {
+                pixel_format: ffi::ONI_PIXEL_FORMAT_DEPTH_1_MM,
+                resolution_x: 2,
+                resolution_y: 2,
+                fps: 30,
+            },
             cropping_enabled: 0,
             crop_origin_x: 0,
             crop_origin_y: 0,
@@ -371,8 +452,14 @@ mod tests {
         let k = intrinsics_from_fov(2, 2, 1.0, 1.0);
         let f = copy_depth(&frame, k, 0.001).unwrap();
         assert_eq!(f.depth, [1, 2, 3, 4]);
-        let short = ffi::OniFrame { data_size: 8, ..frame };
-        assert!(matches!(copy_depth(&short, k, 0.001), Err(SourceError::Skipped { .. })));
+        let short = ffi::OniFrame {
+            data_size: 8,
+            ..frame
+        };
+        assert!(matches!(
+            copy_depth(&short, k, 0.001),
+            Err(SourceError::Skipped { .. })
+        ));
     }
 
     #[test]

@@ -38,7 +38,13 @@ pub struct ReplayOptions {
 impl Default for ReplayOptions {
     /// Real time, once, 30 Hz for untimed files (the Kinect / Xtion frame rate).
     fn default() -> Self {
-        ReplayOptions { rate: 1.0, loop_playback: false, depth_scale_m: None, intrinsics: None, untimed_fps: 30.0 }
+        ReplayOptions {
+            rate: 1.0,
+            loop_playback: false,
+            depth_scale_m: None,
+            intrinsics: None,
+            untimed_fps: 30.0,
+        }
     }
 }
 
@@ -86,14 +92,23 @@ pub enum ReplayError {
 pub fn parse_intrinsics(s: &str) -> Result<Intrinsics, ReplayError> {
     let v: Vec<f32> = s
         .split(',')
-        .map(|p| p.trim().parse::<f32>().map_err(|e| ReplayError::BadOption(format!("intrinsics {p:?}: {e}"))))
+        .map(|p| {
+            p.trim()
+                .parse::<f32>()
+                .map_err(|e| ReplayError::BadOption(format!("intrinsics {p:?}: {e}")))
+        })
         .collect::<Result<_, _>>()?;
     let [fx, fy, cx, cy] = v[..] else {
-        return Err(ReplayError::BadOption(format!("intrinsics: expected fx,fy,cx,cy, got {} numbers", v.len())));
+        return Err(ReplayError::BadOption(format!(
+            "intrinsics: expected fx,fy,cx,cy, got {} numbers",
+            v.len()
+        )));
     };
     let k = Intrinsics { fx, fy, cx, cy };
     if !k.is_valid() {
-        return Err(ReplayError::BadOption(format!("intrinsics {s}: focal lengths must be finite and positive")));
+        return Err(ReplayError::BadOption(format!(
+            "intrinsics {s}: focal lengths must be finite and positive"
+        )));
     }
     Ok(k)
 }
@@ -101,28 +116,51 @@ pub fn parse_intrinsics(s: &str) -> Result<Intrinsics, ReplayError> {
 /// Opens a `pcd:`, `tum:` or `png:` spec.
 pub fn open_source(spec: &str, opts: &ReplayOptions) -> Result<Box<dyn FrameSource>, ReplayError> {
     if !(opts.untimed_fps.is_finite() && opts.untimed_fps > 0.0) {
-        return Err(ReplayError::BadOption(format!("untimed frame rate {} Hz must be positive", opts.untimed_fps)));
+        return Err(ReplayError::BadOption(format!(
+            "untimed frame rate {} Hz must be positive",
+            opts.untimed_fps
+        )));
     }
     if !(opts.rate.is_finite() && opts.rate > 0.0) {
-        return Err(ReplayError::BadOption(format!("rate {} must be positive", opts.rate)));
+        return Err(ReplayError::BadOption(format!(
+            "rate {} must be positive",
+            opts.rate
+        )));
     }
     if let Some(s) = opts.depth_scale_m {
         if !(s.is_finite() && s > 0.0) {
-            return Err(ReplayError::BadOption(format!("depth scale {s} m must be positive")));
+            return Err(ReplayError::BadOption(format!(
+                "depth scale {s} m must be positive"
+            )));
         }
     }
-    let (kind, path) = spec.split_once(':').ok_or_else(|| ReplayError::UnknownKind(spec.to_string()))?;
+    let (kind, path) = spec
+        .split_once(':')
+        .ok_or_else(|| ReplayError::UnknownKind(spec.to_string()))?;
     let path = Path::new(path);
     let (entries, format) = match kind {
-        "pcd" => (list_files(path, "pcd")?, Format::Pcd { intrinsics: opts.intrinsics }),
+        "pcd" => (
+            list_files(path, "pcd")?,
+            Format::Pcd {
+                intrinsics: opts.intrinsics,
+            },
+        ),
         "png" => {
             let depth_scale_m = opts.depth_scale_m.ok_or_else(|| {
-                ReplayError::MissingOption("png: sources need the depth scale (metres per unit, e.g. 0.001)".into())
+                ReplayError::MissingOption(
+                    "png: sources need the depth scale (metres per unit, e.g. 0.001)".into(),
+                )
             })?;
-            let intrinsics = opts
-                .intrinsics
-                .ok_or_else(|| ReplayError::MissingOption("png: sources need intrinsics fx,fy,cx,cy".into()))?;
-            (list_files(path, "png")?, Format::Png { depth_scale_m, intrinsics })
+            let intrinsics = opts.intrinsics.ok_or_else(|| {
+                ReplayError::MissingOption("png: sources need intrinsics fx,fy,cx,cy".into())
+            })?;
+            (
+                list_files(path, "png")?,
+                Format::Png {
+                    depth_scale_m,
+                    intrinsics,
+                },
+            )
         }
         "tum" => {
             let entries = tum::read_index(path)?;
@@ -158,8 +196,13 @@ pub struct Entry {
 
 #[derive(Debug, Clone, Copy)]
 enum Format {
-    Pcd { intrinsics: Option<Intrinsics> },
-    Png { depth_scale_m: f32, intrinsics: Intrinsics },
+    Pcd {
+        intrinsics: Option<Intrinsics>,
+    },
+    Png {
+        depth_scale_m: f32,
+        intrinsics: Intrinsics,
+    },
 }
 
 /// A recording played back frame by frame.
@@ -176,7 +219,10 @@ pub struct ReplaySource {
 /// Timestamps come from names that are a number of seconds (TUM style
 /// `1305031102.160407.png`) or PCL grabber names (`frame_20121214T142255.814212.pcd`).
 fn list_files(path: &Path, ext: &str) -> Result<Vec<Entry>, ReplayError> {
-    let unreadable = |e: std::io::Error| ReplayError::Unreadable { path: path.to_path_buf(), reason: e.to_string() };
+    let unreadable = |e: std::io::Error| ReplayError::Unreadable {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
     let meta = std::fs::metadata(path).map_err(unreadable)?;
     let mut paths = if meta.is_dir() {
         let mut v = Vec::new();
@@ -192,9 +238,19 @@ fn list_files(path: &Path, ext: &str) -> Result<Vec<Entry>, ReplayError> {
     };
     paths.sort();
     if paths.is_empty() {
-        return Err(ReplayError::Empty { path: path.to_path_buf(), what: if ext == "pcd" { "*.pcd" } else { "*.png" } });
+        return Err(ReplayError::Empty {
+            path: path.to_path_buf(),
+            what: if ext == "pcd" { "*.pcd" } else { "*.png" },
+        });
     }
-    Ok(paths.into_iter().map(|p| Entry { time_s: time_from_name(&p), path: p, gravity_camera: None }).collect())
+    Ok(paths
+        .into_iter()
+        .map(|p| Entry {
+            time_s: time_from_name(&p),
+            path: p,
+            gravity_camera: None,
+        })
+        .collect())
 }
 
 /// Seconds encoded in a file name, if it has them.
@@ -231,7 +287,10 @@ fn nominal_period_s(entries: &[Entry], untimed_fps: f64) -> f64 {
 
 impl ReplaySource {
     fn load(&self, entry: &Entry, stamp_ns: u64) -> Result<SourceFrame, SourceError> {
-        let skipped = |reason: String| SourceError::Skipped { what: entry.path.display().to_string(), reason };
+        let skipped = |reason: String| SourceError::Skipped {
+            what: entry.path.display().to_string(),
+            reason,
+        };
         let (width, height, depth, depth_scale_m, intrinsics) = match self.format {
             Format::Pcd { intrinsics } => {
                 let cloud = pcd::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
@@ -241,11 +300,27 @@ impl ReplaySource {
                 };
                 let mut depth = Vec::new();
                 organized_depth::depth_mm(&cloud, &mut depth);
-                (cloud.width, cloud.height, depth, organized_depth::CLOUD_DEPTH_SCALE_M, k)
+                (
+                    cloud.width,
+                    cloud.height,
+                    depth,
+                    organized_depth::CLOUD_DEPTH_SCALE_M,
+                    k,
+                )
             }
-            Format::Png { depth_scale_m, intrinsics } => {
-                let img = depth_png::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
-                (img.width, img.height, img.samples, depth_scale_m, intrinsics)
+            Format::Png {
+                depth_scale_m,
+                intrinsics,
+            } => {
+                let img =
+                    depth_png::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
+                (
+                    img.width,
+                    img.height,
+                    img.samples,
+                    depth_scale_m,
+                    intrinsics,
+                )
             }
         };
         Ok(SourceFrame {
@@ -266,7 +341,12 @@ impl ReplaySource {
 
 impl FrameSource for ReplaySource {
     fn describe(&self) -> String {
-        format!("{} ({} frames{})", self.name, self.entries.len(), if self.looped { ", looped" } else { "" })
+        format!(
+            "{} ({} frames{})",
+            self.name,
+            self.entries.len(),
+            if self.looped { ", looped" } else { "" }
+        )
     }
 
     fn next_frame(&mut self, now_ns: u64) -> Result<Option<SourceFrame>, SourceError> {
@@ -293,7 +373,11 @@ mod tests {
     use super::*;
 
     fn real(name: &str) -> Option<PathBuf> {
-        let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real")).join(name);
+        let p = PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shared/data/real"
+        ))
+        .join(name);
         if p.exists() {
             Some(p)
         } else {
@@ -311,20 +395,41 @@ mod tests {
 
     #[test]
     fn pcd_file_becomes_a_millimetre_depth_frame_with_fitted_intrinsics() {
-        let Some(path) = real("five_people.pcd") else { return };
-        let mut src = open_source(&format!("pcd:{}", path.display()), &ReplayOptions::default()).unwrap();
+        let Some(path) = real("five_people.pcd") else {
+            return;
+        };
+        let mut src = open_source(
+            &format!("pcd:{}", path.display()),
+            &ReplayOptions::default(),
+        )
+        .unwrap();
         let f = src.next_frame(1_000).unwrap().unwrap();
-        assert_eq!((f.width, f.height, f.stamp_ns, f.depth_scale_m), (640, 480, 1_000, 0.001));
+        assert_eq!(
+            (f.width, f.height, f.stamp_ns, f.depth_scale_m),
+            (640, 480, 1_000, 0.001)
+        );
         assert_eq!(f.depth.iter().filter(|&&d| d > 0).count(), 239_075);
-        let (lo, hi) = f.depth.iter().filter(|&&d| d > 0).fold((u16::MAX, 0), |(lo, hi), &d| (lo.min(d), hi.max(d)));
-        assert!((1750..=1770).contains(&lo) && (9750..=9770).contains(&hi), "{lo}..{hi} mm");
+        let (lo, hi) = f
+            .depth
+            .iter()
+            .filter(|&&d| d > 0)
+            .fold((u16::MAX, 0), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+        assert!(
+            (1750..=1770).contains(&lo) && (9750..=9770).contains(&hi),
+            "{lo}..{hi} mm"
+        );
         assert!(f.intrinsics.is_valid());
-        assert!(src.next_frame(2_000).unwrap().is_none(), "one file, no loop: the stream ends");
+        assert!(
+            src.next_frame(2_000).unwrap().is_none(),
+            "one file, no loop: the stream ends"
+        );
     }
 
     #[test]
     fn corrupt_file_in_a_folder_is_skipped_by_name_and_the_stream_goes_on() {
-        let Some(good) = real("tum_depth_640x480_u16_5000perm.png") else { return };
+        let Some(good) = real("tum_depth_640x480_u16_5000perm.png") else {
+            return;
+        };
         let dir = temp_dir("skip");
         std::fs::copy(&good, dir.join("001.png")).unwrap();
         std::fs::write(dir.join("002.png"), b"\x89PNG\r\n\x1a\ngarbage").unwrap();
@@ -352,14 +457,18 @@ mod tests {
     #[test]
     fn png_folder_without_scale_or_intrinsics_is_refused_at_open() {
         let dir = temp_dir("opts");
-        let err = open_source(&format!("png:{}", dir.display()), &ReplayOptions::default()).err().unwrap();
+        let err = open_source(&format!("png:{}", dir.display()), &ReplayOptions::default())
+            .err()
+            .unwrap();
         assert!(matches!(err, ReplayError::MissingOption(_)), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn looped_recording_starts_again_and_time_moves_forward() {
-        let Some(good) = real("redwood_00000_depth_640x480_u16_mm.png") else { return };
+        let Some(good) = real("redwood_00000_depth_640x480_u16_mm.png") else {
+            return;
+        };
         let dir = temp_dir("loop");
         std::fs::copy(&good, dir.join("a.png")).unwrap();
         let opts = ReplayOptions {
@@ -368,18 +477,22 @@ mod tests {
             loop_playback: true,
             untimed_fps: 10.0,
             rate: 2.0,
-            ..Default::default()
         };
         let mut src = open_source(&format!("png:{}", dir.display()), &opts).unwrap();
         assert_eq!(src.period_ns(), 50_000_000);
-        let stamps: Vec<u64> = (0..3).map(|_| src.next_frame(0).unwrap().unwrap().stamp_ns).collect();
+        let stamps: Vec<u64> = (0..3)
+            .map(|_| src.next_frame(0).unwrap().unwrap().stamp_ns)
+            .collect();
         assert_eq!(stamps, [0, 50_000_000, 100_000_000]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn unknown_kind_and_missing_path_are_refused() {
-        assert!(matches!(open_source("bag:x", &ReplayOptions::default()), Err(ReplayError::UnknownKind(_))));
+        assert!(matches!(
+            open_source("bag:x", &ReplayOptions::default()),
+            Err(ReplayError::UnknownKind(_))
+        ));
         assert!(matches!(
             open_source("pcd:/nonexistent/dir", &ReplayOptions::default()),
             Err(ReplayError::Unreadable { .. })
@@ -398,7 +511,10 @@ mod tests {
     fn pcl_grabber_and_tum_names_carry_time() {
         let t = time_from_name(Path::new("frame_20121214T142255.814212.pcd")).unwrap();
         assert!((t - (14.0 * 3600.0 + 22.0 * 60.0 + 55.814212)).abs() < 1e-6);
-        assert_eq!(time_from_name(Path::new("1305031102.160407.png")), Some(1305031102.160407));
+        assert_eq!(
+            time_from_name(Path::new("1305031102.160407.png")),
+            Some(1305031102.160407)
+        );
         assert_eq!(time_from_name(Path::new("five_people.pcd")), None);
     }
 }
