@@ -230,7 +230,10 @@ pub struct HysteresisConfig {
 
 impl Default for HysteresisConfig {
     fn default() -> Self {
-        Self { enabled: true, relax_frames: 4 }
+        Self {
+            enabled: true,
+            relax_frames: 4,
+        }
     }
 }
 
@@ -254,7 +257,13 @@ pub struct MemoryConfig {
 
 impl Default for MemoryConfig {
     fn default() -> Self {
-        Self { enabled: true, cell_m: 0.1, radius_m: 5.0, ttl_ns: 3_000_000_000, xyz_vertical_fov_deg: 45.0 }
+        Self {
+            enabled: true,
+            cell_m: 0.1,
+            radius_m: 5.0,
+            ttl_ns: 3_000_000_000,
+            xyz_vertical_fov_deg: 45.0,
+        }
     }
 }
 
@@ -281,7 +290,14 @@ pub struct DropoffConfig {
 
 impl Default for DropoffConfig {
     fn default() -> Self {
-        Self { enabled: true, min_drop_m: 0.08, lookahead_m: 2.0, path_width_m: 0.75, min_fraction: 0.5, min_samples: 80 }
+        Self {
+            enabled: true,
+            min_drop_m: 0.08,
+            lookahead_m: 2.0,
+            path_width_m: 0.75,
+            min_fraction: 0.5,
+            min_samples: 80,
+        }
     }
 }
 
@@ -306,6 +322,13 @@ pub struct TtcConfig {
 
 impl Default for TtcConfig {
     fn default() -> Self {
-        Self { enabled: true, path_width_m: 0.75, min_closing_speed_m_s: 0.3, smoothing: 0.5, warn_s: 2.0, max_step_m: 0.5 }
+        Self {
+            enabled: true,
+            path_width_m: 0.75,
+            min_closing_speed_m_s: 0.3,
+            smoothing: 0.5,
+            warn_s: 2.0,
+            max_step_m: 0.5,
+        }
     }
 }
