@@ -67,9 +67,11 @@ pub fn side_costs(points: impl Iterator<Item = [f32; 2]>, cfg: &CostConfig) -> S
 
 /// Taylor's Table 2.1.
 pub fn rumble(c: &SideCosts, cfg: &CostConfig) -> Rumble {
-    if !(c.forward >= cfg.forward_threshold) {
-        // NaN costs never reach here as "clear": they come only from NaN scans, which
-        // the pipeline does not produce (checked in its tests).
+    if c.forward.is_nan() || c.left.is_nan() || c.right.is_nan() {
+        // unknown is never clear (the pipeline does not produce NaN scans; see tests)
+        return Rumble::Both;
+    }
+    if c.forward < cfg.forward_threshold {
         return Rumble::None;
     }
     if c.left >= cfg.side_threshold && c.right >= cfg.side_threshold {
@@ -133,6 +135,16 @@ mod tests {
             rumble(&side_costs(mirrored.into_iter(), &cfg), &cfg),
             Rumble::Right
         );
+    }
+
+    #[test]
+    fn nan_costs_are_never_clear() {
+        let c = SideCosts {
+            left: 0.0,
+            forward: f32::NAN,
+            right: 0.0,
+        };
+        assert_eq!(rumble(&c, &CostConfig::ficf()), Rumble::Both);
     }
 
     #[test]

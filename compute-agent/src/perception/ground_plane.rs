@@ -268,7 +268,7 @@ fn plane_through(a: &[f32; 3], b: &[f32; 3], c: &[f32; 3], up: &[f32; 3]) -> Opt
     let v = sub(c, a);
     let mut n = cross(&u, &v);
     let len = dot(&n, &n).sqrt();
-    if !(len > 1e-6) {
+    if len.is_nan() || len <= 1e-6 {
         return None;
     }
     let sign = if dot(&n, up) < 0.0 { -1.0 } else { 1.0 };
@@ -344,7 +344,7 @@ fn fit_plane(points: impl Iterator<Item = [f32; 3]>, up: &[f32; 3]) -> Option<(P
     let v = eig.eigenvectors.column(k);
     let mut normal = [v[0] as f32, v[1] as f32, v[2] as f32];
     let len = dot(&normal, &normal).sqrt();
-    if !(len > 0.5) {
+    if len.is_nan() || len <= 0.5 {
         return None;
     }
     let sign = if dot(&normal, up) < 0.0 { -1.0 } else { 1.0 };

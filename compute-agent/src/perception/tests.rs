@@ -554,7 +554,14 @@ fn desk_frame_with_gravity_gives_the_desk_plane() {
 
 /// A noisy frame from the team's simulator (Xtion-class noise, dropouts, shadows):
 /// camera 1.0 m up at the corridor world's start, pitched `pitch_deg` down.
-pub(super) fn simulated(pitch_deg: f64) -> Option<(Vec<u16>, Intrinsics, [f32; 3], [f32; 4])> {
+struct SimFrame {
+    depth: Vec<u16>,
+    intrinsics: Intrinsics,
+    gravity: [f32; 3],
+    floor_plane: [f32; 4],
+}
+
+fn simulated(pitch_deg: f64) -> Option<SimFrame> {
     use sensor_agent::sim::{
         camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World,
     };
@@ -580,13 +587,24 @@ pub(super) fn simulated(pitch_deg: f64) -> Option<(Vec<u16>, Intrinsics, [f32; 3
     let g = pose.gravity_camera();
     let gravity = [g.x as f32, g.y as f32, g.z as f32];
     let plane = [-gravity[0], -gravity[1], -gravity[2], 1.0];
-    Some((depth, renderer.intrinsics(), gravity, plane))
+    Some(SimFrame {
+        depth,
+        intrinsics: renderer.intrinsics(),
+        gravity,
+        floor_plane: plane,
+    })
 }
 
 #[test]
 fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm() {
     for pitch in [10.0, 30.0] {
-        let Some((depth, k, gravity, truth)) = simulated(pitch) else {
+        let Some(SimFrame {
+            depth,
+            intrinsics: k,
+            gravity,
+            floor_plane: truth,
+        }) = simulated(pitch)
+        else {
             return;
         };
         let mut p = Pipeline::new(PerceptionConfig::default());
