@@ -399,9 +399,10 @@ impl Pipeline {
             Some((r, p)) => (r, p[1].atan2(p[0]).to_degrees()),
             None => (f32::INFINITY, 0.0),
         };
+        let ahead = nearest_in_path(self.cost_points.iter().copied(), cfg.ttc.path_width_m);
         out.ttc_s = if cfg.ttc.enabled {
-            let ahead = nearest_in_path(self.cost_points.iter().copied(), cfg.ttc.path_width_m);
-            self.closing.update(ctx.stamp_ns, ahead, &cfg.ttc)
+            self.closing
+                .update(ctx.stamp_ns, ahead.map(|p| p[0]), &cfg.ttc)
         } else {
             None
         };
@@ -410,8 +411,9 @@ impl Pipeline {
             CostFunction::Cacf => out.rumble_cacf,
         };
         if raw == Rumble::None && out.ttc_s.is_some_and(|t| t < cfg.ttc.warn_s) {
-            // turn away from the side the approaching obstacle is on
-            raw = if out.nearest_bearing_deg >= 0.0 {
+            // turn away from the side of the path the approaching obstacle is on
+            let left_of_path = ahead.is_some_and(|p| p[1] > 0.0);
+            raw = if left_of_path {
                 Rumble::Right
             } else {
                 Rumble::Left

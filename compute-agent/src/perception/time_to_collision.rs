@@ -45,12 +45,11 @@ impl ClosingSpeed {
     }
 }
 
-/// Nearest forward distance among points inside a path of `width_m`.
-pub fn nearest_in_path(points: impl Iterator<Item = [f32; 2]>, width_m: f32) -> Option<f32> {
+/// The point with the nearest forward distance inside a path of `width_m`.
+pub fn nearest_in_path(points: impl Iterator<Item = [f32; 2]>, width_m: f32) -> Option<[f32; 2]> {
     points
         .filter(|[x, y]| *x > 0.0 && y.abs() <= width_m * 0.5)
-        .map(|[x, _]| x)
-        .reduce(f32::min)
+        .min_by(|a, b| a[0].total_cmp(&b[0]))
 }
 
 #[cfg(test)]
