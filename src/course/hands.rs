@@ -1,0 +1,195 @@
+//! What the virtual user feels in the hands: the feedback agent's own step
+//! ([`feedback_agent::Feedback`]) drives a pair of simulated actuators, and the pulse
+//! train it plays becomes one of Taylor's four rumble states (2017, Table 2.1) as a
+//! person would perceive it.
+//!
+//! A pulsed cue switches the motor off between pulses; nobody reads the gap as "path
+//! clear". A side is felt as rumbling while its motor runs and for one gap of the
+//! pattern it last ran with (plus [`GAP_MARGIN_NS`]): the user notices the end of a
+//! pulse train when the next pulse fails to come. The feedback agent's offline alert
+//! and the degraded pattern (half level) are felt as "detection offline", distinct
+//! from the four obstacle states, as the safety rules intend.
+
+use feedback_agent::device::{DeviceOutput, HapticDevice};
+use feedback_agent::haptic_cue::Levels;
+use schemas::{Applied, AppliedAction, HapticPattern};
+
+/// Device name of the simulated hands in `feedback/applied` records.
+pub const HANDS: &str = "hands";
+
+/// Slack added to a pattern's gap before a side is felt as stopped, ns.
+pub const GAP_MARGIN_NS: u64 = 20_000_000;
+
+/// Levels below this are not an obstacle rumble (obstacle cues run at full level; the
+/// degraded pattern at half).
+const OBSTACLE_LEVEL: f32 = 0.75;
+
+/// The rumble state a person perceives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Felt {
+    /// Nothing: walk on.
+    None,
+    /// Left hand rumbles: turn left.
+    Left,
+    /// Right hand rumbles: turn right.
+    Right,
+    /// Both rumble: stop, turn in place until clear.
+    Both,
+    /// The system says it cannot see (offline alert, degraded pattern): stand still.
+    Offline,
+}
+
+/// The simulated actuators: records every change of levels as an applied action.
+#[derive(Debug, Default)]
+pub struct Hands {
+    last: Option<(Levels, HapticPattern)>,
+}
+
+impl HapticDevice for Hands {
+    fn name(&self) -> &str {
+        HANDS
+    }
+
+    fn set_levels(&mut self, levels: Levels, pattern: HapticPattern, cause_ns: u64, now_ns: u64, _refresh: bool, out: &mut DeviceOutput) {
+        if self.last == Some((levels, pattern)) {
+            return;
+        }
+        self.last = Some((levels, pattern));
+        out.applied(HANDS, AppliedAction::Rumble { left: levels.left, right: levels.right, pattern }, now_ns, cause_ns);
+    }
+
+    fn off(&mut self, now_ns: u64, out: &mut DeviceOutput) {
+        self.set_levels(Levels::OFF, HapticPattern::Steady, 0, now_ns, false, out);
+    }
+}
+
+/// One hand's recent sensation.
+#[derive(Debug, Clone, Copy, Default)]
+struct Side {
+    level: f32,
+    /// When the motor last ran (or still runs), and at what level.
+    last_on_ns: Option<u64>,
+    last_level: f32,
+    /// Gap of the pattern the motor last ran with.
+    gap_ns: u64,
+}
+
+impl Side {
+    fn set(&mut self, level: f32, pattern: HapticPattern, now_ns: u64) {
+        if level > 0.0 {
+            self.last_on_ns = Some(now_ns);
+            self.last_level = level;
+            self.gap_ns = match pattern {
+                HapticPattern::Steady => 0,
+                HapticPattern::Pulses { period_ms, duty } => {
+                    (period_ms as f64 * 1e6 * (1.0 - duty.clamp(0.0, 1.0) as f64)).round() as u64
+                }
+            };
+        } else if self.level > 0.0 {
+            // the motor ran until now
+            self.last_on_ns = Some(now_ns);
+        }
+        self.level = level;
+    }
+
+    /// The level felt at `now_ns` (0 once a gap has passed without a pulse).
+    fn felt(&self, now_ns: u64) -> f32 {
+        if self.level > 0.0 {
+            return self.level;
+        }
+        match self.last_on_ns {
+            Some(t) if now_ns.saturating_sub(t) <= self.gap_ns + GAP_MARGIN_NS => self.last_level,
+            _ => 0.0,
+        }
+    }
+}
+
+/// Turns the applied records of [`Hands`] (and the offline warnings) into [`Felt`].
+#[derive(Debug, Clone, Default)]
+pub struct FeltRumble {
+    left: Side,
+    right: Side,
+    offline: bool,
+}
+
+impl FeltRumble {
+    /// Takes one applied action (others than the hands' rumble and offline warnings
+    /// are ignored).
+    pub fn apply(&mut self, a: &Applied) {
+        match &a.action {
+            AppliedAction::Rumble { left, right, pattern } if a.device == HANDS => {
+                self.left.set(*left, *pattern, a.applied_ns);
+                self.right.set(*right, *pattern, a.applied_ns);
+            }
+            AppliedAction::OfflineWarning { offline, .. } => self.offline = *offline,
+            _ => {}
+        }
+    }
+
+    /// The state felt at `now_ns`.
+    pub fn felt(&self, now_ns: u64) -> Felt {
+        if self.offline {
+            return Felt::Offline;
+        }
+        let (l, r) = (self.left.felt(now_ns), self.right.felt(now_ns));
+        match (l > 0.0, r > 0.0) {
+            (false, false) => Felt::None,
+            _ if l.max(r) < OBSTACLE_LEVEL => Felt::Offline,
+            (true, true) => Felt::Both,
+            (true, false) => Felt::Left,
+            (false, true) => Felt::Right,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: u64 = 1_000_000;
+
+    fn rumble(left: f32, right: f32, pattern: HapticPattern, at_ms: u64) -> Applied {
+        Applied {
+            device: HANDS.into(),
+            action: AppliedAction::Rumble { left, right, pattern },
+            applied_ns: at_ms * MS,
+            cause_capture_ns: 0,
+        }
+    }
+
+    #[test]
+    fn pulse_gap_is_felt_as_one_continuous_left_rumble_then_it_stops() {
+        let p = HapticPattern::Pulses { period_ms: 400, duty: 0.5 };
+        let mut f = FeltRumble::default();
+        f.apply(&rumble(1.0, 0.0, p, 0));
+        f.apply(&rumble(0.0, 0.0, p, 200));
+        assert_eq!(f.felt(300 * MS), Felt::Left, "inside the 200 ms gap");
+        assert_eq!(f.felt(419 * MS), Felt::Left);
+        assert_eq!(f.felt(421 * MS), Felt::None, "the next pulse did not come");
+    }
+
+    #[test]
+    fn half_level_pattern_and_offline_warning_are_felt_as_offline() {
+        let mut f = FeltRumble::default();
+        f.apply(&rumble(0.5, 0.5, HapticPattern::Pulses { period_ms: 1000, duty: 0.15 }, 0));
+        assert_eq!(f.felt(10 * MS), Felt::Offline);
+        let mut g = FeltRumble::default();
+        g.apply(&Applied {
+            device: "feedback-agent".into(),
+            action: AppliedAction::OfflineWarning { offline: true, reason: "perception/hazard stale".into() },
+            applied_ns: 0,
+            cause_capture_ns: 0,
+        });
+        assert_eq!(g.felt(0), Felt::Offline);
+    }
+
+    #[test]
+    fn full_level_on_both_sides_is_both() {
+        let mut f = FeltRumble::default();
+        f.apply(&rumble(1.0, 1.0, HapticPattern::Steady, 0));
+        assert_eq!(f.felt(5 * MS), Felt::Both);
+        f.apply(&rumble(0.0, 0.0, HapticPattern::Steady, 10));
+        assert_eq!(f.felt(10 * MS + GAP_MARGIN_NS + 1), Felt::None);
+    }
+}

@@ -1,0 +1,228 @@
+//! `wearnav course`: the virtual user study (issue 6). Taylor (2017, ch. 3) put 22
+//! blindfolded volunteers through a 10 x 10 m obstacle course and counted contacts;
+//! here a simulated user walks the simulated course in a closed loop with the same
+//! perception, cue and feedback code the agents run, faster than real time and
+//! deterministic per seed, and the same table comes out.
+//!
+//! | concept | module |
+//! | --- | --- |
+//! | what the hands feel (feedback step -> rumble state) | [`hands`] |
+//! | the walking, reacting person; what they head for ([`virtual_user::Guide`]) | [`virtual_user`] |
+//! | cane and body contacts, field-of-view test | [`contacts`] |
+//! | one closed-loop walk | [`walk`] |
+//! | N walks and the table | [`study`] |
+
+pub mod contacts;
+pub mod hands;
+pub mod study;
+pub mod virtual_user;
+pub mod walk;
+
+use anyhow::Context;
+use schemas::CostFunction;
+use sensor_agent::sim::{CameraProfile, World};
+
+use study::{study, table};
+use walk::{GuideKind, WalkConfig};
+
+/// Cost function on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Cost {
+    /// Fully-Integrated Cost Function.
+    Ficf,
+    /// Cushioned Avoidance Cost Function.
+    Cacf,
+}
+
+/// Depth camera of the walks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Camera {
+    /// Asus Xtion at 320x240 (its QVGA mode), perception stride 1.
+    XtionQvga,
+    /// Asus Xtion at 640x480, perception stride 2 (the agent's default).
+    Xtion,
+    /// Intel RealSense D435 at 848x480, perception stride 2.
+    D435,
+}
+
+impl Camera {
+    /// The camera profile and the perception stride that goes with it.
+    pub fn profile_and_stride(self) -> (CameraProfile, u32) {
+        match self {
+            Camera::XtionQvga => (walk::xtion_qvga(), 1),
+            Camera::Xtion => (CameraProfile::xtion(), 2),
+            Camera::D435 => (CameraProfile::d435(), 2),
+        }
+    }
+}
+
+/// Walk a simulated course with a virtual user following the rumble; print Taylor's
+/// table (completion time, rumble signals, cane and body contacts, reorientations).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CourseArgs {
+    /// Built-in world (`taylor-course`, `corridor`, `building`, `approach`) or a scene file.
+    #[arg(long, default_value = "taylor-course")]
+    pub world: String,
+    /// Cost function driving the rumble.
+    #[arg(long, value_enum, default_value_t = Cost::Ficf)]
+    pub cost: Cost,
+    /// Number of walks (seeds `seed`, `seed + 1`, ...).
+    #[arg(long, default_value_t = 20)]
+    pub runs: u32,
+    /// Seed of the first walk.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print JSON (every walk with its contacts, the rows and the averages).
+    #[arg(long)]
+    pub json: bool,
+    /// Switch off the memory of obstacles beyond the field of view.
+    #[arg(long)]
+    pub no_memory: bool,
+    /// Switch off the debounce of the rumble state.
+    #[arg(long)]
+    pub no_hysteresis: bool,
+    /// Switch off drop-off detection.
+    #[arg(long)]
+    pub no_dropoff: bool,
+    /// Switch off the time-to-collision warning.
+    #[arg(long)]
+    pub no_ttc: bool,
+    /// What the user heads for: the goal's sound (thesis) or the world's route.
+    #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
+    pub guide: GuideKind,
+    /// Give up a walk after this many seconds of simulated time.
+    #[arg(long, default_value_t = 300.0)]
+    pub timeout_s: f64,
+    /// User's mean reaction time, seconds (each walk draws +-25 % around it).
+    #[arg(long, default_value_t = 0.5)]
+    pub reaction_s: f64,
+    /// User's largest turning rate, degrees per second.
+    #[arg(long, default_value_t = 60.0)]
+    pub turn_rate_deg_s: f64,
+    /// User's walking speed, m/s.
+    #[arg(long, default_value_t = 1.0)]
+    pub walk_speed_m_s: f64,
+    /// Camera pitch below the horizontal, degrees.
+    #[arg(long, default_value_t = 30.0)]
+    pub pitch_deg: f64,
+    /// Depth camera: `xtion-qvga` renders 320x240 and perceives every pixel, the same
+    /// rays the agent samples from the Xtion's 640x480 at its stride of 2, at a quarter of
+    /// the rendering cost; `xtion` renders 640x480 exactly as deployed; `d435`.
+    #[arg(long, value_enum, default_value_t = Camera::XtionQvga)]
+    pub camera: Camera,
+    /// Send frames through the wire codec's bounded-error mode with this step, mm.
+    #[arg(long)]
+    pub bounded_mm: Option<u16>,
+    /// List every contact after the table.
+    #[arg(long)]
+    pub contacts: bool,
+}
+
+impl CourseArgs {
+    /// The walk configuration these arguments describe.
+    pub fn walk_config(&self) -> anyhow::Result<WalkConfig> {
+        let mut c = WalkConfig::default();
+        c.perception.cost_function = match self.cost {
+            Cost::Ficf => CostFunction::Ficf,
+            Cost::Cacf => CostFunction::Cacf,
+        };
+        c.perception.memory.enabled = !self.no_memory;
+        c.perception.hysteresis.enabled = !self.no_hysteresis;
+        c.perception.dropoff.enabled = !self.no_dropoff;
+        c.perception.ttc.enabled = !self.no_ttc;
+        c.guide = self.guide;
+        anyhow::ensure!(self.timeout_s.is_finite() && self.timeout_s > 0.0, "--timeout-s must be a positive number of seconds");
+        anyhow::ensure!((0.0..=10.0).contains(&self.reaction_s), "--reaction-s must be between 0 and 10 s");
+        anyhow::ensure!(self.turn_rate_deg_s > 0.0 && self.turn_rate_deg_s <= 720.0, "--turn-rate-deg-s must be in (0, 720]");
+        anyhow::ensure!(self.walk_speed_m_s > 0.0 && self.walk_speed_m_s <= 3.0, "--walk-speed-m-s must be in (0, 3]");
+        anyhow::ensure!((0.0..=80.0).contains(&self.pitch_deg), "--pitch-deg must be between 0 and 80");
+        c.timeout_s = self.timeout_s;
+        c.user.reaction_s = self.reaction_s;
+        c.user.turn_rate_deg_s = self.turn_rate_deg_s;
+        c.user.walk_speed_m_s = self.walk_speed_m_s;
+        c.user.turn_walk_speed_m_s = c.user.turn_walk_speed_m_s.min(self.walk_speed_m_s);
+        c.mount.pitch_deg = self.pitch_deg;
+        (c.camera, c.perception.stride_px) = self.camera.profile_and_stride();
+        c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
+        Ok(c)
+    }
+}
+
+/// Runs the study the arguments describe and prints the table (or JSON).
+pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
+    let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
+    let config = args.walk_config()?;
+    let started = std::time::Instant::now();
+    let result = study(&world, &config, args.runs, args.seed);
+    let elapsed_s = started.elapsed().as_secs_f64();
+    if args.json {
+        let doc = serde_json::json!({
+            "world": world.name(),
+            "cost": format!("{:?}", args.cost).to_lowercase(),
+            "memory": !args.no_memory,
+            "hysteresis": !args.no_hysteresis,
+            "dropoff": !args.no_dropoff,
+            "ttc": !args.no_ttc,
+            "guide": args.guide,
+            "camera": config.camera.name,
+            "user": config.user,
+            "runs": result.walks,
+            "rows": result.rows,
+            "average": result.average,
+            "wall_time_s": elapsed_s,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    println!(
+        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | ttc {} | guide {:?} | {} runs from seed {}",
+        world.name(),
+        config.camera.name,
+        args.cost,
+        on_off(!args.no_memory),
+        on_off(!args.no_hysteresis),
+        on_off(!args.no_dropoff),
+        on_off(!args.no_ttc),
+        args.guide,
+        args.runs,
+        args.seed
+    );
+    print!("{}", table(&result));
+    for w in result.walks.iter().filter(|w| !w.completed) {
+        println!(
+            "seed {}: goal not reached within {:.0} s (ended at {:.2}, {:.2}, {:.1} m from the goal)",
+            w.seed,
+            w.time_s,
+            w.end_xy_m[0],
+            w.end_xy_m[1],
+            (w.end_xy_m[0] - world.goal().x_m).hypot(w.end_xy_m[1] - world.goal().y_m)
+        );
+    }
+    if args.contacts {
+        for w in &result.walks {
+            for c in &w.contacts {
+                println!(
+                    "seed {} t {:6.1} s {:?} {:<18} {:<8} in_fov {:<5} head_high {:<5} seen {}",
+                    w.seed,
+                    c.t_s,
+                    c.part,
+                    c.label,
+                    c.kind,
+                    c.in_fov,
+                    c.head_high,
+                    c.seen_ago_s.map_or("never".to_string(), |s| format!("{s:.1} s ago"))
+                );
+            }
+        }
+    }
+    println!("{} walks in {:.1} s wall time", args.runs, elapsed_s);
+    Ok(())
+}
+
+fn on_off(on: bool) -> &'static str {
+    if on {
+        "on"
+    } else {
+        "off"
+    }
+}

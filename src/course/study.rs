@@ -1,0 +1,155 @@
+//! The virtual user study: N walks of one world with one configuration, one seed each,
+//! summarised in the columns of Taylor's Tables 3.1-3.3 (completion time, rumble
+//! signals, cane contacts, body contacts, reorientations, completion), with body
+//! contacts split by whether the obstacle was in the camera's field of view.
+
+use serde::Serialize;
+use sensor_agent::sim::World;
+
+use super::contacts::Part;
+use super::walk::{walk, WalkConfig, WalkOutcome};
+
+/// One table row: a walk, or the average of several.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Row {
+    /// Seed of the walk (`None` for the average).
+    pub seed: Option<u64>,
+    /// Completion time (timeout when not completed), seconds.
+    pub time_s: f64,
+    /// Rumble signals.
+    pub signals: f64,
+    /// Cane contacts.
+    pub cane: f64,
+    /// Body contacts with obstacles in the camera's field of view at that moment.
+    pub body_in_fov: f64,
+    /// Body contacts with obstacles outside it.
+    pub body_out_fov: f64,
+    /// Body contacts with head-high obstacles (included in the two above).
+    pub body_head_high: f64,
+    /// Reorientations.
+    pub reorientations: f64,
+    /// Completed (1) or not (0); the average is the completion rate.
+    pub completed: f64,
+}
+
+impl Row {
+    /// The row of one walk.
+    pub fn of(w: &WalkOutcome) -> Row {
+        Row {
+            seed: Some(w.seed),
+            time_s: w.time_s,
+            signals: w.signals as f64,
+            cane: w.count(Part::Cane, None) as f64,
+            body_in_fov: w.count(Part::Body, Some(true)) as f64,
+            body_out_fov: w.count(Part::Body, Some(false)) as f64,
+            body_head_high: w.contacts.iter().filter(|c| c.part == Part::Body && c.head_high).count() as f64,
+            reorientations: w.reorientations as f64,
+            completed: if w.completed { 1.0 } else { 0.0 },
+        }
+    }
+
+    /// Column means of `rows` (`None` when empty).
+    pub fn mean(rows: &[Row]) -> Option<Row> {
+        if rows.is_empty() {
+            return None;
+        }
+        let n = rows.len() as f64;
+        let avg = |f: fn(&Row) -> f64| rows.iter().map(f).sum::<f64>() / n;
+        Some(Row {
+            seed: None,
+            time_s: avg(|r| r.time_s),
+            signals: avg(|r| r.signals),
+            cane: avg(|r| r.cane),
+            body_in_fov: avg(|r| r.body_in_fov),
+            body_out_fov: avg(|r| r.body_out_fov),
+            body_head_high: avg(|r| r.body_head_high),
+            reorientations: avg(|r| r.reorientations),
+            completed: avg(|r| r.completed),
+        })
+    }
+}
+
+/// The walks of a study and their rows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Study {
+    /// Each walk in full (contacts listed).
+    pub walks: Vec<WalkOutcome>,
+    /// One row per walk.
+    pub rows: Vec<Row>,
+    /// Column means (`None` for zero runs).
+    pub average: Option<Row>,
+}
+
+/// Seed of run `i` of a study started at `seed`.
+pub fn run_seed(seed: u64, i: u32) -> u64 {
+    seed.wrapping_add(i as u64)
+}
+
+/// Runs `runs` walks of `world`, seeds `seed`, `seed + 1`, ...
+pub fn study(world: &World, config: &WalkConfig, runs: u32, seed: u64) -> Study {
+    let walks: Vec<WalkOutcome> = (0..runs).map(|i| walk(world, config, run_seed(seed, i))).collect();
+    let rows: Vec<Row> = walks.iter().map(Row::of).collect();
+    let average = Row::mean(&rows);
+    Study { walks, rows, average }
+}
+
+/// The table as text: header, one line per run, the average line.
+pub fn table(study: &Study) -> String {
+    let mut s = String::from(
+        "run   seed   time_s  signals  cane  body_in_fov  body_out_fov  (head_high)  reorient  completed\n",
+    );
+    let line = |label: &str, r: &Row| {
+        format!(
+            "{label:<5} {:>5} {:>8.1} {:>8.1} {:>5.2} {:>12.2} {:>13.2} {:>12.2} {:>9.2} {:>10}\n",
+            r.seed.map_or("-".to_string(), |v| v.to_string()),
+            r.time_s,
+            r.signals,
+            r.cane,
+            r.body_in_fov,
+            r.body_out_fov,
+            r.body_head_high,
+            r.reorientations,
+            if r.seed.is_some() {
+                if r.completed > 0.0 { "yes".to_string() } else { "no".to_string() }
+            } else {
+                format!("{:.0} %", 100.0 * r.completed)
+            },
+        )
+    };
+    for (i, r) in study.rows.iter().enumerate() {
+        s.push_str(&line(&(i + 1).to_string(), r));
+    }
+    if let Some(avg) = &study.average {
+        s.push_str(&line("mean", avg));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(time_s: f64, completed: f64) -> Row {
+        Row {
+            seed: Some(1),
+            time_s,
+            signals: 2.0,
+            cane: 1.0,
+            body_in_fov: 0.0,
+            body_out_fov: 1.0,
+            body_head_high: 1.0,
+            reorientations: 0.0,
+            completed,
+        }
+    }
+
+    #[test]
+    fn average_of_two_runs_gives_completion_rate_and_mean_time() {
+        let avg = Row::mean(&[row(100.0, 1.0), row(300.0, 0.0)]).unwrap();
+        assert_eq!((avg.time_s, avg.completed, avg.seed), (200.0, 0.5, None));
+        assert!(Row::mean(&[]).is_none());
+        let text = table(&Study { walks: vec![], rows: vec![row(100.0, 1.0)], average: Some(avg) });
+        assert!(text.contains("yes"), "{text}");
+        assert!(text.contains("50 %"), "{text}");
+    }
+}

@@ -1,0 +1,319 @@
+//! The virtual user: a person walking with the augmented cane, reacting to the rumble
+//! as Taylor's volunteers were instructed (Taylor 2017, sec. 3.1): left rumble — turn
+//! left until it stops; right — turn right; both — stop and turn in place until the
+//! path is clear; none — walk straight towards the goal they can hear (bearing only,
+//! the thesis's music source). What they head for comes from a [`Guide`], so spoken
+//! route guidance can replace the sound without touching the user.
+//!
+//! The user acts on what they felt `reaction_s` earlier, turns at most at
+//! `turn_rate_deg_s`, speeds up and slows down at most at `accel_m_s2` (about 0.5 s from
+//! standing to 1 m/s, as the sim's scripted walker), and sweeps the cane all along. A
+//! cane or body touch is felt at once and, after the reaction time, makes the user stop
+//! and turn away from it for `bump_turn_s`, as any cane user does.
+
+use std::collections::VecDeque;
+
+use sensor_agent::sim::walker::wrap_pi;
+use sensor_agent::sim::UserPose;
+
+use super::hands::Felt;
+
+/// What the user heads for.
+pub trait Guide {
+    /// Map heading (radians, counter-clockwise from +x) the user wants to walk, from
+    /// where the user is at `t_s`; `None` when there is nothing to head for.
+    fn heading_target_rad(&mut self, pose: &UserPose, t_s: f64) -> Option<f64>;
+}
+
+/// A sound source at the goal: the user hears its bearing, nothing else (Taylor's music).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GoalSound {
+    /// Map x of the source, metres.
+    pub x_m: f64,
+    /// Map y of the source, metres.
+    pub y_m: f64,
+}
+
+impl Guide for GoalSound {
+    fn heading_target_rad(&mut self, pose: &UserPose, _t_s: f64) -> Option<f64> {
+        let (dx, dy) = (self.x_m - pose.x_m, self.y_m - pose.y_m);
+        (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx))
+    }
+}
+
+/// Route guidance stand-in: the bearing of the next waypoint of a fixed route, the next
+/// one once within `reach_m` (until a route planner speaks real instructions).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RouteWaypoints {
+    waypoints: Vec<[f64; 2]>,
+    next: usize,
+    reach_m: f64,
+}
+
+impl RouteWaypoints {
+    /// A route through `waypoints` (map metres), each reached within `reach_m`.
+    pub fn new(waypoints: Vec<[f64; 2]>, reach_m: f64) -> Self {
+        Self { waypoints, next: 0, reach_m }
+    }
+}
+
+impl Guide for RouteWaypoints {
+    fn heading_target_rad(&mut self, pose: &UserPose, _t_s: f64) -> Option<f64> {
+        while let Some(w) = self.waypoints.get(self.next) {
+            let (dx, dy) = (w[0] - pose.x_m, w[1] - pose.y_m);
+            if dx.hypot(dy) > self.reach_m || self.next + 1 == self.waypoints.len() {
+                return (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx));
+            }
+            self.next += 1;
+        }
+        None
+    }
+}
+
+/// How the user walks and reacts. Defaults: normal walking (about 1 m/s) and a simple
+/// tactile choice reaction (0.5 s).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct UserParams {
+    /// Walking speed with nothing felt, m/s.
+    pub walk_speed_m_s: f64,
+    /// Walking speed while turning away from a one-sided rumble, m/s.
+    pub turn_walk_speed_m_s: f64,
+    /// Largest turning rate, degrees per second.
+    pub turn_rate_deg_s: f64,
+    /// Delay from feeling something to acting on it, seconds.
+    pub reaction_s: f64,
+    /// Largest change of walking speed, m/s^2.
+    pub accel_m_s2: f64,
+    /// How long the user turns away after a cane or body touch, seconds.
+    pub bump_turn_s: f64,
+    /// After a rumble episode ends the user keeps the cleared heading this long before
+    /// turning back towards the guide, seconds.
+    pub commit_s: f64,
+    /// Body width (the contact cylinder's diameter), metres.
+    pub shoulder_width_m: f64,
+    /// Body height (the contact cylinder's top), metres.
+    pub height_m: f64,
+}
+
+impl Default for UserParams {
+    fn default() -> Self {
+        Self {
+            walk_speed_m_s: 1.0,
+            turn_walk_speed_m_s: 0.4,
+            turn_rate_deg_s: 60.0,
+            reaction_s: 0.5,
+            accel_m_s2: 2.0,
+            bump_turn_s: 1.0,
+            commit_s: 1.0,
+            shoulder_width_m: 0.45,
+            height_m: 1.8,
+        }
+    }
+}
+
+/// A touch felt through the cane or the body, on one side of the heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Touch {
+    /// When, seconds.
+    pub t_s: f64,
+    /// True when the touched thing is on the user's left.
+    pub on_left: bool,
+}
+
+/// The walking person: pose, speed, and what they felt recently.
+#[derive(Debug, Clone)]
+pub struct VirtualUser {
+    params: UserParams,
+    pose: UserPose,
+    speed_m_s: f64,
+    felt: VecDeque<(f64, Felt)>,
+    touches: VecDeque<Touch>,
+    acting: Felt,
+    in_place_left: bool,
+    bump_until_s: f64,
+    bump_left: bool,
+    commit_until_s: f64,
+}
+
+impl VirtualUser {
+    /// A user standing at `start`.
+    pub fn new(params: UserParams, start: UserPose) -> Self {
+        Self {
+            params,
+            pose: start,
+            speed_m_s: 0.0,
+            felt: VecDeque::new(),
+            touches: VecDeque::new(),
+            acting: Felt::None,
+            in_place_left: true,
+            bump_until_s: f64::NEG_INFINITY,
+            bump_left: true,
+            commit_until_s: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Parameters.
+    pub fn params(&self) -> &UserParams {
+        &self.params
+    }
+
+    /// Where the user is.
+    pub fn pose(&self) -> UserPose {
+        self.pose
+    }
+
+    /// Current walking speed, m/s.
+    pub fn speed_m_s(&self) -> f64 {
+        self.speed_m_s
+    }
+
+    /// Records what the hands feel at `t_s` (called every step, in time order).
+    pub fn feel(&mut self, t_s: f64, felt: Felt) {
+        if self.felt.back().is_none_or(|(_, f)| *f != felt) {
+            self.felt.push_back((t_s, felt));
+        }
+    }
+
+    /// Records a touch of the cane or the body.
+    pub fn touch(&mut self, touch: Touch) {
+        self.touches.push_back(touch);
+    }
+
+    /// The user was stopped by an obstacle: no speed left.
+    pub fn stop_dead(&mut self) {
+        self.speed_m_s = 0.0;
+    }
+
+    /// What the user acts on at `t_s`: the newest sensation at least `reaction_s` old.
+    fn perceived(&mut self, t_s: f64) -> Felt {
+        let due = t_s - self.params.reaction_s;
+        while self.felt.len() > 1 && self.felt[1].0 <= due {
+            self.felt.pop_front();
+        }
+        match self.felt.front() {
+            Some((t, f)) if *t <= due => *f,
+            _ => Felt::None,
+        }
+    }
+
+    /// The pose after `dt_s` more of walking, given the guide's heading. The caller
+    /// decides whether the body may go there (see [`VirtualUser::commit`]).
+    pub fn propose(&mut self, t_s: f64, dt_s: f64, target_rad: Option<f64>) -> (UserPose, f64) {
+        let p = self.params;
+        let turn = p.turn_rate_deg_s.to_radians();
+        while self.touches.front().is_some_and(|touch| touch.t_s <= t_s - p.reaction_s) {
+            if let Some(touch) = self.touches.pop_front() {
+                self.bump_until_s = t_s + p.bump_turn_s;
+                self.bump_left = !touch.on_left;
+            }
+        }
+        let felt = self.perceived(t_s);
+        if felt != self.acting {
+            if felt == Felt::Both {
+                // turn towards the side the guide points to, and stay with that side
+                let err = target_rad.map_or(0.0, |h| wrap_pi(h - self.pose.yaw_rad));
+                self.in_place_left = err >= 0.0;
+            }
+            if felt == Felt::None && self.acting != Felt::Offline {
+                self.commit_until_s = t_s + p.commit_s;
+            }
+            self.acting = felt;
+        }
+        let (want_speed, yaw_rate) = if t_s < self.bump_until_s {
+            (0.0, if self.bump_left { turn } else { -turn })
+        } else {
+            match felt {
+                Felt::Left => (p.turn_walk_speed_m_s, turn),
+                Felt::Right => (p.turn_walk_speed_m_s, -turn),
+                Felt::Both => (0.0, if self.in_place_left { turn } else { -turn }),
+                Felt::Offline => (0.0, 0.0),
+                Felt::None if t_s < self.commit_until_s => (p.walk_speed_m_s, 0.0),
+                Felt::None => match target_rad {
+                    Some(h) => {
+                        let err = wrap_pi(h - self.pose.yaw_rad);
+                        // walk on while roughly facing the target, turn first when not
+                        (p.walk_speed_m_s * err.cos().max(0.0), (2.0 * err).clamp(-turn, turn))
+                    }
+                    None => (0.0, 0.0),
+                },
+            }
+        };
+        let dv = (want_speed - self.speed_m_s).clamp(-p.accel_m_s2 * dt_s, p.accel_m_s2 * dt_s);
+        let speed = self.speed_m_s + dv;
+        let yaw = wrap_pi(self.pose.yaw_rad + yaw_rate * dt_s);
+        let mid = self.pose.yaw_rad + 0.5 * yaw_rate * dt_s;
+        let pose = UserPose {
+            x_m: self.pose.x_m + speed * dt_s * mid.cos(),
+            y_m: self.pose.y_m + speed * dt_s * mid.sin(),
+            yaw_rad: yaw,
+            floor: self.pose.floor,
+        };
+        (pose, speed)
+    }
+
+    /// Accepts a proposed pose (or a pose the caller allowed instead) with its speed.
+    pub fn commit(&mut self, pose: UserPose, speed_m_s: f64) {
+        self.pose = pose;
+        self.speed_m_s = speed_m_s;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn user(reaction_s: f64) -> VirtualUser {
+        VirtualUser::new(UserParams { reaction_s, ..UserParams::default() }, UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 })
+    }
+
+    fn walk(u: &mut VirtualUser, from_s: f64, to_s: f64, felt: Felt) {
+        let dt = 0.01;
+        let mut t = from_s;
+        while t < to_s {
+            u.feel(t, felt);
+            let (p, v) = u.propose(t, dt, Some(0.0));
+            u.commit(p, v);
+            t += dt;
+        }
+    }
+
+    #[test]
+    fn left_rumble_turns_left_only_after_the_reaction_time() {
+        let mut u = user(0.5);
+        walk(&mut u, 0.0, 2.0, Felt::None);
+        assert!((u.speed_m_s() - 1.0).abs() < 1e-9);
+        walk(&mut u, 2.0, 2.45, Felt::Left);
+        assert!(u.pose().yaw_rad.abs() < 1e-9, "not yet reacting");
+        walk(&mut u, 2.45, 3.5, Felt::Left);
+        assert!(u.pose().yaw_rad > 0.5, "turned left: {}", u.pose().yaw_rad);
+        assert!(u.speed_m_s() < 0.5);
+    }
+
+    #[test]
+    fn both_stops_and_turns_in_place_towards_the_guide_side() {
+        let mut u = user(0.2);
+        walk(&mut u, 0.0, 1.0, Felt::None);
+        let before = u.pose();
+        let dt = 0.01;
+        let mut t = 1.0;
+        while t < 3.0 {
+            u.feel(t, Felt::Both);
+            // the goal is to the right
+            let (p, v) = u.propose(t, dt, Some(-1.0));
+            u.commit(p, v);
+            t += dt;
+        }
+        assert_eq!(u.speed_m_s(), 0.0);
+        assert!(u.pose().yaw_rad < -1.0, "turned right: {}", u.pose().yaw_rad);
+        assert!(u.pose().x_m - before.x_m < 0.5, "stopped within a reaction time and a ramp");
+    }
+
+    #[test]
+    fn route_guide_heads_for_the_next_waypoint_once_one_is_reached() {
+        let mut g = RouteWaypoints::new(vec![[1.0, 0.0], [1.0, 5.0]], 0.3);
+        let at = |x, y| UserPose { x_m: x, y_m: y, yaw_rad: 0.0, floor: 0 };
+        assert!(g.heading_target_rad(&at(0.0, 0.0), 0.0).unwrap().abs() < 1e-9);
+        let h = g.heading_target_rad(&at(0.9, 0.0), 0.0).unwrap();
+        assert!((h - std::f64::consts::FRAC_PI_2).abs() < 0.05, "{h}");
+    }
+}

@@ -1,0 +1,420 @@
+//! One closed-loop walk, in simulated time (no wall-clock sleeping): the user's pose
+//! puts the cane camera somewhere; the ray-cast frame goes (optionally through the
+//! wire codec) into the perception pipeline the compute agent runs; its haptic intent
+//! goes through the feedback agent's own step into the hands; the user feels it, reacts,
+//! and moves. Physics and feedback run at [`PHYSICS_HZ`], the camera at its frame rate.
+//!
+//! The memory beyond the field of view is moved by odometry of the camera's floor frame
+//! (where the perception's user frame lives: it turns with the cane's sweep), as
+//! visual odometry on the cane camera would measure it, with the sim's VO error model.
+
+use compute_agent::perception::{cue, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline};
+use feedback_agent::{Feedback, StepSettings};
+use schemas::{DepthEncoding, HapticIntent, Hazard};
+use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
+use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
+use sensor_agent::sim::walker::wrap_pi;
+use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, Renderer, SimRng, UserPose, World};
+
+use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, TOUCH_M};
+use super::hands::{Felt, FeltRumble, Hands};
+use super::virtual_user::{GoalSound, Guide, RouteWaypoints, Touch, UserParams, VirtualUser};
+
+/// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
+pub const PHYSICS_HZ: u32 = 120;
+/// Heading more than this off the goal's bearing counts as walking away, radians.
+const AWAY_RAD: f64 = std::f64::consts::FRAC_PI_2;
+/// Walking away for longer than this is one reorientation, seconds (the thesis's
+/// experimenters turned such users back).
+pub const REORIENT_AFTER_S: f64 = 5.0;
+/// Capture stamp of t = 0, ns (stamps of 0 mean "self-initiated" downstream).
+const T0_NS: u64 = 1_000_000_000;
+
+/// What the user heads for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GuideKind {
+    /// The goal's sound: bearing only (Taylor's music source).
+    Sound,
+    /// The world's scripted route, waypoint by waypoint (stand-in for route guidance).
+    Route,
+}
+
+/// Everything that makes one walk.
+#[derive(Debug, Clone)]
+pub struct WalkConfig {
+    /// Perception settings (cost function, beyond-the-thesis switches).
+    pub perception: PerceptionConfig,
+    /// Rumble state to haptic intent.
+    pub cue: CueConfig,
+    /// Feedback step settings.
+    pub feedback: StepSettings,
+    /// The user.
+    pub user: UserParams,
+    /// Cane, camera mount and sweep.
+    pub mount: CaneMount,
+    /// Depth camera.
+    pub camera: CameraProfile,
+    /// What the user heads for.
+    pub guide: GuideKind,
+    /// Walk ends unfinished after this, seconds.
+    pub timeout_s: f64,
+    /// Goal reached within this distance of it, metres.
+    pub goal_radius_m: f64,
+    /// Capture to intent applied, ms (perception, transport, device write).
+    pub latency_ms: f64,
+    /// Send frames through the wire codec's bounded-error mode with this step (mm);
+    /// `None` skips the codec (the lossless mode gives back the exact samples).
+    pub bounded_mm: Option<u16>,
+    /// Start pose jitter: position (metres) and heading (degrees), uniform +-.
+    pub start_jitter: (f64, f64),
+    /// Reaction time jitter, fraction of the reaction time, uniform +-.
+    pub reaction_jitter: f64,
+}
+
+/// The Asus Xtion in its 320x240 mode: with a perception stride of 1 these are the
+/// rays the compute agent samples from the 640x480 image at its default stride of 2,
+/// for a quarter of the rendering cost.
+pub fn xtion_qvga() -> CameraProfile {
+    let vga = CameraProfile::xtion();
+    CameraProfile { name: "xtion-qvga".into(), width: vga.width / 2, height: vga.height / 2, ..vga }
+}
+
+impl Default for WalkConfig {
+    /// Xtion at 320x240 with stride 1 (see [`xtion_qvga`]), default perception, cue,
+    /// feedback, user and cane; 300 s timeout, 0.5 m goal radius, 50 ms latency.
+    fn default() -> Self {
+        Self {
+            perception: PerceptionConfig { stride_px: 1, ..PerceptionConfig::default() },
+            cue: CueConfig::default(),
+            feedback: StepSettings::default(),
+            user: UserParams::default(),
+            mount: CaneMount::default(),
+            camera: xtion_qvga(),
+            guide: GuideKind::Sound,
+            timeout_s: 300.0,
+            goal_radius_m: 0.5,
+            latency_ms: 50.0,
+            bounded_mm: None,
+            start_jitter: (0.15, 10.0),
+            reaction_jitter: 0.25,
+        }
+    }
+}
+
+/// What happened on one walk.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct WalkOutcome {
+    /// Seed of the walk.
+    pub seed: u64,
+    /// Reached the goal before the timeout.
+    pub completed: bool,
+    /// Time to the goal, or the timeout, seconds.
+    pub time_s: f64,
+    /// Rumble signals: changes of the felt state to left, right or both.
+    pub signals: u32,
+    /// Times the feedback told the user detection was offline.
+    pub offline_signals: u32,
+    /// Every contact, in time order.
+    pub contacts: Vec<Contact>,
+    /// Episodes of walking away from the goal for more than [`REORIENT_AFTER_S`].
+    pub reorientations: u32,
+    /// Frames the perception refused (no intent sent for them).
+    pub perception_errors: u32,
+    /// Camera frames processed.
+    pub frames: u32,
+    /// Closest the body came to any obstacle, metres (0 = contact).
+    pub min_clearance_m: f64,
+    /// Distance walked, metres.
+    pub path_m: f64,
+    /// Reaction time of this walk, seconds.
+    pub reaction_s: f64,
+    /// Where the user ended.
+    pub end_xy_m: [f64; 2],
+}
+
+impl WalkOutcome {
+    /// Contacts of one part, optionally only those in (`Some(true)`) or out of view.
+    pub fn count(&self, part: Part, in_fov: Option<bool>) -> usize {
+        self.contacts.iter().filter(|c| c.part == part && in_fov.is_none_or(|v| c.in_fov == v)).count()
+    }
+
+    /// "goal reached" or "goal not reached".
+    pub fn verdict(&self) -> &'static str {
+        if self.completed {
+            "goal reached"
+        } else {
+            "goal not reached"
+        }
+    }
+}
+
+fn hazard_of(p: &compute_agent::perception::Perception, seq: u64, cfg: &PerceptionConfig) -> Hazard {
+    Hazard {
+        frame_seq: seq,
+        ficf: p.ficf,
+        cacf: p.cacf,
+        active: cfg.cost_function,
+        rumble: p.rumble,
+        ground: p.ground,
+        plane_camera: p.plane_camera,
+        nearest_m: p.nearest_m,
+        nearest_bearing_deg: p.nearest_bearing_deg,
+        ttc_s: p.ttc_s,
+        dropoff_ahead: p.dropoff_ahead,
+        latency: Vec::new(),
+    }
+}
+
+/// The camera's floor frame as a pose (where the perception's user frame sits).
+fn camera_floor(camera: &CameraPose) -> UserPose {
+    UserPose { x_m: camera.position_m.x, y_m: camera.position_m.y, yaw_rad: camera.yaw_rad(), floor: camera.floor }
+}
+
+/// A guide for `kind` in `world`.
+fn guide_for(kind: GuideKind, world: &World) -> Box<dyn Guide> {
+    let goal = world.goal();
+    match (kind, world.walker()) {
+        (GuideKind::Route, Some(w)) => {
+            let mut points = w.waypoints.clone();
+            points.push([goal.x_m, goal.y_m]);
+            Box::new(RouteWaypoints::new(points, 0.4))
+        }
+        _ => Box::new(GoalSound { x_m: goal.x_m, y_m: goal.y_m }),
+    }
+}
+
+fn ns(t_s: f64) -> u64 {
+    T0_NS + (t_s * 1e9).round() as u64
+}
+
+/// Walks `world` once with `seed` (start jitter, sweep phase, reaction time, sensor
+/// noise, odometry errors all follow from it).
+pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
+    let mut rng = SimRng::seed_from(seed);
+    let mut depth_rng = rng.fork();
+    let mut gravity_rng = rng.fork();
+    let mut odometry = OdometryModel::new(OdometryNoise::default(), rng.fork());
+    let mut jitter = |half: f64| (2.0 * rng.uniform() - 1.0) * half;
+    let start = world.start();
+    let start = UserPose {
+        x_m: start.x_m + jitter(config.start_jitter.0),
+        y_m: start.y_m + jitter(config.start_jitter.0),
+        yaw_rad: start.yaw_rad + jitter(config.start_jitter.1).to_radians(),
+        floor: start.floor,
+    };
+    let mount = CaneMount { sweep_phase_rad: jitter(std::f64::consts::PI), ..config.mount };
+    let params = UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
+
+    let mut user = VirtualUser::new(params, start);
+    let mut guide = guide_for(config.guide, world);
+    let mut renderer = Renderer::new(config.camera.clone());
+    let mut pipeline = Pipeline::new(config.perception.clone());
+    let mut feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
+    let mut felt = FeltRumble::default();
+    let n = world.obstacles().len();
+    let mut body = Touching::new(n);
+    let mut cane = Touching::new(n);
+    let mut seen = SeenLog::new(n);
+    let mut depth = Vec::new();
+    let mut packed = Vec::new();
+    let mut unpacked = Vec::new();
+    let goal = world.goal().clone();
+    let radius_m = params.shoulder_width_m / 2.0;
+
+    let dt = 1.0 / PHYSICS_HZ as f64;
+    let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
+    let latency_s = config.latency_ms / 1000.0;
+    let mut pending: std::collections::VecDeque<(f64, Option<Hazard>, Option<(HapticIntent, u64)>)> = Default::default();
+    let mut last_floor: Option<(UserPose, u64)> = None;
+    let mut out = WalkOutcome {
+        seed,
+        completed: false,
+        time_s: config.timeout_s,
+        signals: 0,
+        offline_signals: 0,
+        contacts: Vec::new(),
+        reorientations: 0,
+        perception_errors: 0,
+        frames: 0,
+        min_clearance_m: f64::INFINITY,
+        path_m: 0.0,
+        reaction_s: params.reaction_s,
+        end_xy_m: [start.x_m, start.y_m],
+    };
+    body.measure(world, start.floor, 0.0, |s| s.body_distance_m(start.x_m, start.y_m, radius_m, params.height_m));
+    let mut body_now = body.distance_m.clone();
+    let mut shown = Felt::None;
+    let mut away_since: Option<f64> = None;
+    let mut away_counted = false;
+
+    let steps = (config.timeout_s * PHYSICS_HZ as f64).ceil() as u64;
+    for step in 0..=steps {
+        let t = step as f64 * dt;
+        let now = ns(t);
+        let pose = user.pose();
+        if (pose.x_m - goal.x_m).hypot(pose.y_m - goal.y_m) <= config.goal_radius_m && pose.floor == goal.floor {
+            out.completed = true;
+            out.time_s = t;
+            break;
+        }
+        if step % frame_every == 0 {
+            let camera = mount.camera_pose(&pose, mount.sweep_rad(t));
+            renderer.render(world, &camera, t, &mut depth_rng, &mut depth);
+            seen.update(renderer.obstacle_ids(), &depth, t);
+            out.frames += 1;
+            let k = renderer.intrinsics();
+            let samples: &[u16] = match config.bounded_mm {
+                Some(step_mm) => {
+                    let mode = DepthEncoding::Bounded { step: step_mm };
+                    let (w, h) = (config.camera.width, config.camera.height);
+                    let ok = schemas::depth_codec::encode(&depth, w, h, mode, &mut packed).is_ok()
+                        && schemas::depth_codec::decode(&packed, w, h, mode, &mut unpacked).is_ok();
+                    if ok {
+                        &unpacked
+                    } else {
+                        &[]
+                    }
+                }
+                None => &depth,
+            };
+            let floor_pose = camera_floor(&camera);
+            let motion = last_floor.map(|(from, from_ns)| {
+                let inc = odometry.increment(&from, &floor_pose, from_ns, now);
+                Motion { forward_m: inc.forward_m, left_m: inc.left_m, yaw_rad: inc.yaw_rad }
+            });
+            last_floor = Some((floor_pose, now));
+            let g = camera.gravity_camera();
+            let s = 0.5f64.to_radians();
+            let g = nalgebra::Vector3::new(
+                g.x + gravity_rng.gaussian() * s,
+                g.y + gravity_rng.gaussian() * s,
+                g.z + gravity_rng.gaussian() * s,
+            )
+            .normalize();
+            let ctx = FrameContext { stamp_ns: now, gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]), motion };
+            let input = DepthInput::Depth {
+                samples,
+                width: config.camera.width,
+                height: config.camera.height,
+                depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+                intrinsics: k,
+            };
+            match pipeline.process(input, &ctx, &mut NoTimer) {
+                Ok(p) => {
+                    let hazard = hazard_of(p, out.frames as u64, &config.perception);
+                    pending.push_back((t + latency_s, Some(hazard), Some((cue(p, &config.cue), now))));
+                }
+                Err(_) => out.perception_errors += 1,
+            }
+        }
+        while pending.front().is_some_and(|(at, _, _)| *at <= t + 1e-9) {
+            if let Some((_, hazard, intent)) = pending.pop_front() {
+                if let Some(h) = hazard {
+                    feedback.on_hazard(&h, now);
+                }
+                if let Some((i, capture_ns)) = intent {
+                    // intents from our own cue never carry NaN; a refusal would leave the motors as they are
+                    let _ = feedback.on_haptic(&i, capture_ns, now);
+                }
+            }
+        }
+        feedback.tick(now);
+        for a in feedback.drain_applied() {
+            felt.apply(&a);
+        }
+        let state = felt.felt(now);
+        if state != shown {
+            match state {
+                Felt::Left | Felt::Right | Felt::Both => out.signals += 1,
+                Felt::Offline => out.offline_signals += 1,
+                Felt::None => {}
+            }
+            shown = state;
+        }
+        user.feel(t, state);
+
+        // reorientations: heading far off the goal's bearing for too long
+        let to_goal = (goal.y_m - pose.y_m).atan2(goal.x_m - pose.x_m);
+        if wrap_pi(to_goal - pose.yaw_rad).abs() > AWAY_RAD {
+            let since = *away_since.get_or_insert(t);
+            if !away_counted && t - since > REORIENT_AFTER_S {
+                out.reorientations += 1;
+                away_counted = true;
+            }
+        } else {
+            away_since = None;
+            away_counted = false;
+        }
+
+        let target = guide.heading_target_rad(&pose, t);
+        let (proposed, speed) = user.propose(t, dt, target);
+        let t_next = t + dt;
+        let height_m = params.height_m;
+        body.measure(world, proposed.floor, t_next, |s| s.body_distance_m(proposed.x_m, proposed.y_m, radius_m, height_m));
+        let entering = body.entering();
+        // the body cannot go deeper into anything it touches
+        let blocked = body.distance_m.iter().zip(&body_now).any(|(&d, &was)| d <= TOUCH_M && d < was);
+        let camera = mount.camera_pose(&proposed, mount.sweep_rad(t_next));
+        for id in entering {
+            // which side: probe a little to the left and to the right of the body
+            let (s, c) = proposed.yaw_rad.sin_cos();
+            let probe = |side: f64| {
+                world
+                    .obstacles_at(proposed.floor, t_next)
+                    .filter(|(i, _)| *i == id)
+                    .map(|(_, sh)| sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m))
+                    .fold(f64::INFINITY, f64::min)
+            };
+            user.touch(Touch { t_s: t_next, on_left: probe(0.05) <= probe(-0.05) });
+            out.contacts.push(contact(world, id, Part::Body, t_next, &camera, config, &seen, body.touch_bottom_m[id.0 as usize], &mount));
+        }
+        out.min_clearance_m = out.min_clearance_m.min(body.nearest_m());
+        if blocked {
+            user.stop_dead();
+        } else {
+            out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
+            user.commit(proposed, speed);
+            body_now.copy_from_slice(&body.distance_m);
+        }
+        let now_pose = user.pose();
+        let sweep = mount.sweep_rad(t_next);
+        let (hand, tip) = mount.cane_segment(&now_pose, sweep);
+        cane.measure(world, now_pose.floor, t_next, |s| match s {
+            sensor_agent::sim::shape::Shape::DropOff(_) => f64::INFINITY,
+            _ => s.segment_distance_m(hand, tip),
+        });
+        for id in cane.entering() {
+            user.touch(Touch { t_s: t_next, on_left: sweep >= 0.0 });
+            let camera = mount.camera_pose(&now_pose, sweep);
+            out.contacts.push(contact(world, id, Part::Cane, t_next, &camera, config, &seen, cane.touch_bottom_m[id.0 as usize], &mount));
+        }
+        out.end_xy_m = [now_pose.x_m, now_pose.y_m];
+    }
+    out
+}
+
+#[allow(clippy::too_many_arguments)]
+fn contact(
+    world: &World,
+    id: sensor_agent::sim::ObstacleId,
+    part: Part,
+    t_s: f64,
+    camera: &CameraPose,
+    config: &WalkConfig,
+    seen: &SeenLog,
+    touch_bottom_m: f64,
+    mount: &CaneMount,
+) -> Contact {
+    let obstacle = world.obstacle(id);
+    Contact {
+        t_s,
+        part,
+        obstacle: id.0,
+        label: obstacle.map_or_else(String::new, |o| o.label.clone()),
+        kind: obstacle.map_or_else(String::new, |o| format!("{:?}", o.kind)),
+        in_fov: in_field_of_view(world, id, camera, &config.camera, t_s),
+        seen_ago_s: seen.ago_s(id, t_s),
+        head_high: touch_bottom_m > mount.handle_height_m,
+    }
+}
