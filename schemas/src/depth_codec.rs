@@ -391,7 +391,8 @@ impl DepthEncoder {
 pub struct DepthDecoder {
     side: Vec<u8>,
     words: Vec<u16>,
-    levels: Vec<u16>,
+    /// Level values by index (0 is unused: index 0 never decodes).
+    levels: Box<[u16; 65536]>,
     runs: Vec<u32>,
     rows: [Vec<i32>; 2],
     tables: rans::Tables,
@@ -410,7 +411,7 @@ impl DepthDecoder {
         DepthDecoder {
             side: Vec::new(),
             words: Vec::new(),
-            levels: Vec::new(),
+            levels: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
             runs: Vec::new(),
             rows: [Vec::new(), Vec::new()],
             tables: rans::Tables::new(),
@@ -503,16 +504,14 @@ impl DepthDecoder {
         if n_levels > 65535 {
             return Err(corrupt("more levels than u16 values"));
         }
-        self.levels.clear();
-        self.levels.push(0);
         let mut value = 0u32;
-        for _ in 0..n_levels {
+        for i in 0..n_levels {
             let gap = side.varint().ok_or_else(|| corrupt("truncated levels"))?;
             value = value.saturating_add(gap);
             if gap == 0 || value > 65535 {
                 return Err(corrupt("levels not strictly increasing in 1..=65535"));
             }
-            self.levels.push(value as u16);
+            self.levels[i + 1] = value as u16;
         }
         self.runs.clear();
         let height = out.len() / width;
@@ -577,7 +576,7 @@ impl DepthDecoder {
         self.calm.clear();
         self.calm.resize(width, true);
         let calm = &mut self.calm[..];
-        let levels = &self.levels[..];
+        let levels: &[u16; 65536] = &self.levels;
         let n_levels = n_levels as u32;
         let mut runs = self.runs.iter();
         for out_row in out.chunks_exact_mut(width) {
@@ -589,9 +588,14 @@ impl DepthDecoder {
                 // Neighbours ride in registers: reloading the pixel just stored would put
                 // a store-to-load forward on the critical path of every pixel.
                 let (mut a, mut b, mut c) = (row[x], prev[x + 1], prev[x]);
-                for xi in x..end {
-                    let d = prev[xi + 2];
-                    let sym = dec.symbol(&self.tables, context(b, c, d, calm[xi])) as u32;
+                // One bounds check per run, none per pixel.
+                let run = prev[x + 2..end + 2]
+                    .iter()
+                    .zip(&mut row[x + 1..end + 1])
+                    .zip(&mut calm[x..end])
+                    .zip(&mut out_row[x..end]);
+                for (((&d, cell), calm_x), out_x) in run {
+                    let sym = dec.symbol(&self.tables, context(b, c, d, *calm_x)) as u32;
                     let z = if sym == ESCAPE {
                         side.varint()
                             .and_then(|e| e.checked_add(ESCAPE))
@@ -599,14 +603,14 @@ impl DepthDecoder {
                     } else {
                         sym
                     };
-                    calm[xi] = z == 0;
+                    *calm_x = z == 0;
                     let r = (z >> 1) as i32 ^ -((z & 1) as i32);
                     let level = med(a, b, c).wrapping_add(r);
                     if (level as u32).wrapping_sub(1) >= n_levels {
                         return Err(corrupt("level index out of range"));
                     }
-                    row[xi + 1] = level;
-                    out_row[xi] = levels[level as usize];
+                    *cell = level;
+                    *out_x = levels[level as usize & 0xffff];
                     (a, c, b) = (level, b, d);
                 }
                 x = end;

@@ -28,6 +28,21 @@ pub enum RansError {
 pub struct Model {
     freq: [u16; 256],
     start: [u16; 256],
+    /// `reciprocal(freq)`, so encoding multiplies instead of dividing.
+    rcp: [u128; 256],
+}
+
+/// `m` with `(x * m) >> 64 == x / f` for every `x < 2^32` and `1 <= f <= 4096`:
+/// `m = floor((2^64 - 1) / f) + 1` overshoots `2^64 / f` by less than `f / 2^64`, so the
+/// product's error stays below `2^-32`, while a non-integer `x / f` lies at least
+/// `1 / f >= 2^-12` below the next integer.
+fn reciprocal(f: u32) -> u128 {
+    u64::MAX as u128 / f.max(1) as u128 + 1
+}
+
+#[inline(always)]
+fn divide(x: u32, rcp: u128) -> u32 {
+    ((x as u128 * rcp) >> 64) as u32
 }
 
 impl Model {
@@ -37,10 +52,7 @@ impl Model {
         let total: u64 = counts.iter().map(|&c| c as u64).sum();
         let mut freq = [0u16; 256];
         if total == 0 {
-            return Model {
-                freq,
-                start: [0; 256],
-            };
+            return Model::from_freq(freq);
         }
         let mut sum: i64 = 0;
         for (f, &c) in freq.iter_mut().zip(counts) {
@@ -72,7 +84,8 @@ impl Model {
             *s = acc as u16;
             acc += f as u32;
         }
-        Model { freq, start }
+        let rcp = freq.map(|f| reciprocal(f as u32));
+        Model { freq, start, rcp }
     }
 
     /// Appends the model: the count of symbols up to the last used one, then each
@@ -129,7 +142,7 @@ pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec
             words.push(*x as u16);
             *x >>= 16;
         }
-        let q = *x / f;
+        let q = divide(*x, m.rcp[s as usize]);
         *x = (q << PROB_BITS) + (*x - q * f) + m.start[s as usize] as u32;
     }
     for x in states.iter().rev() {
@@ -222,7 +235,10 @@ impl<'a> Decoder<'a> {
             next = next << 16 | self.words.get(self.pos).map_or(0, |&w| w as u32);
             self.pos += 1;
         }
-        self.lanes.rotate_left(1);
+        // A plain shift: `rotate_left` is an out-of-line memmove per symbol.
+        for i in 1..LANES {
+            self.lanes[i - 1] = self.lanes[i];
+        }
         self.lanes[LANES - 1] = next;
         e as u8
     }
@@ -259,6 +275,24 @@ mod tests {
         }
         dec.finish().unwrap();
         words.len() * 2
+    }
+
+    #[test]
+    fn reciprocal_division_is_exact_for_every_frequency() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        for f in 1..=PROB_SCALE {
+            let r = reciprocal(f);
+            let mut xs = vec![0, 1, f - 1, f, f + 1, u32::MAX, u32::MAX - 1, u32::MAX / f * f, u32::MAX / f * f - 1];
+            for _ in 0..200 {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                xs.push(seed as u32);
+            }
+            for x in xs {
+                assert_eq!(divide(x, r), x / f, "{x} / {f}");
+            }
+        }
     }
 
     #[test]
