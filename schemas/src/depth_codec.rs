@@ -180,7 +180,7 @@ fn context(b: i32, c: i32, d: i32, calm_above: bool) -> usize {
 #[derive(Debug, Clone)]
 pub struct DepthEncoder {
     present: Vec<bool>,
-    level_of: Vec<u16>,
+    level_of: Box<[u16; 65536]>,
     levels: Vec<u16>,
     rows: [Vec<i32>; 2],
     symbols: Vec<u8>,
@@ -203,7 +203,7 @@ impl DepthEncoder {
     pub fn new() -> DepthEncoder {
         DepthEncoder {
             present: vec![false; 65536],
-            level_of: vec![0; 65536],
+            level_of: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
             levels: Vec::new(),
             rows: [Vec::new(), Vec::new()],
             symbols: Vec::new(),
@@ -272,10 +272,21 @@ impl DepthEncoder {
         );
         put_words(out, &self.words);
 
-        let mut counts = [[0u32; 256]; CONTEXTS];
-        for (&s, &c) in self.symbols.iter().zip(&self.contexts) {
-            counts[c as usize][s as usize] += 1;
+        // Four interleaved histograms: one would chain every increment of the same
+        // (mostly zero) symbol through a store-to-load forward.
+        let mut counts = [[[0u32; 256]; CONTEXTS]; 4];
+        for (i, (&s, &c)) in self.symbols.iter().zip(&self.contexts).enumerate() {
+            counts[i & 3][c as usize & (CONTEXTS - 1)][s as usize] += 1;
         }
+        let mut merged = [[0u32; 256]; CONTEXTS];
+        for part in &counts {
+            for (m, p) in merged.iter_mut().zip(part) {
+                for (a, b) in m.iter_mut().zip(p) {
+                    *a += b;
+                }
+            }
+        }
+        let counts = merged;
         let models: Vec<rans::Model> = counts.iter().map(rans::Model::from_counts).collect();
         for m in &models {
             m.write(out);
@@ -342,42 +353,45 @@ impl DepthEncoder {
     /// Fills `symbols`/`contexts` with the residual of every valid pixel and
     /// `escapes` with the varint tails of large ones.
     fn predict(&mut self, samples: &[u16], width: usize) {
-        self.symbols.clear();
-        self.contexts.clear();
-        self.escapes.clear();
-        let [prev, cur] = &mut self.rows;
+        // Split borrows: pushing through `self` would make the compiler reload every
+        // other buffer's pointer after each push.
+        let DepthEncoder { level_of, rows: [prev, cur], symbols, contexts, calm, escapes, .. } = self;
+        symbols.clear();
+        contexts.clear();
+        escapes.clear();
         prev.clear();
         prev.resize(width + 2, 0);
         cur.clear();
         cur.resize(width + 2, 0);
-        self.calm.clear();
-        self.calm.resize(width, true);
+        calm.clear();
+        calm.resize(width, true);
+        let level_of: &[u16; 65536] = level_of;
         for row in samples.chunks_exact(width) {
             cur[0] = prev[1];
             let (mut a, mut b, mut c) = (cur[0], prev[1], prev[0]);
-            for (x, &s) in row.iter().enumerate() {
-                let d = prev[x + 2];
+            let pixels = row.iter().zip(&prev[2..]).zip(&mut cur[1..]).zip(calm.iter_mut());
+            for (((&s, &d), cell), calm_x) in pixels {
                 let pred = med(a, b, c);
-                let ctx = context(b, c, d, self.calm[x]) as u8;
+                let ctx = context(b, c, d, *calm_x) as u8;
                 (c, b) = (b, d);
                 if s == 0 {
-                    cur[x + 1] = pred;
+                    *cell = pred;
                     a = pred;
-                    self.calm[x] = true;
+                    *calm_x = true;
                     continue;
                 }
-                let level = self.level_of[s as usize] as i32;
-                cur[x + 1] = level;
+                let level = level_of[s as usize] as i32;
+                *cell = level;
                 a = level;
                 let r = level - pred;
                 let z = ((r << 1) ^ (r >> 31)) as u32;
-                self.contexts.push(ctx);
-                self.calm[x] = z == 0;
+                contexts.push(ctx);
+                *calm_x = z == 0;
                 if z >= ESCAPE {
-                    self.symbols.push(ESCAPE as u8);
-                    put_varint(&mut self.escapes, z - ESCAPE);
+                    symbols.push(ESCAPE as u8);
+                    put_varint(escapes, z - ESCAPE);
                 } else {
-                    self.symbols.push(z as u8);
+                    symbols.push(z as u8);
                 }
             }
             cur[width + 1] = cur[width];
