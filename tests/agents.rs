@@ -111,8 +111,12 @@ async fn hazards_reach_feedback_and_offline_warning_follows_a_killed_compute_age
             continue;
         }
         let want = expected_sides(rumble);
+        // Only actions caused by an intent (self-initiated ones, like "motors off" at
+        // start, carry no capture stamp).
         let got = wait_for(&applied, Duration::from_secs(2), |a| match a.body.action {
-            AppliedAction::Rumble { left, right, .. } => (left > 0.0, right > 0.0) == want,
+            AppliedAction::Rumble { left, right, .. } => {
+                a.body.cause_capture_ns > 0 && (left > 0.0, right > 0.0) == want
+            }
             _ => false,
         })
         .await;
@@ -209,4 +213,44 @@ async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
         .unwrap();
     let a = wait_for(&applied, Duration::from_secs(5), |a| a.body.cause_capture_ns == stamp).await;
     assert!(a.is_some(), "the feedback agent stopped acting after garbage");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
+    let user = "blind-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let intents = Subscriber::<HapticIntent>::declare(&hub.session, keys.haptic(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+
+    // Well-formed frames in which not one pixel has a depth (a covered lens).
+    let (width, height) = (64u32, 48u32);
+    let mut data = Vec::new();
+    schemas::depth_codec::encode(&vec![0u16; (width * height) as usize], width, height, schemas::DepthEncoding::Lossless, &mut data)
+        .unwrap();
+    let frame = schemas::DepthFrame {
+        width,
+        height,
+        depth_scale_m: 0.001,
+        intrinsics: schemas::Intrinsics { fx: 50.0, fy: 50.0, cx: 32.0, cy: 24.0 },
+        gravity_camera: None,
+        mount: None,
+        encoding: schemas::DepthEncoding::Lossless,
+        data,
+    };
+    let mut frames =
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None).await.unwrap();
+    for _ in 0..10 {
+        frames.put(bus::now_ns(), &frame).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    let h = wait_for(&hazards, Duration::from_secs(3), |_| true).await.expect("no hazard for unusable frames");
+    assert_eq!(h.body.ground, schemas::GroundState::Degraded);
+    assert_eq!(h.body.rumble, Rumble::Both, "a blind system must not say the path is clear");
+    let cue = wait_for(&intents, Duration::from_secs(3), |_| true).await.expect("no haptic intent");
+    assert!(cue.body.left > 0.0 && cue.body.right > 0.0, "unavailable cue must rumble: {:?}", cue.body);
+    assert!(matches!(cue.body.pattern, HapticPattern::Pulses { .. }), "{:?}", cue.body);
 }

@@ -10,7 +10,7 @@ use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
 use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Scan, StageLatency};
 
 use crate::perception::{
-    cue, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception, PerceptionConfig, Pipeline,
+    cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception, PerceptionConfig, Pipeline,
     StageTimer,
 };
 
@@ -64,6 +64,11 @@ impl MotionSince {
     }
 }
 
+/// Frames in a row perception may reject before the user is told it is blind: one
+/// corrupt frame keeps the previous cue (its TTL covers ~10 frames); three in a row
+/// (100 ms at 30 Hz) mean the camera is not usable and silence would lie.
+const FAILURES_BEFORE_DEGRADED: u32 = 3;
+
 struct Outputs {
     scan: Publisher<Scan>,
     hazard: Publisher<Hazard>,
@@ -87,6 +92,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let mut pipeline = Pipeline::new(config.perception.clone());
     let mut motion = MotionSince::default();
     let mut depth = Vec::new();
+    let mut failures = 0u32;
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
 
@@ -95,7 +101,11 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             _ = shutdown.triggered() => break,
             Some(inc) = odom.recv() => motion.add(&inc.body),
             Some(frame) = frames.recv() => {
-                process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
+                let ok = process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
+                failures = if ok { 0 } else { failures + 1 };
+                if failures == FAILURES_BEFORE_DEGRADED || (failures > FAILURES_BEFORE_DEGRADED && failures % 30 == 0) {
+                    publish_blind(&frame, &config, &health, &mut out).await;
+                }
             }
         }
     }
@@ -104,6 +114,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     Ok(())
 }
 
+/// Process one frame; `false` when it was rejected (and counted).
 async fn process(
     frame: &Received<DepthFrame>,
     pipeline: &mut Pipeline,
@@ -112,7 +123,7 @@ async fn process(
     config: &ComputeConfig,
     health: &Arc<Health>,
     out: &mut Outputs,
-) {
+) -> bool {
     let f = &frame.body;
     let mut clock = InstantTimer::default();
     clock.start("decode");
@@ -120,7 +131,7 @@ async fn process(
     clock.stop();
     if let Err(e) = decoded {
         health.reject(&frame.key, "depth_decode", &e);
-        return;
+        return false;
     }
     let input = DepthInput::Depth {
         samples: depth,
@@ -134,7 +145,7 @@ async fn process(
         Ok(p) => p.clone(),
         Err(e) => {
             health.reject(&frame.key, e.kind(), &e);
-            return;
+            return false;
         }
     };
     let capture_ns = frame.header.capture_ns;
@@ -152,6 +163,26 @@ async fn process(
         out.haptic.put(capture_ns, &intent).await,
         out.hazard.put(capture_ns, &hazard).await,
         out.scan.put(capture_ns, &perception.scan).await,
+    ] {
+        if let Err(e) = result {
+            tracing::warn!("{e:#}");
+        }
+    }
+    true
+}
+
+/// Frames keep coming but none can be used: say so with a degraded hazard (rumble
+/// `Both`: stop) and the distinct "unavailable" cue, rather than fall silent.
+async fn publish_blind(frame: &Received<DepthFrame>, config: &ComputeConfig, health: &Arc<Health>, out: &mut Outputs) {
+    let mut blind = Perception::empty();
+    blind.rumble = schemas::Rumble::Both;
+    let hazard = hazard_of(&blind, frame.header.seq, config, Vec::new());
+    health.set_status(false, "depth frames unusable: obstacle detection degraded");
+    tracing::warn!("{FAILURES_BEFORE_DEGRADED}+ unusable depth frames in a row: reporting degraded");
+    let capture_ns = frame.header.capture_ns;
+    for result in [
+        out.haptic.put(capture_ns, &cue_unavailable(&config.cue)).await,
+        out.hazard.put(capture_ns, &hazard).await,
     ] {
         if let Err(e) = result {
             tracing::warn!("{e:#}");
