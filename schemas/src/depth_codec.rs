@@ -203,7 +203,10 @@ impl DepthEncoder {
     pub fn new() -> DepthEncoder {
         DepthEncoder {
             present: vec![false; 65536],
-            level_of: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
+            level_of: vec![0u16; 65536]
+                .into_boxed_slice()
+                .try_into()
+                .unwrap_or_else(|_| unreachable!()),
             levels: Vec::new(),
             rows: [Vec::new(), Vec::new()],
             symbols: Vec::new(),
@@ -355,7 +358,15 @@ impl DepthEncoder {
     fn predict(&mut self, samples: &[u16], width: usize) {
         // Split borrows: pushing through `self` would make the compiler reload every
         // other buffer's pointer after each push.
-        let DepthEncoder { level_of, rows: [prev, cur], symbols, contexts, calm, escapes, .. } = self;
+        let DepthEncoder {
+            level_of,
+            rows: [prev, cur],
+            symbols,
+            contexts,
+            calm,
+            escapes,
+            ..
+        } = self;
         symbols.clear();
         contexts.clear();
         escapes.clear();
@@ -369,7 +380,11 @@ impl DepthEncoder {
         for row in samples.chunks_exact(width) {
             cur[0] = prev[1];
             let (mut a, mut b, mut c) = (cur[0], prev[1], prev[0]);
-            let pixels = row.iter().zip(&prev[2..]).zip(&mut cur[1..]).zip(calm.iter_mut());
+            let pixels = row
+                .iter()
+                .zip(&prev[2..])
+                .zip(&mut cur[1..])
+                .zip(calm.iter_mut());
             for (((&s, &d), cell), calm_x) in pixels {
                 let pred = med(a, b, c);
                 let ctx = context(b, c, d, *calm_x) as u8;
@@ -425,7 +440,10 @@ impl DepthDecoder {
         DepthDecoder {
             side: Vec::new(),
             words: Vec::new(),
-            levels: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
+            levels: vec![0u16; 65536]
+                .into_boxed_slice()
+                .try_into()
+                .unwrap_or_else(|_| unreachable!()),
             runs: Vec::new(),
             rows: [Vec::new(), Vec::new()],
             tables: rans::Tables::new(),
@@ -657,8 +675,13 @@ impl DepthDecoder {
     }
 }
 
-/// Pack `samples` (row-major, 0 = invalid) into `out` (cleared first). Streams should
-/// keep a [`DepthEncoder`] instead, which reuses its buffers.
+thread_local! {
+    static ENCODER: std::cell::RefCell<DepthEncoder> = std::cell::RefCell::new(DepthEncoder::new());
+    static DECODER: std::cell::RefCell<DepthDecoder> = std::cell::RefCell::new(DepthDecoder::new());
+}
+
+/// Pack `samples` (row-major, 0 = invalid) into `out` (cleared first), with this
+/// thread's [`DepthEncoder`] so repeated calls allocate nothing.
 pub fn encode(
     samples: &[u16],
     width: u32,
@@ -666,11 +689,14 @@ pub fn encode(
     mode: DepthEncoding,
     out: &mut Vec<u8>,
 ) -> Result<(), CodecError> {
-    DepthEncoder::new().encode(samples, width, height, mode, out)
+    ENCODER.with(|e| match e.try_borrow_mut() {
+        Ok(mut enc) => enc.encode(samples, width, height, mode, out),
+        Err(_) => DepthEncoder::new().encode(samples, width, height, mode, out),
+    })
 }
 
-/// Unpack a payload into `out` (resized to width x height). Streams should keep a
-/// [`DepthDecoder`] instead, which reuses its buffers.
+/// Unpack a payload into `out` (resized to width x height), with this thread's
+/// [`DepthDecoder`] so repeated calls allocate nothing.
 pub fn decode(
     data: &[u8],
     width: u32,
@@ -678,7 +704,10 @@ pub fn decode(
     mode: DepthEncoding,
     out: &mut Vec<u16>,
 ) -> Result<(), CodecError> {
-    DepthDecoder::new().decode(data, width, height, mode, out)
+    DECODER.with(|d| match d.try_borrow_mut() {
+        Ok(mut dec) => dec.decode(data, width, height, mode, out),
+        Err(_) => DepthDecoder::new().decode(data, width, height, mode, out),
+    })
 }
 
 #[cfg(test)]
@@ -991,7 +1020,10 @@ mod tests {
             let mut reused = Vec::new();
             enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused)
                 .unwrap();
-            let (fresh, _) = round_trip(&samples, 40, 30, DepthEncoding::Lossless);
+            let mut fresh = Vec::new();
+            DepthEncoder::new()
+                .encode(&samples, 40, 30, DepthEncoding::Lossless, &mut fresh)
+                .unwrap();
             assert_eq!(reused, fresh);
             let mut back = Vec::new();
             dec.decode(&reused, 40, 30, DepthEncoding::Lossless, &mut back)
