@@ -282,7 +282,17 @@ mod tests {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         for f in 1..=PROB_SCALE {
             let r = reciprocal(f);
-            let mut xs = vec![0, 1, f - 1, f, f + 1, u32::MAX, u32::MAX - 1, u32::MAX / f * f, u32::MAX / f * f - 1];
+            let mut xs = vec![
+                0,
+                1,
+                f - 1,
+                f,
+                f + 1,
+                u32::MAX,
+                u32::MAX - 1,
+                u32::MAX / f * f,
+                u32::MAX / f * f - 1,
+            ];
             for _ in 0..200 {
                 seed ^= seed << 13;
                 seed ^= seed >> 7;
