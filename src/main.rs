@@ -1,6 +1,7 @@
 //! `wearnav`: the embedded launcher (every agent in one process) and the tools that
 //! run the libraries on recorded data.
 
+mod codec_cmd;
 mod demo;
 mod perceive;
 
@@ -23,6 +24,9 @@ enum Command {
     /// Run the obstacle perception on recorded frames (PCD, 16-bit depth PNG) and
     /// print plane, scan, costs, rumble and stage timings as JSON.
     Perceive(perceive::PerceiveArgs),
+    /// Compress a depth image (16-bit PNG or PCD) with the wire codec and print size,
+    /// ratio, encode/decode medians and max error: for choosing a mode for your Wi-Fi.
+    Codec(codec_cmd::CodecArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -32,5 +36,6 @@ fn main() -> anyhow::Result<()> {
     match cli.command {
         Command::Demo(args) => runtime.block_on(demo::run(args)),
         Command::Perceive(args) => perceive::run(&args),
+        Command::Codec(args) => codec_cmd::run(&args),
     }
 }

@@ -28,8 +28,9 @@ struct Cli {
     #[command(flatten)]
     bus: bus::BusOptions,
     /// Frame source: `sim:<world>` (approach, taylor-course, corridor, building, or a
-    /// scene TOML file), `pcd:<file-or-dir>`, `tum:<dir>` (TUM RGB-D layout) or
-    /// `png:<dir>` (16-bit depth PNGs; give --depth-scale and --intrinsics).
+    /// scene TOML file), `pcd:<file-or-dir>`, `tum:<dir>` (TUM RGB-D layout),
+    /// `png:<dir>` (16-bit depth PNGs; give --depth-scale and --intrinsics) or
+    /// `openni2:[device-uri]` (a real camera; builds with the `openni2` feature only).
     #[arg(long, default_value = "sim:approach")]
     source: String,
     /// Device name in the keys: `wearnav/<user>/sensor/<device>/depth`.
