@@ -1,5 +1,5 @@
 //! `wearnav`: the root package's library. It holds the tools that join the agents'
 //! libraries in one process (the binary parses flags and calls them): so far the
-//! virtual user study of issue 6, [`course`].
+//! virtual user study, [`course`].
 
 pub mod course;

@@ -27,6 +27,9 @@ enum Command {
     /// Compress a depth image (16-bit PNG or PCD) with the wire codec and print size,
     /// ratio, encode/decode medians and max error: for choosing a mode for your Wi-Fi.
     Codec(codec_cmd::CodecArgs),
+    /// Replay Taylor's obstacle-course study with a virtual user who follows the cues,
+    /// and print the thesis's table (time, rumble signals, cane and body contacts).
+    Course(wearnav::course::CourseArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -37,5 +40,6 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(args) => runtime.block_on(demo::run(args)),
         Command::Perceive(args) => perceive::run(&args),
         Command::Codec(args) => codec_cmd::run(&args),
+        Command::Course(args) => wearnav::course::run(&args),
     }
 }
