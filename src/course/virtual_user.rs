@@ -41,32 +41,32 @@ impl Guide for GoalSound {
     }
 }
 
-/// Route guidance stand-in: the bearing of the next waypoint of a fixed route, the next
-/// one once within `reach_m` (until a route planner speaks real instructions).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RouteWaypoints {
+/// Route guidance stand-in (until the planner speaks real instructions): a fixed
+/// route, and the user is pointed at the farthest waypoint in line of sight, as
+/// ISANA's line-of-sight smoothing and deviation recovery would. Line of sight is
+/// given by the caller (the map), so the guide itself knows no geometry.
+pub struct RouteWaypoints<'a> {
     waypoints: Vec<[f64; 2]>,
-    next: usize,
-    reach_m: f64,
+    in_sight: Box<dyn Fn(&UserPose, [f64; 2]) -> bool + 'a>,
+    target: usize,
 }
 
-impl RouteWaypoints {
-    /// A route through `waypoints` (map metres), each reached within `reach_m`.
-    pub fn new(waypoints: Vec<[f64; 2]>, reach_m: f64) -> Self {
-        Self { waypoints, next: 0, reach_m }
+impl<'a> RouteWaypoints<'a> {
+    /// A route through `waypoints` (map metres, the goal last); `in_sight` says whether
+    /// the user can walk straight from where they are to a point.
+    pub fn new(waypoints: Vec<[f64; 2]>, in_sight: impl Fn(&UserPose, [f64; 2]) -> bool + 'a) -> Self {
+        Self { waypoints, in_sight: Box::new(in_sight), target: 0 }
     }
 }
 
-impl Guide for RouteWaypoints {
+impl Guide for RouteWaypoints<'_> {
     fn heading_target_rad(&mut self, pose: &UserPose, _t_s: f64) -> Option<f64> {
-        while let Some(w) = self.waypoints.get(self.next) {
-            let (dx, dy) = (w[0] - pose.x_m, w[1] - pose.y_m);
-            if dx.hypot(dy) > self.reach_m || self.next + 1 == self.waypoints.len() {
-                return (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx));
-            }
-            self.next += 1;
+        if let Some(k) = (0..self.waypoints.len()).rev().find(|&k| (self.in_sight)(pose, self.waypoints[k])) {
+            self.target = k;
         }
-        None
+        let w = self.waypoints.get(self.target)?;
+        let (dx, dy) = (w[0] - pose.x_m, w[1] - pose.y_m);
+        (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx))
     }
 }
 
@@ -179,9 +179,13 @@ impl VirtualUser {
         self.touches.push_back(touch);
     }
 
-    /// The user was stopped by an obstacle: no speed left.
-    pub fn stop_dead(&mut self) {
+    /// The body pushed against an obstacle at `t_s` and was stopped: no speed left, and
+    /// the push is felt like a touch unless the user is already turning away from one.
+    pub fn stopped_by(&mut self, t_s: f64, on_left: bool) {
         self.speed_m_s = 0.0;
+        if self.touches.is_empty() && t_s >= self.bump_until_s {
+            self.touches.push_back(Touch { t_s, on_left });
+        }
     }
 
     /// What the user acts on at `t_s`: the newest sensation at least `reaction_s` old.
@@ -203,13 +207,15 @@ impl VirtualUser {
         let turn = p.turn_rate_deg_s.to_radians();
         while self.touches.front().is_some_and(|touch| touch.t_s <= t_s - p.reaction_s) {
             if let Some(touch) = self.touches.pop_front() {
+                // turn away, then walk on in the new direction before heading back
                 self.bump_until_s = t_s + p.bump_turn_s;
                 self.bump_left = !touch.on_left;
+                self.commit_until_s = self.bump_until_s + p.commit_s;
             }
         }
         let felt = self.perceived(t_s);
         if felt != self.acting {
-            if felt == Felt::Both {
+            if felt == Felt::Both || felt == Felt::Offline {
                 // turn towards the side the guide points to, and stay with that side
                 let err = target_rad.map_or(0.0, |h| wrap_pi(h - self.pose.yaw_rad));
                 self.in_place_left = err >= 0.0;
@@ -226,7 +232,9 @@ impl VirtualUser {
                 Felt::Left => (p.turn_walk_speed_m_s, turn),
                 Felt::Right => (p.turn_walk_speed_m_s, -turn),
                 Felt::Both => (0.0, if self.in_place_left { turn } else { -turn }),
-                Felt::Offline => (0.0, 0.0),
+                // not seeing (a wall filling the view hides the floor): no step forward,
+                // but turn slowly so the camera can find the floor again
+                Felt::Offline => (0.0, if self.in_place_left { 0.5 * turn } else { -0.5 * turn }),
                 Felt::None if t_s < self.commit_until_s => (p.walk_speed_m_s, 0.0),
                 Felt::None => match target_rad {
                     Some(h) => {
@@ -309,8 +317,10 @@ mod tests {
     }
 
     #[test]
-    fn route_guide_heads_for_the_next_waypoint_once_one_is_reached() {
-        let mut g = RouteWaypoints::new(vec![[1.0, 0.0], [1.0, 5.0]], 0.3);
+    fn route_guide_heads_for_the_farthest_waypoint_in_sight() {
+        // a wall along x = 0.5 for y > 0.2 hides the second waypoint from the start
+        let sight = |p: &UserPose, w: [f64; 2]| !(p.x_m < 0.5 && w[0] > 0.5 && w[1] > 0.2);
+        let mut g = RouteWaypoints::new(vec![[1.0, 0.0], [1.0, 5.0]], sight);
         let at = |x, y| UserPose { x_m: x, y_m: y, yaw_rad: 0.0, floor: 0 };
         assert!(g.heading_target_rad(&at(0.0, 0.0), 0.0).unwrap().abs() < 1e-9);
         let h = g.heading_target_rad(&at(0.9, 0.0), 0.0).unwrap();

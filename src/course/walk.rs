@@ -13,8 +13,9 @@ use feedback_agent::{Feedback, StepSettings};
 use schemas::{DepthEncoding, HapticIntent, Hazard};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
+use sensor_agent::sim::shape::Shape;
 use sensor_agent::sim::walker::wrap_pi;
-use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, Renderer, SimRng, UserPose, World};
+use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, ObstacleId, Renderer, SimRng, UserPose, World};
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
@@ -22,6 +23,8 @@ use super::virtual_user::{GoalSound, Guide, RouteWaypoints, Touch, UserParams, V
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
 pub const PHYSICS_HZ: u32 = 120;
+/// The guide is asked every this many physics steps (4 Hz: instructions, not servoing).
+const GUIDE_EVERY: u64 = 30;
 /// Heading more than this off the goal's bearing counts as walking away, radians.
 const AWAY_RAD: f64 = std::f64::consts::FRAC_PI_2;
 /// Walking away for longer than this is one reorientation, seconds (the thesis's
@@ -36,7 +39,8 @@ const T0_NS: u64 = 1_000_000_000;
 pub enum GuideKind {
     /// The goal's sound: bearing only (Taylor's music source).
     Sound,
-    /// The world's scripted route, waypoint by waypoint (stand-in for route guidance).
+    /// The world's scripted route: the farthest waypoint in line of sight (stand-in
+    /// for route guidance; the goal's sound in worlds without a route).
     Route,
 }
 
@@ -171,14 +175,31 @@ fn camera_floor(camera: &CameraPose) -> UserPose {
     UserPose { x_m: camera.position_m.x, y_m: camera.position_m.y, yaw_rad: camera.yaw_rad(), floor: camera.floor }
 }
 
+/// Spacing of the body positions a line-of-sight check tests, metres.
+const SIGHT_STEP_M: f64 = 0.1;
+
+/// True when a body of `radius_m` can walk straight from `pose` to `to` past every
+/// static shape of the floor that reaches below head height (what a floor map holds).
+fn walkable(world: &World, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool {
+    let (dx, dy) = (to[0] - pose.x_m, to[1] - pose.y_m);
+    let n = ((dx.hypot(dy) / SIGHT_STEP_M).ceil() as usize).max(1);
+    let g = world.geometry(pose.floor);
+    (0..=n).all(|i| {
+        let f = i as f64 / n as f64;
+        let (x, y) = (pose.x_m + f * dx, pose.y_m + f * dy);
+        g.boxes.iter().all(|(b, _)| Shape::Box(*b).body_distance_m(x, y, radius_m, 1.8) > 0.0)
+            && g.cylinders.iter().all(|(c, _)| Shape::Cylinder(*c).body_distance_m(x, y, radius_m, 1.8) > 0.0)
+    })
+}
+
 /// A guide for `kind` in `world`.
-fn guide_for(kind: GuideKind, world: &World) -> Box<dyn Guide> {
+fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64) -> Box<dyn Guide + 'a> {
     let goal = world.goal();
     match (kind, world.walker()) {
         (GuideKind::Route, Some(w)) => {
             let mut points = w.waypoints.clone();
             points.push([goal.x_m, goal.y_m]);
-            Box::new(RouteWaypoints::new(points, 0.4))
+            Box::new(RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, p, to, radius_m)))
         }
         _ => Box::new(GoalSound { x_m: goal.x_m, y_m: goal.y_m }),
     }
@@ -207,7 +228,6 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let params = UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
 
     let mut user = VirtualUser::new(params, start);
-    let mut guide = guide_for(config.guide, world);
     let mut renderer = Renderer::new(config.camera.clone());
     let mut pipeline = Pipeline::new(config.perception.clone());
     let mut feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
@@ -221,6 +241,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mut unpacked = Vec::new();
     let goal = world.goal().clone();
     let radius_m = params.shoulder_width_m / 2.0;
+    let mut guide = guide_for(config.guide, world, radius_m);
+    let mut target = None;
 
     let dt = 1.0 / PHYSICS_HZ as f64;
     let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
@@ -347,17 +369,19 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             away_counted = false;
         }
 
-        let target = guide.heading_target_rad(&pose, t);
+        if step % GUIDE_EVERY == 0 {
+            target = guide.heading_target_rad(&pose, t);
+        }
         let (proposed, speed) = user.propose(t, dt, target);
         let t_next = t + dt;
         let height_m = params.height_m;
         body.measure(world, proposed.floor, t_next, |s| s.body_distance_m(proposed.x_m, proposed.y_m, radius_m, height_m));
         let entering = body.entering();
         // the body cannot go deeper into anything it touches
-        let blocked = body.distance_m.iter().zip(&body_now).any(|(&d, &was)| d <= TOUCH_M && d < was);
+        let blocking = body.distance_m.iter().zip(&body_now).position(|(&d, &was)| d <= TOUCH_M && d < was);
         let camera = mount.camera_pose(&proposed, mount.sweep_rad(t_next));
-        for id in entering {
-            // which side: probe a little to the left and to the right of the body
+        // which side an obstacle is on: probe a little to the left and right of the body
+        let on_left = |id: ObstacleId| {
             let (s, c) = proposed.yaw_rad.sin_cos();
             let probe = |side: f64| {
                 world
@@ -366,12 +390,14 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                     .map(|(_, sh)| sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m))
                     .fold(f64::INFINITY, f64::min)
             };
-            user.touch(Touch { t_s: t_next, on_left: probe(0.05) <= probe(-0.05) });
+            probe(0.05) <= probe(-0.05)
+        };
+        for id in entering {
             out.contacts.push(contact(world, id, Part::Body, t_next, &camera, config, &seen, body.touch_bottom_m[id.0 as usize], &mount));
         }
         out.min_clearance_m = out.min_clearance_m.min(body.nearest_m());
-        if blocked {
-            user.stop_dead();
+        if let Some(i) = blocking {
+            user.stopped_by(t_next, on_left(ObstacleId(i as u32)));
         } else {
             out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
             user.commit(proposed, speed);
@@ -381,7 +407,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let sweep = mount.sweep_rad(t_next);
         let (hand, tip) = mount.cane_segment(&now_pose, sweep);
         cane.measure(world, now_pose.floor, t_next, |s| match s {
-            sensor_agent::sim::shape::Shape::DropOff(_) => f64::INFINITY,
+            Shape::DropOff(_) => f64::INFINITY,
             _ => s.segment_distance_m(hand, tip),
         });
         for id in cane.entering() {
@@ -397,7 +423,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
 #[allow(clippy::too_many_arguments)]
 fn contact(
     world: &World,
-    id: sensor_agent::sim::ObstacleId,
+    id: ObstacleId,
     part: Part,
     t_s: f64,
     camera: &CameraPose,
