@@ -21,6 +21,8 @@ pub struct PerceptionConfig {
     pub stride_px: u32,
     /// Ground-plane search.
     pub ground: GroundConfig,
+    /// Beyond the thesis: the ground predicted from gravity while a near wall hides it.
+    pub ground_prediction: GroundPredictionConfig,
     /// Obstacle classification and the nearest-point scan.
     pub scan: ScanConfig,
     /// Fully-Integrated Cost Function (thesis eq. 2.11-2.13).
@@ -43,6 +45,7 @@ impl Default for PerceptionConfig {
             cost_function: CostFunction::Ficf,
             stride_px: 2,
             ground: GroundConfig::default(),
+            ground_prediction: GroundPredictionConfig::default(),
             scan: ScanConfig::default(),
             ficf: CostConfig::ficf(),
             cacf: CostConfig::cacf(),
@@ -113,6 +116,46 @@ impl Default for GroundConfig {
             reseed_after_frames: 10,
             max_lost_frames: 5,
             seed: 0x5eed_ca9e,
+        }
+    }
+}
+
+/// The ground predicted from the IMU while the floor is out of view.
+///
+/// Measured with the simulator (worlds `approach` and `taylor-course`; camera 0.885 m up,
+/// pitched 30 deg down, 45 deg vertical FOV): from ~0.7-0.9 m before a wall the wall fills
+/// the view, the floor is a thin strip or gone, the search loses the ground and after
+/// `GroundConfig::max_lost_frames` reported `Degraded` ("detection offline") exactly when
+/// the user needed "stop". With a gravity vector the floor's normal is still known, and
+/// a cane's camera height barely changes over a few seconds, so the plane `-gravity`,
+/// running-average offset D stands in. It stays `Lost` (never `Degraded`) only while all
+/// of these hold; otherwise the frame-count rule of `GroundConfig::max_lost_frames` is
+/// kept unchanged.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default)]
+pub struct GroundPredictionConfig {
+    /// Switch. Off (or no gravity in the frame): the thesis's rule only.
+    pub enabled: bool,
+    /// Largest angle between gravity's up and the normal of the last ground found. The
+    /// simulator's cane wobbles +-1.5 deg in pitch at 1 m/s (3 deg peak to peak); a cane
+    /// lifted or tilted further no longer stands where the last ground was seen.
+    pub max_tilt_deg: f32,
+    /// Longest time since the last ground found, ns: the hand's height drifts (3 s).
+    /// A frame whose stamp does not advance past that ground's is not trusted.
+    pub max_age_ns: u64,
+    /// Fewest obstacle points (fraction of the valid sampled points) for the frame to
+    /// count as a blocked view. A near wall gives ~1; a frame that shows nothing
+    /// classifiable must never pass for a clear path, so it degrades as before.
+    pub min_obstacle_fraction: f32,
+}
+
+impl Default for GroundPredictionConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            max_tilt_deg: 5.0,
+            max_age_ns: 3_000_000_000,
+            min_obstacle_fraction: 0.25,
         }
     }
 }

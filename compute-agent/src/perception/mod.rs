@@ -9,6 +9,7 @@
 //! | --- | --- | --- |
 //! | strided sample of the organized image | [`organized_cloud`] | 1 cm voxel grid |
 //! | ground plane (RANSAC in a cone, least squares, false-ground guard) | [`ground_plane`] | sec. 2.2 |
+//! | ground predicted from gravity while a near wall hides the floor | [`ground_prediction`] | beyond |
 //! | ground removal, above-head removal, user frame, 1-degree scan | [`nearest_scan`] | sec. 2.2-2.3 |
 //! | FICF / CACF costs and Table 2.1 | [`cost_function`] | sec. 2.4 |
 //! | drop-offs, memory, TTC, debounce | [`dropoff`], [`obstacle_memory`], [`time_to_collision`], [`hysteresis`] | beyond |
@@ -24,6 +25,7 @@ pub mod cost_function;
 pub mod cue;
 pub mod dropoff;
 pub mod ground_plane;
+pub mod ground_prediction;
 pub mod hysteresis;
 pub mod nearest_scan;
 pub mod obstacle_memory;
@@ -41,6 +43,7 @@ pub use timing::{InstantTimer, NoTimer, StageMedians, StageTimer};
 use cost_function::{rumble, scan_points, side_costs};
 use dropoff::PathGround;
 use ground_plane::{GroundSearch, GroundTracker};
+use ground_prediction::{blocked_view, GroundPrediction};
 use hysteresis::RumbleDebounce;
 use nearest_scan::{BinLayout, ScanBuilder, UserFrame};
 use obstacle_memory::{ObstacleMemory, ViewCone};
@@ -219,6 +222,7 @@ pub struct Pipeline {
     cloud: SampledCloud,
     search: GroundSearch,
     tracker: GroundTracker,
+    prediction: GroundPrediction,
     layout: Option<BinLayout>,
     scan: ScanBuilder,
     memory: ObstacleMemory,
@@ -236,6 +240,7 @@ impl Pipeline {
             config,
             cloud: SampledCloud::default(),
             tracker: GroundTracker::default(),
+            prediction: GroundPrediction::default(),
             layout: None,
             scan: ScanBuilder::default(),
             memory: ObstacleMemory::default(),
@@ -307,6 +312,9 @@ impl Pipeline {
             None
         };
         let decision = self.tracker.update(fit, gravity, &cfg.ground);
+        if let Some(d) = decision.filter(|d| d.state == GroundState::Found) {
+            self.prediction.found(ctx.stamp_ns, d.plane.normal);
+        }
         timer.stop();
         if self.cloud.valid.is_empty() {
             return Err(PerceptionError::NoValidPoints);
@@ -424,7 +432,21 @@ impl Pipeline {
         }
         out.rumble = self.debounce.update(raw, &cfg.hysteresis);
         out.plane_camera = decision.plane.coefficients();
-        out.ground = decision.state;
+        // A near wall hides the floor: the plane predicted from gravity (the tracker's
+        // stand-in while lost) stays trusted within the bounds of `ground_prediction`.
+        out.ground = if decision.state == GroundState::Degraded
+            && self
+                .prediction
+                .trusted(gravity, ctx.stamp_ns, &cfg.ground_prediction)
+            && blocked_view(
+                self.scan.obstacle_points,
+                self.cloud.valid.len(),
+                &cfg.ground_prediction,
+            ) {
+            GroundState::Lost
+        } else {
+            decision.state
+        };
         out.points_valid = self.cloud.points_valid;
         out.obstacle_points = self.scan.obstacle_points;
         timer.stop();

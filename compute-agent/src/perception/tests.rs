@@ -633,3 +633,150 @@ fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm(
         );
     }
 }
+
+/// The measured case of `GroundPredictionConfig`: a cane camera 0.885 m up, pitched
+/// 30 deg down, 58 x 45 deg field of view, walking at 1 m/s (30 Hz) towards a wall
+/// from 2.0 m down to `stop_m`, then standing there for `stand_s` seconds with the
+/// camera pitched `stand_pitch_deg`. Returns each frame's result and stamp.
+fn walk_to_wall(
+    cfg: PerceptionConfig,
+    with_gravity: bool,
+    stop_m: f32,
+    stand_s: f32,
+    stand_pitch_deg: f32,
+) -> Vec<(u64, Result<Perception, PerceptionError>, f32)> {
+    let frame_ns = 33_333_333u64;
+    let mut p = Pipeline::new(cfg);
+    let mut out = Vec::new();
+    let approach_frames = ((2.0 - stop_m) * 30.0).round() as u64;
+    let stand_frames = (stand_s * 30.0).round() as u64;
+    for k in 0..=approach_frames + stand_frames {
+        let wall_m = (2.0 - k as f32 / 30.0).max(stop_m);
+        let pitch = if k > approach_frames {
+            stand_pitch_deg
+        } else {
+            30.0
+        };
+        let mut scene = Scene::kinect(0.885, pitch);
+        let f = 240.0 / 22.5f32.to_radians().tan();
+        scene.intrinsics.fx = f;
+        scene.intrinsics.fy = f;
+        scene.walls_x_m.push(wall_m);
+        let ctx = FrameContext {
+            stamp_ns: (k + 1) * frame_ns,
+            gravity_camera: if with_gravity { gravity(&scene) } else { None },
+            motion: None,
+        };
+        out.push((ctx.stamp_ns, run(&mut p, &scene, &ctx), wall_m));
+    }
+    out
+}
+
+#[test]
+fn walking_to_a_wall_with_gravity_keeps_the_ground_and_says_stop_not_offline() {
+    let frames = walk_to_wall(PerceptionConfig::default(), true, 0.6, 0.0, 30.0);
+    let states: Vec<_> = frames
+        .iter()
+        .map(|(_, r, w)| (*w, r.as_ref().map(|o| o.ground)))
+        .collect();
+    assert!(
+        states
+            .iter()
+            .all(|(_, s)| matches!(s, Ok(GroundState::Found | GroundState::Lost))),
+        "{states:?}"
+    );
+    let lost = states
+        .iter()
+        .filter(|(_, s)| *s == Ok(GroundState::Lost))
+        .count();
+    let cfg = PerceptionConfig::default();
+    assert!(
+        lost > cfg.ground.max_lost_frames as usize,
+        "the floor really leaves the view ({lost} lost frames)"
+    );
+    let (_, last, wall_m) = frames.last().unwrap();
+    let last = last.as_ref().unwrap();
+    assert_eq!(last.rumble, Rumble::Both);
+    assert!(
+        (last.nearest_m - wall_m).abs() < 0.05,
+        "nearest {} m, wall {wall_m} m",
+        last.nearest_m
+    );
+    let intent = cue(last, &CueConfig::default());
+    assert_eq!(
+        (intent.left, intent.right),
+        (1.0, 1.0),
+        "full-level stop, not the degraded pattern"
+    );
+}
+
+#[test]
+fn walking_to_a_wall_without_gravity_still_degrades() {
+    // Without gravity the 20 deg cone around camera -y cannot find a 30 deg pitched
+    // floor at all; 40 deg lets the walk start with a ground, as the previous plane
+    // then carries the prior.
+    let mut cfg = PerceptionConfig::default();
+    cfg.ground.up_cone_deg = 40.0;
+    let frames = walk_to_wall(cfg, false, 0.6, 0.0, 30.0);
+    assert_eq!(
+        frames[0].1.as_ref().map(|o| o.ground),
+        Ok(GroundState::Found)
+    );
+    let last = frames.last().unwrap().1.as_ref().unwrap();
+    assert_eq!(last.ground, GroundState::Degraded);
+    assert_eq!(last.rumble, Rumble::Both, "the wall is still a warning");
+}
+
+#[test]
+fn predicted_ground_is_not_trusted_past_its_age_limit() {
+    let cfg = PerceptionConfig::default();
+    let max_age_ns = cfg.ground_prediction.max_age_ns;
+    let frames = walk_to_wall(cfg, true, 0.6, 4.0, 30.0);
+    let last_found_ns = frames
+        .iter()
+        .filter(|(_, r, _)| r.as_ref().is_ok_and(|o| o.ground == GroundState::Found))
+        .map(|(t, _, _)| *t)
+        .max()
+        .unwrap();
+    for (t, r, _) in &frames {
+        let state = r.as_ref().unwrap().ground;
+        if *t < last_found_ns + max_age_ns {
+            assert_ne!(
+                state,
+                GroundState::Degraded,
+                "{} ms after the ground",
+                (t - last_found_ns) / 1_000_000
+            );
+        } else {
+            assert_eq!(
+                state,
+                GroundState::Degraded,
+                "{} ms after the ground",
+                (t - last_found_ns) / 1_000_000
+            );
+        }
+    }
+}
+
+#[test]
+fn cane_tilted_at_the_wall_does_not_trust_the_predicted_ground() {
+    // at the wall the cane is lifted to 12 deg pitch: gravity no longer agrees with the
+    // last ground found, so the frame-count rule applies
+    let cfg = PerceptionConfig::default();
+    let max_lost = cfg.ground.max_lost_frames as usize;
+    let frames = walk_to_wall(cfg, true, 0.6, 1.0, 12.0);
+    let last = frames.last().unwrap().1.as_ref().unwrap();
+    assert_eq!(last.ground, GroundState::Degraded);
+    let tilted = &frames[frames.len() - 30..];
+    assert!(
+        tilted
+            .iter()
+            .skip(max_lost)
+            .all(|(_, r, _)| r.as_ref().unwrap().ground == GroundState::Degraded),
+        "tilted frames: {:?}",
+        tilted
+            .iter()
+            .map(|(_, r, _)| r.as_ref().map(|o| o.ground))
+            .collect::<Vec<_>>()
+    );
+}
