@@ -160,14 +160,9 @@ const ACTIVITY_CLASS: [u8; 8] = [0, 1, 1, 2, 2, 2, 2, 3];
 /// LOCO-I median edge detector: `a` left, `b` up, `c` up-left.
 #[inline(always)]
 fn med(a: i32, b: i32, c: i32) -> i32 {
-    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-    if c >= hi {
-        lo
-    } else if c <= lo {
-        hi
-    } else {
-        a + b - c
-    }
+    // The median of a, b and a + b - c, without branches (edges are unpredictable).
+    a.min(b)
+        .max(a.max(b).min(a.wrapping_add(b).wrapping_sub(c)))
 }
 
 #[inline(always)]
@@ -426,6 +421,8 @@ pub struct DepthDecoder {
     rows: [Vec<i32>; 2],
     tables: rans::Tables,
     calm: Vec<bool>,
+    contexts: Vec<u8>,
+    symbols: Vec<u8>,
 }
 
 impl Default for DepthDecoder {
@@ -448,6 +445,8 @@ impl DepthDecoder {
             rows: [Vec::new(), Vec::new()],
             tables: rans::Tables::new(),
             calm: Vec::new(),
+            contexts: Vec::new(),
+            symbols: Vec::new(),
         }
     }
 
@@ -600,47 +599,74 @@ impl DepthDecoder {
         let mut dec =
             rans::Decoder::new(&self.words).map_err(|_| corrupt("residual stream too short"))?;
 
-        let [prev, row] = &mut self.rows;
+        let DepthDecoder {
+            rows: [prev, row],
+            calm,
+            contexts,
+            symbols,
+            tables,
+            levels,
+            runs,
+            ..
+        } = self;
         prev.clear();
         prev.resize(width + 2, 0);
         row.clear();
         row.resize(width + 2, 0);
-        self.calm.clear();
-        self.calm.resize(width, true);
-        let calm = &mut self.calm[..];
-        let levels: &[u16; 65536] = &self.levels;
+        calm.clear();
+        calm.resize(width, true);
+        let levels: &[u16; 65536] = levels;
         let n_levels = n_levels as u32;
-        let mut runs = self.runs.iter();
+        let mut runs = runs.iter().map(|&r| r as usize);
         for out_row in out.chunks_exact_mut(width) {
+            // Pass 1: every valid pixel's context depends on the row above only, so the
+            // row's symbols decode in one batch, apart from the prediction chain.
+            let row_runs = runs.clone();
+            contexts.clear();
+            let mut x = 0usize;
+            while x < width {
+                let valid = runs.next().ok_or_else(|| corrupt("validity runs"))?;
+                let end = x + valid;
+                let cells = prev[x..end + 2].windows(3).zip(&calm[x..end]);
+                contexts.extend(cells.map(|(w, &calm_x)| context(w[1], w[0], w[2], calm_x) as u8));
+                x = end;
+                if x < width {
+                    x += runs.next().ok_or_else(|| corrupt("validity runs"))?;
+                }
+            }
+            symbols.clear();
+            symbols.resize(contexts.len(), 0);
+            dec.symbols(tables, contexts, symbols);
+
+            // Pass 2: undo the prediction.
+            let mut runs = row_runs;
+            let mut syms = symbols.iter();
+            let mut out_of_range = false;
             row[0] = prev[1];
             let mut x = 0usize;
-            loop {
-                let valid = *runs.next().ok_or_else(|| corrupt("validity runs"))? as usize;
+            while x < width {
+                let valid = runs.next().unwrap_or(0);
                 let end = x + valid;
                 // Neighbours ride in registers: reloading the pixel just stored would put
                 // a store-to-load forward on the critical path of every pixel.
                 let (mut a, mut b, mut c) = (row[x], prev[x + 1], prev[x]);
-                // One bounds check per run, none per pixel.
                 let run = prev[x + 2..end + 2]
                     .iter()
                     .zip(&mut row[x + 1..end + 1])
                     .zip(&mut calm[x..end])
-                    .zip(&mut out_row[x..end]);
-                for (((&d, cell), calm_x), out_x) in run {
-                    let sym = dec.symbol(&self.tables, context(b, c, d, *calm_x)) as u32;
-                    let z = if sym == ESCAPE {
+                    .zip(out_row[x..end].iter_mut().zip(&mut syms));
+                for (((&d, cell), calm_x), (out_x, &sym)) in run {
+                    let z = if sym as u32 == ESCAPE {
                         side.varint()
                             .and_then(|e| e.checked_add(ESCAPE))
                             .ok_or_else(|| corrupt("truncated escapes"))?
                     } else {
-                        sym
+                        sym as u32
                     };
                     *calm_x = z == 0;
                     let r = (z >> 1) as i32 ^ -((z & 1) as i32);
                     let level = med(a, b, c).wrapping_add(r);
-                    if (level as u32).wrapping_sub(1) >= n_levels {
-                        return Err(corrupt("level index out of range"));
-                    }
+                    out_of_range |= (level as u32).wrapping_sub(1) >= n_levels;
                     *cell = level;
                     *out_x = levels[level as usize & 0xffff];
                     (a, c, b) = (level, b, d);
@@ -649,8 +675,7 @@ impl DepthDecoder {
                 if x == width {
                     break;
                 }
-                let invalid = *runs.next().ok_or_else(|| corrupt("validity runs"))? as usize;
-                let end = x + invalid;
+                let end = x + runs.next().unwrap_or(0);
                 let mut a = row[x];
                 for xi in x..end {
                     a = med(a, prev[xi + 1], prev[xi]);
@@ -659,9 +684,9 @@ impl DepthDecoder {
                 calm[x..end].fill(true);
                 out_row[x..end].fill(0);
                 x = end;
-                if x == width {
-                    break;
-                }
+            }
+            if out_of_range {
+                return Err(corrupt("level index out of range"));
             }
             row[width + 1] = row[width];
             std::mem::swap(prev, row);
