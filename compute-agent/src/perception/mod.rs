@@ -434,7 +434,11 @@ impl Pipeline {
         out.plane_camera = decision.plane.coefficients();
         // A near wall hides the floor: the plane predicted from gravity (the tracker's
         // stand-in while lost) stays trusted within the bounds of `ground_prediction`.
+        // Only while it warns: a predicted floor must never be the basis of a "clear"
+        // lasting seconds (a floor the camera cannot see, e.g. black or shiny, ahead of
+        // a far wall would otherwise be silent).
         out.ground = if decision.state == GroundState::Degraded
+            && out.rumble != Rumble::None
             && self
                 .prediction
                 .trusted(gravity, ctx.stamp_ns, &cfg.ground_prediction)
