@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use bus::{BusOptions, Health, Shutdown, Subscriber};
-use schemas::{Applied, AppliedAction, Hazard, HealthStats};
+use schemas::{Applied, AppliedAction, HapticIntent, Hazard, HealthStats};
 
 /// Run the whole system on the simulated world in this one process.
 #[derive(Debug, clap::Args)]
@@ -53,6 +53,7 @@ struct Tally {
     last: Option<Hazard>,
     e2e_ms: Vec<f32>,
     e2e_period_ms: Vec<f32>,
+    intent_ms: Vec<f32>,
     sensor_fps: Option<f32>,
     applied: u64,
     offline_warnings: u64,
@@ -156,6 +157,10 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let hazards = Subscriber::<Hazard>::declare(&session, keys.hazard(), false, &watch).await?;
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &watch).await?;
     let health = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
+    // Intents arrive here exactly as at the feedback agent (one hop from compute), so
+    // their age is capture -> intent at the device's agent for every frame, free of
+    // the pulse timing that shifts when a pulsed rumble's edges are applied.
+    let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
     if let Ok(addr) = bound_rx.await {
         eprintln!("phone page: http://{addr}/");
     }
@@ -185,6 +190,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
                 tally.last = Some(h.body);
             }
             Some(a) = applied.recv() => tally.on_applied(&a.body),
+            Some(i) = intents.recv() => tally.intent_ms.push(i.age_ms() as f32),
             Some(h) = health.recv() => {
                 tally.rejects = h.body.rejects.iter().map(|r| r.count).sum::<u64>().max(tally.rejects);
                 tally.on_health(&h.body);
@@ -204,8 +210,15 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     let _ = session.close().await;
     let (p50, p99) = bus::health::percentiles(&mut tally.e2e_ms);
+    let (i50, i99) = bus::health::percentiles(&mut tally.intent_ms);
     eprintln!(
-        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes, {} offline warnings, {} rejects",
+        "demo summary: capture->haptic intent p50 {} ms p99 {} ms over {} frames",
+        fmt_ms(i50),
+        fmt_ms(i99),
+        tally.intent_ms.len()
+    );
+    eprintln!(
+        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes (pulse edges included), {} offline warnings, {} rejects",
         started.elapsed().as_secs_f32(),
         tally.hazards,
         tally.hazards as f32 / started.elapsed().as_secs_f32(),
