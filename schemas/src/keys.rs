@@ -37,7 +37,11 @@ pub fn check_chunk(what: &'static str, name: &str) -> Result<(), KeyError> {
         .chars()
         .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
     {
-        return Err(KeyError::BadChar { what, name: name.to_string(), bad });
+        return Err(KeyError::BadChar {
+            what,
+            name: name.to_string(),
+            bad,
+        });
     }
     Ok(())
 }
@@ -52,7 +56,9 @@ impl Keys {
     /// Keys for `user`; fails when the name cannot be a key chunk.
     pub fn new(user: &str) -> Result<Self, KeyError> {
         check_chunk("user", user)?;
-        Ok(Self { prefix: format!("wearnav/{user}") })
+        Ok(Self {
+            prefix: format!("wearnav/{user}"),
+        })
     }
 
     /// The user's prefix, `wearnav/<user>`.
@@ -183,13 +189,16 @@ impl Keys {
 
     /// The device chunk of a `sensor/<device>/...` key of this user, if it is one.
     pub fn device_of<'k>(&self, key: &'k str) -> Option<&'k str> {
-        let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix("/sensor/")?;
+        let rest = key
+            .strip_prefix(self.prefix.as_str())?
+            .strip_prefix("/sensor/")?;
         rest.split('/').next()
     }
 
     /// The agent chunk of a `health/<agent>` key of this user, if it is one.
     pub fn agent_of<'k>(&self, key: &'k str) -> Option<&'k str> {
-        key.strip_prefix(self.prefix.as_str())?.strip_prefix("/health/")
+        key.strip_prefix(self.prefix.as_str())?
+            .strip_prefix("/health/")
     }
 }
 
@@ -205,7 +214,10 @@ mod tests {
         assert_eq!(k.hazard(), "wearnav/alice/perception/hazard");
         assert_eq!(k.applied(), "wearnav/alice/feedback/applied");
         assert_eq!(k.cmd("where-am-i"), "wearnav/alice/cmd/where-am-i");
-        assert_eq!(k.health("compute-agent"), "wearnav/alice/health/compute-agent");
+        assert_eq!(
+            k.health("compute-agent"),
+            "wearnav/alice/health/compute-agent"
+        );
         assert_eq!(k.all(), "wearnav/alice/**");
         assert_eq!(k.phone_haptic(), "wearnav/alice/phone/haptic");
         assert_eq!(k.phone_speech(), "wearnav/alice/phone/speech");
@@ -225,6 +237,9 @@ mod tests {
         let k = Keys::new("bob").unwrap();
         assert_eq!(k.device_of("wearnav/bob/sensor/cane/depth"), Some("cane"));
         assert_eq!(k.device_of("wearnav/eve/sensor/cane/depth"), None);
-        assert_eq!(k.agent_of("wearnav/bob/health/feedback-agent"), Some("feedback-agent"));
+        assert_eq!(
+            k.agent_of("wearnav/bob/health/feedback-agent"),
+            Some("feedback-agent")
+        );
     }
 }

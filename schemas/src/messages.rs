@@ -27,7 +27,9 @@ pub struct Intrinsics {
 impl Intrinsics {
     /// True when every parameter is finite and the focal lengths are positive.
     pub fn is_valid(&self) -> bool {
-        [self.fx, self.fy, self.cx, self.cy].iter().all(|v| v.is_finite())
+        [self.fx, self.fy, self.cx, self.cy]
+            .iter()
+            .all(|v| v.is_finite())
             && self.fx > 0.0
             && self.fy > 0.0
     }

@@ -9,7 +9,7 @@
 //! `MAX_BYTES` before anything is read, and bincode's allocation limit stops a forged
 //! length from reserving memory.
 
-use bincode::config::{Fixint, LittleEndian, Limit};
+use bincode::config::{Fixint, Limit, LittleEndian};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use thiserror::Error;
 
@@ -202,7 +202,10 @@ fn map_decode_error(err: bincode::error::DecodeError, len: usize) -> WireError {
     use bincode::error::DecodeError as D;
     match err {
         D::UnexpectedEnd { .. } => WireError::Truncated,
-        D::LimitExceeded => WireError::TooLarge { len, max: MAX_PAYLOAD_BYTES },
+        D::LimitExceeded => WireError::TooLarge {
+            len,
+            max: MAX_PAYLOAD_BYTES,
+        },
         other => WireError::Malformed(other.to_string()),
     }
 }
@@ -215,7 +218,13 @@ pub fn encode<M: Message>(sender: &str, seq: u64, capture_ns: u64, body: &M) -> 
 }
 
 /// Like [`encode`], appending to `out` (reuse one buffer on hot paths).
-pub fn encode_into<M: Message>(sender: &str, seq: u64, capture_ns: u64, body: &M, out: &mut Vec<u8>) {
+pub fn encode_into<M: Message>(
+    sender: &str,
+    seq: u64,
+    capture_ns: u64,
+    body: &M,
+    out: &mut Vec<u8>,
+) {
     let header = Header {
         schema: M::SCHEMA as u16,
         version: M::VERSION,
@@ -226,19 +235,22 @@ pub fn encode_into<M: Message>(sender: &str, seq: u64, capture_ns: u64, body: &M
     // Writing into a Vec cannot fail, and every message type serialises (no maps with
     // non-string keys, no unsized sequences); the limit only guards decoding.
     let cfg = bincode::config::legacy();
-    bincode::serde::encode_into_std_write(&header, out, cfg)
-        .expect("header serialises into a Vec");
+    bincode::serde::encode_into_std_write(&header, out, cfg).expect("header serialises into a Vec");
     bincode::serde::encode_into_std_write(body, out, cfg).expect("body serialises into a Vec");
 }
 
 /// Read only the envelope, e.g. to dispatch on the schema.
 pub fn decode_header(bytes: &[u8]) -> Result<(Header, usize), WireError> {
     if bytes.len() > MAX_PAYLOAD_BYTES {
-        return Err(WireError::TooLarge { len: bytes.len(), max: MAX_PAYLOAD_BYTES });
+        return Err(WireError::TooLarge {
+            len: bytes.len(),
+            max: MAX_PAYLOAD_BYTES,
+        });
     }
-    let (header, used): (Header, usize) =
-        bincode::serde::decode_from_slice(bytes, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
-    let schema = SchemaId::from_u16(header.schema).ok_or(WireError::UnknownSchema(header.schema))?;
+    let (header, used): (Header, usize) = bincode::serde::decode_from_slice(bytes, config())
+        .map_err(|e| map_decode_error(e, bytes.len()))?;
+    let schema =
+        SchemaId::from_u16(header.schema).ok_or(WireError::UnknownSchema(header.schema))?;
     if header.version != CURRENT_VERSION {
         return Err(WireError::UnknownVersion {
             schema: schema.name(),
@@ -252,11 +264,17 @@ pub fn decode_header(bytes: &[u8]) -> Result<(Header, usize), WireError> {
 /// Decode and validate a payload of schema `M`.
 pub fn decode<M: Message>(bytes: &[u8]) -> Result<(Header, M), WireError> {
     if bytes.len() > M::MAX_BYTES {
-        return Err(WireError::TooLarge { len: bytes.len(), max: M::MAX_BYTES });
+        return Err(WireError::TooLarge {
+            len: bytes.len(),
+            max: M::MAX_BYTES,
+        });
     }
     let (header, used) = decode_header(bytes)?;
     if header.schema != M::SCHEMA as u16 {
-        return Err(WireError::WrongSchema { expected: M::SCHEMA.name(), got: header.schema });
+        return Err(WireError::WrongSchema {
+            expected: M::SCHEMA.name(),
+            got: header.schema,
+        });
     }
     if header.version != M::VERSION {
         return Err(WireError::UnknownVersion {
@@ -266,8 +284,8 @@ pub fn decode<M: Message>(bytes: &[u8]) -> Result<(Header, M), WireError> {
         });
     }
     let rest = &bytes[used..];
-    let (body, body_used): (M, usize) =
-        bincode::serde::decode_from_slice(rest, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
+    let (body, body_used): (M, usize) = bincode::serde::decode_from_slice(rest, config())
+        .map_err(|e| map_decode_error(e, bytes.len()))?;
     if body_used != rest.len() {
         return Err(WireError::Malformed(format!(
             "{} trailing bytes after the {} body",
@@ -351,7 +369,10 @@ impl Message for Scan {
         if self.ranges_m.iter().any(|r| r.is_nan()) {
             return Err("NaN range in scan".into());
         }
-        finite("scan angles", &[self.angle_min_deg, self.angle_increment_deg])
+        finite(
+            "scan angles",
+            &[self.angle_min_deg, self.angle_increment_deg],
+        )
     }
 }
 
@@ -359,7 +380,12 @@ impl Message for Hazard {
     const SCHEMA: SchemaId = SchemaId::Hazard;
     fn validate(&self) -> Result<(), String> {
         let c = [self.ficf, self.cacf];
-        finite("cost", &c.iter().flat_map(|s| [s.left, s.forward, s.right]).collect::<Vec<_>>())
+        finite(
+            "cost",
+            &c.iter()
+                .flat_map(|s| [s.left, s.forward, s.right])
+                .collect::<Vec<_>>(),
+        )
     }
 }
 
@@ -382,7 +408,9 @@ impl Message for HapticIntent {
         unit_level("right", self.right)?;
         if let HapticPattern::Pulses { period_ms, duty } = self.pattern {
             if period_ms == 0 || duty.is_nan() {
-                return Err(format!("bad pulse pattern period {period_ms} ms duty {duty}"));
+                return Err(format!(
+                    "bad pulse pattern period {period_ms} ms duty {duty}"
+                ));
             }
         }
         Ok(())
@@ -397,7 +425,9 @@ impl Message for SpeechIntent {
             return Err("empty utterance".into());
         }
         if self.text.chars().count() > MAX_SPEECH_CHARS {
-            return Err(format!("utterance longer than {MAX_SPEECH_CHARS} characters"));
+            return Err(format!(
+                "utterance longer than {MAX_SPEECH_CHARS} characters"
+            ));
         }
         Ok(())
     }
@@ -421,7 +451,15 @@ mod tests {
     use super::*;
 
     fn intent() -> HapticIntent {
-        HapticIntent { left: 0.5, right: 1.0, pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 }, ttl_ms: 300 }
+        HapticIntent {
+            left: 0.5,
+            right: 1.0,
+            pattern: HapticPattern::Pulses {
+                period_ms: 200,
+                duty: 0.5,
+            },
+            ttl_ms: 300,
+        }
     }
 
     #[test]
@@ -429,7 +467,10 @@ mod tests {
         let bytes = encode("compute-agent", 7, 123_456_789, &intent());
         let (h, body) = decode::<HapticIntent>(&bytes).unwrap();
         assert_eq!(h.schema, SchemaId::HapticIntent as u16);
-        assert_eq!((h.version, h.sender.as_str(), h.seq, h.capture_ns), (1, "compute-agent", 7, 123_456_789));
+        assert_eq!(
+            (h.version, h.sender.as_str(), h.seq, h.capture_ns),
+            (1, "compute-agent", 7, 123_456_789)
+        );
         assert_eq!(body, intent());
     }
 
@@ -460,33 +501,53 @@ mod tests {
     fn unknown_version_and_wrong_schema_are_named() {
         let mut bytes = encode("x", 0, 0, &intent());
         bytes[2] = 9;
-        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "unknown_version");
+        assert_eq!(
+            decode::<HapticIntent>(&bytes).unwrap_err().kind(),
+            "unknown_version"
+        );
         let other = encode("x", 0, 0, &Command::WhereAmI);
         assert_eq!(
             decode::<HapticIntent>(&other).unwrap_err(),
-            WireError::WrongSchema { expected: "haptic_intent", got: 12 }
+            WireError::WrongSchema {
+                expected: "haptic_intent",
+                got: 12
+            }
         );
         let mut unknown = other.clone();
         unknown[0] = 200;
-        assert_eq!(decode::<Command>(&unknown).unwrap_err(), WireError::UnknownSchema(200));
+        assert_eq!(
+            decode::<Command>(&unknown).unwrap_err(),
+            WireError::UnknownSchema(200)
+        );
     }
 
     #[test]
     fn oversized_and_forged_lengths_are_refused_without_allocating() {
         let big = vec![0u8; HapticIntent::MAX_BYTES + 1];
-        assert_eq!(decode::<HapticIntent>(&big).unwrap_err().kind(), "too_large");
+        assert_eq!(
+            decode::<HapticIntent>(&big).unwrap_err().kind(),
+            "too_large"
+        );
         // A speech intent whose text claims 2^40 bytes.
-        let mut bytes = encode("x", 0, 0, &SpeechIntent {
-            text: "hi".into(),
-            priority: Priority::Text,
-            interrupt: false,
-            ttl_ms: 1,
-            dedup_key: String::new(),
-        });
+        let mut bytes = encode(
+            "x",
+            0,
+            0,
+            &SpeechIntent {
+                text: "hi".into(),
+                priority: Priority::Text,
+                interrupt: false,
+                ttl_ms: 1,
+                dedup_key: String::new(),
+            },
+        );
         let text_len_at = 4 + 8 + 1 + 8 + 8;
         bytes[text_len_at..text_len_at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
         let err = decode::<SpeechIntent>(&bytes).unwrap_err();
-        assert!(matches!(err, WireError::TooLarge { .. } | WireError::Truncated), "{err:?}");
+        assert!(
+            matches!(err, WireError::TooLarge { .. } | WireError::Truncated),
+            "{err:?}"
+        );
     }
 
     #[test]
@@ -497,7 +558,10 @@ mod tests {
         let mut bad_variant = encode("x", 0, 0, &Command::Repeat);
         let n = bad_variant.len();
         bad_variant[n - 4..].copy_from_slice(&77u32.to_le_bytes());
-        assert_eq!(decode::<Command>(&bad_variant).unwrap_err().kind(), "malformed");
+        assert_eq!(
+            decode::<Command>(&bad_variant).unwrap_err().kind(),
+            "malformed"
+        );
         // Pseudo-random garbage never panics.
         let mut x = 0x2545_f491_4f6c_dd1du64;
         for len in 0..300 {
@@ -519,7 +583,10 @@ mod tests {
         let mut nan = intent();
         nan.left = f32::NAN;
         let bytes = encode("x", 0, 0, &nan);
-        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "invalid");
+        assert_eq!(
+            decode::<HapticIntent>(&bytes).unwrap_err().kind(),
+            "invalid"
+        );
         let empty = SpeechIntent {
             text: "  ".into(),
             priority: Priority::Important,
@@ -527,7 +594,12 @@ mod tests {
             ttl_ms: 1,
             dedup_key: String::new(),
         };
-        assert_eq!(decode::<SpeechIntent>(&encode("x", 0, 0, &empty)).unwrap_err().kind(), "invalid");
+        assert_eq!(
+            decode::<SpeechIntent>(&encode("x", 0, 0, &empty))
+                .unwrap_err()
+                .kind(),
+            "invalid"
+        );
     }
 
     #[test]
