@@ -155,7 +155,7 @@ async fn process(
         .iter()
         .map(|(stage, d)| StageLatency { stage: stage.to_string(), us: d.as_micros() as u32 })
         .collect();
-    let hazard = hazard_of(&perception, frame.header.seq, config, latency);
+    let hazard = perception.hazard(frame.header.seq, config.perception.cost_function, latency);
     let seeing = matches!(hazard.ground, schemas::GroundState::Found);
     health.set_status(seeing, format!("{:?} ground, rumble {:?}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.
@@ -176,7 +176,7 @@ async fn process(
 async fn publish_blind(frame: &Received<DepthFrame>, config: &ComputeConfig, health: &Arc<Health>, out: &mut Outputs) {
     let mut blind = Perception::empty();
     blind.rumble = schemas::Rumble::Both;
-    let hazard = hazard_of(&blind, frame.header.seq, config, Vec::new());
+    let hazard = blind.hazard(frame.header.seq, config.perception.cost_function, Vec::new());
     health.set_status(false, "depth frames unusable: obstacle detection degraded");
     tracing::warn!("{FAILURES_BEFORE_DEGRADED}+ unusable depth frames in a row: reporting degraded");
     let capture_ns = frame.header.capture_ns;
@@ -187,23 +187,6 @@ async fn publish_blind(frame: &Received<DepthFrame>, config: &ComputeConfig, hea
         if let Err(e) = result {
             tracing::warn!("{e:#}");
         }
-    }
-}
-
-fn hazard_of(p: &Perception, frame_seq: u64, config: &ComputeConfig, latency: Vec<StageLatency>) -> Hazard {
-    Hazard {
-        frame_seq,
-        ficf: p.ficf,
-        cacf: p.cacf,
-        active: config.perception.cost_function,
-        rumble: p.rumble,
-        ground: p.ground,
-        plane_camera: p.plane_camera,
-        nearest_m: p.nearest_m,
-        nearest_bearing_deg: p.nearest_bearing_deg,
-        ttc_s: p.ttc_s,
-        dropoff_ahead: p.dropoff_ahead,
-        latency,
     }
 }
 

@@ -153,23 +153,6 @@ impl WalkOutcome {
     }
 }
 
-fn hazard_of(p: &compute_agent::perception::Perception, seq: u64, cfg: &PerceptionConfig) -> Hazard {
-    Hazard {
-        frame_seq: seq,
-        ficf: p.ficf,
-        cacf: p.cacf,
-        active: cfg.cost_function,
-        rumble: p.rumble,
-        ground: p.ground,
-        plane_camera: p.plane_camera,
-        nearest_m: p.nearest_m,
-        nearest_bearing_deg: p.nearest_bearing_deg,
-        ttc_s: p.ttc_s,
-        dropoff_ahead: p.dropoff_ahead,
-        latency: Vec::new(),
-    }
-}
-
 /// The camera's floor frame as a pose (where the perception's user frame sits).
 fn camera_floor(camera: &CameraPose) -> UserPose {
     UserPose { x_m: camera.position_m.x, y_m: camera.position_m.y, yaw_rad: camera.yaw_rad(), floor: camera.floor }
@@ -324,7 +307,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             };
             match pipeline.process(input, &ctx, &mut NoTimer) {
                 Ok(p) => {
-                    let hazard = hazard_of(p, out.frames as u64, &config.perception);
+                    let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
                     pending.push_back((t + latency_s, Some(hazard), Some((cue(p, &config.cue), now))));
                 }
                 Err(_) => out.perception_errors += 1,

@@ -186,6 +186,24 @@ pub struct Perception {
 }
 
 impl Perception {
+    /// The hazard message of this frame: what the bus carries to feedback and monitors.
+    pub fn hazard(&self, frame_seq: u64, active: CostFunction, latency: Vec<schemas::StageLatency>) -> schemas::Hazard {
+        schemas::Hazard {
+            frame_seq,
+            ficf: self.ficf,
+            cacf: self.cacf,
+            active,
+            rumble: self.rumble,
+            ground: self.ground,
+            plane_camera: self.plane_camera,
+            nearest_m: self.nearest_m,
+            nearest_bearing_deg: self.nearest_bearing_deg,
+            ttc_s: self.ttc_s,
+            dropoff_ahead: self.dropoff_ahead,
+            latency,
+        }
+    }
+
     /// The state before any frame: ground `Degraded`, nothing measured.
     pub fn empty() -> Self {
         Self {
