@@ -54,6 +54,8 @@ struct Tally {
     e2e_ms: Vec<f32>,
     e2e_period_ms: Vec<f32>,
     intent_ms: Vec<f32>,
+    /// Per-hop durations reported in the hazards (`arrival`, `queue`, `decode`, ...).
+    stages_ms: Vec<(String, Vec<f32>)>,
     sensor_fps: Option<f32>,
     applied: u64,
     offline_warnings: u64,
@@ -74,9 +76,39 @@ impl Tally {
         }
     }
 
+    fn on_hazard(&mut self, h: Hazard) {
+        self.hazards += 1;
+        self.hazards_in_period += 1;
+        for s in &h.latency {
+            let ms = s.us as f32 / 1e3;
+            match self.stages_ms.iter_mut().find(|(name, _)| *name == s.stage) {
+                Some((_, v)) => v.push(ms),
+                None => self.stages_ms.push((s.stage.clone(), vec![ms])),
+            }
+        }
+        self.last = Some(h);
+    }
+
+    /// `stage p50/p99` for every hop the hazards reported, in pipeline order.
+    fn stage_breakdown(&mut self) -> String {
+        let parts: Vec<String> = self
+            .stages_ms
+            .iter_mut()
+            .map(|(name, v)| {
+                let (p50, p99) = bus::health::percentiles(v);
+                format!("{name} {}/{}", fmt_ms(p50), fmt_ms(p99))
+            })
+            .collect();
+        parts.join(", ")
+    }
+
     fn on_health(&mut self, h: &HealthStats) {
         if h.agent == sensor_agent::run::AGENT {
-            if let Some(depth) = h.streams.iter().find(|s| s.key.ends_with("/depth") && !s.inbound) {
+            if let Some(depth) = h
+                .streams
+                .iter()
+                .find(|s| s.key.ends_with("/depth") && !s.inbound)
+            {
                 self.sensor_fps = Some(depth.rate_hz);
             }
         }
@@ -91,7 +123,11 @@ impl Tally {
             Some(h) => format!(
                 "rumble {:<5} nearest {} ground {:?}",
                 format!("{:?}", h.rumble).to_lowercase(),
-                if h.nearest_m.is_finite() { format!("{:.2} m", h.nearest_m) } else { "-".into() },
+                if h.nearest_m.is_finite() {
+                    format!("{:.2} m", h.nearest_m)
+                } else {
+                    "-".into()
+                },
                 h.ground
             ),
             None => "no hazard yet".into(),
@@ -122,19 +158,27 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     schemas::Keys::new(&args.user).with_context(|| format!("bad --user {:?}", args.user))?;
     let hub = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
     let mut hub_bus = BusOptions::for_user(&args.user);
-    hub_bus.listen = std::iter::once(hub.clone()).chain(args.listen.iter().cloned()).collect();
+    hub_bus.listen = std::iter::once(hub.clone())
+        .chain(args.listen.iter().cloned())
+        .collect();
     hub_bus.no_multicast = !args.multicast;
     let mut peer_bus = BusOptions::for_user(&args.user);
     peer_bus.connect = vec![hub.clone()];
     peer_bus.no_multicast = !args.multicast;
 
-    let source = sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
-        .with_context(|| format!("cannot open frame source {:?}", args.source))?;
+    let source = sensor_agent::source::open(
+        &args.source,
+        &sensor_agent::source::SourceOptions::default(),
+    )
+    .with_context(|| format!("cannot open frame source {:?}", args.source))?;
     let shutdown = Shutdown::new();
     shutdown.trigger_on_signals();
 
     // The hub (compute) must be listening before the others connect.
-    let compute = tokio::spawn(compute_agent::run::run(compute_agent::run::ComputeConfig::new(hub_bus), shutdown.clone()));
+    let compute = tokio::spawn(compute_agent::run::run(
+        compute_agent::run::ComputeConfig::new(hub_bus),
+        shutdown.clone(),
+    ));
     tokio::time::sleep(Duration::from_millis(300)).await;
     let mut feedback_config = feedback_agent::FeedbackConfig::with_bus(peer_bus.clone());
     feedback_config.speech = args.speech.clone();
@@ -143,7 +187,11 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
     phone_config.http = args.http;
-    let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
+    let phone = tokio::spawn(phone_bridge::run(
+        phone_config,
+        shutdown.clone(),
+        Some(bound_tx),
+    ));
     let sensor = tokio::spawn(sensor_agent::run::run(
         sensor_agent::run::SensorConfig::new(peer_bus.clone()),
         source,
@@ -156,11 +204,13 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let watch = Health::new("demo-monitor");
     let hazards = Subscriber::<Hazard>::declare(&session, keys.hazard(), false, &watch).await?;
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &watch).await?;
-    let health = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
+    let health =
+        Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
     // Intents arrive here exactly as at the feedback agent (one hop from compute), so
     // their age is capture -> intent at the device's agent for every frame, free of
     // the pulse timing that shifts when a pulsed rumble's edges are applied.
-    let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
+    let intents =
+        Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
     if let Ok(addr) = bound_rx.await {
         eprintln!("phone page: http://{addr}/");
     }
@@ -184,11 +234,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
         tokio::select! {
             _ = shutdown.triggered() => break,
             _ = &mut deadline => break,
-            Some(h) = hazards.recv() => {
-                tally.hazards += 1;
-                tally.hazards_in_period += 1;
-                tally.last = Some(h.body);
-            }
+            Some(h) = hazards.recv() => tally.on_hazard(h.body),
             Some(a) = applied.recv() => tally.on_applied(&a.body),
             Some(i) = intents.recv() => tally.intent_ms.push(i.age_ms() as f32),
             Some(h) = health.recv() => {
@@ -200,7 +246,12 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     shutdown.trigger();
     let mut failures = Vec::new();
-    for (name, task) in [("sensor-agent", sensor), ("compute-agent", compute), ("feedback-agent", feedback), ("phone-bridge", phone)] {
+    for (name, task) in [
+        ("sensor-agent", sensor),
+        ("compute-agent", compute),
+        ("feedback-agent", feedback),
+        ("phone-bridge", phone),
+    ] {
         match tokio::time::timeout(Duration::from_secs(5), task).await {
             Ok(Ok(Ok(()))) => {}
             Ok(Ok(Err(e))) => failures.push(format!("{name}: {e:#}")),
@@ -216,6 +267,10 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
         fmt_ms(i50),
         fmt_ms(i99),
         tally.intent_ms.len()
+    );
+    eprintln!(
+        "demo summary: hops p50/p99 ms (capture->arrival at compute, then compute's stages): {}",
+        tally.stage_breakdown()
     );
     eprintln!(
         "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes (pulse edges included), {} offline warnings, {} rejects",
