@@ -70,24 +70,13 @@ fn median_us(mut v: Vec<f64>) -> f64 {
 /// Runs `wearnav codec`.
 pub fn run(args: &CodecArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.runs >= 1, "--runs must be at least 1");
-    anyhow::ensure!(
-        args.depth_scale.is_finite() && args.depth_scale > 0.0,
-        "--depth-scale must be positive"
-    );
-    let is_pcd = args
-        .file
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("pcd"));
+    anyhow::ensure!(args.depth_scale.is_finite() && args.depth_scale > 0.0, "--depth-scale must be positive");
+    let is_pcd = args.file.extension().is_some_and(|e| e.eq_ignore_ascii_case("pcd"));
     let (width, height, samples, scale_m) = if is_pcd {
         let cloud = pcd::read(&args.file)?;
         let mut depth = Vec::new();
         organized_depth::depth_mm(&cloud, &mut depth);
-        (
-            cloud.width,
-            cloud.height,
-            depth,
-            organized_depth::CLOUD_DEPTH_SCALE_M,
-        )
+        (cloud.width, cloud.height, depth, organized_depth::CLOUD_DEPTH_SCALE_M)
     } else {
         let img = depth_png::read(&args.file)?;
         (img.width, img.height, img.samples, args.depth_scale)
@@ -106,20 +95,13 @@ pub fn run(args: &CodecArgs) -> anyhow::Result<()> {
     let (mut enc_us, mut dec_us) = (Vec::with_capacity(args.runs), Vec::with_capacity(args.runs));
     for _ in 0..args.runs {
         let t = Instant::now();
-        enc.encode(&samples, width, height, encoding, &mut packed)
-            .context("packing")?;
+        enc.encode(&samples, width, height, encoding, &mut packed).context("packing")?;
         enc_us.push(t.elapsed().as_secs_f64() * 1e6);
         let t = Instant::now();
-        dec.decode(&packed, width, height, encoding, &mut back)
-            .context("unpacking")?;
+        dec.decode(&packed, width, height, encoding, &mut back).context("unpacking")?;
         dec_us.push(t.elapsed().as_secs_f64() * 1e6);
     }
-    let max_error_units = samples
-        .iter()
-        .zip(&back)
-        .map(|(a, b)| a.abs_diff(*b))
-        .max()
-        .unwrap_or(0);
+    let max_error_units = samples.iter().zip(&back).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
     let raw_bytes = samples.len() * 2;
     let report = Report {
         file: args.file.display().to_string(),

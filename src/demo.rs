@@ -104,11 +104,7 @@ impl Tally {
 
     fn on_health(&mut self, h: &HealthStats) {
         if h.agent == sensor_agent::run::AGENT {
-            if let Some(depth) = h
-                .streams
-                .iter()
-                .find(|s| s.key.ends_with("/depth") && !s.inbound)
-            {
+            if let Some(depth) = h.streams.iter().find(|s| s.key.ends_with("/depth") && !s.inbound) {
                 self.sensor_fps = Some(depth.rate_hz);
             }
         }
@@ -123,11 +119,7 @@ impl Tally {
             Some(h) => format!(
                 "rumble {:<5} nearest {} ground {:?}",
                 format!("{:?}", h.rumble).to_lowercase(),
-                if h.nearest_m.is_finite() {
-                    format!("{:.2} m", h.nearest_m)
-                } else {
-                    "-".into()
-                },
+                if h.nearest_m.is_finite() { format!("{:.2} m", h.nearest_m) } else { "-".into() },
                 h.ground
             ),
             None => "no hazard yet".into(),
@@ -158,27 +150,20 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     schemas::Keys::new(&args.user).with_context(|| format!("bad --user {:?}", args.user))?;
     let hub = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
     let mut hub_bus = BusOptions::for_user(&args.user);
-    hub_bus.listen = std::iter::once(hub.clone())
-        .chain(args.listen.iter().cloned())
-        .collect();
+    hub_bus.listen = std::iter::once(hub.clone()).chain(args.listen.iter().cloned()).collect();
     hub_bus.no_multicast = !args.multicast;
     let mut peer_bus = BusOptions::for_user(&args.user);
     peer_bus.connect = vec![hub.clone()];
     peer_bus.no_multicast = !args.multicast;
 
-    let source = sensor_agent::source::open(
-        &args.source,
-        &sensor_agent::source::SourceOptions::default(),
-    )
-    .with_context(|| format!("cannot open frame source {:?}", args.source))?;
+    let source = sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
+        .with_context(|| format!("cannot open frame source {:?}", args.source))?;
     let shutdown = Shutdown::new();
     shutdown.trigger_on_signals();
 
     // The hub (compute) must be listening before the others connect.
-    let compute = tokio::spawn(compute_agent::run::run(
-        compute_agent::run::ComputeConfig::new(hub_bus),
-        shutdown.clone(),
-    ));
+    let compute =
+        tokio::spawn(compute_agent::run::run(compute_agent::run::ComputeConfig::new(hub_bus), shutdown.clone()));
     tokio::time::sleep(Duration::from_millis(300)).await;
     let mut feedback_config = feedback_agent::FeedbackConfig::with_bus(peer_bus.clone());
     feedback_config.speech = args.speech.clone();
@@ -187,11 +172,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
     phone_config.http = args.http;
-    let phone = tokio::spawn(phone_bridge::run(
-        phone_config,
-        shutdown.clone(),
-        Some(bound_tx),
-    ));
+    let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
     let sensor = tokio::spawn(sensor_agent::run::run(
         sensor_agent::run::SensorConfig::new(peer_bus.clone()),
         source,
@@ -204,13 +185,11 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let watch = Health::new("demo-monitor");
     let hazards = Subscriber::<Hazard>::declare(&session, keys.hazard(), false, &watch).await?;
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &watch).await?;
-    let health =
-        Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
+    let health = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &watch).await?;
     // Intents arrive here exactly as at the feedback agent (one hop from compute), so
     // their age is capture -> intent at the device's agent for every frame, free of
     // the pulse timing that shifts when a pulsed rumble's edges are applied.
-    let intents =
-        Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
+    let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
     if let Ok(addr) = bound_rx.await {
         eprintln!("phone page: http://{addr}/");
     }
@@ -246,12 +225,9 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     shutdown.trigger();
     let mut failures = Vec::new();
-    for (name, task) in [
-        ("sensor-agent", sensor),
-        ("compute-agent", compute),
-        ("feedback-agent", feedback),
-        ("phone-bridge", phone),
-    ] {
+    for (name, task) in
+        [("sensor-agent", sensor), ("compute-agent", compute), ("feedback-agent", feedback), ("phone-bridge", phone)]
+    {
         match tokio::time::timeout(Duration::from_secs(5), task).await {
             Ok(Ok(Ok(()))) => {}
             Ok(Ok(Err(e))) => failures.push(format!("{name}: {e:#}")),

@@ -48,10 +48,7 @@ pub fn run(args: &PerceiveArgs) -> anyhow::Result<()> {
             Err(e) => {
                 failed += 1;
                 if args.json {
-                    println!(
-                        "{}",
-                        json!({ "file": file.display().to_string(), "error": format!("{e:#}") })
-                    );
+                    println!("{}", json!({ "file": file.display().to_string(), "error": format!("{e:#}") }));
                 } else {
                     eprintln!("{}: {e:#}", file.display());
                 }
@@ -65,39 +62,20 @@ pub fn run(args: &PerceiveArgs) -> anyhow::Result<()> {
 }
 
 enum Frame {
-    Depth {
-        samples: Vec<u16>,
-        width: u32,
-        height: u32,
-    },
-    Xyz {
-        points: Vec<[f32; 3]>,
-        width: u32,
-        height: u32,
-    },
+    Depth { samples: Vec<u16>, width: u32, height: u32 },
+    Xyz { points: Vec<[f32; 3]>, width: u32, height: u32 },
 }
 
 fn load(path: &Path) -> anyhow::Result<Frame> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("pcd") => {
             let c = sensor_agent::formats::pcd::read(path)?;
-            Ok(Frame::Xyz {
-                points: c.points,
-                width: c.width,
-                height: c.height,
-            })
+            Ok(Frame::Xyz { points: c.points, width: c.width, height: c.height })
         }
         Some("png") => {
             let d = sensor_agent::formats::depth_png::read(path)?;
-            Ok(Frame::Depth {
-                samples: d.samples,
-                width: d.width,
-                height: d.height,
-            })
+            Ok(Frame::Depth { samples: d.samples, width: d.width, height: d.height })
         }
         _ => bail!("{}: not a .pcd or .png file", path.display()),
     }
@@ -116,11 +94,7 @@ pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> 
     let mut last: Option<Perception> = None;
     for k in 0..args.runs.max(1) {
         let input = match &frame {
-            Frame::Depth {
-                samples,
-                width,
-                height,
-            } => DepthInput::Depth {
+            Frame::Depth { samples, width, height } => DepthInput::Depth {
                 samples,
                 width: *width,
                 height: *height,
@@ -132,21 +106,9 @@ pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> 
                     cy: (*height as f32 - 1.0) / 2.0,
                 }),
             },
-            Frame::Xyz {
-                points,
-                width,
-                height,
-            } => DepthInput::Xyz {
-                points,
-                width: *width,
-                height: *height,
-            },
+            Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
         };
-        let ctx = FrameContext {
-            stamp_ns: k as u64 * 33_333_333,
-            gravity_camera: args.gravity,
-            motion: None,
-        };
+        let ctx = FrameContext { stamp_ns: k as u64 * 33_333_333, gravity_camera: args.gravity, motion: None };
         timer.clear();
         let t0 = Instant::now();
         let result = pipeline.process(input, &ctx, &mut timer);
@@ -196,15 +158,9 @@ fn print_result(v: &Value, as_json: bool) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string(v)?);
         return Ok(());
     }
-    let ranges = v["scan"]["ranges_m"]
-        .as_array()
-        .map(|a| a.as_slice())
-        .unwrap_or(&[]);
+    let ranges = v["scan"]["ranges_m"].as_array().map(|a| a.as_slice()).unwrap_or(&[]);
     let seen = ranges.iter().filter(|r| !r.is_null()).count();
-    let nearest = ranges
-        .iter()
-        .filter_map(Value::as_f64)
-        .fold(f64::INFINITY, f64::min);
+    let nearest = ranges.iter().filter_map(Value::as_f64).fold(f64::INFINITY, f64::min);
     println!(
         "{}\n  ground {} plane {} points_valid {}\n  scan {seen}/{} bins occupied, nearest {nearest:.2} m\n  costs ficf {} cacf {}\n  rumble ficf {} cacf {}\n  timing_ms {}",
         v["file"].as_str().unwrap_or("?"),
@@ -248,9 +204,7 @@ fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
     let [fx, fy, cx, cy] = parse_floats::<4>(s)?;
     let k = Intrinsics { fx, fy, cx, cy };
     if !k.is_valid() {
-        return Err(format!(
-            "unusable intrinsics `{s}` (focal lengths must be positive)"
-        ));
+        return Err(format!("unusable intrinsics `{s}` (focal lengths must be positive)"));
     }
     Ok(k)
 }
@@ -287,22 +241,11 @@ mod tests {
             return;
         };
         let v = perceive_file(&path, &args(vec![path.clone()])).unwrap();
-        let plane: Vec<f64> = v["plane"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
-        assert!(
-            (plane[1] + 0.9968).abs() < 0.02 && (plane[3] - 1.2714).abs() < 0.03,
-            "{plane:?}"
-        );
+        let plane: Vec<f64> = v["plane"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        assert!((plane[1] + 0.9968).abs() < 0.02 && (plane[3] - 1.2714).abs() < 0.03, "{plane:?}");
         assert_eq!(v["ground_found"], true);
         let valid = v["points_valid"].as_f64().unwrap();
-        assert!(
-            (valid / 239_075.0 - 1.0).abs() < 0.01,
-            "estimated from the sample: {valid}"
-        );
+        assert!((valid / 239_075.0 - 1.0).abs() < 0.01, "estimated from the sample: {valid}");
         assert_eq!(v["scan"]["angle_increment_deg"], 1.0);
         assert!(v["scan"]["ranges_m"].as_array().unwrap().len() >= 61);
         for f in ["ficf", "cacf"] {
@@ -311,13 +254,7 @@ mod tests {
             }
             assert!(["none", "left", "right", "both"].contains(&v["rumble"][f].as_str().unwrap()));
         }
-        for stage in [
-            "median_total",
-            "sample",
-            "ground_plane",
-            "nearest_scan",
-            "cost_function",
-        ] {
+        for stage in ["median_total", "sample", "ground_plane", "nearest_scan", "cost_function"] {
             assert!(v["timing_ms"][stage].as_f64().unwrap() >= 0.0, "{stage}");
         }
     }
@@ -332,34 +269,20 @@ mod tests {
         // The floor is ~29 deg from camera -y: outside the thesis's 20 deg cone.
         a.up_cone_deg = Some(35.0);
         let v = perceive_file(&path, &a).unwrap();
-        let plane: Vec<f64> = v["plane"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let plane: Vec<f64> = v["plane"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
         // Measured on the full frame: 70,942 points within 3 cm of this plane and none more
         // than 10 cm below it. The README's "about (-0.059, -0.956, -0.287, 1.290)" has
         // 17,679 within 3 cm and 27,886 more than 10 cm below: not the floor.
         let cos = (0.011 * plane[0] - 0.878 * plane[1] - 0.479 * plane[2]).clamp(-1.0, 1.0);
-        assert!(
-            cos.acos().to_degrees() < 2.0 && (plane[3] - 1.767).abs() < 0.03,
-            "{plane:?}"
-        );
+        assert!(cos.acos().to_degrees() < 2.0 && (plane[3] - 1.767).abs() < 0.03, "{plane:?}");
     }
 
     #[test]
     fn unreadable_files_fail_with_their_name() {
-        let a = args(vec![
-            PathBuf::from("/nonexistent/frame.pcd"),
-            PathBuf::from("notes.txt"),
-        ]);
+        let a = args(vec![PathBuf::from("/nonexistent/frame.pcd"), PathBuf::from("notes.txt")]);
         let e = run(&a).unwrap_err();
         assert_eq!(e.to_string(), "2 of 2 files failed");
-        assert!(perceive_file(Path::new("notes.txt"), &a)
-            .unwrap_err()
-            .to_string()
-            .contains("not a .pcd or .png"));
+        assert!(perceive_file(Path::new("notes.txt"), &a).unwrap_err().to_string().contains("not a .pcd or .png"));
     }
 
     #[test]

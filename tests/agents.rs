@@ -172,13 +172,8 @@ async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
     );
     let mut wrong_version = good.clone();
     wrong_version[2] = 99;
-    let payloads: Vec<Vec<u8>> = vec![
-        good[..good.len() - 3].to_vec(),
-        wrong_version,
-        vec![0xAB; 1000],
-        vec![0u8; 9 * 1024 * 1024],
-        Vec::new(),
-    ];
+    let payloads: Vec<Vec<u8>> =
+        vec![good[..good.len() - 3].to_vec(), wrong_version, vec![0xAB; 1000], vec![0u8; 9 * 1024 * 1024], Vec::new()];
     let targets = [keys.haptic(), keys.speech(), keys.hazard(), keys.depth("cane"), keys.odom("cane")];
     for key in &targets {
         for p in &payloads {
@@ -190,11 +185,10 @@ async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
     }
 
     let rejects_of = |h: &HealthStats| h.rejects.iter().map(|r| r.count).sum::<u64>();
-    let fb = wait_for(&health, Duration::from_secs(10), |h| {
-        h.body.agent == "feedback-agent" && rejects_of(&h.body) >= 15
-    })
-    .await
-    .expect("feedback agent did not count the garbage on haptic, speech and hazard keys");
+    let fb =
+        wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "feedback-agent" && rejects_of(&h.body) >= 15)
+            .await
+            .expect("feedback agent did not count the garbage on haptic, speech and hazard keys");
     let kinds: Vec<&str> = fb.body.rejects.iter().map(|r| r.kind.as_str()).collect();
     for kind in ["truncated", "unknown_version", "too_large"] {
         assert!(kinds.contains(&kind), "feedback rejects {kinds:?} lack {kind}");
@@ -229,8 +223,14 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
     // Well-formed frames in which not one pixel has a depth (a covered lens).
     let (width, height) = (64u32, 48u32);
     let mut data = Vec::new();
-    schemas::depth_codec::encode(&vec![0u16; (width * height) as usize], width, height, schemas::DepthEncoding::Lossless, &mut data)
-        .unwrap();
+    schemas::depth_codec::encode(
+        &vec![0u16; (width * height) as usize],
+        width,
+        height,
+        schemas::DepthEncoding::Lossless,
+        &mut data,
+    )
+    .unwrap();
     let frame = schemas::DepthFrame {
         width,
         height,
@@ -242,7 +242,9 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
         data,
     };
     let mut frames =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None).await.unwrap();
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
+            .await
+            .unwrap();
     for _ in 0..10 {
         frames.put(bus::now_ns(), &frame).await.unwrap();
         tokio::time::sleep(Duration::from_millis(33)).await;

@@ -69,9 +69,7 @@ pub fn zenoh_config(opts: &BusOptions) -> anyhow::Result<Config> {
             .context("bad --listen endpoint")?;
     }
     if opts.no_multicast {
-        config
-            .insert_json5("scouting/multicast/enabled", "false")
-            .map_err(|e| anyhow!("{e}"))?;
+        config.insert_json5("scouting/multicast/enabled", "false").map_err(|e| anyhow!("{e}"))?;
     }
     Ok(config)
 }

@@ -87,10 +87,7 @@ impl<M: Message> Publisher<M> {
         let seq = self.seq;
         let bytes = schemas::encode(&self.sender, seq, capture_ns, body);
         let len = bytes.len();
-        self.inner
-            .put(bytes)
-            .await
-            .map_err(|e| anyhow!("publish on {} failed: {e}", self.inner.key_expr()))?;
+        self.inner.put(bytes).await.map_err(|e| anyhow!("publish on {} failed: {e}", self.inner.key_expr()))?;
         self.seq += 1;
         if let Some(c) = &self.counter {
             c.record(len, None);

@@ -8,24 +8,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use compute_agent::perception::synthetic_scene::{Block, Scene};
-use compute_agent::perception::{
-    DepthInput, FrameContext, InstantTimer, PerceptionConfig, Pipeline, StageMedians,
-};
+use compute_agent::perception::{DepthInput, FrameContext, InstantTimer, PerceptionConfig, Pipeline, StageMedians};
 use schemas::Intrinsics;
 
 enum Frame {
-    Depth {
-        samples: Vec<u16>,
-        width: u32,
-        height: u32,
-        scale_m: f32,
-        k: Intrinsics,
-    },
-    Xyz {
-        points: Vec<[f32; 3]>,
-        width: u32,
-        height: u32,
-    },
+    Depth { samples: Vec<u16>, width: u32, height: u32, scale_m: f32, k: Intrinsics },
+    Xyz { points: Vec<[f32; 3]>, width: u32, height: u32 },
 }
 
 struct Case {
@@ -35,18 +23,10 @@ struct Case {
     up_cone_deg: Option<f32>,
 }
 
-const KINECT: Intrinsics = Intrinsics {
-    fx: 525.0,
-    fy: 525.0,
-    cx: 319.5,
-    cy: 239.5,
-};
+const KINECT: Intrinsics = Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 };
 
 fn real_cases() -> Vec<Case> {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/real"
-    ));
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real"));
     if !dir.exists() {
         eprintln!("skipping real captures: {} not found", dir.display());
         return Vec::new();
@@ -61,11 +41,7 @@ fn real_cases() -> Vec<Case> {
         match sensor_agent::formats::pcd::read(&dir.join(file)) {
             Ok(cloud) => cases.push(Case {
                 name: file.into(),
-                frame: Frame::Xyz {
-                    points: cloud.points,
-                    width: cloud.width,
-                    height: cloud.height,
-                },
+                frame: Frame::Xyz { points: cloud.points, width: cloud.width, height: cloud.height },
                 gravity,
                 up_cone_deg: None,
             }),
@@ -80,13 +56,7 @@ fn real_cases() -> Vec<Case> {
         match sensor_agent::formats::depth_png::read(&dir.join(file)) {
             Ok(png) => cases.push(Case {
                 name: file.into(),
-                frame: Frame::Depth {
-                    samples: png.samples,
-                    width: png.width,
-                    height: png.height,
-                    scale_m,
-                    k: KINECT,
-                },
+                frame: Frame::Depth { samples: png.samples, width: png.width, height: png.height, scale_m, k: KINECT },
                 gravity: None,
                 up_cone_deg,
             }),
@@ -102,14 +72,8 @@ fn synthetic_cases() -> Vec<Case> {
         .map(|pitch| {
             let mut scene = Scene::kinect(1.0, pitch);
             scene.walls_x_m.push(3.5);
-            scene.blocks.push(Block {
-                min: [1.5, -0.15, 0.0],
-                max: [1.8, 0.15, 0.12],
-            });
-            scene.blocks.push(Block {
-                min: [2.2, 0.4, 0.0],
-                max: [2.6, 0.9, 1.1],
-            });
+            scene.blocks.push(Block { min: [1.5, -0.15, 0.0], max: [1.8, 0.15, 0.12] });
+            scene.blocks.push(Block { min: [2.2, 0.4, 0.0], max: [2.6, 0.9, 1.1] });
             let [a, b, c, _] = scene.floor_plane_camera();
             Case {
                 name: format!("synthetic floor+wall+boxes, pitch {pitch} deg"),
@@ -130,9 +94,7 @@ fn synthetic_cases() -> Vec<Case> {
 /// Noisy simulator frames (Xtion-class noise, dropouts, shadow bands) in the corridor
 /// world, camera 1.0 m up.
 fn simulator_cases() -> Vec<Case> {
-    use sensor_agent::sim::{
-        camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World,
-    };
+    use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
     let world = match World::builtin("corridor") {
         Some(Ok(w)) => w,
         _ => {
@@ -144,14 +106,8 @@ fn simulator_cases() -> Vec<Case> {
     [10.0f64, 30.0]
         .into_iter()
         .map(|pitch| {
-            let pose = CameraPose::from_yaw_pitch(
-                start.x_m,
-                start.y_m,
-                1.0,
-                start.yaw_rad,
-                pitch.to_radians(),
-                start.floor,
-            );
+            let pose =
+                CameraPose::from_yaw_pitch(start.x_m, start.y_m, 1.0, start.yaw_rad, pitch.to_radians(), start.floor);
             let mut renderer = Renderer::new(CameraProfile::xtion());
             let mut samples = Vec::new();
             renderer.render(&world, &pose, 0.0, &mut SimRng::seed_from(7), &mut samples);
@@ -174,18 +130,9 @@ fn simulator_cases() -> Vec<Case> {
 }
 
 fn main() {
-    let runs: usize = std::env::var("PERCEPTION_BENCH_RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(200);
-    println!(
-        "perception pipeline, {runs} runs per frame, medians in ms (shared machine: expect noise)"
-    );
-    for case in real_cases()
-        .into_iter()
-        .chain(synthetic_cases())
-        .chain(simulator_cases())
-    {
+    let runs: usize = std::env::var("PERCEPTION_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(200);
+    println!("perception pipeline, {runs} runs per frame, medians in ms (shared machine: expect noise)");
+    for case in real_cases().into_iter().chain(synthetic_cases()).chain(simulator_cases()) {
         let mut config = PerceptionConfig::default();
         if let Some(deg) = case.up_cone_deg {
             config.ground.up_cone_deg = deg;
@@ -196,53 +143,24 @@ fn main() {
         let mut last = None;
         for k in 0..runs {
             let input = match &case.frame {
-                Frame::Depth {
-                    samples,
-                    width,
-                    height,
-                    scale_m,
-                    k,
-                } => DepthInput::Depth {
+                Frame::Depth { samples, width, height, scale_m, k } => DepthInput::Depth {
                     samples,
                     width: *width,
                     height: *height,
                     depth_scale_m: *scale_m,
                     intrinsics: *k,
                 },
-                Frame::Xyz {
-                    points,
-                    width,
-                    height,
-                } => DepthInput::Xyz {
-                    points,
-                    width: *width,
-                    height: *height,
-                },
+                Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
             };
-            let ctx = FrameContext {
-                stamp_ns: k as u64 * 33_333_333,
-                gravity_camera: case.gravity,
-                motion: None,
-            };
+            let ctx = FrameContext { stamp_ns: k as u64 * 33_333_333, gravity_camera: case.gravity, motion: None };
             timer.clear();
             let t0 = Instant::now();
-            let result = pipeline
-                .process(input, &ctx, &mut timer)
-                .map(|p| (p.ground, p.plane_camera));
+            let result = pipeline.process(input, &ctx, &mut timer).map(|p| (p.ground, p.plane_camera));
             medians.add(&timer.stages, t0.elapsed());
             last = Some(result);
         }
-        let stages: Vec<String> = medians
-            .stages_ms()
-            .iter()
-            .map(|(n, ms)| format!("{n}={ms:.3}"))
-            .collect();
-        println!(
-            "{}\n  total={:.3}  {}",
-            case.name,
-            medians.total_ms(),
-            stages.join(" ")
-        );
+        let stages: Vec<String> = medians.stages_ms().iter().map(|(n, ms)| format!("{n}={ms:.3}")).collect();
+        println!("{}\n  total={:.3}  {}", case.name, medians.total_ms(), stages.join(" "));
         match last {
             Some(Ok((ground, plane))) => println!("  ground {ground:?}, plane {plane:.4?}"),
             Some(Err(e)) => println!("  error: {e}"),

@@ -10,8 +10,8 @@ use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
 use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Scan, StageLatency};
 
 use crate::perception::{
-    cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception,
-    PerceptionConfig, Pipeline, StageTimer,
+    cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception, PerceptionConfig,
+    Pipeline, StageTimer,
 };
 
 /// Agent name: liveliness token `health/compute-agent` and sender of its messages.
@@ -50,11 +50,7 @@ struct MotionSince {
 
 impl MotionSince {
     fn add(&mut self, inc: &OdomIncrement) {
-        let m = self.motion.get_or_insert(Motion {
-            forward_m: 0.0,
-            left_m: 0.0,
-            yaw_rad: 0.0,
-        });
+        let m = self.motion.get_or_insert(Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 });
         // Compose in the frame of the first increment: rotate the new translation by
         // the heading accumulated so far.
         let (s, c) = m.yaw_rad.sin_cos();
@@ -84,42 +80,14 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let keys = config.bus.keys()?;
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
-    tokio::spawn(health.clone().serve(
-        session.clone(),
-        keys.clone(),
-        config.health_period,
-        shutdown.clone(),
-    ));
+    tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
 
-    let frames =
-        Subscriber::<DepthFrame>::declare(&session, keys.depth_any(), true, &health).await?;
-    let odom =
-        Subscriber::<OdomIncrement>::declare(&session, keys.odom_any(), false, &health).await?;
+    let frames = Subscriber::<DepthFrame>::declare(&session, keys.depth_any(), true, &health).await?;
+    let odom = Subscriber::<OdomIncrement>::declare(&session, keys.odom_any(), false, &health).await?;
     let mut out = Outputs {
-        scan: Publisher::declare(
-            &session,
-            keys.scan(),
-            AGENT,
-            Lane::Perception,
-            Some(&health),
-        )
-        .await?,
-        hazard: Publisher::declare(
-            &session,
-            keys.hazard(),
-            AGENT,
-            Lane::Perception,
-            Some(&health),
-        )
-        .await?,
-        haptic: Publisher::declare(
-            &session,
-            keys.haptic(),
-            AGENT,
-            Lane::RealTime,
-            Some(&health),
-        )
-        .await?,
+        scan: Publisher::declare(&session, keys.scan(), AGENT, Lane::Perception, Some(&health)).await?,
+        hazard: Publisher::declare(&session, keys.hazard(), AGENT, Lane::Perception, Some(&health)).await?,
+        haptic: Publisher::declare(&session, keys.haptic(), AGENT, Lane::RealTime, Some(&health)).await?,
     };
     let mut pipeline = Pipeline::new(config.perception.clone());
     let mut motion = MotionSince::default();
@@ -142,11 +110,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         }
     }
     tracing::info!("compute agent stopping");
-    session
-        .close()
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))
-        .context("closing the Zenoh session")?;
+    session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
 }
 
@@ -166,14 +130,8 @@ async fn process(
     // `arrival` = capture -> decoded off the bus here (sensor packing + transport),
     // `queue` = waiting for this loop (another frame or odometry being handled).
     let started_ns = bus::now_ns();
-    clock.stages.push((
-        "arrival",
-        Duration::from_nanos(frame.received_ns.saturating_sub(frame.header.capture_ns)),
-    ));
-    clock.stages.push((
-        "queue",
-        Duration::from_nanos(started_ns.saturating_sub(frame.received_ns)),
-    ));
+    clock.stages.push(("arrival", Duration::from_nanos(frame.received_ns.saturating_sub(frame.header.capture_ns))));
+    clock.stages.push(("queue", Duration::from_nanos(started_ns.saturating_sub(frame.received_ns))));
     clock.start("decode");
     let decoded = schemas::depth_codec::decode(&f.data, f.width, f.height, f.encoding, depth);
     clock.stop();
@@ -188,11 +146,8 @@ async fn process(
         depth_scale_m: f.depth_scale_m,
         intrinsics: f.intrinsics,
     };
-    let ctx = FrameContext {
-        stamp_ns: frame.header.capture_ns,
-        gravity_camera: f.gravity_camera,
-        motion: motion.take(),
-    };
+    let ctx =
+        FrameContext { stamp_ns: frame.header.capture_ns, gravity_camera: f.gravity_camera, motion: motion.take() };
     let perception = match pipeline.process(input, &ctx, &mut clock) {
         Ok(p) => p.clone(),
         Err(e) => {
@@ -205,17 +160,11 @@ async fn process(
     let latency = clock
         .stages
         .iter()
-        .map(|(stage, d)| StageLatency {
-            stage: stage.to_string(),
-            us: d.as_micros() as u32,
-        })
+        .map(|(stage, d)| StageLatency { stage: stage.to_string(), us: d.as_micros() as u32 })
         .collect();
     let hazard = perception.hazard(frame.header.seq, config.perception.cost_function, latency);
     let seeing = matches!(hazard.ground, schemas::GroundState::Found);
-    health.set_status(
-        seeing,
-        format!("{:?} ground, rumble {:?}", hazard.ground, hazard.rumble),
-    );
+    health.set_status(seeing, format!("{:?} ground, rumble {:?}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.
     for result in [
         out.haptic.put(capture_ns, &intent).await,
@@ -231,30 +180,16 @@ async fn process(
 
 /// Frames keep coming but none can be used: say so with a degraded hazard (rumble
 /// `Both`: stop) and the distinct "unavailable" cue, rather than fall silent.
-async fn publish_blind(
-    frame: &Received<DepthFrame>,
-    config: &ComputeConfig,
-    health: &Arc<Health>,
-    out: &mut Outputs,
-) {
+async fn publish_blind(frame: &Received<DepthFrame>, config: &ComputeConfig, health: &Arc<Health>, out: &mut Outputs) {
     let mut blind = Perception::empty();
     blind.rumble = schemas::Rumble::Both;
-    let hazard = blind.hazard(
-        frame.header.seq,
-        config.perception.cost_function,
-        Vec::new(),
-    );
+    let hazard = blind.hazard(frame.header.seq, config.perception.cost_function, Vec::new());
     health.set_status(false, "depth frames unusable: obstacle detection degraded");
-    tracing::warn!(
-        "{FAILURES_BEFORE_DEGRADED}+ unusable depth frames in a row: reporting degraded"
-    );
+    tracing::warn!("{FAILURES_BEFORE_DEGRADED}+ unusable depth frames in a row: reporting degraded");
     let capture_ns = frame.header.capture_ns;
-    for result in [
-        out.haptic
-            .put(capture_ns, &cue_unavailable(&config.cue))
-            .await,
-        out.hazard.put(capture_ns, &hazard).await,
-    ] {
+    for result in
+        [out.haptic.put(capture_ns, &cue_unavailable(&config.cue)).await, out.hazard.put(capture_ns, &hazard).await]
+    {
         if let Err(e) = result {
             tracing::warn!("{e:#}");
         }
@@ -269,20 +204,8 @@ mod tests {
     fn odometry_increments_compose_in_the_first_frame() {
         let mut m = MotionSince::default();
         let quarter = std::f32::consts::FRAC_PI_2;
-        m.add(&OdomIncrement {
-            from_ns: 0,
-            to_ns: 1,
-            forward_m: 1.0,
-            left_m: 0.0,
-            yaw_rad: quarter,
-        });
-        m.add(&OdomIncrement {
-            from_ns: 1,
-            to_ns: 2,
-            forward_m: 1.0,
-            left_m: 0.0,
-            yaw_rad: 0.0,
-        });
+        m.add(&OdomIncrement { from_ns: 0, to_ns: 1, forward_m: 1.0, left_m: 0.0, yaw_rad: quarter });
+        m.add(&OdomIncrement { from_ns: 1, to_ns: 2, forward_m: 1.0, left_m: 0.0, yaw_rad: 0.0 });
         let total = m.take().unwrap();
         assert!((total.forward_m - 1.0).abs() < 1e-5, "{total:?}");
         assert!((total.left_m - 1.0).abs() < 1e-5, "{total:?}");

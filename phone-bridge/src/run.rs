@@ -83,9 +83,9 @@ pub async fn run(
         .await
         .map_err(|e| anyhow::anyhow!("cannot watch liveliness: {e}"))?;
 
-    let listener = tokio::net::TcpListener::bind(config.http)
-        .await
-        .with_context(|| format!("cannot serve the phone page on {} (port taken? try --http 0.0.0.0:8081)", config.http))?;
+    let listener = tokio::net::TcpListener::bind(config.http).await.with_context(|| {
+        format!("cannot serve the phone page on {} (port taken? try --http 0.0.0.0:8081)", config.http)
+    })?;
     let addr = listener.local_addr()?;
     tracing::info!("phone bridge serving http://{addr}/ for user {}", config.bus.user);
     if let Some(tx) = bound {

@@ -5,6 +5,6 @@
 pub mod camera;
 pub mod formats;
 pub mod replay;
-pub mod sim;
 pub mod run;
+pub mod sim;
 pub mod source;

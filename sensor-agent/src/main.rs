@@ -66,10 +66,8 @@ struct Cli {
 }
 
 fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}")))
-        .collect::<Result<_, _>>()?;
+    let v: Vec<f32> =
+        s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"))).collect::<Result<_, _>>()?;
     let [fx, fy, cx, cy] = v[..] else {
         return Err(format!("expected fx,fy,cx,cy, got {} numbers", v.len()));
     };

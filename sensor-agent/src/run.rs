@@ -187,7 +187,10 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
                 if !stalled {
                     stalled = true;
                     tracing::warn!("no frame from {described} for {} ms", config.stall_after.as_millis());
-                    health.set_status(false, format!("source stalled: no frame for {} ms", config.stall_after.as_millis()));
+                    health.set_status(
+                        false,
+                        format!("source stalled: no frame for {} ms", config.stall_after.as_millis()),
+                    );
                 }
             }
             Ok(None) | Ok(Some(Produced::End)) => {

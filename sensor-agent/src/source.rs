@@ -108,7 +108,8 @@ pub fn open(spec: &str, opts: &SourceOptions) -> Result<Box<dyn FrameSource>, Op
         Some(("sim", world)) => {
             let camera = crate::sim::camera::CameraProfile::by_name(&opts.camera)
                 .ok_or_else(|| OpenError::UnknownCamera(opts.camera.clone()))?;
-            let config = crate::sim::SimConfig { world: world.to_string(), camera, seed: opts.seed, ..Default::default() };
+            let config =
+                crate::sim::SimConfig { world: world.to_string(), camera, seed: opts.seed, ..Default::default() };
             Ok(Box::new(crate::sim::SimSource::new(config)?))
         }
         Some(("pcd" | "tum" | "png", _)) => {

@@ -169,7 +169,14 @@ fn fractions(length_m: f64) -> impl Iterator<Item = f64> + Clone {
 
 /// Surface points of a turned footprint (rectangle) between two heights: the four sides
 /// and the top and bottom faces.
-fn box_surface_any(center: [f64; 2], half: [f64; 2], yaw: f64, bottom: f64, top: f64, hit: &mut dyn FnMut([f64; 3]) -> bool) -> bool {
+fn box_surface_any(
+    center: [f64; 2],
+    half: [f64; 2],
+    yaw: f64,
+    bottom: f64,
+    top: f64,
+    hit: &mut dyn FnMut([f64; 3]) -> bool,
+) -> bool {
     let (s, c) = yaw.sin_cos();
     let at = |a: f64, b: f64, z: f64| [center[0] + c * a - s * b, center[1] + s * a + c * b, z];
     let (lx, ly, lz) = (2.0 * half[0], 2.0 * half[1], top - bottom);
@@ -217,7 +224,9 @@ pub fn in_field_of_view(world: &World, id: ObstacleId, camera: &CameraPose, prof
                         let (s, c) = (fa * std::f64::consts::TAU).sin_cos();
                         for r in [cyl.radius_m, 0.5 * cyl.radius_m, 0.0] {
                             // the side, and the caps at the top and bottom rows
-                            if (r < cyl.radius_m && fz > 0.0 && fz < 1.0) || !hit([cyl.center_m[0] + r * c, cyl.center_m[1] + r * s, z]) {
+                            if (r < cyl.radius_m && fz > 0.0 && fz < 1.0)
+                                || !hit([cyl.center_m[0] + r * c, cyl.center_m[1] + r * s, z])
+                            {
                                 continue;
                             }
                             any = true;
@@ -241,7 +250,8 @@ mod tests {
     use sensor_agent::sim::{CaneMount, UserPose};
 
     fn world(items: &str) -> World {
-        let text = format!("name = \"t\"\nstart = {{ x_m = 0.0, y_m = 0.0 }}\ngoal = {{ x_m = 9.0, y_m = 0.0 }}\n{items}");
+        let text =
+            format!("name = \"t\"\nstart = {{ x_m = 0.0, y_m = 0.0 }}\ngoal = {{ x_m = 9.0, y_m = 0.0 }}\n{items}");
         match World::from_toml(&text, "test") {
             Ok(w) => w,
             Err(e) => panic!("{e}"),

@@ -51,7 +51,15 @@ impl HapticDevice for Hands {
         HANDS
     }
 
-    fn set_levels(&mut self, levels: Levels, pattern: HapticPattern, cause_ns: u64, now_ns: u64, _refresh: bool, out: &mut DeviceOutput) {
+    fn set_levels(
+        &mut self,
+        levels: Levels,
+        pattern: HapticPattern,
+        cause_ns: u64,
+        now_ns: u64,
+        _refresh: bool,
+        out: &mut DeviceOutput,
+    ) {
         if self.last == Some((levels, pattern)) {
             return;
         }

@@ -131,9 +131,15 @@ impl CourseArgs {
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.ttc.enabled = !self.no_ttc;
         c.guide = self.guide;
-        anyhow::ensure!(self.timeout_s.is_finite() && self.timeout_s > 0.0, "--timeout-s must be a positive number of seconds");
+        anyhow::ensure!(
+            self.timeout_s.is_finite() && self.timeout_s > 0.0,
+            "--timeout-s must be a positive number of seconds"
+        );
         anyhow::ensure!((0.0..=10.0).contains(&self.reaction_s), "--reaction-s must be between 0 and 10 s");
-        anyhow::ensure!(self.turn_rate_deg_s > 0.0 && self.turn_rate_deg_s <= 720.0, "--turn-rate-deg-s must be in (0, 720]");
+        anyhow::ensure!(
+            self.turn_rate_deg_s > 0.0 && self.turn_rate_deg_s <= 720.0,
+            "--turn-rate-deg-s must be in (0, 720]"
+        );
         anyhow::ensure!(self.walk_speed_m_s > 0.0 && self.walk_speed_m_s <= 3.0, "--walk-speed-m-s must be in (0, 3]");
         anyhow::ensure!((0.0..=80.0).contains(&self.pitch_deg), "--pitch-deg must be between 0 and 80");
         c.timeout_s = self.timeout_s;

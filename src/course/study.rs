@@ -3,8 +3,8 @@
 //! signals, cane contacts, body contacts, reorientations, completion), with body
 //! contacts split by whether the obstacle was in the camera's field of view.
 
-use serde::Serialize;
 use sensor_agent::sim::World;
+use serde::Serialize;
 
 use super::contacts::Part;
 use super::walk::{walk, WalkConfig, WalkOutcome};
@@ -110,7 +110,11 @@ pub fn table(study: &Study) -> String {
             r.body_head_high,
             r.reorientations,
             if r.seed.is_some() {
-                if r.completed > 0.0 { "yes".to_string() } else { "no".to_string() }
+                if r.completed > 0.0 {
+                    "yes".to_string()
+                } else {
+                    "no".to_string()
+                }
             } else {
                 format!("{:.0} %", 100.0 * r.completed)
             },

@@ -271,7 +271,10 @@ mod tests {
     use super::*;
 
     fn user(reaction_s: f64) -> VirtualUser {
-        VirtualUser::new(UserParams { reaction_s, ..UserParams::default() }, UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 })
+        VirtualUser::new(
+            UserParams { reaction_s, ..UserParams::default() },
+            UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 },
+        )
     }
 
     fn walk(u: &mut VirtualUser, from_s: f64, to_s: f64, felt: Felt) {

@@ -8,7 +8,9 @@
 //! (where the perception's user frame lives: it turns with the cane's sweep), as
 //! visual odometry on the cane camera would measure it, with the sim's VO error model.
 
-use compute_agent::perception::{cue, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline};
+use compute_agent::perception::{
+    cue, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline,
+};
 use feedback_agent::{Feedback, StepSettings};
 use schemas::{DepthEncoding, HapticIntent, Hazard};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
@@ -208,7 +210,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         floor: start.floor,
     };
     let mount = CaneMount { sweep_phase_rad: jitter(std::f64::consts::PI), ..config.mount };
-    let params = UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
+    let params =
+        UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
 
     let mut user = VirtualUser::new(params, start);
     let mut renderer = Renderer::new(config.camera.clone());
@@ -230,7 +233,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let dt = 1.0 / PHYSICS_HZ as f64;
     let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
     let latency_s = config.latency_ms / 1000.0;
-    let mut pending: std::collections::VecDeque<(f64, Option<Hazard>, Option<(HapticIntent, u64)>)> = Default::default();
+    let mut pending: std::collections::VecDeque<(f64, Option<Hazard>, Option<(HapticIntent, u64)>)> =
+        Default::default();
     let mut last_floor: Option<(UserPose, u64)> = None;
     let mut out = WalkOutcome {
         seed,
@@ -297,7 +301,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 g.z + gravity_rng.gaussian() * s,
             )
             .normalize();
-            let ctx = FrameContext { stamp_ns: now, gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]), motion };
+            let ctx =
+                FrameContext { stamp_ns: now, gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]), motion };
             let input = DepthInput::Depth {
                 samples,
                 width: config.camera.width,
@@ -358,7 +363,9 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let (proposed, speed) = user.propose(t, dt, target);
         let t_next = t + dt;
         let height_m = params.height_m;
-        body.measure(world, proposed.floor, t_next, |s| s.body_distance_m(proposed.x_m, proposed.y_m, radius_m, height_m));
+        body.measure(world, proposed.floor, t_next, |s| {
+            s.body_distance_m(proposed.x_m, proposed.y_m, radius_m, height_m)
+        });
         let entering = body.entering();
         // the body cannot go deeper into anything it touches
         let blocking = body.distance_m.iter().zip(&body_now).position(|(&d, &was)| d <= TOUCH_M && d < was);
@@ -370,13 +377,25 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 world
                     .obstacles_at(proposed.floor, t_next)
                     .filter(|(i, _)| *i == id)
-                    .map(|(_, sh)| sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m))
+                    .map(|(_, sh)| {
+                        sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m)
+                    })
                     .fold(f64::INFINITY, f64::min)
             };
             probe(0.05) <= probe(-0.05)
         };
         for id in entering {
-            out.contacts.push(contact(world, id, Part::Body, t_next, &camera, config, &seen, body.touch_bottom_m[id.0 as usize], &mount));
+            out.contacts.push(contact(
+                world,
+                id,
+                Part::Body,
+                t_next,
+                &camera,
+                config,
+                &seen,
+                body.touch_bottom_m[id.0 as usize],
+                &mount,
+            ));
         }
         out.min_clearance_m = out.min_clearance_m.min(body.nearest_m());
         if let Some(i) = blocking {
@@ -396,7 +415,17 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         for id in cane.entering() {
             user.touch(Touch { t_s: t_next, on_left: sweep >= 0.0 });
             let camera = mount.camera_pose(&now_pose, sweep);
-            out.contacts.push(contact(world, id, Part::Cane, t_next, &camera, config, &seen, cane.touch_bottom_m[id.0 as usize], &mount));
+            out.contacts.push(contact(
+                world,
+                id,
+                Part::Cane,
+                t_next,
+                &camera,
+                config,
+                &seen,
+                cane.touch_bottom_m[id.0 as usize],
+                &mount,
+            ));
         }
         out.end_xy_m = [now_pose.x_m, now_pose.y_m];
     }

@@ -151,12 +151,7 @@ pub struct GroundPredictionConfig {
 
 impl Default for GroundPredictionConfig {
     fn default() -> Self {
-        Self {
-            enabled: true,
-            max_tilt_deg: 5.0,
-            max_age_ns: 3_000_000_000,
-            min_obstacle_fraction: 0.25,
-        }
+        Self { enabled: true, max_tilt_deg: 5.0, max_age_ns: 3_000_000_000, min_obstacle_fraction: 0.25 }
     }
 }
 
@@ -273,10 +268,7 @@ pub struct HysteresisConfig {
 
 impl Default for HysteresisConfig {
     fn default() -> Self {
-        Self {
-            enabled: true,
-            relax_frames: 4,
-        }
+        Self { enabled: true, relax_frames: 4 }
     }
 }
 
@@ -300,13 +292,7 @@ pub struct MemoryConfig {
 
 impl Default for MemoryConfig {
     fn default() -> Self {
-        Self {
-            enabled: true,
-            cell_m: 0.1,
-            radius_m: 5.0,
-            ttl_ns: 3_000_000_000,
-            xyz_vertical_fov_deg: 45.0,
-        }
+        Self { enabled: true, cell_m: 0.1, radius_m: 5.0, ttl_ns: 3_000_000_000, xyz_vertical_fov_deg: 45.0 }
     }
 }
 

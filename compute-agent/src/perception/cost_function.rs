@@ -58,11 +58,7 @@ pub fn side_costs(points: impl Iterator<Item = [f32; 2]>, cfg: &CostConfig) -> S
             }
         }
     }
-    SideCosts {
-        left: c.left * cfg.scale,
-        forward: c.forward * cfg.scale,
-        right: c.right * cfg.scale,
-    }
+    SideCosts { left: c.left * cfg.scale, forward: c.forward * cfg.scale, right: c.right * cfg.scale }
 }
 
 /// Taylor's Table 2.1.
@@ -85,14 +81,10 @@ pub fn rumble(c: &SideCosts, cfg: &CostConfig) -> Rumble {
 
 /// User-frame points of the finite bins of a scan.
 pub fn scan_points(scan: &schemas::Scan) -> impl Iterator<Item = [f32; 2]> + '_ {
-    scan.ranges_m
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.is_finite())
-        .map(move |(i, &r)| {
-            let b = (scan.angle_min_deg + i as f32 * scan.angle_increment_deg).to_radians();
-            [r * b.cos(), r * b.sin()]
-        })
+    scan.ranges_m.iter().enumerate().filter(|(_, r)| r.is_finite()).map(move |(i, &r)| {
+        let b = (scan.angle_min_deg + i as f32 * scan.angle_increment_deg).to_radians();
+        [r * b.cos(), r * b.sin()]
+    })
 }
 
 #[cfg(test)]
@@ -101,9 +93,7 @@ mod tests {
 
     /// Scan of a wall perpendicular to the heading, `x_m` ahead, across 61 bins.
     fn wall(x_m: f32) -> Vec<[f32; 2]> {
-        (-30..=30)
-            .map(|k| [x_m, x_m * (k as f32).to_radians().tan()])
-            .collect()
+        (-30..=30).map(|k| [x_m, x_m * (k as f32).to_radians().tan()]).collect()
     }
 
     #[test]
@@ -116,34 +106,17 @@ mod tests {
     #[test]
     fn obstacle_on_the_right_rumbles_left() {
         let cfg = CostConfig::ficf();
-        let pts = [
-            [0.5, -0.05],
-            [0.5, -0.1],
-            [0.5, -0.15],
-            [0.5, -0.2],
-            [0.5, -0.25],
-            [0.5, -0.3],
-        ];
+        let pts = [[0.5, -0.05], [0.5, -0.1], [0.5, -0.15], [0.5, -0.2], [0.5, -0.25], [0.5, -0.3]];
         let c = side_costs(pts.into_iter(), &cfg);
-        assert!(
-            c.right > c.left && c.forward >= cfg.forward_threshold,
-            "{c:?}"
-        );
+        assert!(c.right > c.left && c.forward >= cfg.forward_threshold, "{c:?}");
         assert_eq!(rumble(&c, &cfg), Rumble::Left);
         let mirrored = pts.map(|[x, y]| [x, -y]);
-        assert_eq!(
-            rumble(&side_costs(mirrored.into_iter(), &cfg), &cfg),
-            Rumble::Right
-        );
+        assert_eq!(rumble(&side_costs(mirrored.into_iter(), &cfg), &cfg), Rumble::Right);
     }
 
     #[test]
     fn nan_costs_are_never_clear() {
-        let c = SideCosts {
-            left: 0.0,
-            forward: f32::NAN,
-            right: 0.0,
-        };
+        let c = SideCosts { left: 0.0, forward: f32::NAN, right: 0.0 };
         assert_eq!(rumble(&c, &CostConfig::ficf()), Rumble::Both);
     }
 

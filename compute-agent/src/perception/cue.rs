@@ -63,12 +63,7 @@ pub fn cue(p: &Perception, cfg: &CueConfig) -> HapticIntent {
     let (left, right) = match p.rumble {
         Rumble::None if p.ground == GroundState::Degraded => return cue_unavailable(cfg),
         Rumble::None => {
-            return HapticIntent {
-                left: 0.0,
-                right: 0.0,
-                pattern: HapticPattern::Steady,
-                ttl_ms: cfg.ttl_ms,
-            };
+            return HapticIntent { left: 0.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: cfg.ttl_ms };
         }
         Rumble::Left => (1.0, 0.0),
         Rumble::Right => (0.0, 1.0),
@@ -77,10 +72,7 @@ pub fn cue(p: &Perception, cfg: &CueConfig) -> HapticIntent {
     HapticIntent {
         left,
         right,
-        pattern: HapticPattern::Pulses {
-            period_ms: period_ms(p.nearest_m, cfg),
-            duty: cfg.duty,
-        },
+        pattern: HapticPattern::Pulses { period_ms: period_ms(p.nearest_m, cfg), duty: cfg.duty },
         ttl_ms: cfg.ttl_ms,
     }
 }
@@ -90,10 +82,7 @@ pub fn cue_unavailable(cfg: &CueConfig) -> HapticIntent {
     HapticIntent {
         left: cfg.degraded_level,
         right: cfg.degraded_level,
-        pattern: HapticPattern::Pulses {
-            period_ms: cfg.degraded_period_ms,
-            duty: cfg.degraded_duty,
-        },
+        pattern: HapticPattern::Pulses { period_ms: cfg.degraded_period_ms, duty: cfg.degraded_duty },
         ttl_ms: cfg.ttl_ms,
     }
 }
@@ -101,11 +90,7 @@ pub fn cue_unavailable(cfg: &CueConfig) -> HapticIntent {
 fn period_ms(nearest_m: f32, cfg: &CueConfig) -> u32 {
     let span = (cfg.far_m - cfg.near_m).max(1e-3);
     // unknown distance (NaN) counts as near: the warning is already on
-    let t = if nearest_m.is_finite() {
-        ((nearest_m - cfg.near_m) / span).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if nearest_m.is_finite() { ((nearest_m - cfg.near_m) / span).clamp(0.0, 1.0) } else { 0.0 };
     let (near, far) = (cfg.near_period_ms as f32, cfg.far_period_ms as f32);
     (near + t * (far - near)).round() as u32
 }
@@ -115,12 +100,7 @@ mod tests {
     use super::*;
 
     fn perception(rumble: Rumble, ground: GroundState, nearest_m: f32) -> Perception {
-        Perception {
-            rumble,
-            ground,
-            nearest_m,
-            ..Perception::empty()
-        }
+        Perception { rumble, ground, nearest_m, ..Perception::empty() }
     }
 
     #[test]
@@ -141,27 +121,12 @@ mod tests {
     #[test]
     fn degraded_ground_is_never_a_silent_clear() {
         let cfg = CueConfig::default();
-        let i = cue(
-            &perception(Rumble::None, GroundState::Degraded, f32::INFINITY),
-            &cfg,
-        );
+        let i = cue(&perception(Rumble::None, GroundState::Degraded, f32::INFINITY), &cfg);
         assert_eq!((i.left, i.right), (0.5, 0.5));
-        assert_eq!(
-            i.pattern,
-            HapticPattern::Pulses {
-                period_ms: 1000,
-                duty: 0.15
-            }
-        );
+        assert_eq!(i.pattern, HapticPattern::Pulses { period_ms: 1000, duty: 0.15 });
         assert_eq!(cue_unavailable(&cfg), i);
-        let clear = cue(
-            &perception(Rumble::None, GroundState::Found, f32::INFINITY),
-            &cfg,
-        );
-        assert_eq!(
-            (clear.left, clear.right, clear.pattern),
-            (0.0, 0.0, HapticPattern::Steady)
-        );
+        let clear = cue(&perception(Rumble::None, GroundState::Found, f32::INFINITY), &cfg);
+        assert_eq!((clear.left, clear.right, clear.pattern), (0.0, 0.0, HapticPattern::Steady));
     }
 
     #[test]
@@ -169,12 +134,6 @@ mod tests {
         let cfg = CueConfig::default();
         let i = cue(&perception(Rumble::Both, GroundState::Degraded, 0.4), &cfg);
         assert_eq!((i.left, i.right), (1.0, 1.0));
-        assert_eq!(
-            i.pattern,
-            HapticPattern::Pulses {
-                period_ms: 150,
-                duty: 0.5
-            }
-        );
+        assert_eq!(i.pattern, HapticPattern::Pulses { period_ms: 150, duty: 0.5 });
     }
 }

@@ -40,10 +40,7 @@ pub fn survey(cloud: &SampledCloud, frame: &UserFrame, cfg: &DropoffConfig) -> P
     let mut absent = [0u32; SLICES];
     let mut g = PathGround::default();
     // every other sampled row and column: the slices need hundreds of rays, not thousands
-    for i in (0..cloud.rows)
-        .step_by(2)
-        .flat_map(|r| (0..cloud.cols).step_by(2).map(move |c| r * cloud.cols + c))
-    {
+    for i in (0..cloud.rows).step_by(2).flat_map(|r| (0..cloud.cols).step_by(2).map(move |c| r * cloud.cols + c)) {
         let p = &cloud.points[i];
         let valid = p[2].is_finite();
         let ray = if valid {
@@ -77,10 +74,7 @@ pub fn survey(cloud: &SampledCloud, frame: &UserFrame, cfg: &DropoffConfig) -> P
     }
     let slice_min = (cfg.min_samples as usize).div_ceil(SLICES) as u32;
     g.drop_at_m = (0..SLICES)
-        .find(|&s| {
-            expected[s] >= slice_min.max(1)
-                && absent[s] as f32 >= cfg.min_fraction * expected[s] as f32
-        })
+        .find(|&s| expected[s] >= slice_min.max(1) && absent[s] as f32 >= cfg.min_fraction * expected[s] as f32)
         .map(|s| s as f32 * slice_m);
     g
 }

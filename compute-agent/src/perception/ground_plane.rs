@@ -51,12 +51,7 @@ impl Plane {
 
     /// `[a, b, c, d]`.
     pub fn coefficients(&self) -> [f32; 4] {
-        [
-            self.normal[0],
-            self.normal[1],
-            self.normal[2],
-            self.offset_m,
-        ]
+        [self.normal[0], self.normal[1], self.normal[2], self.offset_m]
     }
 }
 
@@ -82,11 +77,7 @@ pub struct GroundSearch {
 impl GroundSearch {
     /// A search whose random draws start from `seed`.
     pub fn new(seed: u64) -> Self {
-        Self {
-            subset: Vec::new(),
-            weights: Vec::new(),
-            rng: seed | 1,
-        }
+        Self { subset: Vec::new(), weights: Vec::new(), rng: seed | 1 }
     }
 
     /// Best plane within `cfg.up_cone_deg` of `up` (unit) and, when the running ground
@@ -123,8 +114,7 @@ impl GroundSearch {
         // lower floor beyond a step (or a table top beyond the floor) does not outvote
         // the floor at the user's feet by sheer area.
         self.weights.clear();
-        self.weights
-            .extend(self.subset.iter().map(|p| 1.0 / p[2].max(0.5).powi(2)));
+        self.weights.extend(self.subset.iter().map(|p| 1.0 / p[2].max(0.5).powi(2)));
         let cos_cone = cfg.up_cone_deg.to_radians().cos();
         // The thesis's false-ground guard, applied to each hypothesis: with a running
         // ground, a plane at another height (a table top) is not a candidate at all.
@@ -166,11 +156,7 @@ impl GroundSearch {
                 // Local optimisation (LO-RANSAC, Chum et al. 2003): a new best is refit
                 // to its subset inliers, so three noisy far points that happen to span a
                 // tilted plane cannot win over the floor they lie on.
-                let inliers = self
-                    .subset
-                    .iter()
-                    .filter(|p| plane.height(p).abs() < cfg.ransac_band_m)
-                    .copied();
+                let inliers = self.subset.iter().filter(|p| plane.height(p).abs() < cfg.ransac_band_m).copied();
                 if let Some((lo, _)) = fit_plane(inliers, &up).filter(|(lo, _)| plausible(lo)) {
                     let lo_score = score_of(&lo, &self.subset, &self.weights);
                     if lo_score > score {
@@ -180,38 +166,20 @@ impl GroundSearch {
                 // Adaptive termination (Hartley & Zisserman, alg. 4.5): enough draws that
                 // an all-inlier triple of the best plane's support had a 99.9 % chance.
                 if let Some((b, _)) = best {
-                    let inliers = self
-                        .subset
-                        .iter()
-                        .filter(|p| b.height(p).abs() < cfg.ransac_band_m)
-                        .count();
-                    needed =
-                        needed.min(draws_needed(inliers as f32 / m as f32, 0.999).max(MIN_DRAWS));
+                    let inliers = self.subset.iter().filter(|p| b.height(p).abs() < cfg.ransac_band_m).count();
+                    needed = needed.min(draws_needed(inliers as f32 / m as f32, 0.999).max(MIN_DRAWS));
                 }
             }
         }
         let (coarse, _) = best?;
-        let score = self
-            .subset
-            .iter()
-            .filter(|p| coarse.height(p).abs() < cfg.ransac_band_m)
-            .count();
+        let score = self.subset.iter().filter(|p| coarse.height(p).abs() < cfg.ransac_band_m).count();
         if (score as f32) < cfg.min_inlier_fraction * m as f32 || score < 3 {
             return None;
         }
         let mut plane = coarse;
-        let support = self
-            .subset
-            .iter()
-            .filter(|p| coarse.height(p).abs() < cfg.ransac_band_m)
-            .copied();
+        let support = self.subset.iter().filter(|p| coarse.height(p).abs() < cfg.ransac_band_m).copied();
         let mut spread_m = fit_plane(support, &up).map_or(0.0, |(_, s)| s);
-        for band in [
-            cfg.ransac_band_m,
-            cfg.refine_band_m,
-            cfg.refine_band_m,
-            cfg.refine_band_m,
-        ] {
+        for band in [cfg.ransac_band_m, cfg.refine_band_m, cfg.refine_band_m, cfg.refine_band_m] {
             match least_squares(cloud, &plane, band, &up) {
                 Some((refined, spread)) if plausible(&refined) => {
                     plane = refined;
@@ -227,11 +195,7 @@ impl GroundSearch {
         if spread_m < cfg.min_spread_m {
             return None;
         }
-        Some(PlaneFit {
-            plane,
-            subset_inliers: score,
-            subset_len: m,
-        })
+        Some(PlaneFit { plane, subset_inliers: score, subset_len: m })
     }
 
     /// Uniform index below `n` (xorshift64*; deterministic, allocation-free).
@@ -254,9 +218,7 @@ fn draws_needed(fraction: f32, confidence: f32) -> u32 {
     if all_three >= 1.0 - 1e-6 {
         return 1;
     }
-    ((1.0 - confidence).ln() / (1.0 - all_three).ln())
-        .ceil()
-        .min(u32::MAX as f32) as u32
+    ((1.0 - confidence).ln() / (1.0 - all_three).ln()).ceil().min(u32::MAX as f32) as u32
 }
 
 /// Fewest hypotheses drawn whatever the inlier fraction: the support of an early,
@@ -273,29 +235,17 @@ fn plane_through(a: &[f32; 3], b: &[f32; 3], c: &[f32; 3], up: &[f32; 3]) -> Opt
     }
     let sign = if dot(&n, up) < 0.0 { -1.0 } else { 1.0 };
     n = [n[0] * sign / len, n[1] * sign / len, n[2] * sign / len];
-    Some(Plane {
-        normal: n,
-        offset_m: -dot(&n, a),
-    })
+    Some(Plane { normal: n, offset_m: -dot(&n, a) })
 }
 
 const LSQ_POINTS: usize = 4096;
 
 /// Total least squares plane of the valid points within `band` of `around`.
-fn least_squares(
-    cloud: &SampledCloud,
-    around: &Plane,
-    band: f32,
-    up: &[f32; 3],
-) -> Option<(Plane, f32)> {
+fn least_squares(cloud: &SampledCloud, around: &Plane, band: f32, up: &[f32; 3]) -> Option<(Plane, f32)> {
     // 4k evenly spread points fix a plane to well under a millimetre; more only cost
     let step = (cloud.valid.len() / LSQ_POINTS).max(1);
-    let near = cloud
-        .valid
-        .iter()
-        .step_by(step)
-        .map(|&i| cloud.points[i as usize])
-        .filter(|p| around.height(p).abs() < band);
+    let near =
+        cloud.valid.iter().step_by(step).map(|&i| cloud.points[i as usize]).filter(|p| around.height(p).abs() < band);
     fit_plane(near, up)
 }
 
@@ -348,19 +298,9 @@ fn fit_plane(points: impl Iterator<Item = [f32; 3]>, up: &[f32; 3]) -> Option<(P
         return None;
     }
     let sign = if dot(&normal, up) < 0.0 { -1.0 } else { 1.0 };
-    normal = [
-        normal[0] * sign / len,
-        normal[1] * sign / len,
-        normal[2] * sign / len,
-    ];
+    normal = [normal[0] * sign / len, normal[1] * sign / len, normal[2] * sign / len];
     let centroid = [m[0] as f32, m[1] as f32, m[2] as f32];
-    Some((
-        Plane {
-            normal,
-            offset_m: -dot(&normal, &centroid),
-        },
-        spread_m,
-    ))
+    Some((Plane { normal, offset_m: -dot(&normal, &centroid) }, spread_m))
 }
 
 /// What the tracker decided for this frame.
@@ -396,9 +336,7 @@ impl GroundTracker {
 
     /// Offset the running ground expects, while it is trusted (not `Degraded`).
     pub fn expected_offset_m(&self, cfg: &GroundConfig) -> Option<f32> {
-        self.average
-            .filter(|_| self.lost_frames <= cfg.max_lost_frames)
-            .map(|a| a.offset_m)
+        self.average.filter(|_| self.lost_frames <= cfg.max_lost_frames).map(|a| a.offset_m)
     }
 
     /// Folds this frame's fit into the running ground. `None` when there has never been a
@@ -431,29 +369,14 @@ impl GroundTracker {
                 None => plane,
                 Some(avg) => blend(&avg, &plane, cfg.average_weight),
             });
-            return Some(GroundDecision {
-                plane,
-                state: GroundState::Found,
-            });
+            return Some(GroundDecision { plane, state: GroundState::Found });
         }
         self.lost_frames = self.lost_frames.saturating_add(1);
         let avg = self.average?;
         // The cane turns while the ground is lost: trust gravity for the normal if known.
-        let normal = gravity_camera
-            .and_then(|g| normalized(&[-g[0], -g[1], -g[2]]))
-            .unwrap_or(avg.normal);
-        let state = if self.lost_frames > cfg.max_lost_frames {
-            GroundState::Degraded
-        } else {
-            GroundState::Lost
-        };
-        Some(GroundDecision {
-            plane: Plane {
-                normal,
-                offset_m: avg.offset_m,
-            },
-            state,
-        })
+        let normal = gravity_camera.and_then(|g| normalized(&[-g[0], -g[1], -g[2]])).unwrap_or(avg.normal);
+        let state = if self.lost_frames > cfg.max_lost_frames { GroundState::Degraded } else { GroundState::Lost };
+        Some(GroundDecision { plane: Plane { normal, offset_m: avg.offset_m }, state })
     }
 
     /// Frames in a row without an accepted ground.
@@ -468,10 +391,7 @@ fn blend(avg: &Plane, new: &Plane, w: f32) -> Plane {
         avg.normal[1] * (1.0 - w) + new.normal[1] * w,
         avg.normal[2] * (1.0 - w) + new.normal[2] * w,
     ];
-    Plane {
-        normal: normalized(&n).unwrap_or(new.normal),
-        offset_m: avg.offset_m * (1.0 - w) + new.offset_m * w,
-    }
+    Plane { normal: normalized(&n).unwrap_or(new.normal), offset_m: avg.offset_m * (1.0 - w) + new.offset_m * w }
 }
 
 /// `v / |v|`, or `None` for a zero or non-finite vector.
@@ -489,11 +409,7 @@ pub fn dot(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 /// Cross product.
 #[inline]
 pub fn cross(a: &[f32; 3], b: &[f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 #[inline]
@@ -507,10 +423,7 @@ mod tests {
 
     fn fit(found: bool, offset_m: f32) -> Option<PlaneFit> {
         found.then_some(PlaneFit {
-            plane: Plane {
-                normal: [0.0, -1.0, 0.0],
-                offset_m,
-            },
+            plane: Plane { normal: [0.0, -1.0, 0.0], offset_m },
             subset_inliers: 100,
             subset_len: 200,
         })
@@ -520,10 +433,7 @@ mod tests {
     fn table_top_jump_is_rejected_and_average_plane_stands_in() {
         let cfg = GroundConfig::default();
         let mut t = GroundTracker::default();
-        assert_eq!(
-            t.update(fit(true, 1.0), None, &cfg).unwrap().state,
-            GroundState::Found
-        );
+        assert_eq!(t.update(fit(true, 1.0), None, &cfg).unwrap().state, GroundState::Found);
         let d = t.update(fit(true, 0.3), None, &cfg).unwrap();
         assert_eq!(d.state, GroundState::Lost);
         assert!((d.plane.offset_m - 1.0).abs() < 1e-6);
@@ -533,26 +443,13 @@ mod tests {
     fn ground_lost_beyond_max_frames_degrades_then_recovers() {
         let cfg = GroundConfig::default();
         let mut t = GroundTracker::default();
-        assert!(
-            t.update(fit(false, 0.0), None, &cfg).is_none(),
-            "no ground ever: nothing made up"
-        );
+        assert!(t.update(fit(false, 0.0), None, &cfg).is_none(), "no ground ever: nothing made up");
         t.update(fit(true, 1.0), None, &cfg);
         for i in 1..=cfg.max_lost_frames {
-            assert_eq!(
-                t.update(None, None, &cfg).unwrap().state,
-                GroundState::Lost,
-                "frame {i}"
-            );
+            assert_eq!(t.update(None, None, &cfg).unwrap().state, GroundState::Lost, "frame {i}");
         }
-        assert_eq!(
-            t.update(None, None, &cfg).unwrap().state,
-            GroundState::Degraded
-        );
-        assert_eq!(
-            t.update(fit(true, 1.05), None, &cfg).unwrap().state,
-            GroundState::Found
-        );
+        assert_eq!(t.update(None, None, &cfg).unwrap().state, GroundState::Degraded);
+        assert_eq!(t.update(fit(true, 1.05), None, &cfg).unwrap().state, GroundState::Found);
     }
 
     #[test]
@@ -583,9 +480,6 @@ mod tests {
         let t = GroundTracker::default();
         let up = t.prior_up(Some([0.0, 0.0, 2.0]), &cfg);
         assert_eq!(up, [0.0, 0.0, -1.0]);
-        assert_eq!(
-            t.prior_up(Some([f32::NAN, 0.0, 0.0]), &cfg),
-            [0.0, -1.0, 0.0]
-        );
+        assert_eq!(t.prior_up(Some([f32::NAN, 0.0, 0.0]), &cfg), [0.0, -1.0, 0.0]);
     }
 }

@@ -37,12 +37,7 @@ impl GroundPrediction {
     /// stand in at `stamp_ns`: gravity present, within `max_tilt_deg` of the last found
     /// normal, and that ground found less than `max_age_ns` before. A stamp that does not
     /// advance past the last found ground proves no age bound: not trusted.
-    pub fn trusted(
-        &self,
-        gravity_camera: Option<[f32; 3]>,
-        stamp_ns: u64,
-        cfg: &GroundPredictionConfig,
-    ) -> bool {
+    pub fn trusted(&self, gravity_camera: Option<[f32; 3]>, stamp_ns: u64, cfg: &GroundPredictionConfig) -> bool {
         let (Some(last), Some(g)) = (self.last_found, gravity_camera) else {
             return false;
         };
@@ -57,11 +52,7 @@ impl GroundPrediction {
 
 /// Whether a frame with `obstacle_points` of `valid_points` sampled points shows a
 /// blocked view (enough of what is seen stands above the ground).
-pub fn blocked_view(
-    obstacle_points: usize,
-    valid_points: usize,
-    cfg: &GroundPredictionConfig,
-) -> bool {
+pub fn blocked_view(obstacle_points: usize, valid_points: usize, cfg: &GroundPredictionConfig) -> bool {
     valid_points > 0 && obstacle_points as f32 >= cfg.min_obstacle_fraction * valid_points as f32
 }
 
@@ -85,10 +76,7 @@ mod tests {
         let p = seen_at(10 * S);
         assert!(p.trusted(Some(DOWN), 10 * S + S / 30, &cfg));
         assert!(p.trusted(Some(DOWN), 12 * S + S / 2, &cfg));
-        assert!(
-            !p.trusted(Some(DOWN), 13 * S, &cfg),
-            "3 s after the last ground"
-        );
+        assert!(!p.trusted(Some(DOWN), 13 * S, &cfg), "3 s after the last ground");
     }
 
     #[test]
@@ -110,14 +98,8 @@ mod tests {
         assert!(!seen_at(S).trusted(None, 2 * S, &cfg));
         assert!(!seen_at(S).trusted(Some([f32::NAN, 0.0, 0.0]), 2 * S, &cfg));
         assert!(!GroundPrediction::default().trusted(Some(DOWN), 2 * S, &cfg));
-        assert!(
-            !seen_at(0).trusted(Some(DOWN), 0, &cfg),
-            "stamps that never advance"
-        );
-        let off = GroundPredictionConfig {
-            enabled: false,
-            ..cfg
-        };
+        assert!(!seen_at(0).trusted(Some(DOWN), 0, &cfg), "stamps that never advance");
+        let off = GroundPredictionConfig { enabled: false, ..cfg };
         assert!(!seen_at(S).trusted(Some(DOWN), 2 * S, &off));
     }
 

@@ -17,11 +17,7 @@ pub struct RumbleDebounce {
 
 impl Default for RumbleDebounce {
     fn default() -> Self {
-        Self {
-            current: Rumble::None,
-            candidate: Rumble::None,
-            candidate_frames: 0,
-        }
+        Self { current: Rumble::None, candidate: Rumble::None, candidate_frames: 0 }
     }
 }
 
@@ -67,41 +63,28 @@ mod tests {
     fn single_clear_frame_does_not_drop_a_warning() {
         let cfg = HysteresisConfig::default();
         let mut d = RumbleDebounce::default();
-        assert_eq!(
-            d.update(Rumble::Left, &cfg),
-            Rumble::Left,
-            "warning passes at once"
-        );
+        assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left, "warning passes at once");
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::Left);
         assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left);
         for _ in 1..cfg.relax_frames {
             assert_eq!(d.update(Rumble::None, &cfg), Rumble::Left);
         }
-        assert_eq!(
-            d.update(Rumble::None, &cfg),
-            Rumble::None,
-            "clear after relax_frames in a row"
-        );
+        assert_eq!(d.update(Rumble::None, &cfg), Rumble::None, "clear after relax_frames in a row");
     }
 
     #[test]
     fn flapping_sides_hold_the_first_side_and_both_escalates_at_once() {
         let cfg = HysteresisConfig::default();
         let mut d = RumbleDebounce::default();
-        let shown: Vec<_> = [Rumble::Left, Rumble::Right, Rumble::Left, Rumble::Right]
-            .iter()
-            .map(|&r| d.update(r, &cfg))
-            .collect();
+        let shown: Vec<_> =
+            [Rumble::Left, Rumble::Right, Rumble::Left, Rumble::Right].iter().map(|&r| d.update(r, &cfg)).collect();
         assert_eq!(shown, vec![Rumble::Left; 4]);
         assert_eq!(d.update(Rumble::Both, &cfg), Rumble::Both);
     }
 
     #[test]
     fn switched_off_passes_raw_states() {
-        let cfg = HysteresisConfig {
-            enabled: false,
-            ..Default::default()
-        };
+        let cfg = HysteresisConfig { enabled: false, ..Default::default() };
         let mut d = RumbleDebounce::default();
         assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left);
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::None);

@@ -210,12 +210,7 @@ impl Perception {
             plane_camera: [0.0; 4],
             ground: GroundState::Degraded,
             points_valid: 0,
-            scan: Scan {
-                angle_min_deg: 0.0,
-                angle_increment_deg: 1.0,
-                ranges_m: Vec::new(),
-                range_max_m: 0.0,
-            },
+            scan: Scan { angle_min_deg: 0.0, angle_increment_deg: 1.0, ranges_m: Vec::new(), range_max_m: 0.0 },
             ficf: SideCosts::default(),
             cacf: SideCosts::default(),
             rumble_ficf: Rumble::None,
@@ -284,25 +279,10 @@ impl Pipeline {
         let cfg = &self.config;
         timer.start("sample");
         let sampled = match input {
-            DepthInput::Depth {
-                samples,
-                width,
-                height,
-                depth_scale_m,
-                intrinsics,
-            } => self.cloud.from_depth(
-                samples,
-                width,
-                height,
-                depth_scale_m,
-                intrinsics,
-                cfg.stride_px,
-            ),
-            DepthInput::Xyz {
-                points,
-                width,
-                height,
-            } => self.cloud.from_xyz(
+            DepthInput::Depth { samples, width, height, depth_scale_m, intrinsics } => {
+                self.cloud.from_depth(samples, width, height, depth_scale_m, intrinsics, cfg.stride_px)
+            }
+            DepthInput::Xyz { points, width, height } => self.cloud.from_xyz(
                 points,
                 width,
                 height,
@@ -313,19 +293,12 @@ impl Pipeline {
         };
         timer.stop();
         sampled?;
-        let gravity = ctx
-            .gravity_camera
-            .filter(|g| g.iter().all(|v| v.is_finite()));
+        let gravity = ctx.gravity_camera.filter(|g| g.iter().all(|v| v.is_finite()));
 
         timer.start("ground_plane");
         let fit = if self.cloud.valid.len() >= 3 {
             let up = self.tracker.prior_up(gravity, &cfg.ground);
-            self.search.fit(
-                &self.cloud,
-                up,
-                self.tracker.expected_offset_m(&cfg.ground),
-                &cfg.ground,
-            )
+            self.search.fit(&self.cloud, up, self.tracker.expected_offset_m(&cfg.ground), &cfg.ground)
         } else {
             None
         };
@@ -337,35 +310,18 @@ impl Pipeline {
         if self.cloud.valid.is_empty() {
             return Err(PerceptionError::NoValidPoints);
         }
-        let decision = decision.ok_or(PerceptionError::GroundNotFound {
-            lost_frames: self.tracker.lost_frames(),
-        })?;
-        let frame =
-            UserFrame::from_plane(&decision.plane).ok_or(PerceptionError::CameraAlongVertical)?;
-        let view = self.cloud.view.unwrap_or(organized_cloud::ViewGeometry {
-            half_hfov_rad: 0.5,
-            half_vfov_rad: 0.4,
-        });
+        let decision = decision.ok_or(PerceptionError::GroundNotFound { lost_frames: self.tracker.lost_frames() })?;
+        let frame = UserFrame::from_plane(&decision.plane).ok_or(PerceptionError::CameraAlongVertical)?;
+        let view = self.cloud.view.unwrap_or(organized_cloud::ViewGeometry { half_hfov_rad: 0.5, half_vfov_rad: 0.4 });
 
         timer.start("nearest_scan");
         let layout = match self.layout.take() {
             Some(l) if l.fits(view.half_hfov_rad, cfg.scan.bin_deg) => l,
             _ => BinLayout::for_fov(view.half_hfov_rad, cfg.scan.bin_deg),
         };
-        let band_scale = if decision.state == GroundState::Found {
-            1.0
-        } else {
-            cfg.scan.fallback_band_scale
-        };
+        let band_scale = if decision.state == GroundState::Found { 1.0 } else { cfg.scan.fallback_band_scale };
         let out = &mut self.out;
-        self.scan.build(
-            &self.cloud,
-            &frame,
-            &layout,
-            &cfg.scan,
-            band_scale,
-            &mut out.scan,
-        );
+        self.scan.build(&self.cloud, &frame, &layout, &cfg.scan, band_scale, &mut out.scan);
         timer.stop();
 
         timer.start("dropoff");
@@ -389,21 +345,11 @@ impl Pipeline {
                 range_max_m: cfg.scan.range_max_m,
             };
             let heights = &self.scan.heights_m;
-            let seen = self.cost_points.iter().zip(
-                out.scan
-                    .ranges_m
-                    .iter()
-                    .zip(heights)
-                    .filter(|(r, _)| r.is_finite())
-                    .map(|(_, h)| *h),
-            );
-            self.memory.update(
-                ctx.stamp_ns,
-                ctx.motion,
-                &cone,
-                seen.map(|(p, h)| [p[0], p[1], h]),
-                &cfg.memory,
-            );
+            let seen = self
+                .cost_points
+                .iter()
+                .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h));
+            self.memory.update(ctx.stamp_ns, ctx.motion, &cone, seen.map(|(p, h)| [p[0], p[1], h]), &cfg.memory);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
         } else {
@@ -416,22 +362,14 @@ impl Pipeline {
         out.cacf = side_costs(self.cost_points.iter().copied(), &cfg.cacf);
         out.rumble_ficf = rumble(&out.ficf, &cfg.ficf);
         out.rumble_cacf = rumble(&out.cacf, &cfg.cacf);
-        let nearest = self
-            .cost_points
-            .iter()
-            .map(|p| (p[0].hypot(p[1]), p))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let nearest = self.cost_points.iter().map(|p| (p[0].hypot(p[1]), p)).min_by(|a, b| a.0.total_cmp(&b.0));
         (out.nearest_m, out.nearest_bearing_deg) = match nearest {
             Some((r, p)) => (r, p[1].atan2(p[0]).to_degrees()),
             None => (f32::INFINITY, 0.0),
         };
         let ahead = nearest_in_path(self.cost_points.iter().copied(), cfg.ttc.path_width_m);
-        out.ttc_s = if cfg.ttc.enabled {
-            self.closing
-                .update(ctx.stamp_ns, ahead.map(|p| p[0]), &cfg.ttc)
-        } else {
-            None
-        };
+        out.ttc_s =
+            if cfg.ttc.enabled { self.closing.update(ctx.stamp_ns, ahead.map(|p| p[0]), &cfg.ttc) } else { None };
         let mut raw = match cfg.cost_function {
             CostFunction::Ficf => out.rumble_ficf,
             CostFunction::Cacf => out.rumble_cacf,
@@ -439,11 +377,7 @@ impl Pipeline {
         if raw == Rumble::None && out.ttc_s.is_some_and(|t| t < cfg.ttc.warn_s) {
             // turn away from the side of the path the approaching obstacle is on
             let left_of_path = ahead.is_some_and(|p| p[1] > 0.0);
-            raw = if left_of_path {
-                Rumble::Right
-            } else {
-                Rumble::Left
-            };
+            raw = if left_of_path { Rumble::Right } else { Rumble::Left };
         }
         if out.dropoff_ahead {
             raw = Rumble::Both;
@@ -457,14 +391,9 @@ impl Pipeline {
         // a far wall would otherwise be silent).
         out.ground = if decision.state == GroundState::Degraded
             && out.rumble != Rumble::None
-            && self
-                .prediction
-                .trusted(gravity, ctx.stamp_ns, &cfg.ground_prediction)
-            && blocked_view(
-                self.scan.obstacle_points,
-                self.cloud.valid.len(),
-                &cfg.ground_prediction,
-            ) {
+            && self.prediction.trusted(gravity, ctx.stamp_ns, &cfg.ground_prediction)
+            && blocked_view(self.scan.obstacle_points, self.cloud.valid.len(), &cfg.ground_prediction)
+        {
             GroundState::Lost
         } else {
             decision.state

@@ -40,21 +40,13 @@ impl UserFrame {
         }
         let forward = normalized(&[-along * n[0], -along * n[1], 1.0 - along * n[2]])?;
         let left = cross(&n, &forward);
-        Some(Self {
-            forward,
-            left,
-            plane: *plane,
-        })
+        Some(Self { forward, left, plane: *plane })
     }
 
     /// Camera point -> user point `[x forward, y left, z up]`.
     #[inline]
     pub fn to_user(&self, p: &[f32; 3]) -> [f32; 3] {
-        [
-            dot(&self.forward, p),
-            dot(&self.left, p),
-            self.plane.height(p),
-        ]
+        [dot(&self.forward, p), dot(&self.left, p), self.plane.height(p)]
     }
 
     /// User point -> camera point.
@@ -95,9 +87,8 @@ impl BinLayout {
     /// (Taylor's 58 deg camera: 61 bins, -30..=30).
     pub fn for_fov(half_fov_rad: f32, bin_deg: f32) -> Self {
         let (half_bins, bin_deg) = Self::shape(half_fov_rad, bin_deg);
-        let edges_tan: Vec<f32> = (-half_bins..=half_bins + 1)
-            .map(|k| ((k as f32 - 0.5) * bin_deg).to_radians().tan())
-            .collect();
+        let edges_tan: Vec<f32> =
+            (-half_bins..=half_bins + 1).map(|k| ((k as f32 - 0.5) * bin_deg).to_radians().tan()).collect();
         let (lo, hi) = (edges_tan[0], edges_tan[edges_tan.len() - 1]);
         let lut_scale = LUT_CELLS as f32 / (hi - lo);
         let lut = (0..LUT_CELLS)
@@ -106,13 +97,7 @@ impl BinLayout {
                 (edges_tan.partition_point(|&e| e <= t).max(1) - 1) as u16
             })
             .collect();
-        Self {
-            half_bins,
-            bin_deg,
-            edges_tan,
-            lut,
-            lut_scale,
-        }
+        Self { half_bins, bin_deg, edges_tan, lut, lut_scale }
     }
 
     /// True when this layout is the one [`BinLayout::for_fov`] would build.
@@ -121,16 +106,8 @@ impl BinLayout {
     }
 
     fn shape(half_fov_rad: f32, bin_deg: f32) -> (i32, f32) {
-        let bin_deg = if bin_deg.is_finite() && bin_deg > 0.01 {
-            bin_deg
-        } else {
-            1.0
-        };
-        let half_fov_deg = if half_fov_rad.is_finite() {
-            half_fov_rad.to_degrees().clamp(0.0, 80.0)
-        } else {
-            30.0
-        };
+        let bin_deg = if bin_deg.is_finite() && bin_deg > 0.01 { bin_deg } else { 1.0 };
+        let half_fov_deg = if half_fov_rad.is_finite() { half_fov_rad.to_degrees().clamp(0.0, 80.0) } else { 30.0 };
         ((half_fov_deg / bin_deg).floor() as i32 + 1, bin_deg)
     }
 
@@ -216,12 +193,7 @@ impl ScanBuilder {
                 continue;
             }
             if let Some(b) = layout.bin_of(x, y) {
-                insert_sorted(
-                    &mut self.nearest_sq[b],
-                    &mut self.nearest_height[b],
-                    r_sq,
-                    h,
-                );
+                insert_sorted(&mut self.nearest_sq[b], &mut self.nearest_height[b], r_sq, h);
             }
         }
         self.obstacle_points = obstacles;
@@ -269,9 +241,7 @@ mod tests {
         let layout = BinLayout::for_fov(29f32.to_radians(), 1.0);
         let at = |deg: f32| {
             let r = deg.to_radians();
-            layout
-                .bin_of(r.cos(), r.sin())
-                .map(|b| layout.bearing_deg(b))
+            layout.bin_of(r.cos(), r.sin()).map(|b| layout.bearing_deg(b))
         };
         assert_eq!(at(0.2), Some(0.0));
         assert_eq!(at(10.4), Some(10.0));
@@ -282,39 +252,25 @@ mod tests {
         // every bin edge lands on the bin above it, exactly as the tangents say
         for k in -30..=30 {
             let edge = (k as f32 - 0.5).to_radians();
-            assert_eq!(
-                at(edge.to_degrees() + 1e-3),
-                Some(k as f32),
-                "edge below bin {k}"
-            );
+            assert_eq!(at(edge.to_degrees() + 1e-3), Some(k as f32), "edge below bin {k}");
         }
     }
 
     #[test]
     fn level_camera_user_frame_has_left_as_minus_camera_x() {
-        let plane = Plane {
-            normal: [0.0, -1.0, 0.0],
-            offset_m: 1.0,
-        };
+        let plane = Plane { normal: [0.0, -1.0, 0.0], offset_m: 1.0 };
         let f = UserFrame::from_plane(&plane).unwrap();
         // camera point 1 m right, on the floor (y down = +1), 2 m ahead
         let u = f.to_user(&[1.0, 1.0, 2.0]);
         assert!((u[0] - 2.0).abs() < 1e-6 && (u[1] + 1.0).abs() < 1e-6 && u[2].abs() < 1e-6);
         let back = f.to_camera(&u);
-        assert!(
-            (back[0] - 1.0).abs() < 1e-6
-                && (back[1] - 1.0).abs() < 1e-6
-                && (back[2] - 2.0).abs() < 1e-6
-        );
+        assert!((back[0] - 1.0).abs() < 1e-6 && (back[1] - 1.0).abs() < 1e-6 && (back[2] - 2.0).abs() < 1e-6);
         assert!(f.pitch_down_rad().abs() < 1e-6);
     }
 
     #[test]
     fn camera_looking_straight_down_has_no_user_frame() {
-        let plane = Plane {
-            normal: [0.0, 0.0, -1.0],
-            offset_m: 1.0,
-        };
+        let plane = Plane { normal: [0.0, 0.0, -1.0], offset_m: 1.0 };
         assert!(UserFrame::from_plane(&plane).is_none());
     }
 }

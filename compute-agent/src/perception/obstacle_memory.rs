@@ -90,9 +90,7 @@ impl ObstacleMemory {
         cfg: &MemoryConfig,
     ) {
         self.ensure(cfg);
-        if let Some(m) = motion
-            .filter(|m| m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite())
-        {
+        if let Some(m) = motion.filter(|m| m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite()) {
             self.spare.iter_mut().for_each(|c| *c = Cell::default());
             let (s, c) = m.yaw_rad.sin_cos();
             for idx in 0..self.cells.len() {
@@ -103,11 +101,7 @@ impl ObstacleMemory {
                 let (dx, dy) = (cell.x_m - m.forward_m, cell.y_m - m.left_m);
                 let (nx, ny) = (c * dx + s * dy, -s * dx + c * dy);
                 if let Some(j) = self.index(nx, ny, cfg) {
-                    self.spare[j] = Cell {
-                        x_m: nx,
-                        y_m: ny,
-                        ..cell
-                    };
+                    self.spare[j] = Cell { x_m: nx, y_m: ny, ..cell };
                 }
             }
             std::mem::swap(&mut self.cells, &mut self.spare);
@@ -120,8 +114,7 @@ impl ObstacleMemory {
                 continue;
             }
             let (x, y) = (cell.x_m, cell.y_m);
-            if stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns || view.sees(x, y, cell.height_m)
-            {
+            if stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns || view.sees(x, y, cell.height_m) {
                 self.cells[idx] = Cell::default();
                 continue;
             }
@@ -138,13 +131,7 @@ impl ObstacleMemory {
         }
         for [x, y, h] in scan_obstacles {
             if let Some(j) = self.index(x, y, cfg) {
-                self.cells[j] = Cell {
-                    x_m: x,
-                    y_m: y,
-                    seen_ns: stamp_ns,
-                    height_m: h,
-                    occupied: true,
-                };
+                self.cells[j] = Cell { x_m: x, y_m: y, seen_ns: stamp_ns, height_m: h, occupied: true };
             }
         }
     }
@@ -182,26 +169,15 @@ mod tests {
             let seen = visible.then_some([x, 0.0, 1.9]);
             m.update(
                 k * FRAME_NS,
-                Some(Motion {
-                    forward_m: step,
-                    left_m: 0.0,
-                    yaw_rad: 0.0,
-                }),
+                Some(Motion { forward_m: step, left_m: 0.0, yaw_rad: 0.0 }),
                 &view(),
                 seen.into_iter(),
                 &cfg,
             );
         }
         assert!(!view().sees(x, 0.0, 1.9), "sign left the view at {x}");
-        let nearest = m
-            .out_of_view
-            .iter()
-            .map(|p| p[0])
-            .fold(f32::INFINITY, f32::min);
-        assert!(
-            (nearest - x).abs() < 0.12,
-            "remembered at {nearest}, truly at {x}"
-        );
+        let nearest = m.out_of_view.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min);
+        assert!((nearest - x).abs() < 0.12, "remembered at {nearest}, truly at {x}");
     }
 
     #[test]
@@ -209,22 +185,12 @@ mod tests {
         let cfg = MemoryConfig::default();
         let mut m = ObstacleMemory::default();
         m.update(0, None, &view(), [[1.0, 0.0, 0.5]].into_iter(), &cfg);
-        let turn = Motion {
-            forward_m: 0.0,
-            left_m: 0.0,
-            yaw_rad: 90f32.to_radians(),
-        };
+        let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 90f32.to_radians() };
         m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
         assert_eq!(m.out_of_view.len(), 1);
         let [x, y] = m.out_of_view[0];
         assert!(x.abs() < 0.1 && (y + 1.0).abs() < 0.1, "({x}, {y})");
-        m.update(
-            FRAME_NS + cfg.ttl_ns + 1,
-            None,
-            &view(),
-            std::iter::empty(),
-            &cfg,
-        );
+        m.update(FRAME_NS + cfg.ttl_ns + 1, None, &view(), std::iter::empty(), &cfg);
         assert!(m.out_of_view.is_empty());
     }
 

@@ -61,30 +61,12 @@ impl SampledCloud {
             return Err(PerceptionError::BadDepthScale(depth_scale_m));
         }
         let stride = stride.max(1);
-        let key = (
-            width,
-            height,
-            stride,
-            [
-                k.fx.to_bits(),
-                k.fy.to_bits(),
-                k.cx.to_bits(),
-                k.cy.to_bits(),
-            ],
-        );
+        let key = (width, height, stride, [k.fx.to_bits(), k.fy.to_bits(), k.cx.to_bits(), k.cy.to_bits()]);
         if self.ray_key != Some(key) {
             self.col_ray.clear();
-            self.col_ray.extend(
-                (0..width)
-                    .step_by(stride as usize)
-                    .map(|u| (u as f32 - k.cx) / k.fx),
-            );
+            self.col_ray.extend((0..width).step_by(stride as usize).map(|u| (u as f32 - k.cx) / k.fx));
             self.row_ray.clear();
-            self.row_ray.extend(
-                (0..height)
-                    .step_by(stride as usize)
-                    .map(|v| (v as f32 - k.cy) / k.fy),
-            );
+            self.row_ray.extend((0..height).step_by(stride as usize).map(|v| (v as f32 - k.cy) / k.fy));
             self.ray_key = Some(key);
         }
         self.cols = self.col_ray.len();
@@ -93,10 +75,7 @@ impl SampledCloud {
         let right = ((width as f32 - 0.5 - k.cx) / k.fx).atan();
         let top = ((k.cy + 0.5) / k.fy).atan();
         let bottom = ((height as f32 - 0.5 - k.cy) / k.fy).atan();
-        self.view = Some(ViewGeometry {
-            half_hfov_rad: left.max(right),
-            half_vfov_rad: top.max(bottom),
-        });
+        self.view = Some(ViewGeometry { half_hfov_rad: left.max(right), half_vfov_rad: top.max(bottom) });
         self.points.clear();
         self.valid.clear();
         let w = width as usize;
@@ -158,10 +137,7 @@ impl SampledCloud {
             Some(deg) => (deg * 0.5).to_radians(),
             None => widest.atan(),
         };
-        self.view = Some(ViewGeometry {
-            half_hfov_rad,
-            half_vfov_rad: (vfov_deg * 0.5).to_radians(),
-        });
+        self.view = Some(ViewGeometry { half_hfov_rad, half_vfov_rad: (vfov_deg * 0.5).to_radians() });
         Ok(())
     }
 
@@ -170,11 +146,7 @@ impl SampledCloud {
         if self.col_ray.is_empty() {
             return None;
         }
-        Some([
-            self.col_ray[index % self.cols],
-            self.row_ray[index / self.cols],
-            1.0,
-        ])
+        Some([self.col_ray[index % self.cols], self.row_ray[index / self.cols], 1.0])
     }
 }
 
@@ -198,12 +170,7 @@ fn check_size(len: usize, width: u32, height: u32) -> Result<(), PerceptionError
 mod tests {
     use super::*;
 
-    const K: Intrinsics = Intrinsics {
-        fx: 525.0,
-        fy: 525.0,
-        cx: 319.5,
-        cy: 239.5,
-    };
+    const K: Intrinsics = Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 };
 
     #[test]
     fn depth_pixel_back_projects_through_the_pinhole() {
@@ -213,10 +180,7 @@ mod tests {
         samples[100 * 640 + 420] = 2000;
         let mut cloud = SampledCloud::default();
         cloud.from_depth(&samples, w, h, 0.001, K, 2).unwrap();
-        assert_eq!(
-            cloud.points_valid, 4,
-            "one sampled pixel stands for stride^2"
-        );
+        assert_eq!(cloud.points_valid, 4, "one sampled pixel stands for stride^2");
         assert_eq!(cloud.valid.len(), 1);
         let p = cloud.points[cloud.valid[0] as usize];
         assert!((p[0] - (420.0 - 319.5) / 525.0 * 2.0).abs() < 1e-5);
@@ -230,34 +194,17 @@ mod tests {
     fn mismatched_sizes_and_bad_intrinsics_are_errors() {
         let mut cloud = SampledCloud::default();
         let samples = vec![1000u16; 100];
-        assert!(matches!(
-            cloud.from_depth(&samples, 640, 480, 0.001, K, 2),
-            Err(PerceptionError::SizeMismatch { .. })
-        ));
+        assert!(matches!(cloud.from_depth(&samples, 640, 480, 0.001, K, 2), Err(PerceptionError::SizeMismatch { .. })));
         let nan_k = Intrinsics { fx: f32::NAN, ..K };
-        assert!(matches!(
-            cloud.from_depth(&samples, 10, 10, 0.001, nan_k, 2),
-            Err(PerceptionError::BadIntrinsics(_))
-        ));
-        assert!(matches!(
-            cloud.from_depth(&samples, 10, 10, 0.0, K, 2),
-            Err(PerceptionError::BadDepthScale(_))
-        ));
+        assert!(matches!(cloud.from_depth(&samples, 10, 10, 0.001, nan_k, 2), Err(PerceptionError::BadIntrinsics(_))));
+        assert!(matches!(cloud.from_depth(&samples, 10, 10, 0.0, K, 2), Err(PerceptionError::BadDepthScale(_))));
         let pts = vec![[0.0f32; 3]; 5];
-        assert!(matches!(
-            cloud.from_xyz(&pts, 2, 2, 1, None, 45.0),
-            Err(PerceptionError::SizeMismatch { .. })
-        ));
+        assert!(matches!(cloud.from_xyz(&pts, 2, 2, 1, None, 45.0), Err(PerceptionError::SizeMismatch { .. })));
     }
 
     #[test]
     fn xyz_nan_and_behind_camera_points_are_invalid() {
-        let pts = vec![
-            [f32::NAN, 0.0, 1.0],
-            [0.1, 0.2, -1.0],
-            [0.5, 0.0, 1.0],
-            [0.0, 0.0, 0.0],
-        ];
+        let pts = vec![[f32::NAN, 0.0, 1.0], [0.1, 0.2, -1.0], [0.5, 0.0, 1.0], [0.0, 0.0, 0.0]];
         let mut cloud = SampledCloud::default();
         cloud.from_xyz(&pts, 2, 2, 1, None, 45.0).unwrap();
         assert_eq!(cloud.points_valid, 1, "exact at stride 1");

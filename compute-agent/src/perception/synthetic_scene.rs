@@ -47,12 +47,7 @@ impl Scene {
         Self {
             height_m,
             pitch_deg,
-            intrinsics: Intrinsics {
-                fx: 525.0,
-                fy: 525.0,
-                cx: 319.5,
-                cy: 239.5,
-            },
+            intrinsics: Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 },
             width: 640,
             height: 480,
             floor: true,
@@ -80,11 +75,7 @@ impl Scene {
         let k = self.intrinsics;
         let (a, b) = ((u - k.cx) / k.fx, (v - k.cy) / k.fy);
         let [ex, ey, ez] = self.axes();
-        let d = [
-            a * ex[0] + b * ey[0] + ez[0],
-            a * ex[1] + b * ey[1] + ez[1],
-            a * ex[2] + b * ey[2] + ez[2],
-        ];
+        let d = [a * ex[0] + b * ey[0] + ez[0], a * ex[1] + b * ey[1] + ez[1], a * ex[2] + b * ey[2] + ez[2]];
         let o = [0.0, 0.0, self.height_m];
         // t is the depth: the ray's optical-z component is 1
         let mut best = f32::INFINITY;
@@ -125,9 +116,7 @@ impl Scene {
         for v in 0..self.height {
             for u in 0..self.width {
                 let z = self.depth_at(u as f32, v as f32);
-                out.push(z.map_or(0, |z| {
-                    (z / depth_scale_m).round().min(u16::MAX as f32) as u16
-                }));
+                out.push(z.map_or(0, |z| (z / depth_scale_m).round().min(u16::MAX as f32) as u16));
             }
         }
         out
@@ -140,11 +129,7 @@ impl Scene {
         for v in 0..self.height {
             for u in 0..self.width {
                 out.push(match self.depth_at(u as f32, v as f32) {
-                    Some(z) => [
-                        (u as f32 - k.cx) / k.fx * z,
-                        (v as f32 - k.cy) / k.fy * z,
-                        z,
-                    ],
+                    Some(z) => [(u as f32 - k.cx) / k.fx * z, (v as f32 - k.cy) / k.fy * z, z],
                     None => [f32::NAN; 3],
                 });
             }

@@ -27,10 +27,7 @@ fn gravity(scene: &Scene) -> Option<[f32; 3]> {
 /// Angle between plane normals (deg) and offset difference (m).
 fn plane_error(got: [f32; 4], want: [f32; 4]) -> (f32, f32) {
     let cos = got[0] * want[0] + got[1] * want[1] + got[2] * want[2];
-    (
-        cos.clamp(-1.0, 1.0).acos().to_degrees(),
-        (got[3] - want[3]).abs(),
-    )
+    (cos.clamp(-1.0, 1.0).acos().to_degrees(), (got[3] - want[3]).abs())
 }
 
 fn thesis_only() -> PerceptionConfig {
@@ -47,27 +44,12 @@ fn synthetic_floor_plane_within_1_deg_and_2_cm_at_10_and_30_deg_pitch() {
     for pitch in [10.0, 30.0] {
         let mut scene = Scene::kinect(1.0, pitch);
         scene.walls_x_m.push(4.0);
-        scene.blocks.push(Block {
-            min: [2.0, -0.5, 0.0],
-            max: [2.4, 0.0, 0.8],
-        });
+        scene.blocks.push(Block { min: [2.0, -0.5, 0.0], max: [2.4, 0.0, 0.8] });
         let mut p = Pipeline::new(PerceptionConfig::default());
-        let out = run(
-            &mut p,
-            &scene,
-            &FrameContext {
-                gravity_camera: gravity(&scene),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let out = run(&mut p, &scene, &FrameContext { gravity_camera: gravity(&scene), ..Default::default() }).unwrap();
         let (deg, m) = plane_error(out.plane_camera, scene.floor_plane_camera());
         assert_eq!(out.ground, GroundState::Found);
-        assert!(
-            deg < 1.0 && m < 0.02,
-            "pitch {pitch}: {deg} deg, {m} m, plane {:?}",
-            out.plane_camera
-        );
+        assert!(deg < 1.0 && m < 0.02, "pitch {pitch}: {deg} deg, {m} m, plane {:?}", out.plane_camera);
     }
 }
 
@@ -88,10 +70,7 @@ fn thirty_deg_pitch_without_gravity_is_ground_not_found_not_a_wrong_plane() {
 fn scan_bins_are_within_5_cm_of_the_true_nearest_obstacle() {
     let mut scene = Scene::kinect(1.0, 10.0);
     scene.walls_x_m.push(2.5);
-    scene.blocks.push(Block {
-        min: [1.2, 0.3, 0.0],
-        max: [1.5, 0.7, 1.0],
-    });
+    scene.blocks.push(Block { min: [1.2, 0.3, 0.0], max: [1.5, 0.7, 1.0] });
     let mut p = Pipeline::new(thesis_only());
     let out = run(&mut p, &scene, &FrameContext::default()).unwrap();
     let mut checked = 0;
@@ -120,10 +99,7 @@ fn scan_bins_are_within_5_cm_of_the_true_nearest_obstacle() {
         if bearing.abs() > 29.0 {
             continue; // edge bins see only part of their width
         }
-        assert!(
-            (r - truth).abs() < 0.05,
-            "bin {bearing} deg: scan {r}, truth {truth}"
-        );
+        assert!((r - truth).abs() < 0.05, "bin {bearing} deg: scan {r}, truth {truth}");
         checked += 1;
     }
     assert!(checked >= 55, "{checked} bins checked");
@@ -133,14 +109,8 @@ fn scan_bins_are_within_5_cm_of_the_true_nearest_obstacle() {
 fn twelve_cm_box_on_the_floor_at_1_5_m_is_detected() {
     for (pitch, grav) in [(10.0, false), (30.0, true)] {
         let mut scene = Scene::kinect(1.0, pitch);
-        scene.blocks.push(Block {
-            min: [1.5, -0.15, 0.0],
-            max: [1.8, 0.15, 0.12],
-        });
-        let ctx = FrameContext {
-            gravity_camera: if grav { gravity(&scene) } else { None },
-            ..Default::default()
-        };
+        scene.blocks.push(Block { min: [1.5, -0.15, 0.0], max: [1.8, 0.15, 0.12] });
+        let ctx = FrameContext { gravity_camera: if grav { gravity(&scene) } else { None }, ..Default::default() };
         let out = run(&mut Pipeline::new(thesis_only()), &scene, &ctx).unwrap();
         let centre = out.scan.ranges_m.len() / 2;
         for i in centre - 4..=centre + 4 {
@@ -148,13 +118,7 @@ fn twelve_cm_box_on_the_floor_at_1_5_m_is_detected() {
             assert!(r > 1.49 && r < 1.56, "pitch {pitch}, bin {i}: {r}");
         }
         // and the empty floor around it is not an obstacle
-        assert!(
-            out.scan.ranges_m[..centre - 8]
-                .iter()
-                .all(|r| r.is_infinite()),
-            "{:?}",
-            out.scan.ranges_m
-        );
+        assert!(out.scan.ranges_m[..centre - 8].iter().all(|r| r.is_infinite()), "{:?}", out.scan.ranges_m);
         assert!((out.nearest_m - 1.5).abs() < 0.03 && out.nearest_bearing_deg.abs() <= 6.0);
     }
 }
@@ -163,29 +127,15 @@ fn twelve_cm_box_on_the_floor_at_1_5_m_is_detected() {
 fn xyz_and_depth_input_agree() {
     let mut scene = Scene::kinect(1.2, 15.0);
     scene.walls_x_m.push(3.0);
-    let depth = run(
-        &mut Pipeline::new(thesis_only()),
-        &scene,
-        &FrameContext::default(),
-    )
-    .unwrap();
+    let depth = run(&mut Pipeline::new(thesis_only()), &scene, &FrameContext::default()).unwrap();
     let xyz = scene.render_xyz();
     let mut p = Pipeline::new(thesis_only());
-    let input = DepthInput::Xyz {
-        points: &xyz,
-        width: scene.width,
-        height: scene.height,
-    };
-    let out = p
-        .process(input, &FrameContext::default(), &mut NoTimer)
-        .unwrap();
+    let input = DepthInput::Xyz { points: &xyz, width: scene.width, height: scene.height };
+    let out = p.process(input, &FrameContext::default(), &mut NoTimer).unwrap();
     assert!(plane_error(out.plane_camera, depth.plane_camera).0 < 0.2);
     assert_eq!(out.scan.ranges_m.len(), depth.scan.ranges_m.len());
     for (a, b) in out.scan.ranges_m.iter().zip(&depth.scan.ranges_m) {
-        assert!(
-            (a - b).abs() < 0.01 || (a.is_infinite() && b.is_infinite()),
-            "{a} vs {b}"
-        );
+        assert!((a - b).abs() < 0.01 || (a.is_infinite() && b.is_infinite()), "{a} vs {b}");
     }
 }
 
@@ -195,46 +145,18 @@ fn all_nan_all_zero_and_malformed_frames_are_errors() {
     let k = Scene::kinect(1.0, 10.0).intrinsics;
     let zeros = vec![0u16; 640 * 480];
     let depth = |s: &'static str, samples: &[u16], k: Intrinsics, p: &mut Pipeline| {
-        let input = DepthInput::Depth {
-            samples,
-            width: 640,
-            height: 480,
-            depth_scale_m: MM,
-            intrinsics: k,
-        };
-        let e = p
-            .process(input, &FrameContext::default(), &mut NoTimer)
-            .unwrap_err();
+        let input = DepthInput::Depth { samples, width: 640, height: 480, depth_scale_m: MM, intrinsics: k };
+        let e = p.process(input, &FrameContext::default(), &mut NoTimer).unwrap_err();
         assert_eq!(e.kind(), s, "{e}");
     };
     depth("no_valid_points", &zeros, k, &mut p);
     depth("size_mismatch", &zeros[..1000], k, &mut p);
-    depth(
-        "bad_intrinsics",
-        &zeros,
-        Intrinsics { cx: f32::NAN, ..k },
-        &mut p,
-    );
+    depth("bad_intrinsics", &zeros, Intrinsics { cx: f32::NAN, ..k }, &mut p);
     let nan = vec![[f32::NAN; 3]; 640 * 480];
-    let e = p.process(
-        DepthInput::Xyz {
-            points: &nan,
-            width: 640,
-            height: 480,
-        },
-        &FrameContext::default(),
-        &mut NoTimer,
-    );
+    let e =
+        p.process(DepthInput::Xyz { points: &nan, width: 640, height: 480 }, &FrameContext::default(), &mut NoTimer);
     assert_eq!(e.unwrap_err().kind(), "no_valid_points");
-    let e = p.process(
-        DepthInput::Xyz {
-            points: &nan,
-            width: 0,
-            height: 480,
-        },
-        &FrameContext::default(),
-        &mut NoTimer,
-    );
+    let e = p.process(DepthInput::Xyz { points: &nan, width: 0, height: 480 }, &FrameContext::default(), &mut NoTimer);
     assert_eq!(e.unwrap_err().kind(), "size_mismatch");
 }
 
@@ -244,38 +166,19 @@ fn camera_pointing_up_is_lost_then_degraded_never_clear() {
     let mut sky = Scene::kinect(1.0, -60.0);
     sky.floor = false;
     sky.walls_x_m.push(3.0);
-    assert_eq!(
-        run(&mut p, &sky, &FrameContext::default())
-            .unwrap_err()
-            .kind(),
-        "no_ground",
-        "no ground ever seen"
-    );
+    assert_eq!(run(&mut p, &sky, &FrameContext::default()).unwrap_err().kind(), "no_ground", "no ground ever seen");
     let floor = Scene::kinect(1.0, 10.0);
-    assert_eq!(
-        run(&mut p, &floor, &FrameContext::default())
-            .unwrap()
-            .ground,
-        GroundState::Found
-    );
+    assert_eq!(run(&mut p, &floor, &FrameContext::default()).unwrap().ground, GroundState::Found);
     let cfg = PerceptionConfig::default();
     let mut states = Vec::new();
     for _ in 0..=cfg.ground.max_lost_frames {
         states.push(run(&mut p, &sky, &FrameContext::default()).map(|o| o.ground));
     }
-    assert!(
-        states[..cfg.ground.max_lost_frames as usize]
-            .iter()
-            .all(|s| *s == Ok(GroundState::Lost)),
-        "{states:?}"
-    );
+    assert!(states[..cfg.ground.max_lost_frames as usize].iter().all(|s| *s == Ok(GroundState::Lost)), "{states:?}");
     let last = run(&mut p, &sky, &FrameContext::default()).unwrap();
     assert_eq!(last.ground, GroundState::Degraded);
     let intent = cue(&last, &CueConfig::default());
-    assert!(
-        intent.left > 0.0 && intent.right > 0.0,
-        "degraded is never a silent clear: {intent:?}"
-    );
+    assert!(intent.left > 0.0 && intent.right > 0.0, "degraded is never a silent clear: {intent:?}");
     assert!(matches!(intent.pattern, HapticPattern::Pulses { .. }));
 }
 
@@ -288,81 +191,42 @@ fn wall_test(tip_m: f32) -> Perception {
     let mut scene = Scene::kinect(1.0, 45.0);
     scene.intrinsics.fx = 320.0 / 29f32.to_radians().tan(); // Taylor's 58 deg camera
     scene.walls_x_m.push(tip_m + handle_to_tip_m);
-    let ctx = FrameContext {
-        gravity_camera: gravity(&scene),
-        ..Default::default()
-    };
+    let ctx = FrameContext { gravity_camera: gravity(&scene), ..Default::default() };
     run(&mut Pipeline::new(thesis_only()), &scene, &ctx).unwrap()
 }
 
 /// Largest tip distance (1 cm steps) at which `crossed` holds.
 fn crossing_m(crossed: impl Fn(&Perception) -> bool) -> f32 {
-    (35..=150)
-        .rev()
-        .map(|cm| cm as f32 / 100.0)
-        .find(|&tip| crossed(&wall_test(tip)))
-        .unwrap_or(0.0)
+    (35..=150).rev().map(|cm| cm as f32 / 100.0).find(|&tip| crossed(&wall_test(tip))).unwrap_or(0.0)
 }
 
 #[test]
 fn wall_at_75cm_crosses_forward_threshold_and_40cm_left_right() {
     let cfg = PerceptionConfig::default();
     let forward = crossing_m(|p| p.ficf.forward >= cfg.ficf.forward_threshold);
-    let sides = crossing_m(|p| {
-        p.ficf.left >= cfg.ficf.side_threshold && p.ficf.right >= cfg.ficf.side_threshold
-    });
-    assert!(
-        (forward - 0.75).abs() <= 0.03,
-        "FICF forward threshold crossed at {forward} m"
-    );
-    assert!(
-        (sides - 0.40).abs() <= 0.05,
-        "FICF left-right threshold crossed at {sides} m"
-    );
+    let sides = crossing_m(|p| p.ficf.left >= cfg.ficf.side_threshold && p.ficf.right >= cfg.ficf.side_threshold);
+    assert!((forward - 0.75).abs() <= 0.03, "FICF forward threshold crossed at {forward} m");
+    assert!((sides - 0.40).abs() <= 0.05, "FICF left-right threshold crossed at {sides} m");
     let at = wall_test(0.6);
-    assert!(
-        matches!(at.rumble_ficf, Rumble::Left | Rumble::Right),
-        "{:?}",
-        at.rumble_ficf
-    );
+    assert!(matches!(at.rumble_ficf, Rumble::Left | Rumble::Right), "{:?}", at.rumble_ficf);
     assert_eq!(wall_test(0.35).rumble_ficf, Rumble::Both);
     assert_eq!(wall_test(1.2).rumble_ficf, Rumble::None);
     let c_forward = crossing_m(|p| p.cacf.forward >= cfg.cacf.forward_threshold);
-    let c_sides = crossing_m(|p| {
-        p.cacf.left >= cfg.cacf.side_threshold && p.cacf.right >= cfg.cacf.side_threshold
-    });
-    assert!(
-        (c_sides - 0.68).abs() <= 0.05,
-        "CACF left-right threshold crossed at {c_sides} m"
-    );
-    assert!(
-        (c_forward - 0.75).abs() <= 0.03,
-        "CACF forward threshold crossed at {c_forward} m"
-    );
+    let c_sides = crossing_m(|p| p.cacf.left >= cfg.cacf.side_threshold && p.cacf.right >= cfg.cacf.side_threshold);
+    assert!((c_sides - 0.68).abs() <= 0.05, "CACF left-right threshold crossed at {c_sides} m");
+    assert!((c_forward - 0.75).abs() <= 0.03, "CACF forward threshold crossed at {c_forward} m");
 }
 
 #[test]
 fn step_down_ahead_is_a_dropoff_and_stops_the_user() {
     let mut scene = Scene::kinect(1.0, 30.0);
     scene.step = Some((1.3, 0.2));
-    let ctx = FrameContext {
-        gravity_camera: gravity(&scene),
-        ..Default::default()
-    };
-    let out = run(
-        &mut Pipeline::new(PerceptionConfig::default()),
-        &scene,
-        &ctx,
-    )
-    .unwrap();
+    let ctx = FrameContext { gravity_camera: gravity(&scene), ..Default::default() };
+    let out = run(&mut Pipeline::new(PerceptionConfig::default()), &scene, &ctx).unwrap();
     assert!(out.dropoff_ahead, "{:?}", out.path_ground);
     assert_eq!(out.rumble, Rumble::Both);
     let err = plane_error(out.plane_camera, scene.floor_plane_camera());
-    assert!(
-        err.0 < 1.0 && err.1 < 0.02,
-        "upper floor is the ground: {:?}",
-        out.plane_camera
-    );
+    assert!(err.0 < 1.0 && err.1 < 0.02, "upper floor is the ground: {:?}", out.plane_camera);
 
     let flat = Scene::kinect(1.0, 30.0);
     let out = run(&mut Pipeline::new(PerceptionConfig::default()), &flat, &ctx).unwrap();
@@ -386,14 +250,8 @@ fn wall_approaching_at_walking_speed_gives_ttc_and_an_early_warning() {
         let mut last = None;
         for k in 0..8u64 {
             let mut scene = Scene::kinect(1.0, 10.0);
-            scene.blocks.push(Block {
-                min: [3.0 - 0.05 * k as f32, -0.3, 0.0],
-                max: [3.3, 0.3, 1.8],
-            });
-            let ctx = FrameContext {
-                stamp_ns: k * frame_ns,
-                ..Default::default()
-            };
+            scene.blocks.push(Block { min: [3.0 - 0.05 * k as f32, -0.3, 0.0], max: [3.3, 0.3, 1.8] });
+            let ctx = FrameContext { stamp_ns: k * frame_ns, ..Default::default() };
             last = Some(run(&mut p, &scene, &ctx).unwrap());
         }
         last.unwrap()
@@ -401,11 +259,7 @@ fn wall_approaching_at_walking_speed_gives_ttc_and_an_early_warning() {
     let out = run_walk(true);
     let ttc = out.ttc_s.expect("approaching obstacle has a TTC");
     assert!((ttc - 2.65 / 1.5).abs() < 0.15, "ttc {ttc}");
-    assert_eq!(
-        out.rumble_ficf,
-        Rumble::None,
-        "the costs alone are still quiet at 2.65 m"
-    );
+    assert_eq!(out.rumble_ficf, Rumble::None, "the costs alone are still quiet at 2.65 m");
     assert_ne!(out.rumble, Rumble::None, "TTC below warn_s warns");
     let off = run_walk(false);
     assert_eq!((off.ttc_s, off.rumble), (None, Rumble::None));
@@ -426,46 +280,23 @@ fn obstacle_below_the_view_is_remembered_while_walking_towards_it() {
             let step = 0.05;
             let x = 1.6 - step * k as f32;
             let mut scene = Scene::kinect(1.0, 30.0);
-            scene.blocks.push(Block {
-                min: [x, -0.2, 0.0],
-                max: [x + 0.05, 0.2, 0.15],
-            });
-            let motion = (k > 0).then_some(Motion {
-                forward_m: step,
-                left_m: 0.0,
-                yaw_rad: 0.0,
-            });
-            let ctx = FrameContext {
-                stamp_ns: k * frame_ns,
-                gravity_camera: gravity(&scene),
-                motion,
-            };
+            scene.blocks.push(Block { min: [x, -0.2, 0.0], max: [x + 0.05, 0.2, 0.15] });
+            let motion = (k > 0).then_some(Motion { forward_m: step, left_m: 0.0, yaw_rad: 0.0 });
+            let ctx = FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion };
             out = Some((x, run(&mut p, &scene, &ctx).unwrap()));
         }
         out.unwrap()
     };
     let (x, with) = walk(true);
     assert!(with.remembered > 0, "box at {x} m");
-    assert!(
-        (with.nearest_m - x).abs() < 0.1,
-        "remembered at {} m, truly {x} m",
-        with.nearest_m
-    );
+    assert!((with.nearest_m - x).abs() < 0.1, "remembered at {} m, truly {x} m", with.nearest_m);
     assert_eq!(with.rumble, Rumble::Both);
     let (_, without) = walk(false);
-    assert!(
-        without.nearest_m > x + 0.2,
-        "without memory the box is gone: {}",
-        without.nearest_m
-    );
+    assert!(without.nearest_m > x + 0.2, "without memory the box is gone: {}", without.nearest_m);
 }
 
 fn real_file(name: &str) -> Option<std::path::PathBuf> {
-    let path = std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/real/"
-    ))
-    .join(name);
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/")).join(name);
     if path.exists() {
         Some(path)
     } else {
@@ -477,11 +308,7 @@ fn real_file(name: &str) -> Option<std::path::PathBuf> {
 fn real_xyz(name: &str, ctx: &FrameContext, cfg: PerceptionConfig) -> Option<Perception> {
     let cloud = sensor_agent::formats::pcd::read(&real_file(name)?).unwrap();
     let mut p = Pipeline::new(cfg);
-    let input = DepthInput::Xyz {
-        points: &cloud.points,
-        width: cloud.width,
-        height: cloud.height,
-    };
+    let input = DepthInput::Xyz { points: &cloud.points, width: cloud.width, height: cloud.height };
     Some(p.process(input, ctx, &mut NoTimer).unwrap().clone())
 }
 
@@ -492,34 +319,16 @@ fn five_people_floor_within_2_deg_and_3_cm_of_reference_frame_after_frame() {
     };
     let cloud = sensor_agent::formats::pcd::read(&path).unwrap();
     let mut p = Pipeline::new(PerceptionConfig::default());
-    let input = DepthInput::Xyz {
-        points: &cloud.points,
-        width: cloud.width,
-        height: cloud.height,
-    };
+    let input = DepthInput::Xyz { points: &cloud.points, width: cloud.width, height: cloud.height };
     let mut worst = (0.0f32, 0.0f32);
     for _ in 0..40 {
-        let out = p
-            .process(input, &FrameContext::default(), &mut NoTimer)
-            .unwrap();
+        let out = p.process(input, &FrameContext::default(), &mut NoTimer).unwrap();
         let (deg, m) = plane_error(out.plane_camera, [0.0047, -0.9968, -0.0798, 1.2714]);
         worst = (worst.0.max(deg), worst.1.max(m));
     }
-    assert!(
-        worst.0 < 2.0 && worst.1 < 0.03,
-        "worst {worst:?} over 40 frames"
-    );
-    let out = real_xyz(
-        "five_people.pcd",
-        &FrameContext::default(),
-        PerceptionConfig::default(),
-    )
-    .unwrap();
-    assert!(
-        (out.points_valid as f32 / 239_075.0 - 1.0).abs() < 0.01,
-        "{}",
-        out.points_valid
-    );
+    assert!(worst.0 < 2.0 && worst.1 < 0.03, "worst {worst:?} over 40 frames");
+    let out = real_xyz("five_people.pcd", &FrameContext::default(), PerceptionConfig::default()).unwrap();
+    assert!((out.points_valid as f32 / 239_075.0 - 1.0).abs() < 0.01, "{}", out.points_valid);
     assert!(
         out.scan.ranges_m.iter().filter(|r| r.is_finite()).count() >= 10,
         "people in view: {:?}",
@@ -531,24 +340,14 @@ fn five_people_floor_within_2_deg_and_3_cm_of_reference_frame_after_frame() {
 fn desk_frame_with_gravity_gives_the_desk_plane() {
     // desk normal ~46 deg from camera y: a gravity vector along it, pointing down
     let (s, c) = 46f32.to_radians().sin_cos();
-    let ctx = FrameContext {
-        gravity_camera: Some([0.0, c, s]),
-        ..Default::default()
-    };
-    let Some(out) = real_xyz(
-        "frame_20121214T142255.814212.pcd",
-        &ctx,
-        PerceptionConfig::default(),
-    ) else {
+    let ctx = FrameContext { gravity_camera: Some([0.0, c, s]), ..Default::default() };
+    let Some(out) = real_xyz("frame_20121214T142255.814212.pcd", &ctx, PerceptionConfig::default()) else {
         return;
     };
     let n = out.plane_camera;
     let angle = (-n[1]).clamp(-1.0, 1.0).acos().to_degrees();
     assert_eq!(out.ground, GroundState::Found);
-    assert!(
-        (angle - 46.0).abs() < 5.0,
-        "desk normal {angle} deg from camera -y: {n:?}"
-    );
+    assert!((angle - 46.0).abs() < 5.0, "desk normal {angle} deg from camera -y: {n:?}");
     assert!(n[3] > 0.3 && n[3] < 1.5, "{n:?}");
 }
 
@@ -562,9 +361,7 @@ struct SimFrame {
 }
 
 fn simulated(pitch_deg: f64) -> Option<SimFrame> {
-    use sensor_agent::sim::{
-        camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World,
-    };
+    use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
     let world = match World::builtin("corridor")? {
         Ok(w) => w,
         Err(e) => {
@@ -573,64 +370,30 @@ fn simulated(pitch_deg: f64) -> Option<SimFrame> {
         }
     };
     let start = world.start();
-    let pose = CameraPose::from_yaw_pitch(
-        start.x_m,
-        start.y_m,
-        1.0,
-        start.yaw_rad,
-        pitch_deg.to_radians(),
-        start.floor,
-    );
+    let pose =
+        CameraPose::from_yaw_pitch(start.x_m, start.y_m, 1.0, start.yaw_rad, pitch_deg.to_radians(), start.floor);
     let mut renderer = Renderer::new(CameraProfile::xtion());
     let mut depth = Vec::new();
     renderer.render(&world, &pose, 0.0, &mut SimRng::seed_from(7), &mut depth);
     let g = pose.gravity_camera();
     let gravity = [g.x as f32, g.y as f32, g.z as f32];
     let plane = [-gravity[0], -gravity[1], -gravity[2], 1.0];
-    Some(SimFrame {
-        depth,
-        intrinsics: renderer.intrinsics(),
-        gravity,
-        floor_plane: plane,
-    })
+    Some(SimFrame { depth, intrinsics: renderer.intrinsics(), gravity, floor_plane: plane })
 }
 
 #[test]
 fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm() {
     for pitch in [10.0, 30.0] {
-        let Some(SimFrame {
-            depth,
-            intrinsics: k,
-            gravity,
-            floor_plane: truth,
-        }) = simulated(pitch)
-        else {
+        let Some(SimFrame { depth, intrinsics: k, gravity, floor_plane: truth }) = simulated(pitch) else {
             return;
         };
         let mut p = Pipeline::new(PerceptionConfig::default());
-        let input = DepthInput::Depth {
-            samples: &depth,
-            width: 640,
-            height: 480,
-            depth_scale_m: MM,
-            intrinsics: k,
-        };
-        let ctx = FrameContext {
-            gravity_camera: Some(gravity),
-            ..Default::default()
-        };
+        let input = DepthInput::Depth { samples: &depth, width: 640, height: 480, depth_scale_m: MM, intrinsics: k };
+        let ctx = FrameContext { gravity_camera: Some(gravity), ..Default::default() };
         let out = p.process(input, &ctx, &mut NoTimer).unwrap();
         let (deg, m) = plane_error(out.plane_camera, truth);
-        assert!(
-            deg < 1.0 && m < 0.02,
-            "pitch {pitch}: {deg} deg {m} m {:?}",
-            out.plane_camera
-        );
-        assert!(
-            !out.dropoff_ahead,
-            "flat corridor floor: {:?}",
-            out.path_ground
-        );
+        assert!(deg < 1.0 && m < 0.02, "pitch {pitch}: {deg} deg {m} m {:?}", out.plane_camera);
+        assert!(!out.dropoff_ahead, "flat corridor floor: {:?}", out.path_ground);
     }
 }
 
@@ -652,11 +415,7 @@ fn walk_to_wall(
     let stand_frames = (stand_s * 30.0).round() as u64;
     for k in 0..=approach_frames + stand_frames {
         let wall_m = (2.0 - k as f32 / 30.0).max(stop_m);
-        let pitch = if k > approach_frames {
-            stand_pitch_deg
-        } else {
-            30.0
-        };
+        let pitch = if k > approach_frames { stand_pitch_deg } else { 30.0 };
         let mut scene = Scene::kinect(0.885, pitch);
         let f = 240.0 / 22.5f32.to_radians().tan();
         scene.intrinsics.fx = f;
@@ -675,39 +434,17 @@ fn walk_to_wall(
 #[test]
 fn walking_to_a_wall_with_gravity_keeps_the_ground_and_says_stop_not_offline() {
     let frames = walk_to_wall(PerceptionConfig::default(), true, 0.6, 0.0, 30.0);
-    let states: Vec<_> = frames
-        .iter()
-        .map(|(_, r, w)| (*w, r.as_ref().map(|o| o.ground)))
-        .collect();
-    assert!(
-        states
-            .iter()
-            .all(|(_, s)| matches!(s, Ok(GroundState::Found | GroundState::Lost))),
-        "{states:?}"
-    );
-    let lost = states
-        .iter()
-        .filter(|(_, s)| *s == Ok(GroundState::Lost))
-        .count();
+    let states: Vec<_> = frames.iter().map(|(_, r, w)| (*w, r.as_ref().map(|o| o.ground))).collect();
+    assert!(states.iter().all(|(_, s)| matches!(s, Ok(GroundState::Found | GroundState::Lost))), "{states:?}");
+    let lost = states.iter().filter(|(_, s)| *s == Ok(GroundState::Lost)).count();
     let cfg = PerceptionConfig::default();
-    assert!(
-        lost > cfg.ground.max_lost_frames as usize,
-        "the floor really leaves the view ({lost} lost frames)"
-    );
+    assert!(lost > cfg.ground.max_lost_frames as usize, "the floor really leaves the view ({lost} lost frames)");
     let (_, last, wall_m) = frames.last().unwrap();
     let last = last.as_ref().unwrap();
     assert_eq!(last.rumble, Rumble::Both);
-    assert!(
-        (last.nearest_m - wall_m).abs() < 0.05,
-        "nearest {} m, wall {wall_m} m",
-        last.nearest_m
-    );
+    assert!((last.nearest_m - wall_m).abs() < 0.05, "nearest {} m, wall {wall_m} m", last.nearest_m);
     let intent = cue(last, &CueConfig::default());
-    assert_eq!(
-        (intent.left, intent.right),
-        (1.0, 1.0),
-        "full-level stop, not the degraded pattern"
-    );
+    assert_eq!((intent.left, intent.right), (1.0, 1.0), "full-level stop, not the degraded pattern");
 }
 
 #[test]
@@ -718,10 +455,7 @@ fn walking_to_a_wall_without_gravity_still_degrades() {
     let mut cfg = PerceptionConfig::default();
     cfg.ground.up_cone_deg = 40.0;
     let frames = walk_to_wall(cfg, false, 0.6, 0.0, 30.0);
-    assert_eq!(
-        frames[0].1.as_ref().map(|o| o.ground),
-        Ok(GroundState::Found)
-    );
+    assert_eq!(frames[0].1.as_ref().map(|o| o.ground), Ok(GroundState::Found));
     let last = frames.last().unwrap().1.as_ref().unwrap();
     assert_eq!(last.ground, GroundState::Degraded);
     assert_eq!(last.rumble, Rumble::Both, "the wall is still a warning");
@@ -741,19 +475,9 @@ fn predicted_ground_is_not_trusted_past_its_age_limit() {
     for (t, r, _) in &frames {
         let state = r.as_ref().unwrap().ground;
         if *t < last_found_ns + max_age_ns {
-            assert_ne!(
-                state,
-                GroundState::Degraded,
-                "{} ms after the ground",
-                (t - last_found_ns) / 1_000_000
-            );
+            assert_ne!(state, GroundState::Degraded, "{} ms after the ground", (t - last_found_ns) / 1_000_000);
         } else {
-            assert_eq!(
-                state,
-                GroundState::Degraded,
-                "{} ms after the ground",
-                (t - last_found_ns) / 1_000_000
-            );
+            assert_eq!(state, GroundState::Degraded, "{} ms after the ground", (t - last_found_ns) / 1_000_000);
         }
     }
 }
@@ -769,14 +493,8 @@ fn cane_tilted_at_the_wall_does_not_trust_the_predicted_ground() {
     assert_eq!(last.ground, GroundState::Degraded);
     let tilted = &frames[frames.len() - 30..];
     assert!(
-        tilted
-            .iter()
-            .skip(max_lost)
-            .all(|(_, r, _)| r.as_ref().unwrap().ground == GroundState::Degraded),
+        tilted.iter().skip(max_lost).all(|(_, r, _)| r.as_ref().unwrap().ground == GroundState::Degraded),
         "tilted frames: {:?}",
-        tilted
-            .iter()
-            .map(|(_, r, _)| r.as_ref().map(|o| o.ground))
-            .collect::<Vec<_>>()
+        tilted.iter().map(|(_, r, _)| r.as_ref().map(|o| o.ground)).collect::<Vec<_>>()
     );
 }

@@ -18,12 +18,7 @@ pub struct ClosingSpeed {
 impl ClosingSpeed {
     /// Feeds the nearest forward distance in the path (`None`: path empty) at `stamp_ns`;
     /// returns the time to collision when something is approaching.
-    pub fn update(
-        &mut self,
-        stamp_ns: u64,
-        nearest_forward_m: Option<f32>,
-        cfg: &TtcConfig,
-    ) -> Option<f32> {
+    pub fn update(&mut self, stamp_ns: u64, nearest_forward_m: Option<f32>, cfg: &TtcConfig) -> Option<f32> {
         let now = nearest_forward_m.filter(|x| x.is_finite());
         let prev = self.previous.replace((stamp_ns, now.unwrap_or(f32::NAN)));
         let (Some(x), Some((t0, x0))) = (now, prev) else {
@@ -47,9 +42,7 @@ impl ClosingSpeed {
 
 /// The point with the nearest forward distance inside a path of `width_m`.
 pub fn nearest_in_path(points: impl Iterator<Item = [f32; 2]>, width_m: f32) -> Option<[f32; 2]> {
-    points
-        .filter(|[x, y]| *x > 0.0 && y.abs() <= width_m * 0.5)
-        .min_by(|a, b| a[0].total_cmp(&b[0]))
+    points.filter(|[x, y]| *x > 0.0 && y.abs() <= width_m * 0.5).min_by(|a, b| a[0].total_cmp(&b[0]))
 }
 
 #[cfg(test)]
@@ -76,10 +69,7 @@ mod tests {
         let cfg = TtcConfig::default();
         let mut c = ClosingSpeed::default();
         for k in 0..10u64 {
-            assert_eq!(
-                c.update(k * FRAME_NS, Some(2.0 + 0.01 * k as f32), &cfg),
-                None
-            );
+            assert_eq!(c.update(k * FRAME_NS, Some(2.0 + 0.01 * k as f32), &cfg), None);
         }
     }
 

@@ -74,20 +74,12 @@ mod ffi {
         pub fn oniGetExtendedError() -> *const c_char;
         pub fn oniDeviceOpen(uri: *const c_char, device: *mut OniDeviceHandle) -> OniStatus;
         pub fn oniDeviceClose(device: OniDeviceHandle) -> OniStatus;
-        pub fn oniDeviceCreateStream(
-            device: OniDeviceHandle,
-            sensor: c_int,
-            stream: *mut OniStreamHandle,
-        ) -> OniStatus;
+        pub fn oniDeviceCreateStream(device: OniDeviceHandle, sensor: c_int, stream: *mut OniStreamHandle)
+            -> OniStatus;
         pub fn oniStreamDestroy(stream: OniStreamHandle);
         pub fn oniStreamStart(stream: OniStreamHandle) -> OniStatus;
         pub fn oniStreamStop(stream: OniStreamHandle);
-        pub fn oniStreamSetProperty(
-            stream: OniStreamHandle,
-            id: c_int,
-            data: *const c_void,
-            size: c_int,
-        ) -> OniStatus;
+        pub fn oniStreamSetProperty(stream: OniStreamHandle, id: c_int, data: *const c_void, size: c_int) -> OniStatus;
         pub fn oniStreamGetProperty(
             stream: OniStreamHandle,
             id: c_int,
@@ -131,11 +123,7 @@ fn check(call: &'static str, status: ffi::OniStatus) -> Result<(), CameraError> 
             CStr::from_ptr(p).to_string_lossy().into_owned()
         }
     };
-    Err(CameraError {
-        call,
-        status,
-        detail,
-    })
+    Err(CameraError { call, status, detail })
 }
 
 /// What to ask the camera for.
@@ -157,13 +145,7 @@ pub struct OpenNi2Options {
 impl Default for OpenNi2Options {
     /// The Xtion Pro Live's VGA depth mode at 30 Hz (Taylor 2017 used it at VGA).
     fn default() -> Self {
-        OpenNi2Options {
-            uri: None,
-            width: 640,
-            height: 480,
-            fps: 30,
-            wait_ms: 200,
-        }
+        OpenNi2Options { uri: None, width: 640, height: 480, fps: 30, wait_ms: 200 }
     }
 }
 
@@ -216,10 +198,9 @@ impl OpenNi2Camera {
                 return Err(e);
             }
             let mut stream: ffi::OniStreamHandle = std::ptr::null_mut();
-            if let Err(e) = check(
-                "oniDeviceCreateStream",
-                ffi::oniDeviceCreateStream(device, ffi::ONI_SENSOR_DEPTH, &mut stream),
-            ) {
+            if let Err(e) =
+                check("oniDeviceCreateStream", ffi::oniDeviceCreateStream(device, ffi::ONI_SENSOR_DEPTH, &mut stream))
+            {
                 ffi::oniDeviceClose(device);
                 ffi::oniShutdown();
                 return Err(e);
@@ -228,12 +209,7 @@ impl OpenNi2Camera {
                 device,
                 stream,
                 description: format!("openni2:{}", opts.uri.as_deref().unwrap_or("any")),
-                intrinsics: intrinsics_from_fov(
-                    opts.width,
-                    opts.height,
-                    58f32.to_radians(),
-                    45f32.to_radians(),
-                ),
+                intrinsics: intrinsics_from_fov(opts.width, opts.height, 58f32.to_radians(), 45f32.to_radians()),
                 depth_scale_m: 0.001,
                 period_ns: 0,
                 wait_ms: opts.wait_ms,
@@ -273,19 +249,13 @@ impl OpenNi2Camera {
             ),
         )?;
         let mut fov = [0f32; 2];
-        for (v, id) in fov.iter_mut().zip([
-            ffi::ONI_STREAM_PROPERTY_HORIZONTAL_FOV,
-            ffi::ONI_STREAM_PROPERTY_VERTICAL_FOV,
-        ]) {
+        for (v, id) in
+            fov.iter_mut().zip([ffi::ONI_STREAM_PROPERTY_HORIZONTAL_FOV, ffi::ONI_STREAM_PROPERTY_VERTICAL_FOV])
+        {
             let mut size = std::mem::size_of::<f32>() as c_int;
             check(
                 "oniStreamGetProperty(FOV)",
-                ffi::oniStreamGetProperty(
-                    self.stream,
-                    id,
-                    (v as *mut f32).cast::<c_void>(),
-                    &mut size,
-                ),
+                ffi::oniStreamGetProperty(self.stream, id, (v as *mut f32).cast::<c_void>(), &mut size),
             )?;
         }
         if fov.iter().all(|f| f.is_finite() && *f > 0.1 && *f < 3.0) {
@@ -320,12 +290,7 @@ impl FrameSource for OpenNi2Camera {
         // for null, its data read only within `data_size` and the dimensions it states,
         // and released exactly once.
         unsafe {
-            let status = ffi::oniWaitForAnyStream(
-                streams.as_mut_ptr(),
-                1,
-                &mut ready,
-                self.wait_ms as c_int,
-            );
+            let status = ffi::oniWaitForAnyStream(streams.as_mut_ptr(), 1, &mut ready, self.wait_ms as c_int);
             if status == ffi::ONI_STATUS_TIME_OUT {
                 return Err(SourceError::Skipped {
                     what: self.description.clone(),
@@ -334,15 +299,10 @@ impl FrameSource for OpenNi2Camera {
             }
             check("oniWaitForAnyStream", status).map_err(|e| SourceError::Fatal(e.to_string()))?;
             let mut frame: *mut ffi::OniFrame = std::ptr::null_mut();
-            check(
-                "oniStreamReadFrame",
-                ffi::oniStreamReadFrame(self.stream, &mut frame),
-            )
-            .map_err(|e| SourceError::Fatal(e.to_string()))?;
+            check("oniStreamReadFrame", ffi::oniStreamReadFrame(self.stream, &mut frame))
+                .map_err(|e| SourceError::Fatal(e.to_string()))?;
             if frame.is_null() {
-                return Err(SourceError::Fatal(
-                    "oniStreamReadFrame returned no frame".into(),
-                ));
+                return Err(SourceError::Fatal("oniStreamReadFrame returned no frame".into()));
             }
             let result = copy_depth(&*frame, self.intrinsics, self.depth_scale_m);
             ffi::oniFrameRelease(frame);
@@ -356,15 +316,8 @@ impl FrameSource for OpenNi2Camera {
 }
 
 /// Copies one OpenNI depth frame into a [`SourceFrame`], honouring the row stride.
-fn copy_depth(
-    frame: &ffi::OniFrame,
-    intrinsics: Intrinsics,
-    mm_scale: f32,
-) -> Result<SourceFrame, SourceError> {
-    let bad = |reason: String| SourceError::Skipped {
-        what: format!("openni2 frame {}", frame.frame_index),
-        reason,
-    };
+fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> Result<SourceFrame, SourceError> {
+    let bad = |reason: String| SourceError::Skipped { what: format!("openni2 frame {}", frame.frame_index), reason };
     let (w, h) = (frame.width.max(0) as usize, frame.height.max(0) as usize);
     let stride = frame.stride.max(0) as usize;
     let depth_scale_m = match frame.video_mode.pixel_format {
@@ -378,25 +331,16 @@ fn copy_depth(
         || frame.data.is_null()
         || (frame.data_size.max(0) as usize) < stride * (h - 1) + 2 * w
     {
-        return Err(bad(format!(
-            "{w}x{h} frame with stride {stride} and {} bytes",
-            frame.data_size
-        )));
+        return Err(bad(format!("{w}x{h} frame with stride {stride} and {} bytes", frame.data_size)));
     }
     // SAFETY: data is non-null and holds at least `stride * (h - 1) + 2w` bytes (checked).
-    let bytes =
-        unsafe { std::slice::from_raw_parts(frame.data.cast::<u8>(), frame.data_size as usize) };
+    let bytes = unsafe { std::slice::from_raw_parts(frame.data.cast::<u8>(), frame.data_size as usize) };
     let mut depth = Vec::with_capacity(w * h);
     for row in 0..h {
         let line = &bytes[row * stride..row * stride + 2 * w];
-        depth.extend(
-            line.chunks_exact(2)
-                .map(|b| u16::from_ne_bytes([b[0], b[1]])),
-        );
+        depth.extend(line.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])));
     }
-    let stamp_ns = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos() as u64);
+    let stamp_ns = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
     Ok(SourceFrame {
         stamp_ns,
         width: w as u32,
@@ -420,10 +364,7 @@ mod tests {
     fn xtion_fov_gives_its_known_focal_length() {
         // 58 x 45 degrees at VGA: fx ~ 570 px, the Xtion's usual calibration.
         let k = intrinsics_from_fov(640, 480, 58f32.to_radians(), 45f32.to_radians());
-        assert!(
-            (k.fx - 577.3).abs() < 1.0 && (k.fy - 579.4).abs() < 1.0,
-            "{k:?}"
-        );
+        assert!((k.fx - 577.3).abs() < 1.0 && (k.fy - 579.4).abs() < 1.0, "{k:?}");
         assert_eq!((k.cx, k.cy), (320.0, 240.0));
     }
 
@@ -452,14 +393,8 @@ mod tests {
         let k = intrinsics_from_fov(2, 2, 1.0, 1.0);
         let f = copy_depth(&frame, k, 0.001).unwrap();
         assert_eq!(f.depth, [1, 2, 3, 4]);
-        let short = ffi::OniFrame {
-            data_size: 8,
-            ..frame
-        };
-        assert!(matches!(
-            copy_depth(&short, k, 0.001),
-            Err(SourceError::Skipped { .. })
-        ));
+        let short = ffi::OniFrame { data_size: 8, ..frame };
+        assert!(matches!(copy_depth(&short, k, 0.001), Err(SourceError::Skipped { .. })));
     }
 
     #[test]

@@ -35,15 +35,8 @@ pub fn parse(bytes: &[u8]) -> Result<DepthPng, FormatProblem> {
     }
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(|e| problem(&e))?;
-    let samples = buf[..info.buffer_size()]
-        .chunks_exact(2)
-        .map(|b| u16::from_be_bytes([b[0], b[1]]))
-        .collect();
-    Ok(DepthPng {
-        width: info.width,
-        height: info.height,
-        samples,
-    })
+    let samples = buf[..info.buffer_size()].chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
+    Ok(DepthPng { width: info.width, height: info.height, samples })
 }
 
 fn problem(e: &png::DecodingError) -> FormatProblem {
@@ -51,9 +44,7 @@ fn problem(e: &png::DecodingError) -> FormatProblem {
         png::DecodingError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
             FormatProblem::Truncated(format!("PNG ends early ({io})"))
         }
-        png::DecodingError::LimitsExceeded => {
-            FormatProblem::Unsupported("PNG larger than the decoder limits".into())
-        }
+        png::DecodingError::LimitsExceeded => FormatProblem::Unsupported("PNG larger than the decoder limits".into()),
         other => FormatProblem::Corrupt(format!("PNG: {other}")),
     }
 }
@@ -63,8 +54,7 @@ mod tests {
     use super::*;
 
     fn real(name: &str) -> Option<Vec<u8>> {
-        let path =
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/").to_string() + name;
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/").to_string() + name;
         match std::fs::read(&path) {
             Ok(b) => Some(b),
             Err(_) => {
@@ -74,13 +64,7 @@ mod tests {
         }
     }
 
-    fn encode_png(
-        width: u32,
-        height: u32,
-        color: png::ColorType,
-        depth: png::BitDepth,
-        data: &[u8],
-    ) -> Vec<u8> {
+    fn encode_png(width: u32, height: u32, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
         let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(color);
@@ -91,26 +75,14 @@ mod tests {
 
     #[test]
     fn samples_are_big_endian_in_the_file() {
-        let bytes = encode_png(
-            2,
-            1,
-            png::ColorType::Grayscale,
-            png::BitDepth::Sixteen,
-            &[0x13, 0x88, 0, 0],
-        );
+        let bytes = encode_png(2, 1, png::ColorType::Grayscale, png::BitDepth::Sixteen, &[0x13, 0x88, 0, 0]);
         let img = parse(&bytes).unwrap();
         assert_eq!((img.width, img.height, img.samples), (2, 1, vec![5000, 0]));
     }
 
     #[test]
     fn eight_bit_png_is_unsupported() {
-        let bytes = encode_png(
-            2,
-            1,
-            png::ColorType::Grayscale,
-            png::BitDepth::Eight,
-            &[1, 2],
-        );
+        let bytes = encode_png(2, 1, png::ColorType::Grayscale, png::BitDepth::Eight, &[1, 2]);
         assert!(matches!(parse(&bytes), Err(FormatProblem::Unsupported(_))));
     }
 
@@ -126,10 +98,7 @@ mod tests {
         assert!((frac - 0.808).abs() < 0.001, "{frac}");
         let lo = *valid.iter().min().unwrap() as f64 / 5000.0;
         let hi = *valid.iter().max().unwrap() as f64 / 5000.0;
-        assert!(
-            (lo - 1.46).abs() < 0.01 && (hi - 9.33).abs() < 0.01,
-            "{lo}..{hi}"
-        );
+        assert!((lo - 1.46).abs() < 0.01 && (hi - 9.33).abs() < 0.01, "{lo}..{hi}");
     }
 
     #[test]
@@ -141,10 +110,7 @@ mod tests {
         let valid: Vec<u16> = img.samples.iter().copied().filter(|&s| s > 0).collect();
         let frac = valid.len() as f64 / img.samples.len() as f64;
         assert!((frac - 0.870).abs() < 0.001, "{frac}");
-        assert_eq!(
-            (*valid.iter().min().unwrap(), *valid.iter().max().unwrap()),
-            (955, 2702)
-        );
+        assert_eq!((*valid.iter().min().unwrap(), *valid.iter().max().unwrap()), (955, 2702));
     }
 
     #[test]

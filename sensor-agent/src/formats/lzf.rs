@@ -13,9 +13,7 @@ pub enum LzfError {
     #[error("LZF stream ends inside an instruction at byte {0}")]
     InputEnds(usize),
     /// A back-reference points before the start of the output.
-    #[error(
-        "LZF back-reference at byte {at} reaches {offset} bytes back with only {written} written"
-    )]
+    #[error("LZF back-reference at byte {at} reaches {offset} bytes back with only {written} written")]
     BadReference {
         /// Input position of the instruction.
         at: usize,
@@ -67,11 +65,7 @@ pub fn decompress(input: &[u8], expected_len: usize, out: &mut Vec<u8>) -> Resul
             let offset = (((ctrl & 0x1f) << 8) | low) + 1;
             let written = out.len();
             if offset > written {
-                return Err(LzfError::BadReference {
-                    at,
-                    offset,
-                    written,
-                });
+                return Err(LzfError::BadReference { at, offset, written });
             }
             if written + len > expected_len {
                 return Err(LzfError::Overflow(expected_len));
@@ -88,10 +82,7 @@ pub fn decompress(input: &[u8], expected_len: usize, out: &mut Vec<u8>) -> Resul
         }
     }
     if out.len() != expected_len {
-        return Err(LzfError::Underflow {
-            got: out.len(),
-            expected: expected_len,
-        });
+        return Err(LzfError::Underflow { got: out.len(), expected: expected_len });
     }
     Ok(())
 }
@@ -126,52 +117,31 @@ mod tests {
         let mut out = Vec::new();
         decompress(&[1, b'a', b'b', 7 << 5, 10, 1], 21, &mut out).unwrap();
         assert_eq!(out.len(), 21);
-        assert!(out
-            .chunks(2)
-            .all(|c| c[0] == b'a' && c.get(1).is_none_or(|&b| b == b'b')));
+        assert!(out.chunks(2).all(|c| c[0] == b'a' && c.get(1).is_none_or(|&b| b == b'b')));
     }
 
     #[test]
     fn reference_before_start_is_refused() {
         let mut out = Vec::new();
         let err = decompress(&[0, b'x', 1 << 5, 5], 4, &mut out).unwrap_err();
-        assert_eq!(
-            err,
-            LzfError::BadReference {
-                at: 2,
-                offset: 6,
-                written: 1
-            }
-        );
+        assert_eq!(err, LzfError::BadReference { at: 2, offset: 6, written: 1 });
     }
 
     #[test]
     fn truncated_literal_is_refused() {
         let mut out = Vec::new();
-        assert_eq!(
-            decompress(&[5, b'a'], 6, &mut out),
-            Err(LzfError::InputEnds(0))
-        );
+        assert_eq!(decompress(&[5, b'a'], 6, &mut out), Err(LzfError::InputEnds(0)));
     }
 
     #[test]
     fn output_past_announced_size_is_refused() {
         let mut out = Vec::new();
-        assert_eq!(
-            decompress(&[2, 1, 2, 3], 2, &mut out),
-            Err(LzfError::Overflow(2))
-        );
+        assert_eq!(decompress(&[2, 1, 2, 3], 2, &mut out), Err(LzfError::Overflow(2)));
     }
 
     #[test]
     fn short_output_is_refused() {
         let mut out = Vec::new();
-        assert_eq!(
-            decompress(&[0, 1], 2, &mut out),
-            Err(LzfError::Underflow {
-                got: 1,
-                expected: 2
-            })
-        );
+        assert_eq!(decompress(&[0, 1], 2, &mut out), Err(LzfError::Underflow { got: 1, expected: 2 }));
     }
 }

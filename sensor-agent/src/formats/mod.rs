@@ -48,16 +48,10 @@ pub struct FormatError {
 
 /// Reads a whole file, mapping I/O failure to a [`FormatError`] that names it.
 fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
-    std::fs::read(path).map_err(|e| FormatError {
-        file: path.to_path_buf(),
-        problem: FormatProblem::Io(e.to_string()),
-    })
+    std::fs::read(path).map_err(|e| FormatError { file: path.to_path_buf(), problem: FormatProblem::Io(e.to_string()) })
 }
 
 /// Attaches the file name to a parse result.
 fn in_file<T>(path: &Path, parsed: Result<T, FormatProblem>) -> Result<T, FormatError> {
-    parsed.map_err(|problem| FormatError {
-        file: path.to_path_buf(),
-        problem,
-    })
+    parsed.map_err(|problem| FormatError { file: path.to_path_buf(), problem })
 }

@@ -99,27 +99,15 @@ pub fn parse(bytes: &[u8]) -> Result<OrganizedCloud, FormatProblem> {
             *p = [f32::NAN; 3];
         }
     }
-    Ok(OrganizedCloud {
-        width: header.width as u32,
-        height: header.height as u32,
-        points,
-    })
+    Ok(OrganizedCloud { width: header.width as u32, height: header.height as u32, points })
 }
 
 fn bad(line: usize, reason: impl Into<String>) -> FormatProblem {
-    FormatProblem::BadHeader {
-        line,
-        reason: reason.into(),
-    }
+    FormatProblem::BadHeader { line, reason: reason.into() }
 }
 
 fn parse_count(line: usize, key: &str, token: &str) -> Result<usize, FormatProblem> {
-    token.parse::<usize>().map_err(|_| {
-        bad(
-            line,
-            format!("{key} value {token:?} is not a non-negative integer"),
-        )
-    })
+    token.parse::<usize>().map_err(|_| bad(line, format!("{key} value {token:?} is not a non-negative integer")))
 }
 
 fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
@@ -137,15 +125,10 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
             return Err(FormatProblem::MissingHeader("DATA"));
         }
         line_no += 1;
-        let end = bytes[pos..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(bytes.len(), |i| pos + i);
+        let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
         let raw = &bytes[pos..end];
         pos = (end + 1).min(bytes.len());
-        let text = std::str::from_utf8(raw)
-            .map_err(|_| bad(line_no, "not text"))?
-            .trim();
+        let text = std::str::from_utf8(raw).map_err(|_| bad(line_no, "not text"))?.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
         }
@@ -155,23 +138,13 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
         let one = |values: &[&str]| -> Result<usize, FormatProblem> {
             match values {
                 [v] => parse_count(line_no, &key, v),
-                _ => Err(bad(
-                    line_no,
-                    format!("{key} takes one value, got {}", values.len()),
-                )),
+                _ => Err(bad(line_no, format!("{key} takes one value, got {}", values.len()))),
             }
         };
         match key.as_str() {
             "VERSION" | "VIEWPOINT" => {}
             "FIELDS" | "COLUMNS" => names = Some(values.iter().map(|s| s.to_string()).collect()),
-            "SIZE" => {
-                sizes = Some(
-                    values
-                        .iter()
-                        .map(|v| parse_count(line_no, "SIZE", v))
-                        .collect::<Result<_, _>>()?,
-                )
-            }
+            "SIZE" => sizes = Some(values.iter().map(|v| parse_count(line_no, "SIZE", v)).collect::<Result<_, _>>()?),
             "TYPE" => {
                 let kinds = values
                     .iter()
@@ -185,12 +158,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                 types = Some((line_no, kinds));
             }
             "COUNT" => {
-                counts = Some(
-                    values
-                        .iter()
-                        .map(|v| parse_count(line_no, "COUNT", v))
-                        .collect::<Result<_, _>>()?,
-                )
+                counts = Some(values.iter().map(|v| parse_count(line_no, "COUNT", v)).collect::<Result<_, _>>()?)
             }
             "WIDTH" => width = Some(one(&values)?),
             "HEIGHT" => height = Some(one(&values)?),
@@ -201,9 +169,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                     Some("binary") => Body::Binary,
                     Some("binary_compressed") => Body::BinaryCompressed,
                     Some(other) => {
-                        return Err(FormatProblem::Unsupported(format!(
-                            "DATA kind {other:?} (line {line_no})"
-                        )))
+                        return Err(FormatProblem::Unsupported(format!("DATA kind {other:?} (line {line_no})")))
                     }
                     None => return Err(bad(line_no, "DATA without a kind")),
                 };
@@ -211,10 +177,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                 let sizes = sizes.ok_or(FormatProblem::MissingHeader("SIZE"))?;
                 let (type_line, types) = types.ok_or(FormatProblem::MissingHeader("TYPE"))?;
                 let counts = counts.unwrap_or_else(|| vec![1; names.len()]);
-                if sizes.len() != names.len()
-                    || types.len() != names.len()
-                    || counts.len() != names.len()
-                {
+                if sizes.len() != names.len() || types.len() != names.len() || counts.len() != names.len() {
                     return Err(bad(
                         line_no,
                         format!(
@@ -241,27 +204,20 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                                 )))
                             }
                             (_, n @ (1 | 2 | 4 | 8)) => Scalar::Other(n),
-                            (_, n) => return Err(FormatProblem::Unsupported(format!(
-                                "field type: {name} is an integer of {n} bytes (line {type_line})"
-                            ))),
+                            (_, n) => {
+                                return Err(FormatProblem::Unsupported(format!(
+                                    "field type: {name} is an integer of {n} bytes (line {type_line})"
+                                )))
+                            }
                         };
-                        Ok(Field {
-                            name,
-                            scalar,
-                            count,
-                        })
+                        Ok(Field { name, scalar, count })
                     })
                     .collect::<Result<Vec<_>, _>>()?;
                 let width = width.ok_or(FormatProblem::MissingHeader("WIDTH"))?;
                 let height = height.ok_or(FormatProblem::MissingHeader("HEIGHT"))?;
-                let total = width
-                    .checked_mul(height)
-                    .filter(|&n| n <= MAX_POINTS)
-                    .ok_or_else(|| {
-                        FormatProblem::Unsupported(format!(
-                            "cloud size {width}x{height} (over {MAX_POINTS} points)"
-                        ))
-                    })?;
+                let total = width.checked_mul(height).filter(|&n| n <= MAX_POINTS).ok_or_else(|| {
+                    FormatProblem::Unsupported(format!("cloud size {width}x{height} (over {MAX_POINTS} points)"))
+                })?;
                 if height < 2 {
                     return Err(FormatProblem::Unsupported(format!(
                         "unorganized cloud (HEIGHT {height}): a depth image needs rows"
@@ -269,19 +225,9 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                 }
                 let points = points.unwrap_or(total);
                 if points != total {
-                    return Err(bad(
-                        line_no,
-                        format!("POINTS {points} is not WIDTH x HEIGHT = {total}"),
-                    ));
+                    return Err(bad(line_no, format!("POINTS {points} is not WIDTH x HEIGHT = {total}")));
                 }
-                return Ok(Header {
-                    fields,
-                    width,
-                    height,
-                    points,
-                    body,
-                    body_start: pos,
-                });
+                return Ok(Header { fields, width, height, points, body, body_start: pos });
             }
             other => return Err(bad(line_no, format!("unknown keyword {other:?}"))),
         }
@@ -297,16 +243,10 @@ fn xyz_fields(fields: &[Field]) -> Result<XyzLayout, FormatProblem> {
     for (i, f) in fields.iter().enumerate() {
         if let Some(axis) = ["x", "y", "z"].iter().position(|a| *a == f.name) {
             if f.scalar == Scalar::Other(f.scalar.size()) {
-                return Err(FormatProblem::Unsupported(format!(
-                    "field type: {} must be a float",
-                    f.name
-                )));
+                return Err(FormatProblem::Unsupported(format!("field type: {} must be a float", f.name)));
             }
             if f.count != 1 {
-                return Err(FormatProblem::Unsupported(format!(
-                    "field {} with COUNT {}",
-                    f.name, f.count
-                )));
+                return Err(FormatProblem::Unsupported(format!("field {} with COUNT {}", f.name, f.count)));
             }
             layout[axis] = (i, offset);
         }
@@ -340,12 +280,7 @@ fn record_size(fields: &[Field]) -> usize {
     fields.iter().map(|f| f.scalar.size() * f.count).sum()
 }
 
-fn read_binary(
-    body: &[u8],
-    header: &Header,
-    xyz: XyzLayout,
-    points: &mut [[f32; 3]],
-) -> Result<(), FormatProblem> {
+fn read_binary(body: &[u8], header: &Header, xyz: XyzLayout, points: &mut [[f32; 3]]) -> Result<(), FormatProblem> {
     let record = record_size(&header.fields);
     let need = record * header.points;
     if body.len() < need {
@@ -363,15 +298,8 @@ fn read_binary(
     Ok(())
 }
 
-fn read_compressed(
-    body: &[u8],
-    header: &Header,
-    xyz: XyzLayout,
-    points: &mut [[f32; 3]],
-) -> Result<(), FormatProblem> {
-    let sizes = body
-        .get(..8)
-        .ok_or_else(|| FormatProblem::Truncated("no compressed-size words".into()))?;
+fn read_compressed(body: &[u8], header: &Header, xyz: XyzLayout, points: &mut [[f32; 3]]) -> Result<(), FormatProblem> {
+    let sizes = body.get(..8).ok_or_else(|| FormatProblem::Truncated("no compressed-size words".into()))?;
     let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]) as usize;
     let uncompressed = u32::from_le_bytes([sizes[4], sizes[5], sizes[6], sizes[7]]) as usize;
     let need = record_size(&header.fields) * header.points;
@@ -381,19 +309,13 @@ fn read_compressed(
         )));
     }
     if uncompressed > compressed.saturating_mul(lzf::MAX_EXPANSION) {
-        return Err(FormatProblem::Corrupt(format!(
-            "{compressed} compressed bytes cannot expand to {uncompressed}"
-        )));
+        return Err(FormatProblem::Corrupt(format!("{compressed} compressed bytes cannot expand to {uncompressed}")));
     }
     let stream = body.get(8..8 + compressed).ok_or_else(|| {
-        FormatProblem::Truncated(format!(
-            "{} of {compressed} compressed bytes present",
-            body.len() - 8
-        ))
+        FormatProblem::Truncated(format!("{} of {compressed} compressed bytes present", body.len() - 8))
     })?;
     let mut soa = Vec::new();
-    lzf::decompress(stream, uncompressed, &mut soa)
-        .map_err(|e| FormatProblem::Corrupt(e.to_string()))?;
+    lzf::decompress(stream, uncompressed, &mut soa).map_err(|e| FormatProblem::Corrupt(e.to_string()))?;
     // Each field's block starts after the blocks of the fields before it.
     let mut block_start = Vec::with_capacity(header.fields.len());
     let mut start = 0;
@@ -412,14 +334,8 @@ fn read_compressed(
     Ok(())
 }
 
-fn read_ascii(
-    body: &[u8],
-    header: &Header,
-    xyz: XyzLayout,
-    points: &mut [[f32; 3]],
-) -> Result<(), FormatProblem> {
-    let text = std::str::from_utf8(body)
-        .map_err(|_| FormatProblem::Corrupt("ascii body is not text".into()))?;
+fn read_ascii(body: &[u8], header: &Header, xyz: XyzLayout, points: &mut [[f32; 3]]) -> Result<(), FormatProblem> {
+    let text = std::str::from_utf8(body).map_err(|_| FormatProblem::Corrupt("ascii body is not text".into()))?;
     // Token index of each axis within a line: fields before it contribute COUNT tokens.
     let mut token_of = [0usize; 3];
     for (axis, &(field, _)) in xyz.iter().enumerate() {
@@ -429,9 +345,9 @@ fn read_ascii(
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
     let mut tokens = Vec::with_capacity(tokens_per_line);
     for (i, p) in points.iter_mut().enumerate() {
-        let line = lines.next().ok_or_else(|| {
-            FormatProblem::Truncated(format!("{i} of {} point lines present", header.points))
-        })?;
+        let line = lines
+            .next()
+            .ok_or_else(|| FormatProblem::Truncated(format!("{i} of {} point lines present", header.points)))?;
         tokens.clear();
         tokens.extend(line.split_whitespace());
         if tokens.len() != tokens_per_line {
@@ -442,9 +358,9 @@ fn read_ascii(
         }
         for axis in 0..3 {
             let token = tokens[token_of[axis]];
-            p[axis] = token.parse::<f32>().map_err(|_| {
-                FormatProblem::Corrupt(format!("point {i}: {:?} is not a number", token))
-            })?;
+            p[axis] = token
+                .parse::<f32>()
+                .map_err(|_| FormatProblem::Corrupt(format!("point {i}: {:?} is not a number", token)))?;
         }
     }
     Ok(())
@@ -455,8 +371,7 @@ mod tests {
     use super::*;
 
     fn real(name: &str) -> Option<Vec<u8>> {
-        let path =
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/").to_string() + name;
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/").to_string() + name;
         match std::fs::read(&path) {
             Ok(b) => Some(b),
             Err(_) => {
@@ -469,23 +384,12 @@ mod tests {
     const HEADER_XYZ_RGBA: &str = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z rgba\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 3\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\n";
 
     fn sample_points() -> Vec<[f32; 3]> {
-        vec![
-            [0.1, 0.2, 1.0],
-            [f32::NAN; 3],
-            [-0.5, 0.25, 2.5],
-            [0.0, 0.0, 0.75],
-            [1.0, -1.0, 3.0],
-            [f32::NAN; 3],
-        ]
+        vec![[0.1, 0.2, 1.0], [f32::NAN; 3], [-0.5, 0.25, 2.5], [0.0, 0.0, 0.75], [1.0, -1.0, 3.0], [f32::NAN; 3]]
     }
 
     fn same(a: &[[f32; 3]], b: &[[f32; 3]]) -> bool {
         a.len() == b.len()
-            && a.iter().zip(b).all(|(p, q)| {
-                p.iter()
-                    .zip(q)
-                    .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
-            })
+            && a.iter().zip(b).all(|(p, q)| p.iter().zip(q).all(|(x, y)| x == y || (x.is_nan() && y.is_nan())))
     }
 
     fn binary_pcd(points: &[[f32; 3]]) -> Vec<u8> {
@@ -553,10 +457,7 @@ mod tests {
     #[test]
     fn truncated_ascii_body_is_refused() {
         let text = format!("{HEADER_XYZ_RGBA}DATA ascii\n0.1 0.2 1 4278190080\n");
-        assert!(matches!(
-            parse(text.as_bytes()),
-            Err(FormatProblem::Truncated(_))
-        ));
+        assert!(matches!(parse(text.as_bytes()), Err(FormatProblem::Truncated(_))));
     }
 
     #[test]
@@ -564,10 +465,7 @@ mod tests {
         let text = HEADER_XYZ_RGBA.replace("WIDTH 3", "WIDTH three") + "DATA ascii\n";
         assert_eq!(
             parse(text.as_bytes()).unwrap_err(),
-            FormatProblem::BadHeader {
-                line: 7,
-                reason: "WIDTH value \"three\" is not a non-negative integer".into()
-            }
+            FormatProblem::BadHeader { line: 7, reason: "WIDTH value \"three\" is not a non-negative integer".into() }
         );
     }
 
@@ -575,40 +473,24 @@ mod tests {
     fn integer_z_is_unsupported() {
         let text = HEADER_XYZ_RGBA.replace("TYPE F F F U", "TYPE F F U U") + "DATA ascii\n";
         let err = parse(text.as_bytes()).unwrap_err();
-        assert_eq!(
-            err,
-            FormatProblem::Unsupported("field type: z must be a float".into())
-        );
+        assert_eq!(err, FormatProblem::Unsupported("field type: z must be a float".into()));
     }
 
     #[test]
     fn missing_z_field_is_refused() {
-        let text =
-            HEADER_XYZ_RGBA.replace("FIELDS x y z rgba", "FIELDS x y w rgba") + "DATA ascii\n";
-        assert_eq!(
-            parse(text.as_bytes()).unwrap_err(),
-            FormatProblem::MissingHeader("FIELDS z")
-        );
+        let text = HEADER_XYZ_RGBA.replace("FIELDS x y z rgba", "FIELDS x y w rgba") + "DATA ascii\n";
+        assert_eq!(parse(text.as_bytes()).unwrap_err(), FormatProblem::MissingHeader("FIELDS z"));
     }
 
     #[test]
     fn header_without_data_line_is_refused() {
-        assert_eq!(
-            parse(HEADER_XYZ_RGBA.as_bytes()).unwrap_err(),
-            FormatProblem::MissingHeader("DATA")
-        );
+        assert_eq!(parse(HEADER_XYZ_RGBA.as_bytes()).unwrap_err(), FormatProblem::MissingHeader("DATA"));
     }
 
     #[test]
     fn unorganized_cloud_is_refused() {
-        let text = HEADER_XYZ_RGBA
-            .replace("WIDTH 3", "WIDTH 6")
-            .replace("HEIGHT 2", "HEIGHT 1")
-            + "DATA ascii\n";
-        assert!(matches!(
-            parse(text.as_bytes()),
-            Err(FormatProblem::Unsupported(_))
-        ));
+        let text = HEADER_XYZ_RGBA.replace("WIDTH 3", "WIDTH 6").replace("HEIGHT 2", "HEIGHT 1") + "DATA ascii\n";
+        assert!(matches!(parse(text.as_bytes()), Err(FormatProblem::Unsupported(_))));
     }
 
     #[test]
@@ -623,11 +505,7 @@ mod tests {
     #[test]
     fn read_names_the_missing_file() {
         let err = read(Path::new("/nonexistent/cloud.pcd")).unwrap_err();
-        assert!(
-            err.to_string()
-                .starts_with("/nonexistent/cloud.pcd: cannot read"),
-            "{err}"
-        );
+        assert!(err.to_string().starts_with("/nonexistent/cloud.pcd: cannot read"), "{err}");
     }
 
     fn check_real(name: &str, valid: usize, z_range: (f32, f32)) {
@@ -639,13 +517,8 @@ mod tests {
             .points
             .iter()
             .filter(|p| p[2].is_finite())
-            .fold((f32::MAX, f32::MIN), |(lo, hi), p| {
-                (lo.min(p[2]), hi.max(p[2]))
-            });
-        assert!(
-            (lo - z_range.0).abs() < 0.01 && (hi - z_range.1).abs() < 0.01,
-            "z {lo}..{hi}"
-        );
+            .fold((f32::MAX, f32::MIN), |(lo, hi), p| (lo.min(p[2]), hi.max(p[2])));
+        assert!((lo - z_range.0).abs() < 0.01 && (hi - z_range.1).abs() < 0.01, "z {lo}..{hi}");
         // Any cut through the compressed body is reported, never a panic.
         // PCL leaves 3,901 bytes of padding after the LZF stream in these files.
         for cut in [bytes.len() - 4000, bytes.len() / 2, 300, 10] {
@@ -680,9 +553,7 @@ mod tests {
             return;
         };
         let cloud = parse(&bytes).unwrap();
-        let mut text = HEADER_XYZ_RGBA
-            .replace("WIDTH 3", "WIDTH 640")
-            .replace("HEIGHT 2", "HEIGHT 480");
+        let mut text = HEADER_XYZ_RGBA.replace("WIDTH 3", "WIDTH 640").replace("HEIGHT 2", "HEIGHT 480");
         text = text.replace("POINTS 6", "POINTS 307200");
         let mut binary = format!("{text}DATA binary\n").into_bytes();
         for p in &cloud.points {

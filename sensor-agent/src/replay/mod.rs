@@ -38,13 +38,7 @@ pub struct ReplayOptions {
 impl Default for ReplayOptions {
     /// Real time, once, 30 Hz for untimed files (the Kinect / Xtion frame rate).
     fn default() -> Self {
-        ReplayOptions {
-            rate: 1.0,
-            loop_playback: false,
-            depth_scale_m: None,
-            intrinsics: None,
-            untimed_fps: 30.0,
-        }
+        ReplayOptions { rate: 1.0, loop_playback: false, depth_scale_m: None, intrinsics: None, untimed_fps: 30.0 }
     }
 }
 
@@ -92,23 +86,14 @@ pub enum ReplayError {
 pub fn parse_intrinsics(s: &str) -> Result<Intrinsics, ReplayError> {
     let v: Vec<f32> = s
         .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f32>()
-                .map_err(|e| ReplayError::BadOption(format!("intrinsics {p:?}: {e}")))
-        })
+        .map(|p| p.trim().parse::<f32>().map_err(|e| ReplayError::BadOption(format!("intrinsics {p:?}: {e}"))))
         .collect::<Result<_, _>>()?;
     let [fx, fy, cx, cy] = v[..] else {
-        return Err(ReplayError::BadOption(format!(
-            "intrinsics: expected fx,fy,cx,cy, got {} numbers",
-            v.len()
-        )));
+        return Err(ReplayError::BadOption(format!("intrinsics: expected fx,fy,cx,cy, got {} numbers", v.len())));
     };
     let k = Intrinsics { fx, fy, cx, cy };
     if !k.is_valid() {
-        return Err(ReplayError::BadOption(format!(
-            "intrinsics {s}: focal lengths must be finite and positive"
-        )));
+        return Err(ReplayError::BadOption(format!("intrinsics {s}: focal lengths must be finite and positive")));
     }
     Ok(k)
 }
@@ -116,51 +101,28 @@ pub fn parse_intrinsics(s: &str) -> Result<Intrinsics, ReplayError> {
 /// Opens a `pcd:`, `tum:` or `png:` spec.
 pub fn open_source(spec: &str, opts: &ReplayOptions) -> Result<Box<dyn FrameSource>, ReplayError> {
     if !(opts.untimed_fps.is_finite() && opts.untimed_fps > 0.0) {
-        return Err(ReplayError::BadOption(format!(
-            "untimed frame rate {} Hz must be positive",
-            opts.untimed_fps
-        )));
+        return Err(ReplayError::BadOption(format!("untimed frame rate {} Hz must be positive", opts.untimed_fps)));
     }
     if !(opts.rate.is_finite() && opts.rate > 0.0) {
-        return Err(ReplayError::BadOption(format!(
-            "rate {} must be positive",
-            opts.rate
-        )));
+        return Err(ReplayError::BadOption(format!("rate {} must be positive", opts.rate)));
     }
     if let Some(s) = opts.depth_scale_m {
         if !(s.is_finite() && s > 0.0) {
-            return Err(ReplayError::BadOption(format!(
-                "depth scale {s} m must be positive"
-            )));
+            return Err(ReplayError::BadOption(format!("depth scale {s} m must be positive")));
         }
     }
-    let (kind, path) = spec
-        .split_once(':')
-        .ok_or_else(|| ReplayError::UnknownKind(spec.to_string()))?;
+    let (kind, path) = spec.split_once(':').ok_or_else(|| ReplayError::UnknownKind(spec.to_string()))?;
     let path = Path::new(path);
     let (entries, format) = match kind {
-        "pcd" => (
-            list_files(path, "pcd")?,
-            Format::Pcd {
-                intrinsics: opts.intrinsics,
-            },
-        ),
+        "pcd" => (list_files(path, "pcd")?, Format::Pcd { intrinsics: opts.intrinsics }),
         "png" => {
             let depth_scale_m = opts.depth_scale_m.ok_or_else(|| {
-                ReplayError::MissingOption(
-                    "png: sources need the depth scale (metres per unit, e.g. 0.001)".into(),
-                )
+                ReplayError::MissingOption("png: sources need the depth scale (metres per unit, e.g. 0.001)".into())
             })?;
-            let intrinsics = opts.intrinsics.ok_or_else(|| {
-                ReplayError::MissingOption("png: sources need intrinsics fx,fy,cx,cy".into())
-            })?;
-            (
-                list_files(path, "png")?,
-                Format::Png {
-                    depth_scale_m,
-                    intrinsics,
-                },
-            )
+            let intrinsics = opts
+                .intrinsics
+                .ok_or_else(|| ReplayError::MissingOption("png: sources need intrinsics fx,fy,cx,cy".into()))?;
+            (list_files(path, "png")?, Format::Png { depth_scale_m, intrinsics })
         }
         "tum" => {
             let entries = tum::read_index(path)?;
@@ -196,13 +158,8 @@ pub struct Entry {
 
 #[derive(Debug, Clone, Copy)]
 enum Format {
-    Pcd {
-        intrinsics: Option<Intrinsics>,
-    },
-    Png {
-        depth_scale_m: f32,
-        intrinsics: Intrinsics,
-    },
+    Pcd { intrinsics: Option<Intrinsics> },
+    Png { depth_scale_m: f32, intrinsics: Intrinsics },
 }
 
 /// A recording played back frame by frame.
@@ -219,10 +176,7 @@ pub struct ReplaySource {
 /// Timestamps come from names that are a number of seconds (TUM style
 /// `1305031102.160407.png`) or PCL grabber names (`frame_20121214T142255.814212.pcd`).
 fn list_files(path: &Path, ext: &str) -> Result<Vec<Entry>, ReplayError> {
-    let unreadable = |e: std::io::Error| ReplayError::Unreadable {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    };
+    let unreadable = |e: std::io::Error| ReplayError::Unreadable { path: path.to_path_buf(), reason: e.to_string() };
     let meta = std::fs::metadata(path).map_err(unreadable)?;
     let mut paths = if meta.is_dir() {
         let mut v = Vec::new();
@@ -243,14 +197,7 @@ fn list_files(path: &Path, ext: &str) -> Result<Vec<Entry>, ReplayError> {
             what: if ext == "pcd" { "*.pcd" } else { "*.png" },
         });
     }
-    Ok(paths
-        .into_iter()
-        .map(|p| Entry {
-            time_s: time_from_name(&p),
-            path: p,
-            gravity_camera: None,
-        })
-        .collect())
+    Ok(paths.into_iter().map(|p| Entry { time_s: time_from_name(&p), path: p, gravity_camera: None }).collect())
 }
 
 /// Seconds encoded in a file name, if it has them.
@@ -273,11 +220,8 @@ fn time_from_name(path: &Path) -> Option<f64> {
 
 /// Median recorded spacing, or the untimed rate's period.
 fn nominal_period_s(entries: &[Entry], untimed_fps: f64) -> f64 {
-    let mut gaps: Vec<f64> = entries
-        .windows(2)
-        .filter_map(|w| Some(w[1].time_s? - w[0].time_s?))
-        .filter(|g| *g > 0.0 && *g < 5.0)
-        .collect();
+    let mut gaps: Vec<f64> =
+        entries.windows(2).filter_map(|w| Some(w[1].time_s? - w[0].time_s?)).filter(|g| *g > 0.0 && *g < 5.0).collect();
     if gaps.is_empty() {
         return 1.0 / untimed_fps;
     }
@@ -287,10 +231,7 @@ fn nominal_period_s(entries: &[Entry], untimed_fps: f64) -> f64 {
 
 impl ReplaySource {
     fn load(&self, entry: &Entry, stamp_ns: u64) -> Result<SourceFrame, SourceError> {
-        let skipped = |reason: String| SourceError::Skipped {
-            what: entry.path.display().to_string(),
-            reason,
-        };
+        let skipped = |reason: String| SourceError::Skipped { what: entry.path.display().to_string(), reason };
         let (width, height, depth, depth_scale_m, intrinsics) = match self.format {
             Format::Pcd { intrinsics } => {
                 let cloud = pcd::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
@@ -300,27 +241,11 @@ impl ReplaySource {
                 };
                 let mut depth = Vec::new();
                 organized_depth::depth_mm(&cloud, &mut depth);
-                (
-                    cloud.width,
-                    cloud.height,
-                    depth,
-                    organized_depth::CLOUD_DEPTH_SCALE_M,
-                    k,
-                )
+                (cloud.width, cloud.height, depth, organized_depth::CLOUD_DEPTH_SCALE_M, k)
             }
-            Format::Png {
-                depth_scale_m,
-                intrinsics,
-            } => {
-                let img =
-                    depth_png::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
-                (
-                    img.width,
-                    img.height,
-                    img.samples,
-                    depth_scale_m,
-                    intrinsics,
-                )
+            Format::Png { depth_scale_m, intrinsics } => {
+                let img = depth_png::read(&entry.path).map_err(|e| skipped(e.problem.to_string()))?;
+                (img.width, img.height, img.samples, depth_scale_m, intrinsics)
             }
         };
         Ok(SourceFrame {
@@ -341,12 +266,7 @@ impl ReplaySource {
 
 impl FrameSource for ReplaySource {
     fn describe(&self) -> String {
-        format!(
-            "{} ({} frames{})",
-            self.name,
-            self.entries.len(),
-            if self.looped { ", looped" } else { "" }
-        )
+        format!("{} ({} frames{})", self.name, self.entries.len(), if self.looped { ", looped" } else { "" })
     }
 
     fn next_frame(&mut self, now_ns: u64) -> Result<Option<SourceFrame>, SourceError> {
@@ -373,11 +293,7 @@ mod tests {
     use super::*;
 
     fn real(name: &str) -> Option<PathBuf> {
-        let p = PathBuf::from(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/data/real"
-        ))
-        .join(name);
+        let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real")).join(name);
         if p.exists() {
             Some(p)
         } else {
@@ -398,31 +314,14 @@ mod tests {
         let Some(path) = real("five_people.pcd") else {
             return;
         };
-        let mut src = open_source(
-            &format!("pcd:{}", path.display()),
-            &ReplayOptions::default(),
-        )
-        .unwrap();
+        let mut src = open_source(&format!("pcd:{}", path.display()), &ReplayOptions::default()).unwrap();
         let f = src.next_frame(1_000).unwrap().unwrap();
-        assert_eq!(
-            (f.width, f.height, f.stamp_ns, f.depth_scale_m),
-            (640, 480, 1_000, 0.001)
-        );
+        assert_eq!((f.width, f.height, f.stamp_ns, f.depth_scale_m), (640, 480, 1_000, 0.001));
         assert_eq!(f.depth.iter().filter(|&&d| d > 0).count(), 239_075);
-        let (lo, hi) = f
-            .depth
-            .iter()
-            .filter(|&&d| d > 0)
-            .fold((u16::MAX, 0), |(lo, hi), &d| (lo.min(d), hi.max(d)));
-        assert!(
-            (1750..=1770).contains(&lo) && (9750..=9770).contains(&hi),
-            "{lo}..{hi} mm"
-        );
+        let (lo, hi) = f.depth.iter().filter(|&&d| d > 0).fold((u16::MAX, 0), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+        assert!((1750..=1770).contains(&lo) && (9750..=9770).contains(&hi), "{lo}..{hi} mm");
         assert!(f.intrinsics.is_valid());
-        assert!(
-            src.next_frame(2_000).unwrap().is_none(),
-            "one file, no loop: the stream ends"
-        );
+        assert!(src.next_frame(2_000).unwrap().is_none(), "one file, no loop: the stream ends");
     }
 
     #[test]
@@ -457,9 +356,7 @@ mod tests {
     #[test]
     fn png_folder_without_scale_or_intrinsics_is_refused_at_open() {
         let dir = temp_dir("opts");
-        let err = open_source(&format!("png:{}", dir.display()), &ReplayOptions::default())
-            .err()
-            .unwrap();
+        let err = open_source(&format!("png:{}", dir.display()), &ReplayOptions::default()).err().unwrap();
         assert!(matches!(err, ReplayError::MissingOption(_)), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -480,19 +377,14 @@ mod tests {
         };
         let mut src = open_source(&format!("png:{}", dir.display()), &opts).unwrap();
         assert_eq!(src.period_ns(), 50_000_000);
-        let stamps: Vec<u64> = (0..3)
-            .map(|_| src.next_frame(0).unwrap().unwrap().stamp_ns)
-            .collect();
+        let stamps: Vec<u64> = (0..3).map(|_| src.next_frame(0).unwrap().unwrap().stamp_ns).collect();
         assert_eq!(stamps, [0, 50_000_000, 100_000_000]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn unknown_kind_and_missing_path_are_refused() {
-        assert!(matches!(
-            open_source("bag:x", &ReplayOptions::default()),
-            Err(ReplayError::UnknownKind(_))
-        ));
+        assert!(matches!(open_source("bag:x", &ReplayOptions::default()), Err(ReplayError::UnknownKind(_))));
         assert!(matches!(
             open_source("pcd:/nonexistent/dir", &ReplayOptions::default()),
             Err(ReplayError::Unreadable { .. })
@@ -511,10 +403,7 @@ mod tests {
     fn pcl_grabber_and_tum_names_carry_time() {
         let t = time_from_name(Path::new("frame_20121214T142255.814212.pcd")).unwrap();
         assert!((t - (14.0 * 3600.0 + 22.0 * 60.0 + 55.814212)).abs() < 1e-6);
-        assert_eq!(
-            time_from_name(Path::new("1305031102.160407.png")),
-            Some(1305031102.160407)
-        );
+        assert_eq!(time_from_name(Path::new("1305031102.160407.png")), Some(1305031102.160407));
         assert_eq!(time_from_name(Path::new("five_people.pcd")), None);
     }
 }

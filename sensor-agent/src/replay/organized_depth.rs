@@ -44,10 +44,7 @@ pub fn fit_intrinsics(cloud: &OrganizedCloud) -> Result<Intrinsics, String> {
             continue;
         }
         let (u, v) = ((i % w) as f64, (i / w) as f64);
-        for (s, (a, b)) in [
-            (&mut sx, (p[0] as f64 / p[2] as f64, u)),
-            (&mut sy, (p[1] as f64 / p[2] as f64, v)),
-        ] {
+        for (s, (a, b)) in [(&mut sx, (p[0] as f64 / p[2] as f64, u)), (&mut sy, (p[1] as f64 / p[2] as f64, v))] {
             s[0] += a;
             s[1] += b;
             s[2] += a * a;
@@ -57,9 +54,7 @@ pub fn fit_intrinsics(cloud: &OrganizedCloud) -> Result<Intrinsics, String> {
         n += 1;
     }
     if n < MIN_FIT_POINTS {
-        return Err(format!(
-            "only {n} valid points: too few to recover intrinsics; give them"
-        ));
+        return Err(format!("only {n} valid points: too few to recover intrinsics; give them"));
     }
     let nf = n as f64;
     let line = |s: &[f64; 5]| -> Option<(f64, f64, f64)> {
@@ -86,16 +81,9 @@ pub fn fit_intrinsics(cloud: &OrganizedCloud) -> Result<Intrinsics, String> {
             rms_x.max(rms_y)
         ));
     }
-    let k = Intrinsics {
-        fx: fx as f32,
-        fy: fy as f32,
-        cx: cx as f32,
-        cy: cy as f32,
-    };
+    let k = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32 };
     if !k.is_valid() {
-        return Err(format!(
-            "fitted intrinsics {k:?} are not a camera: give intrinsics"
-        ));
+        return Err(format!("fitted intrinsics {k:?} are not a camera: give intrinsics"));
     }
     Ok(k)
 }
@@ -115,53 +103,29 @@ mod tests {
                 [(u - k.cx) * z / k.fx, (v - k.cy) * z / k.fy, z]
             })
             .collect();
-        OrganizedCloud {
-            width: w,
-            height: h,
-            points,
-        }
+        OrganizedCloud { width: w, height: h, points }
     }
 
     #[test]
     fn intrinsics_of_a_projected_cloud_are_recovered() {
-        let k = Intrinsics {
-            fx: 570.3,
-            fy: 565.1,
-            cx: 319.5,
-            cy: 241.0,
-        };
+        let k = Intrinsics { fx: 570.3, fy: 565.1, cx: 319.5, cy: 241.0 };
         let fit = fit_intrinsics(&projected_cloud(k, 64, 48)).unwrap();
-        assert!(
-            (fit.fx - k.fx).abs() < 0.05 && (fit.fy - k.fy).abs() < 0.05,
-            "{fit:?}"
-        );
-        assert!(
-            (fit.cx - k.cx).abs() < 0.05 && (fit.cy - k.cy).abs() < 0.05,
-            "{fit:?}"
-        );
+        assert!((fit.fx - k.fx).abs() < 0.05 && (fit.fy - k.fy).abs() < 0.05, "{fit:?}");
+        assert!((fit.cx - k.cx).abs() < 0.05 && (fit.cy - k.cy).abs() < 0.05, "{fit:?}");
     }
 
     #[test]
     fn transformed_clouds_are_refused() {
-        let k = Intrinsics {
-            fx: 500.0,
-            fy: 500.0,
-            cx: 32.0,
-            cy: 24.0,
-        };
+        let k = Intrinsics { fx: 500.0, fy: 500.0, cx: 32.0, cy: 24.0 };
         // Rotated 180 degrees: a projection, but with negative focal lengths.
         let mut rotated = projected_cloud(k, 64, 48);
         rotated.points.reverse();
-        assert!(fit_intrinsics(&rotated)
-            .unwrap_err()
-            .contains("not a camera"));
+        assert!(fit_intrinsics(&rotated).unwrap_err().contains("not a camera"));
         // Rows shuffled: no pinhole maps these points to their pixels.
         let mut shuffled = projected_cloud(k, 64, 48);
         for r in 0..24 {
             for c in 0..64 {
-                shuffled
-                    .points
-                    .swap(r * 64 + c, (47 - r) * 64 + (c * 7) % 64);
+                shuffled.points.swap(r * 64 + c, (47 - r) * 64 + (c * 7) % 64);
             }
         }
         let err = fit_intrinsics(&shuffled).unwrap_err();
@@ -173,12 +137,7 @@ mod tests {
         let cloud = OrganizedCloud {
             width: 2,
             height: 2,
-            points: vec![
-                [0.1, 0.2, 1.2345],
-                [f32::NAN; 3],
-                [0.0, 0.0, 70.0],
-                [0.0, 0.0, -1.0],
-            ],
+            points: vec![[0.1, 0.2, 1.2345], [f32::NAN; 3], [0.0, 0.0, 70.0], [0.0, 0.0, -1.0]],
         };
         let mut depth = Vec::new();
         depth_mm(&cloud, &mut depth);
@@ -187,24 +146,15 @@ mod tests {
 
     #[test]
     fn openni_frame_has_kinect_intrinsics() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/data/real/frame_20121214T142255.814212.pcd"
-        );
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/frame_20121214T142255.814212.pcd");
         if !std::path::Path::new(path).exists() {
             println!("skipping: {path} not present");
             return;
         }
         let cloud = crate::formats::pcd::read(std::path::Path::new(path)).unwrap();
         let k = fit_intrinsics(&cloud).unwrap();
-        assert!(
-            (k.fx - 525.0).abs() < 1.0 && (k.fy - 525.0).abs() < 1.0,
-            "{k:?}"
-        );
-        assert!(
-            (k.cx - 320.0).abs() < 1.0 && (k.cy - 240.0).abs() < 1.0,
-            "{k:?}"
-        );
+        assert!((k.fx - 525.0).abs() < 1.0 && (k.fy - 525.0).abs() < 1.0, "{k:?}");
+        assert!((k.cx - 320.0).abs() < 1.0 && (k.cy - 240.0).abs() < 1.0, "{k:?}");
         let mut depth = Vec::new();
         depth_mm(&cloud, &mut depth);
         assert_eq!(depth.iter().filter(|&&d| d > 0).count(), 271_575);

@@ -20,17 +20,8 @@ impl Pacing {
     /// `rate` 1.0 is real time, 2.0 twice as fast; `nominal_period_s` spaces frames
     /// that carry no timestamp, the loop-around and breaks in a recording.
     pub fn new(rate: f64, nominal_period_s: f64) -> Pacing {
-        let rate = if rate.is_finite() && rate > 0.0 {
-            rate
-        } else {
-            1.0
-        };
-        Pacing {
-            rate,
-            nominal_period_s,
-            last: None,
-            restarted: false,
-        }
+        let rate = if rate.is_finite() && rate > 0.0 { rate } else { 1.0 };
+        Pacing { rate, nominal_period_s, last: None, restarted: false }
     }
 
     /// Nominal spacing of published frames, ns.
@@ -52,16 +43,13 @@ impl Pacing {
             None => now_ns,
             Some((prev_s, prev_ns)) => {
                 let gap_s = match time_s {
-                    Some(t) if !self.restarted && t > prev_s && t - prev_s <= MAX_GAP_S => {
-                        t - prev_s
-                    }
+                    Some(t) if !self.restarted && t > prev_s && t - prev_s <= MAX_GAP_S => t - prev_s,
                     _ => self.nominal_period_s,
                 };
                 (prev_ns + (gap_s / self.rate * 1e9).round() as u64).max(now_ns)
             }
         };
-        let recorded =
-            time_s.unwrap_or_else(|| self.last.map_or(0.0, |(t, _)| t + self.nominal_period_s));
+        let recorded = time_s.unwrap_or_else(|| self.last.map_or(0.0, |(t, _)| t + self.nominal_period_s));
         self.last = Some((recorded, stamp));
         self.restarted = false;
         stamp

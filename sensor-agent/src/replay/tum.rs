@@ -18,12 +18,7 @@ use super::{Entry, ReplayError};
 pub const DEPTH_SCALE_M: f32 = 0.0002;
 
 /// The benchmark's default Kinect intrinsics (its "ROS default" calibration).
-pub const KINECT_INTRINSICS: Intrinsics = Intrinsics {
-    fx: 525.0,
-    fy: 525.0,
-    cx: 319.5,
-    cy: 239.5,
-};
+pub const KINECT_INTRINSICS: Intrinsics = Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 };
 
 /// Accelerometer samples further than this from a frame give it no gravity.
 const MAX_ACCEL_GAP_S: f64 = 0.1;
@@ -31,36 +26,23 @@ const MAX_ACCEL_GAP_S: f64 = 0.1;
 /// Reads `dir/depth.txt` (and `dir/accelerometer.txt` when present) into entries.
 pub fn read_index(dir: &Path) -> Result<Vec<Entry>, ReplayError> {
     let index = dir.join("depth.txt");
-    let text = std::fs::read_to_string(&index).map_err(|e| ReplayError::Unreadable {
-        path: index.clone(),
-        reason: e.to_string(),
-    })?;
+    let text = std::fs::read_to_string(&index)
+        .map_err(|e| ReplayError::Unreadable { path: index.clone(), reason: e.to_string() })?;
     let mut entries = Vec::new();
     for (i, line) in numbered_lines(&text) {
         let mut parts = line.split_whitespace();
         let (Some(t), Some(file), None) = (parts.next(), parts.next(), parts.next()) else {
-            return Err(ReplayError::BadIndex {
-                file: index,
-                line: i,
-                reason: "expected `timestamp filename`".into(),
-            });
+            return Err(ReplayError::BadIndex { file: index, line: i, reason: "expected `timestamp filename`".into() });
         };
         let time_s = parse_time(t).ok_or_else(|| ReplayError::BadIndex {
             file: index.clone(),
             line: i,
             reason: format!("timestamp {t:?} is not a number"),
         })?;
-        entries.push(Entry {
-            path: dir.join(file),
-            time_s: Some(time_s),
-            gravity_camera: None,
-        });
+        entries.push(Entry { path: dir.join(file), time_s: Some(time_s), gravity_camera: None });
     }
     if entries.is_empty() {
-        return Err(ReplayError::Empty {
-            path: index,
-            what: "depth",
-        });
+        return Err(ReplayError::Empty { path: index, what: "depth" });
     }
     let accel_path = dir.join("accelerometer.txt");
     if let Ok(text) = std::fs::read_to_string(&accel_path) {
@@ -73,10 +55,7 @@ pub fn read_index(dir: &Path) -> Result<Vec<Entry>, ReplayError> {
 }
 
 fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+    text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
 fn parse_time(t: &str) -> Option<f64> {
@@ -149,24 +128,13 @@ mod tests {
             "# depth maps\n# timestamp filename\n1.000000 depth/1.000000.png\n1.033000 depth/missing.png\n1.100000 depth/1.100000.png\n",
         )
         .unwrap();
-        std::fs::write(
-            dir.join("accelerometer.txt"),
-            "# accel\n0.99 0.0 -9.0 -3.0\n1.5 0 -9.81 0\n",
-        )
-        .unwrap();
-        let mut src =
-            open_source(&format!("tum:{}", dir.display()), &ReplayOptions::default()).unwrap();
+        std::fs::write(dir.join("accelerometer.txt"), "# accel\n0.99 0.0 -9.0 -3.0\n1.5 0 -9.81 0\n").unwrap();
+        let mut src = open_source(&format!("tum:{}", dir.display()), &ReplayOptions::default()).unwrap();
         let first = src.next_frame(0).unwrap().unwrap();
-        assert_eq!(
-            (first.depth_scale_m, first.intrinsics),
-            (DEPTH_SCALE_M, KINECT_INTRINSICS)
-        );
+        assert_eq!((first.depth_scale_m, first.intrinsics), (DEPTH_SCALE_M, KINECT_INTRINSICS));
         let g = first.gravity_camera.unwrap();
         let n = (90.0f32).sqrt();
-        assert!(
-            (g[1] - 9.0 / n).abs() < 1e-5 && (g[2] - 3.0 / n).abs() < 1e-5,
-            "{g:?}"
-        );
+        assert!((g[1] - 9.0 / n).abs() < 1e-5 && (g[2] - 3.0 / n).abs() < 1e-5, "{g:?}");
         match src.next_frame(0) {
             Err(SourceError::Skipped { what, .. }) => {
                 assert!(what.ends_with("missing.png"), "{what}")
@@ -175,10 +143,7 @@ mod tests {
         }
         let third = src.next_frame(0).unwrap().unwrap();
         assert_eq!(third.stamp_ns, 100_000_000, "recorded spacing 1.0 -> 1.1 s");
-        assert_eq!(
-            third.gravity_camera, None,
-            "no accelerometer sample within 0.1 s"
-        );
+        assert_eq!(third.gravity_camera, None, "no accelerometer sample within 0.1 s");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -89,7 +89,8 @@ impl CaneMount {
 
     /// Sweep angle at time `t_s`, radians, positive left.
     pub fn sweep_rad(&self, t_s: f64) -> f64 {
-        self.sweep_amplitude_deg.to_radians() * (std::f64::consts::TAU * self.sweep_hz * t_s + self.sweep_phase_rad).sin()
+        self.sweep_amplitude_deg.to_radians()
+            * (std::f64::consts::TAU * self.sweep_hz * t_s + self.sweep_phase_rad).sin()
     }
 
     /// Angle of the cane below the horizontal, radians (tip on the floor).
@@ -103,7 +104,8 @@ impl CaneMount {
         let hand = [user.x_m + cy * self.hand_forward_m, user.y_m + sy * self.hand_forward_m, self.handle_height_m];
         let (ss, cs) = (user.yaw_rad + sweep_rad).sin_cos();
         let reach = self.cane_length_m * self.cane_angle_rad().cos();
-        let tip = [hand[0] + cs * reach, hand[1] + ss * reach, hand[2] - self.cane_length_m * self.cane_angle_rad().sin()];
+        let tip =
+            [hand[0] + cs * reach, hand[1] + ss * reach, hand[2] - self.cane_length_m * self.cane_angle_rad().sin()];
         (hand, tip)
     }
 

@@ -28,7 +28,13 @@ impl Default for OdometryNoise {
     /// Typical indoor VO: 1 % scale, 2 % noise per step, about 1 degree of heading
     /// drift per minute.
     fn default() -> Self {
-        OdometryNoise { scale: 0.01, translation_per_m: 0.02, yaw_per_rad: 0.01, yaw_per_m: 0.002, yaw_drift_rad_s: 3e-4 }
+        OdometryNoise {
+            scale: 0.01,
+            translation_per_m: 0.02,
+            yaw_per_rad: 0.01,
+            yaw_per_m: 0.002,
+            yaw_drift_rad_s: 3e-4,
+        }
     }
 }
 

@@ -268,8 +268,7 @@ impl Renderer {
     }
 
     fn prepare_cylinder(&mut self, cyl: &VerticalCylinder, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
-        let corners =
-            Self::footprint_corners(cyl.center_m, [cyl.radius_m, cyl.radius_m], 0.0, cyl.bottom_m, cyl.top_m);
+        let corners = Self::footprint_corners(cyl.center_m, [cyl.radius_m, cyl.radius_m], 0.0, cyl.bottom_m, cyl.top_m);
         let Some(rect) = self.screen_rect(&corners, r, c) else { return };
         self.cylinders.push(FrameCylinder {
             origin: [(c.x - cyl.center_m[0]) as f32, (c.y - cyl.center_m[1]) as f32, c.z as f32],
@@ -581,7 +580,8 @@ mod tests {
         let mut measured = Vec::new();
         for v in 236..=244usize {
             for u in 316..=324usize {
-                let ray = Vector3::new((u as f64 - k.cx as f64) / k.fx as f64, (v as f64 - k.cy as f64) / k.fy as f64, 1.0);
+                let ray =
+                    Vector3::new((u as f64 - k.cx as f64) / k.fx as f64, (v as f64 - k.cy as f64) / k.fy as f64, 1.0);
                 let dz = (pose.camera_to_map * ray).z;
                 let exact_mm = -1.0 / dz * 1000.0;
                 let d = depth[v * 640 + u];
@@ -642,7 +642,8 @@ mod tests {
         // Level camera at the cane camera's height: the sign is 18-24 degrees up.
         let level = CameraPose::from_yaw_pitch(0.0, 0.0, 0.885, 0.0, 0.0, 0);
         let (r, depth) = render(&w, &level, 3);
-        let rows: Vec<usize> = (0..640 * 480).filter(|&i| r.obstacle_ids()[i] == 0 && depth[i] != 0).map(|i| i / 640).collect();
+        let rows: Vec<usize> =
+            (0..640 * 480).filter(|&i| r.obstacle_ids()[i] == 0 && depth[i] != 0).map(|i| i / 640).collect();
         assert!(rows.len() > 1000, "sign covers {} valid pixels", rows.len());
         let lowest = rows.iter().max().copied().unwrap_or(0);
         // Bottom face's far edge: atan(0.665 / 2.3) = 16.1 deg up, row ~ 72.

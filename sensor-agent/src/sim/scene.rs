@@ -721,7 +721,9 @@ fn validate(scene: &SceneFile, text: &str, origin: &str) -> Result<(), SceneErro
         c.positive("top_thickness_m", v.top_thickness_m)?;
         c.positive("leg_radius_m", v.leg_radius_m)?;
         if v.height_m <= v.top_thickness_m {
-            return Err(c.fail(format!("height_m ({}) must exceed top_thickness_m ({})", v.height_m, v.top_thickness_m)));
+            return Err(
+                c.fail(format!("height_m ({}) must exceed top_thickness_m ({})", v.height_m, v.top_thickness_m))
+            );
         }
         if v.size_m[0].min(v.size_m[1]) < 2.0 * (LEG_INSET_M + v.leg_radius_m) {
             return Err(c.fail("top is too small for its legs".into()));
@@ -735,7 +737,10 @@ fn validate(scene: &SceneFile, text: &str, origin: &str) -> Result<(), SceneErro
         c.positive("seat_size_m", v.seat_size_m)?;
         c.positive("seat_height_m", v.seat_height_m)?;
         if v.back_height_m <= v.seat_height_m {
-            return Err(c.fail(format!("back_height_m ({}) must be above seat_height_m ({})", v.back_height_m, v.seat_height_m)));
+            return Err(c.fail(format!(
+                "back_height_m ({}) must be above seat_height_m ({})",
+                v.back_height_m, v.seat_height_m
+            )));
         }
     }
     for (i, h) in scene.hanging.iter().enumerate() {
@@ -867,7 +872,8 @@ mod tests {
 
     #[test]
     fn unknown_field_is_refused_with_its_line() {
-        let text = format!("{HEAD}\n[[cylinders]]\ncenter = [1.0, 1.0]\nradius_m = 0.2\ntop_m = 1.0\ncolour = \"red\"\n");
+        let text =
+            format!("{HEAD}\n[[cylinders]]\ncenter = [1.0, 1.0]\nradius_m = 0.2\ntop_m = 1.0\ncolour = \"red\"\n");
         let err = parse_scene(&text, "room.toml").unwrap_err();
         match &err {
             SceneError::Syntax { line, message, .. } => {
@@ -897,7 +903,8 @@ mod tests {
 
     #[test]
     fn hanging_obstacle_on_the_floor_is_refused() {
-        let text = format!("{HEAD}[[hanging]]\ncenter = [1.0, 1.0]\nsize_m = [0.5, 0.5]\nbottom_m = 0.0\ntop_m = 1.0\n");
+        let text =
+            format!("{HEAD}[[hanging]]\ncenter = [1.0, 1.0]\nsize_m = [0.5, 0.5]\nbottom_m = 0.0\ntop_m = 1.0\n");
         let err = parse_scene(&text, "x").unwrap_err();
         assert!(err.to_string().contains("hanging[0]: a hanging obstacle must have bottom_m > 0"), "{err}");
         assert!(err.to_string().starts_with("x:4: "), "{err}");

@@ -148,10 +148,7 @@ impl Shape {
             }
             Shape::Cylinder(c) => {
                 let r = c.radius_m;
-                (
-                    [c.center_m[0] - r, c.center_m[1] - r, c.bottom_m],
-                    [c.center_m[0] + r, c.center_m[1] + r, c.top_m],
-                )
+                ([c.center_m[0] - r, c.center_m[1] - r, c.bottom_m], [c.center_m[0] + r, c.center_m[1] + r, c.top_m])
             }
             Shape::DropOff(d) => {
                 let (lo, hi) = footprint(d.center_m, d.half_size_m, d.yaw_rad);
@@ -200,14 +197,16 @@ mod tests {
 
     #[test]
     fn cane_segment_distance_to_pole_is_within_sampling_step() {
-        let pole = Shape::Cylinder(VerticalCylinder { center_m: [1.0, 0.3], radius_m: 0.02, bottom_m: 0.0, top_m: 2.0 });
+        let pole =
+            Shape::Cylinder(VerticalCylinder { center_m: [1.0, 0.3], radius_m: 0.02, bottom_m: 0.0, top_m: 2.0 });
         let d = pole.segment_distance_m([0.0, 0.0, 1.0], [2.0, 0.0, 0.0]);
         assert!((d - 0.28).abs() <= SEGMENT_STEP_M / 2.0 + 1e-9, "{d}");
     }
 
     #[test]
     fn drop_off_catches_the_feet_not_the_shoulder() {
-        let hole = Shape::DropOff(DropOff { center_m: [0.0, 0.0], half_size_m: [1.0, 1.0], yaw_rad: 0.0, depth_m: 0.2 });
+        let hole =
+            Shape::DropOff(DropOff { center_m: [0.0, 0.0], half_size_m: [1.0, 1.0], yaw_rad: 0.0, depth_m: 0.2 });
         assert!((hole.body_distance_m(1.2, 0.0, 0.25, 1.8) - 0.2).abs() < 1e-9);
         assert_eq!(hole.body_distance_m(0.9, 0.0, 0.25, 1.8), 0.0);
     }

@@ -122,7 +122,11 @@ impl SimSource {
 
     fn noisy_gravity(&mut self, g: Vector3<f64>) -> [f32; 3] {
         let s = self.gravity_noise_rad;
-        let tilted = g + Vector3::new(self.gravity_rng.gaussian() * s, self.gravity_rng.gaussian() * s, self.gravity_rng.gaussian() * s);
+        let tilted = g + Vector3::new(
+            self.gravity_rng.gaussian() * s,
+            self.gravity_rng.gaussian() * s,
+            self.gravity_rng.gaussian() * s,
+        );
         let u = tilted.normalize();
         [u.x as f32, u.y as f32, u.z as f32]
     }
@@ -164,7 +168,11 @@ impl FrameSource for SimSource {
                 break;
             }
             let (gyro, accel) = self.imu.sample(t_k, camera_at);
-            imu.push(ImuSample { stamp_ns: start_ns + (t_k * 1e9).round() as u64, gyro_rad_s: gyro, accel_m_s2: accel });
+            imu.push(ImuSample {
+                stamp_ns: start_ns + (t_k * 1e9).round() as u64,
+                gyro_rad_s: gyro,
+                accel_m_s2: accel,
+            });
             self.next_imu += 1;
         }
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
@@ -180,7 +188,10 @@ impl FrameSource for SimSource {
             intrinsics: self.renderer.intrinsics(),
             depth: self.scratch.clone(),
             gravity_camera: Some(gravity),
-            mount: Some(MountGuess { height_m: self.mount.camera_height_m() as f32, pitch_deg: self.mount.pitch_deg as f32 }),
+            mount: Some(MountGuess {
+                height_m: self.mount.camera_height_m() as f32,
+                pitch_deg: self.mount.pitch_deg as f32,
+            }),
             imu,
             odom,
             truth: Some(GroundTruth {
@@ -322,7 +333,13 @@ mod tests {
         let near = |d: u16| d != 0 && d < 900;
         let mut phases = Vec::new();
         for &d in &series {
-            let phase = if far(d) { 'F' } else if near(d) { 'N' } else { continue };
+            let phase = if far(d) {
+                'F'
+            } else if near(d) {
+                'N'
+            } else {
+                continue;
+            };
             if phases.last() != Some(&phase) {
                 phases.push(phase);
             }

@@ -94,7 +94,10 @@ impl ScriptedWalker {
 
     /// A walker that stands at `start` forever.
     pub fn standing(start: UserPose) -> Self {
-        Self::new(start, &WalkerSpec { waypoints: Vec::new(), speed_m_s: 1.0, turn_rate_deg_s: 90.0, at_end: AtEnd::Stop })
+        Self::new(
+            start,
+            &WalkerSpec { waypoints: Vec::new(), speed_m_s: 1.0, turn_rate_deg_s: 90.0, at_end: AtEnd::Stop },
+        )
     }
 
     fn duration_of(&self, leg: &Leg) -> f64 {
@@ -148,7 +151,12 @@ impl ScriptedWalker {
         match *leg {
             Leg::Turn { at, from_rad, by_rad } => {
                 let turned = trapezoid(t, by_rad.abs(), self.turn_rate_rad_s, TURN_ACCEL_RAD_S2);
-                UserPose { x_m: at[0], y_m: at[1], yaw_rad: wrap_pi(from_rad + by_rad.signum() * turned), floor: self.floor }
+                UserPose {
+                    x_m: at[0],
+                    y_m: at[1],
+                    yaw_rad: wrap_pi(from_rad + by_rad.signum() * turned),
+                    floor: self.floor,
+                }
             }
             Leg::Move { from, to, yaw_rad } => {
                 let length = (to[0] - from[0]).hypot(to[1] - from[1]);
@@ -184,7 +192,12 @@ mod tests {
 
     #[test]
     fn walker_reaches_each_waypoint_turning_in_place_between() {
-        let spec = WalkerSpec { waypoints: vec![[3.0, 0.0], [3.0, 2.0]], speed_m_s: 1.0, turn_rate_deg_s: 90.0, at_end: AtEnd::Stop };
+        let spec = WalkerSpec {
+            waypoints: vec![[3.0, 0.0], [3.0, 2.0]],
+            speed_m_s: 1.0,
+            turn_rate_deg_s: 90.0,
+            at_end: AtEnd::Stop,
+        };
         let w = ScriptedWalker::new(start(), &spec);
         // 3 m at 1 m/s with 0.5 s ramps: 3.5 s; a 90-degree turn at 90 deg/s: about 1.26 s.
         let first = trapezoid_duration(3.0, 1.0, WALK_ACCEL_M_S2);
@@ -202,7 +215,8 @@ mod tests {
 
     #[test]
     fn backing_up_returns_to_start_facing_forward_and_repeats() {
-        let spec = WalkerSpec { waypoints: vec![[3.0, 0.0]], speed_m_s: 1.0, turn_rate_deg_s: 90.0, at_end: AtEnd::BackUp };
+        let spec =
+            WalkerSpec { waypoints: vec![[3.0, 0.0]], speed_m_s: 1.0, turn_rate_deg_s: 90.0, at_end: AtEnd::BackUp };
         let w = ScriptedWalker::new(start(), &spec);
         let d = w.script_duration_s();
         let back = w.pose_at(2.0 * d);

@@ -139,7 +139,12 @@ impl Person {
 
     /// The person's cylinder at time `t_s`.
     pub fn shape_at(&self, t_s: f64) -> VerticalCylinder {
-        VerticalCylinder { center_m: self.position_at(t_s), radius_m: self.radius_m, bottom_m: 0.0, top_m: self.height_m }
+        VerticalCylinder {
+            center_m: self.position_at(t_s),
+            radius_m: self.radius_m,
+            bottom_m: 0.0,
+            top_m: self.height_m,
+        }
     }
 }
 
@@ -172,8 +177,14 @@ pub struct World {
     walker: Option<WalkerSpec>,
 }
 
-static NO_GEOMETRY: FloorGeometry =
-    FloorGeometry { index: i32::MIN, name: String::new(), elevation_m: 0.0, boxes: Vec::new(), cylinders: Vec::new(), drop_offs: Vec::new() };
+static NO_GEOMETRY: FloorGeometry = FloorGeometry {
+    index: i32::MIN,
+    name: String::new(),
+    elevation_m: 0.0,
+    boxes: Vec::new(),
+    cylinders: Vec::new(),
+    drop_offs: Vec::new(),
+};
 
 impl World {
     /// A built-in world by name, or else a scene file at that path.
@@ -193,10 +204,7 @@ impl World {
 
     /// A built-in world, `None` when no world has that name.
     pub fn builtin(name: &str) -> Option<Result<World, SceneError>> {
-        BUILTIN_WORLDS
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(n, text)| Self::from_toml(text, &format!("builtin:{n}")))
+        BUILTIN_WORLDS.iter().find(|(n, _)| *n == name).map(|(n, text)| Self::from_toml(text, &format!("builtin:{n}")))
     }
 
     /// A world from a scene file.
@@ -267,7 +275,11 @@ impl World {
         }
         for (i, t) in scene.tables.iter().map(|t| t.get_ref()).enumerate() {
             let id = build.obstacle(ObstacleKind::Table, &t.label, "tables", i, t.floor);
-            build.add_box(t.floor, id, footprint_box(t.center, t.size_m, t.yaw_deg, t.height_m - t.top_thickness_m, t.height_m));
+            build.add_box(
+                t.floor,
+                id,
+                footprint_box(t.center, t.size_m, t.yaw_deg, t.height_m - t.top_thickness_m, t.height_m),
+            );
             let inset = LEG_INSET_M + t.leg_radius_m;
             for corner in corners_of(t.center, [t.size_m[0] / 2.0 - inset, t.size_m[1] / 2.0 - inset], t.yaw_deg) {
                 build.add_cylinder(
@@ -286,7 +298,11 @@ impl World {
             let id = build.obstacle(ObstacleKind::Chair, &c.label, "chairs", i, c.floor);
             let half = c.seat_size_m / 2.0;
             let seat_bottom = c.seat_height_m - CHAIR_SEAT_THICKNESS_M;
-            build.add_box(c.floor, id, footprint_box(c.center, [c.seat_size_m; 2], c.yaw_deg, seat_bottom, c.seat_height_m));
+            build.add_box(
+                c.floor,
+                id,
+                footprint_box(c.center, [c.seat_size_m; 2], c.yaw_deg, seat_bottom, c.seat_height_m),
+            );
             let (s, co) = c.yaw_deg.to_radians().sin_cos();
             let back_center = [c.center[0] - co * (half - 0.01), c.center[1] - s * (half - 0.01)];
             build.add_box(
@@ -485,7 +501,15 @@ impl World {
 
     /// Nearest obstacle to a standing body (vertical cylinder of `radius_m`, from the
     /// floor to `height_m`, at x, y) at time `t_s`; `None` on an empty floor.
-    pub fn nearest_to_body(&self, floor: i32, x_m: f64, y_m: f64, radius_m: f64, height_m: f64, t_s: f64) -> Option<Nearest> {
+    pub fn nearest_to_body(
+        &self,
+        floor: i32,
+        x_m: f64,
+        y_m: f64,
+        radius_m: f64,
+        height_m: f64,
+        t_s: f64,
+    ) -> Option<Nearest> {
         self.nearest_by(floor, t_s, |s| s.body_distance_m(x_m, y_m, radius_m, height_m))
     }
 
@@ -516,7 +540,13 @@ impl World {
 const CHAIR_SEAT_THICKNESS_M: f64 = 0.04;
 
 fn footprint_box(center: [f64; 2], size_m: [f64; 2], yaw_deg: f64, bottom_m: f64, top_m: f64) -> OrientedBox {
-    OrientedBox { center_m: center, half_size_m: [size_m[0] / 2.0, size_m[1] / 2.0], yaw_rad: yaw_deg.to_radians(), bottom_m, top_m }
+    OrientedBox {
+        center_m: center,
+        half_size_m: [size_m[0] / 2.0, size_m[1] / 2.0],
+        yaw_rad: yaw_deg.to_radians(),
+        bottom_m,
+        top_m,
+    }
 }
 
 /// The four corners at +-half around a centre, turned by yaw.
@@ -578,9 +608,21 @@ mod tests {
     #[test]
     fn every_builtin_world_loads_with_its_features() {
         let t = builtin("taylor-course");
-        assert_eq!((count(&t, ObstacleKind::Wall), count(&t, ObstacleKind::Chair), count(&t, ObstacleKind::Hanging)), (6, 3, 2));
-        let heights: Vec<f64> = t.geometry(0).boxes.iter().filter(|(_, id)| t.obstacles()[id.0 as usize].kind == ObstacleKind::Hanging).map(|(b, _)| b.bottom_m).collect();
-        assert!(heights.iter().any(|&h| h < 1.0) && heights.iter().any(|&h| h > 1.5), "waist- and head-high: {heights:?}");
+        assert_eq!(
+            (count(&t, ObstacleKind::Wall), count(&t, ObstacleKind::Chair), count(&t, ObstacleKind::Hanging)),
+            (6, 3, 2)
+        );
+        let heights: Vec<f64> = t
+            .geometry(0)
+            .boxes
+            .iter()
+            .filter(|(_, id)| t.obstacles()[id.0 as usize].kind == ObstacleKind::Hanging)
+            .map(|(b, _)| b.bottom_m)
+            .collect();
+        assert!(
+            heights.iter().any(|&h| h < 1.0) && heights.iter().any(|&h| h > 1.5),
+            "waist- and head-high: {heights:?}"
+        );
 
         let c = builtin("corridor");
         assert!(c.doors().len() >= 10 && c.corners().len() >= 2 && c.people().len() == 2);
@@ -618,7 +660,11 @@ mod tests {
     #[test]
     fn unknown_world_lists_the_builtin_ones() {
         let err = World::load("no-such-world").err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(err.contains("unknown world `no-such-world`") && err.contains("taylor-course, corridor, building, approach"), "{err}");
+        assert!(
+            err.contains("unknown world `no-such-world`")
+                && err.contains("taylor-course, corridor, building, approach"),
+            "{err}"
+        );
     }
 
     /// Shortest walking distance for a body of shoulder width on a 10 cm grid
