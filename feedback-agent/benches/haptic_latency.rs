@@ -41,13 +41,7 @@ fn intent(k: u64) -> HapticIntent {
 fn report(what: &str, mut us: Vec<f64>) {
     us.sort_by(|a, b| a.total_cmp(b));
     let at = |q: f64| us[((q * us.len() as f64).ceil() as usize).clamp(1, us.len()) - 1];
-    println!(
-        "{what}: n={} p50={:.1} us p99={:.1} us max={:.1} us",
-        us.len(),
-        at(0.5),
-        at(0.99),
-        us[us.len() - 1]
-    );
+    println!("{what}: n={} p50={:.1} us p99={:.1} us max={:.1} us", us.len(), at(0.5), at(0.99), us[us.len() - 1]);
 }
 
 /// Writes of rumble reports (0x10), with their stamps, in order.
@@ -151,7 +145,12 @@ async fn over_bus(n: u64, hz: u64) -> anyhow::Result<()> {
             us.push((writes[w] - c) as f64 / 1e3);
         }
     }
-    println!("over the bus: {} intents at {hz} Hz in {:.0} s, {} matched to a HID write", n, started.elapsed().as_secs_f64(), us.len());
+    println!(
+        "over the bus: {} intents at {hz} Hz in {:.0} s, {} matched to a HID write",
+        n,
+        started.elapsed().as_secs_f64(),
+        us.len()
+    );
     report("capture stamp -> Zenoh loopback -> agent -> HID write", us);
     Ok(())
 }

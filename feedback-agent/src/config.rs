@@ -8,9 +8,11 @@ use clap::{Parser, ValueEnum};
 use serde::{Deserialize, Serialize};
 
 use crate::espeak::EspeakConfig;
+use crate::evdev::EvdevConfig;
 use crate::feedback::StepSettings;
 use crate::haptic_cue::CueLimits;
 use crate::speech_queue::QueueConfig;
+use crate::speechd::{socket_path_from_env, SpeechdConfig};
 use crate::wiimote::WiimoteConfig;
 
 /// A haptic backend.
@@ -21,6 +23,9 @@ pub enum HapticBackend {
     Console,
     /// Two Wii remotes over hidapi (one per hand).
     Wiimote,
+    /// Force-feedback rumble on evdev input nodes (`--evdev-left`, `--evdev-right`),
+    /// e.g. the kernel hid-wiimote driver's, or a gamepad's.
+    Evdev,
     /// The phone's vibration, through the phone bridge (`phone/haptic`).
     Phone,
 }
@@ -33,6 +38,8 @@ pub enum SpeechBackend {
     Console,
     /// espeak-ng, played through aplay/paplay, or synthesised to WAV without one.
     Espeak,
+    /// speech-dispatcher, over SSIP on its Unix socket (`--speechd-socket`).
+    Speechd,
     /// The phone's voice, through the phone bridge (`phone/speech`).
     Phone,
 }
@@ -106,6 +113,20 @@ pub struct FeedbackConfig {
     #[arg(long, value_name = "PATH_OR_SERIAL")]
     pub wiimote_right: Option<String>,
 
+    /// evdev input node of the LEFT hand's rumble (`/dev/input/event5`; the
+    /// hid-wiimote node is named "Nintendo Wii Remote" in /proc/bus/input/devices).
+    #[arg(long, value_name = "PATH")]
+    pub evdev_left: Option<PathBuf>,
+
+    /// evdev input node of the RIGHT hand's rumble.
+    #[arg(long, value_name = "PATH")]
+    pub evdev_right: Option<PathBuf>,
+
+    /// speech-dispatcher's socket; default `SPEECHD_ADDRESS` (`unix_socket:PATH`),
+    /// else `$XDG_RUNTIME_DIR/speech-dispatcher/speechd.sock`.
+    #[arg(long, value_name = "PATH")]
+    pub speechd_socket: Option<PathBuf>,
+
     /// Remote battery poll period.
     #[arg(long, default_value_t = 60, value_name = "S")]
     pub battery_poll_s: u64,
@@ -164,6 +185,28 @@ impl FeedbackConfig {
         }
     }
 
+    /// speech-dispatcher settings (the socket resolved from the environment).
+    pub fn speechd(&self) -> Result<SpeechdConfig, String> {
+        Ok(SpeechdConfig {
+            socket: socket_path_from_env(self.speechd_socket.as_deref())?,
+            user: self.bus.user.clone(),
+            voice: self.voice.clone(),
+            rate_wpm: self.rate_wpm,
+            volume: self.volume,
+            ..SpeechdConfig::default()
+        })
+    }
+
+    /// evdev rumble settings; the backstop is the longest TTL honoured.
+    pub fn evdev(&self) -> EvdevConfig {
+        EvdevConfig {
+            left: self.evdev_left.clone(),
+            right: self.evdev_right.clone(),
+            backstop_ms: self.max_haptic_ttl_ms.clamp(1, u16::MAX as u32) as u16,
+            ..EvdevConfig::default()
+        }
+    }
+
     /// Wiimote settings.
     pub fn wiimote(&self) -> WiimoteConfig {
         WiimoteConfig {
@@ -193,13 +236,36 @@ mod tests {
     #[test]
     fn backends_are_comma_separated_lists() {
         let d = DefaultsOnly::try_parse_from([
-            "feedback-agent", "--haptic", "wiimote,console", "--speech", "espeak,console", "--offline-after-ms", "300",
+            "feedback-agent",
+            "--haptic",
+            "wiimote,console",
+            "--speech",
+            "espeak,console",
+            "--offline-after-ms",
+            "300",
         ])
         .unwrap();
         assert_eq!(d.config.haptic, [HapticBackend::Wiimote, HapticBackend::Console]);
         assert_eq!(d.config.speech, [SpeechBackend::Espeak, SpeechBackend::Console]);
         assert_eq!(d.config.step_settings().offline_after_ms, 300);
         assert!(DefaultsOnly::try_parse_from(["x", "--haptic", "belt"]).is_err());
+        let d = DefaultsOnly::try_parse_from([
+            "x",
+            "--haptic",
+            "evdev",
+            "--evdev-left",
+            "/dev/input/event5",
+            "--speech",
+            "speechd",
+            "--speechd-socket",
+            "/tmp/s.sock",
+        ])
+        .unwrap();
+        assert_eq!(d.config.haptic, [HapticBackend::Evdev]);
+        assert_eq!(d.config.speech, [SpeechBackend::Speechd]);
+        assert_eq!(d.config.evdev().left.as_deref(), Some(std::path::Path::new("/dev/input/event5")));
+        assert_eq!(d.config.evdev().backstop_ms, 2000);
+        assert_eq!(d.config.speechd().unwrap().socket, PathBuf::from("/tmp/s.sock"));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
-use schemas::{AppliedAction, HapticPattern};
+use schemas::{AppliedAction, HapticPattern, Priority};
 
 use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine, SpeechError};
 use crate::haptic_cue::Levels;
@@ -56,7 +56,15 @@ impl HapticDevice for ConsoleHaptic {
         "console"
     }
 
-    fn set_levels(&mut self, levels: Levels, pattern: HapticPattern, cause_ns: u64, now_ns: u64, _refresh: bool, out: &mut DeviceOutput) {
+    fn set_levels(
+        &mut self,
+        levels: Levels,
+        pattern: HapticPattern,
+        cause_ns: u64,
+        now_ns: u64,
+        _refresh: bool,
+        out: &mut DeviceOutput,
+    ) {
         if self.shown == Some(levels) {
             return;
         }
@@ -65,7 +73,12 @@ impl HapticDevice for ConsoleHaptic {
         let _ = writeln!(self.sink, "RUMBLE {}", rumble_words(levels));
         let _ = self.sink.flush();
         self.shown = Some(levels);
-        out.applied("console", AppliedAction::Rumble { left: levels.left, right: levels.right, pattern }, now_ns, cause_ns);
+        out.applied(
+            "console",
+            AppliedAction::Rumble { left: levels.left, right: levels.right, pattern },
+            now_ns,
+            cause_ns,
+        );
     }
 
     fn off(&mut self, now_ns: u64, out: &mut DeviceOutput) {
@@ -132,7 +145,7 @@ impl SpeechEngine for ConsoleSpeech {
         "console"
     }
 
-    fn start(&mut self, text: &str, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
+    fn start(&mut self, text: &str, _priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
         print_line(&self.sink, format_args!("SPEAK {text:?}"));
         Ok(Box::new(ConsoleUtterance {
             sink: self.sink.clone(),
@@ -179,7 +192,7 @@ mod tests {
     fn console_speech_lasts_as_long_as_the_words_at_the_rate() {
         let buf = Shared::default();
         let mut s = ConsoleSpeech::new(Box::new(buf.clone()), 120);
-        let mut h = s.start("turn left now please", 0).unwrap();
+        let mut h = s.start("turn left now please", Priority::Message, 0).unwrap();
         assert!(!h.is_finished(1_999_999_999));
         assert!(h.is_finished(2_000_000_000));
         h.cut();

@@ -1,7 +1,7 @@
 //! The narrow interfaces every feedback backend implements, so devices are chosen by
 //! configuration alone (ARCHITECTURE.md: compute never knows which devices exist).
 
-use schemas::{Applied, AppliedAction, HapticPattern};
+use schemas::{Applied, AppliedAction, HapticPattern, Priority};
 use thiserror::Error;
 
 use crate::haptic_cue::Levels;
@@ -18,7 +18,12 @@ pub struct DeviceOutput {
 impl DeviceOutput {
     /// Record an action of `device` at `now_ns` caused by an intent captured at `cause_ns`.
     pub fn applied(&mut self, device: &str, action: AppliedAction, now_ns: u64, cause_ns: u64) {
-        self.applied.push(Applied { device: device.to_string(), action, applied_ns: now_ns, cause_capture_ns: cause_ns });
+        self.applied.push(Applied {
+            device: device.to_string(),
+            action,
+            applied_ns: now_ns,
+            cause_capture_ns: cause_ns,
+        });
     }
 
     /// Record a status change and have it spoken.
@@ -85,9 +90,10 @@ pub trait SpeakingHandle: Send {
 
 /// A text-to-speech engine.
 pub trait SpeechEngine: Send {
-    /// Backend name (`console`, `espeak`, `phone`).
+    /// Backend name (`console`, `espeak`, `speechd`, `phone`).
     fn name(&self) -> &str;
 
-    /// Start saying `text` at `now_ns`.
-    fn start(&mut self, text: &str, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError>;
+    /// Start saying `text` at `now_ns`. The agent's queue has already ordered it;
+    /// `priority` is for engines that rank against other clients (speech-dispatcher).
+    fn start(&mut self, text: &str, priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError>;
 }

@@ -9,6 +9,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
+use schemas::Priority;
+
 use crate::device::{SpeakingHandle, SpeechEngine, SpeechError};
 
 /// espeak-ng settings (the user profile's voice).
@@ -193,7 +195,7 @@ impl SpeechEngine for EspeakEngine {
         "espeak"
     }
 
-    fn start(&mut self, text: &str, _now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
+    fn start(&mut self, text: &str, _priority: Priority, _now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
         let words = as_argument(text);
         let mut children = Vec::with_capacity(3);
         match &self.playback {

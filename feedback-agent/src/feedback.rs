@@ -6,7 +6,7 @@
 //! Safety rules 1-3 of ARCHITECTURE.md are enforced here: the offline warning goes
 //! through every backend, every cue expires, and warnings pre-empt guidance speech.
 
-use schemas::{Applied, AppliedAction, Hazard, HapticIntent, HapticPattern, Priority, SpeechIntent};
+use schemas::{Applied, AppliedAction, Command, HapticIntent, HapticPattern, Hazard, Priority, SpeechIntent};
 
 use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine};
 use crate::haptic_cue::{CueLimits, HapticCue, Levels};
@@ -77,6 +77,8 @@ pub struct Feedback {
     out: DeviceOutput,
     actions: Vec<SpeechAction>,
     applied: Vec<Applied>,
+    /// Last error of each engine, so a failing engine is logged once, not per utterance.
+    engine_errors: Vec<Option<String>>,
 }
 
 impl Feedback {
@@ -92,8 +94,9 @@ impl Feedback {
             watchdog: DetectionWatchdog::new(now_ns, settings.offline_after_ms),
             settings,
             haptics,
-            engines,
             handles: Vec::new(),
+            engine_errors: vec![None; engines.len()],
+            engines,
             obstacle: None,
             alert: None,
             next_alert_ns: None,
@@ -116,8 +119,9 @@ impl Feedback {
     /// A haptic intent captured at `capture_ns` arrived at `now_ns`. Returns what was
     /// clamped, if anything; refuses NaN.
     pub fn on_haptic(&mut self, intent: &HapticIntent, capture_ns: u64, now_ns: u64) -> Result<Option<String>, Reject> {
-        let accepted = HapticCue::from_intent(intent, capture_ns, now_ns, &self.settings.limits, self.obstacle.as_ref())
-            .map_err(|e| Reject { kind: e.kind(), reason: e.to_string() })?;
+        let accepted =
+            HapticCue::from_intent(intent, capture_ns, now_ns, &self.settings.limits, self.obstacle.as_ref())
+                .map_err(|e| Reject { kind: e.kind(), reason: e.to_string() })?;
         self.obstacle = Some(accepted.cue);
         self.drive_haptics(now_ns, true);
         Ok(accepted.clamped)
@@ -131,6 +135,38 @@ impl Feedback {
         offered.map_err(|e| Reject { kind: e.kind(), reason: e.to_string() })?;
         self.perform_speech(now_ns);
         Ok(())
+    }
+
+    /// A user command arrived at `now_ns`. The feedback agent acts on `Mute` only
+    /// (the others are the compute agent's); returns whether it acted.
+    ///
+    /// Muted, speech below `Important` is dropped, and the change is said once
+    /// ("speech muted", "speech on") and published as a `DeviceStatus` of the
+    /// `speech-queue`. Warnings, offline warnings and device news still sound.
+    pub fn on_command(&mut self, command: &Command, now_ns: u64) -> bool {
+        let Command::Mute { muted } = *command else { return false };
+        let mut actions = std::mem::take(&mut self.actions);
+        let changed = self.queue.set_muted(muted, now_ns, &mut actions);
+        if changed {
+            let text = if muted { "speech muted" } else { "speech on" };
+            tracing::info!("{text}");
+            self.out.applied("speech-queue", AppliedAction::DeviceStatus { text: text.into() }, now_ns, 0);
+            // Cuts first, then the confirmation (the agent's own, so it passes the mute).
+            self.actions = actions;
+            self.perform_speech(now_ns);
+            let mut actions = std::mem::take(&mut self.actions);
+            self.queue.offer_own(text, Priority::Message, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+            self.actions = actions;
+            self.perform_speech(now_ns);
+        } else {
+            self.actions = actions;
+        }
+        true
+    }
+
+    /// True while the user has muted speech below `Important`.
+    pub fn is_muted(&self) -> bool {
+        self.queue.is_muted()
     }
 
     /// A hazard arrived at `now_ns`.
@@ -149,7 +185,8 @@ impl Feedback {
     pub fn tick(&mut self, now_ns: u64) {
         self.check_detection(now_ns);
         if self.next_alert_ns.is_some_and(|at| now_ns >= at) {
-            self.alert = Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
+            self.alert =
+                Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
             self.next_alert_ns = Some(now_ns + self.settings.alert_repeat_ms * MS);
         }
         if self.queue.speaking().is_some() && self.handles.iter_mut().all(|(_, h)| h.is_finished(now_ns)) {
@@ -215,8 +252,10 @@ impl Feedback {
         let (offline, reason, text) = match transition {
             Transition::Offline(reason) => {
                 tracing::warn!("obstacle detection offline: {}", reason.describe());
-                self.alert = Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
-                self.next_alert_ns = (self.settings.alert_repeat_ms > 0).then(|| now_ns + self.settings.alert_repeat_ms * MS);
+                self.alert =
+                    Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
+                self.next_alert_ns =
+                    (self.settings.alert_repeat_ms > 0).then(|| now_ns + self.settings.alert_repeat_ms * MS);
                 (true, reason.describe(), reason.utterance())
             }
             Transition::Back => {
@@ -293,7 +332,8 @@ impl Feedback {
                     }
                 }
                 SpeechAction::Drop { utterance, reason } => {
-                    let action = AppliedAction::SpeechDropped { text: utterance.text.clone(), reason: reason.to_string() };
+                    let action =
+                        AppliedAction::SpeechDropped { text: utterance.text.clone(), reason: reason.to_string() };
                     self.out.applied("speech-queue", action, now_ns, utterance.capture_ns);
                 }
             }
@@ -306,15 +346,22 @@ impl Feedback {
 
     fn start_utterance(&mut self, u: &Utterance, now_ns: u64) {
         for (k, engine) in self.engines.iter_mut().enumerate() {
-            match engine.start(&u.text, now_ns) {
+            match engine.start(&u.text, u.priority, now_ns) {
                 Ok(handle) => {
+                    if self.engine_errors[k].take().is_some() {
+                        tracing::info!("{} speaks again", engine.name());
+                    }
                     self.handles.push((k, handle));
                     let action = AppliedAction::SpeechStarted { text: u.text.clone(), priority: u.priority };
                     self.out.applied(engine.name(), action, now_ns, u.capture_ns);
                 }
                 Err(e) => {
-                    tracing::warn!("{} cannot speak: {e}", engine.name());
-                    self.out.applied(engine.name(), AppliedAction::DeviceStatus { text: e.to_string() }, now_ns, 0);
+                    let text = e.to_string();
+                    if self.engine_errors[k].as_ref() != Some(&text) {
+                        tracing::warn!("{} cannot speak: {text}", engine.name());
+                    }
+                    self.out.applied(engine.name(), AppliedAction::DeviceStatus { text: text.clone() }, now_ns, 0);
+                    self.engine_errors[k] = Some(text);
                 }
             }
         }
@@ -408,7 +455,12 @@ mod tests {
     fn pulses_are_timed_by_the_agent_on_the_remote() {
         let (hid, mut f) = setup();
         fresh(&mut f, T0);
-        let pulses = HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 }, ttl_ms: 1000 };
+        let pulses = HapticIntent {
+            left: 0.0,
+            right: 1.0,
+            pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 },
+            ttl_ms: 1000,
+        };
         f.on_haptic(&pulses, T0, T0).unwrap();
         assert_eq!(f.next_wake_ns(T0), T0 + 50 * MS, "wiimote input poll, then the off edge at 100 ms");
         let mut at = Vec::new();
@@ -429,7 +481,10 @@ mod tests {
         assert!(applied.iter().any(|a| a.action
             == AppliedAction::OfflineWarning { offline: true, reason: "no hazard received since start".into() }));
         assert!(applied.iter().any(|a| a.action
-            == AppliedAction::SpeechStarted { text: "obstacle detection not yet running".into(), priority: Priority::Important }));
+            == AppliedAction::SpeechStarted {
+                text: "obstacle detection not yet running".into(),
+                priority: Priority::Important
+            }));
         assert_eq!(hid.written_to(LEFT).last().unwrap(), &vec![0x10, 0x01]);
         assert_eq!(hid.written_to(RIGHT), Vec::<Vec<u8>>::new(), "right stays off in the first half");
         f.tick(T0 + 650 * MS);
@@ -475,13 +530,65 @@ mod tests {
     fn warning_preempts_guidance_speech() {
         let (_, mut f) = setup();
         fresh(&mut f, T0);
-        let say = |text: &str, priority| SpeechIntent { text: text.into(), priority, interrupt: false, ttl_ms: 3000, dedup_key: String::new() };
+        let say = |text: &str, priority| SpeechIntent {
+            text: text.into(),
+            priority,
+            interrupt: false,
+            ttl_ms: 3000,
+            dedup_key: String::new(),
+        };
         f.on_speech(&say("in ten metres turn left at the lift", Priority::Message), T0, T0).unwrap();
         f.on_speech(&say("stop", Priority::Important), T0 + 5 * MS, T0 + 5 * MS).unwrap();
         assert_eq!(
             spoken(&mut f),
             ["start in ten metres turn left at the lift", "cut in ten metres turn left at the lift", "start stop"]
         );
+    }
+
+    #[test]
+    fn mute_silences_guidance_once_but_warnings_still_sound() {
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        let say = |text: &str, priority| SpeechIntent {
+            text: text.into(),
+            priority,
+            interrupt: false,
+            ttl_ms: 3000,
+            dedup_key: String::new(),
+        };
+        f.on_speech(&say("in ten metres turn left", Priority::Message), T0, T0).unwrap();
+        f.drain_applied();
+        assert!(f.on_command(&Command::Mute { muted: true }, T0 + MS));
+        let applied: Vec<Applied> = f.drain_applied().collect();
+        assert!(applied
+            .iter()
+            .any(|a| a.device == "speech-queue"
+                && a.action == AppliedAction::DeviceStatus { text: "speech muted".into() }));
+        let said: Vec<String> = applied
+            .into_iter()
+            .filter_map(|a| match a.action {
+                AppliedAction::SpeechStarted { text, .. } => Some(format!("start {text}")),
+                AppliedAction::SpeechInterrupted { text } => Some(format!("cut {text}")),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(said, ["cut in ten metres turn left", "start speech muted"]);
+        assert!(f.on_command(&Command::Mute { muted: true }, T0 + 2 * MS));
+        assert!(spoken(&mut f).is_empty(), "said once, not on every repeat of the command");
+        f.on_speech(&say("lift on your right", Priority::Text), T0 + 3 * MS, T0 + 3 * MS).unwrap();
+        let dropped: Vec<Applied> = f.drain_applied().collect();
+        assert!(dropped
+            .iter()
+            .any(|a| a.action
+                == AppliedAction::SpeechDropped { text: "lift on your right".into(), reason: "muted".into() }));
+        f.on_speech(&say("stop, wall ahead", Priority::Important), T0 + 4 * MS, T0 + 4 * MS).unwrap();
+        assert_eq!(spoken(&mut f), ["cut speech muted", "start stop, wall ahead"]);
+        // Detection going offline is still announced while muted.
+        f.tick(T0 + 600 * MS);
+        assert!(f.drain_applied().any(|a| matches!(a.action, AppliedAction::OfflineWarning { offline: true, .. })));
+        assert!(f.on_command(&Command::Mute { muted: false }, T0 + 700 * MS));
+        assert!(!f.is_muted());
+        assert!(!f.on_command(&Command::Repeat, T0 + 700 * MS), "other commands are the compute agent's");
     }
 
     #[test]

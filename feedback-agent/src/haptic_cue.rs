@@ -78,9 +78,16 @@ impl CueError {
 enum Shape {
     Steady,
     /// On for `on_ns` at the start of every `period_ns`, counted from `origin_ns`.
-    Pulses { period_ns: u64, on_ns: u64, origin_ns: u64 },
+    Pulses {
+        period_ns: u64,
+        on_ns: u64,
+        origin_ns: u64,
+    },
     /// Left for `half_ns`, then right for `half_ns`, from `origin_ns`.
-    Alternating { half_ns: u64, origin_ns: u64 },
+    Alternating {
+        half_ns: u64,
+        origin_ns: u64,
+    },
 }
 
 /// A cue ready to drive motors until it expires.
@@ -148,9 +155,8 @@ impl HapticCue {
         } else {
             intent.ttl_ms
         };
-        let expires_ns = capture_ns
-            .saturating_add(ttl_ms as u64 * MS)
-            .min(now_ns.saturating_add(limits.max_ttl_ms as u64 * MS));
+        let expires_ns =
+            capture_ns.saturating_add(ttl_ms as u64 * MS).min(now_ns.saturating_add(limits.max_ttl_ms as u64 * MS));
         let (shape, pattern) = match intent.pattern {
             HapticPattern::Steady => (Shape::Steady, HapticPattern::Steady),
             HapticPattern::Pulses { period_ms, duty } => {
@@ -165,7 +171,9 @@ impl HapticCue {
                 let period_ns = period as u64 * MS;
                 let on_ns = (period_ns as f64 * duty as f64).round() as u64;
                 let origin_ns = match previous.map(|p| p.shape) {
-                    Some(Shape::Pulses { origin_ns, .. }) if previous.is_some_and(|p| now_ns < p.expires_ns) => origin_ns,
+                    Some(Shape::Pulses { origin_ns, .. }) if previous.is_some_and(|p| now_ns < p.expires_ns) => {
+                        origin_ns
+                    }
                     _ => now_ns,
                 };
                 (Shape::Pulses { period_ns, on_ns, origin_ns }, HapticPattern::Pulses { period_ms: period, duty })
@@ -295,7 +303,13 @@ mod tests {
 
     #[test]
     fn nan_levels_are_refused() {
-        let e = HapticCue::from_intent(&intent(f32::NAN, 0.0, HapticPattern::Steady, 100), T0, T0, &CueLimits::default(), None);
+        let e = HapticCue::from_intent(
+            &intent(f32::NAN, 0.0, HapticPattern::Steady, 100),
+            T0,
+            T0,
+            &CueLimits::default(),
+            None,
+        );
         assert_eq!(e.unwrap_err().kind(), "nan_level");
         let p = HapticPattern::Pulses { period_ms: 200, duty: f32::NAN };
         let e = HapticCue::from_intent(&intent(0.5, 0.5, p, 100), T0, T0, &CueLimits::default(), None);

@@ -72,16 +72,34 @@ impl HapticDevice for PhoneHaptic {
         "phone"
     }
 
-    fn set_levels(&mut self, levels: Levels, pattern: HapticPattern, cause_ns: u64, now_ns: u64, refresh: bool, out: &mut DeviceOutput) {
+    fn set_levels(
+        &mut self,
+        levels: Levels,
+        pattern: HapticPattern,
+        cause_ns: u64,
+        now_ns: u64,
+        refresh: bool,
+        out: &mut DeviceOutput,
+    ) {
         let changed = self.shown != Some(levels);
         // Off needs no refresh: the phone's own TTL ends any vibration.
         if !(changed || (refresh && !levels.is_off())) {
             return;
         }
-        let intent = HapticIntent { left: levels.left, right: levels.right, pattern: HapticPattern::Steady, ttl_ms: PHONE_HAPTIC_TTL_MS };
+        let intent = HapticIntent {
+            left: levels.left,
+            right: levels.right,
+            pattern: HapticPattern::Steady,
+            ttl_ms: PHONE_HAPTIC_TTL_MS,
+        };
         if self.link.send(PhoneMessage::Haptic(cause_ns, intent)) && changed {
             self.shown = Some(levels);
-            out.applied("phone", AppliedAction::Rumble { left: levels.left, right: levels.right, pattern }, now_ns, cause_ns);
+            out.applied(
+                "phone",
+                AppliedAction::Rumble { left: levels.left, right: levels.right, pattern },
+                now_ns,
+                cause_ns,
+            );
         }
     }
 
@@ -125,7 +143,7 @@ impl SpeechEngine for PhoneSpeech {
         "phone"
     }
 
-    fn start(&mut self, text: &str, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
+    fn start(&mut self, text: &str, _priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
         // The agent's queue has already ordered and cut; the phone must say it now.
         let intent = SpeechIntent {
             text: text.to_string(),
@@ -150,8 +168,12 @@ pub async fn forward(
     mut rx: mpsc::UnboundedReceiver<PhoneMessage>,
     health: Arc<Health>,
 ) -> anyhow::Result<()> {
-    let mut haptic = Publisher::<HapticIntent>::declare(&session, keys.phone_haptic(), sender, Lane::RealTime, Some(&health)).await?;
-    let mut speech = Publisher::<SpeechIntent>::declare(&session, keys.phone_speech(), sender, Lane::RealTime, Some(&health)).await?;
+    let mut haptic =
+        Publisher::<HapticIntent>::declare(&session, keys.phone_haptic(), sender, Lane::RealTime, Some(&health))
+            .await?;
+    let mut speech =
+        Publisher::<SpeechIntent>::declare(&session, keys.phone_speech(), sender, Lane::RealTime, Some(&health))
+            .await?;
     loop {
         let sent = match rx.recv().await {
             None => return Ok(()),
@@ -190,7 +212,9 @@ mod tests {
         while let Ok(m) = rx.try_recv() {
             got.push(m);
         }
-        let expect = |cause, left| PhoneMessage::Haptic(cause, HapticIntent { left, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 250 });
+        let expect = |cause, left| {
+            PhoneMessage::Haptic(cause, HapticIntent { left, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 250 })
+        };
         assert_eq!(got, [expect(7, 1.0), expect(8, 1.0), expect(8, 0.0)]);
         assert_eq!(out.applied.len(), 2, "applied records changes only");
     }
@@ -199,13 +223,13 @@ mod tests {
     fn phone_speech_interrupts_and_is_timed_like_a_voice() {
         let (link, mut rx) = phone_channel();
         let mut s = PhoneSpeech::new(link, 120);
-        let mut h = s.start("stop now", 0).unwrap();
+        let mut h = s.start("stop now", Priority::Important, 0).unwrap();
         assert!(!h.is_finished(999_999_999) && h.is_finished(1_000_000_000));
         match rx.try_recv().unwrap() {
             PhoneMessage::Speech(_, i) => assert!(i.interrupt && i.text == "stop now"),
             other => panic!("{other:?}"),
         }
         drop(rx);
-        assert!(s.start("x", 0).is_err(), "a closed link is reported");
+        assert!(s.start("x", Priority::Text, 0).is_err(), "a closed link is reported");
     }
 }

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use bus::{now_ns, Health, Lane, Publisher, Shutdown, Subscriber};
-use schemas::{Applied, AppliedAction, HapticIntent, Hazard, SpeechIntent};
+use schemas::{Applied, AppliedAction, Command, HapticIntent, Hazard, SpeechIntent};
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
@@ -15,8 +15,10 @@ use crate::config::{FeedbackConfig, HapticBackend, SpeechBackend};
 use crate::console::{ConsoleHaptic, ConsoleSpeech};
 use crate::device::{HapticDevice, SpeechEngine};
 use crate::espeak::{find_player, EspeakEngine};
+use crate::evdev::{EvdevBackend, EvdevOpener};
 use crate::feedback::Feedback;
 use crate::phone::{phone_channel, PhoneHaptic, PhoneLink, PhoneMessage, PhoneSpeech};
+use crate::speechd::SpeechdEngine;
 use crate::watchdog::DetectionState;
 use crate::wiimote::link::HidapiBus;
 use crate::wiimote::WiimoteBackend;
@@ -57,6 +59,13 @@ impl Devices {
                 HapticBackend::Wiimote => {
                     devices.haptics.push(Box::new(WiimoteBackend::new(Box::new(HidapiBus::new()), config.wiimote())))
                 }
+                HapticBackend::Evdev => {
+                    let evdev = config.evdev();
+                    if evdev.left.is_none() && evdev.right.is_none() {
+                        return Err(anyhow!("--haptic evdev needs --evdev-left and/or --evdev-right (an /dev/input/eventN node with FF_RUMBLE)"));
+                    }
+                    devices.haptics.push(Box::new(EvdevBackend::new(Box::new(EvdevOpener), evdev)));
+                }
                 HapticBackend::Phone => {
                     let link = phone(&mut devices);
                     devices.haptics.push(Box::new(PhoneHaptic::new(link)));
@@ -69,6 +78,12 @@ impl Devices {
                 SpeechBackend::Espeak => {
                     let engine = EspeakEngine::new(config.espeak(), find_player()).context("--speech espeak")?;
                     devices.notes.push(("espeak".into(), engine.describe()));
+                    devices.engines.push(Box::new(engine));
+                }
+                SpeechBackend::Speechd => {
+                    let speechd = config.speechd().map_err(|e| anyhow!("--speech speechd: {e}"))?;
+                    let engine = SpeechdEngine::new(speechd).context("--speech speechd")?;
+                    devices.notes.push(("speechd".into(), engine.describe()));
                     devices.engines.push(Box::new(engine));
                 }
                 SpeechBackend::Phone => {
@@ -127,6 +142,9 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     let haptic_sub = Subscriber::<HapticIntent>::declare(&session, haptic_key.clone(), true, &health).await?;
     let speech_sub = Subscriber::<SpeechIntent>::declare(&session, speech_key.clone(), false, &health).await?;
     let hazard_sub = Subscriber::<Hazard>::declare(&session, keys.hazard(), true, &health).await?;
+    // Only `mute` is ours among the user commands; each one counts, none may be lost.
+    let mute_key = keys.cmd("mute");
+    let mute_sub = Subscriber::<Command>::declare(&session, mute_key.clone(), false, &health).await?;
     let alive_key = keys.health(&config.compute_agent);
     let liveliness = session
         .liveliness()
@@ -134,18 +152,24 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         .history(true)
         .await
         .map_err(|e| anyhow!("cannot watch the liveliness of {alive_key}: {e}"))?;
-    let mut applied_pub = Publisher::<Applied>::declare(&session, keys.applied(), AGENT, Lane::Events, Some(&health)).await?;
+    let mut applied_pub =
+        Publisher::<Applied>::declare(&session, keys.applied(), AGENT, Lane::Events, Some(&health)).await?;
 
-    let phone_task = devices.phone.map(|rx| {
-        tokio::spawn(crate::phone::forward(session.clone(), keys.clone(), AGENT, rx, health.clone()))
-    });
+    let phone_task = devices
+        .phone
+        .map(|rx| tokio::spawn(crate::phone::forward(session.clone(), keys.clone(), AGENT, rx, health.clone())));
 
     let started = now_ns();
     let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
     let notes = devices
         .notes
         .into_iter()
-        .map(|(device, text)| Applied { device, action: AppliedAction::DeviceStatus { text }, applied_ns: started, cause_capture_ns: 0 })
+        .map(|(device, text)| Applied {
+            device,
+            action: AppliedAction::DeviceStatus { text },
+            applied_ns: started,
+            cause_capture_ns: 0,
+        })
         .collect();
     publish(&mut applied_pub, notes).await;
     tracing::info!(user = %config.bus.user, "feedback agent running (haptic {:?}, speech {:?})", config.haptic, config.speech);
@@ -179,6 +203,11 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
                         break;
                     }
                 },
+                Some(m) = mute_sub.recv() => {
+                    if !feedback.on_command(&m.body, now_ns()) {
+                        health.reject(&mute_key, "wrong_command", &format!("{} sent on the mute key", m.body.verb()));
+                    }
+                }
                 Some(m) = speech_sub.recv() => {
                     if let Err(r) = feedback.on_speech(&m.body, m.header.capture_ns, now_ns()) {
                         health.reject(&speech_key, r.kind, &r.reason);

@@ -112,12 +112,13 @@ pub struct SpeechQueue {
     pending: Vec<Utterance>,
     recent: Vec<(String, u64)>,
     next_id: u64,
+    muted: bool,
 }
 
 impl SpeechQueue {
     /// An empty queue.
     pub fn new(config: QueueConfig) -> Self {
-        Self { config, speaking: None, pending: Vec::new(), recent: Vec::new(), next_id: 0 }
+        Self { config, speaking: None, pending: Vec::new(), recent: Vec::new(), next_id: 0, muted: false }
     }
 
     /// The utterance speaking now.
@@ -159,6 +160,10 @@ impl SpeechQueue {
             dedup_key: intent.dedup_key.clone(),
         };
         self.next_id += 1;
+        if self.muted && utterance.priority != Priority::Important {
+            out.push(SpeechAction::Drop { utterance, reason: "muted" });
+            return Ok(());
+        }
         self.enqueue(utterance, intent.interrupt, now_ns, out);
         Ok(())
     }
@@ -216,10 +221,11 @@ impl SpeechQueue {
         let mut k = 0;
         while k < self.pending.len() {
             let p = &self.pending[k];
-            let replaced = (rank(p.priority) == 1 && new_rank > 1)
-                .then_some("dropped by a higher priority")
-                .or((p.priority == Priority::Text && utterance.priority == Priority::Text)
-                    .then_some("replaced by newer text"));
+            let replaced = (rank(p.priority) == 1 && new_rank > 1).then_some("dropped by a higher priority").or((p
+                .priority
+                == Priority::Text
+                && utterance.priority == Priority::Text)
+                .then_some("replaced by newer text"));
             match replaced {
                 Some(reason) => out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason }),
                 None => k += 1,
@@ -286,6 +292,43 @@ impl SpeechQueue {
         self.pending.iter().map(|u| u.expires_ns).min()
     }
 
+    /// True while the user has muted speech.
+    pub fn is_muted(&self) -> bool {
+        self.muted
+    }
+
+    /// Mute or unmute. Muted, intents below `Important` are dropped (reason `muted`)
+    /// and muting cuts and drops what speaks or waits below it: warnings still sound
+    /// (ARCHITECTURE.md rule 1), and so do the agent's own utterances. Returns whether
+    /// the state changed.
+    pub fn set_muted(&mut self, muted: bool, now_ns: u64, out: &mut Vec<SpeechAction>) -> bool {
+        if self.muted == muted {
+            return false;
+        }
+        self.muted = muted;
+        if muted {
+            self.silence_below_important(now_ns, out);
+        }
+        true
+    }
+
+    fn silence_below_important(&mut self, now_ns: u64, out: &mut Vec<SpeechAction>) {
+        if self.speaking.as_ref().is_some_and(|u| u.priority != Priority::Important) {
+            if let Some(cur) = self.speaking.take() {
+                out.push(SpeechAction::Cut(cur));
+            }
+        }
+        let mut k = 0;
+        while k < self.pending.len() {
+            if self.pending[k].priority == Priority::Important {
+                k += 1;
+            } else {
+                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "muted" });
+            }
+        }
+        self.start_next(now_ns, out);
+    }
+
     /// Cut off what speaks and drop what waits (shutdown).
     pub fn clear(&mut self, out: &mut Vec<SpeechAction>) {
         if let Some(cur) = self.speaking.take() {
@@ -328,7 +371,10 @@ mod tests {
     #[test]
     fn warning_cuts_off_guidance_at_once() {
         let mut q = SpeechQueue::new(QueueConfig::default());
-        assert_eq!(texts(&offer(&mut q, &say("turn left in 5 metres", Priority::Message), T0)), ["start turn left in 5 metres"]);
+        assert_eq!(
+            texts(&offer(&mut q, &say("turn left in 5 metres", Priority::Message), T0)),
+            ["start turn left in 5 metres"]
+        );
         let a = offer(&mut q, &say("stop, obstacle ahead", Priority::Important), T0 + 100 * MS);
         assert_eq!(texts(&a), ["cut turn left in 5 metres", "start stop, obstacle ahead"]);
     }
@@ -445,6 +491,31 @@ mod tests {
         zero.ttl_ms = 0;
         assert_eq!(q.offer(&zero, T0, T0, &mut out).unwrap_err(), SpeechReject::ZeroTtl);
         assert!(out.is_empty() && q.speaking().is_none());
+    }
+
+    #[test]
+    fn muting_cuts_guidance_and_drops_all_but_warnings() {
+        let mut q = SpeechQueue::new(QueueConfig::default());
+        offer(&mut q, &say("turn left", Priority::Message), T0);
+        offer(&mut q, &say("door 4", Priority::Text), T0);
+        let mut out = Vec::new();
+        assert!(q.set_muted(true, T0 + MS, &mut out));
+        assert_eq!(texts(&out), ["cut turn left", "drop door 4 (muted)"]);
+        assert!(!q.set_muted(true, T0 + MS, &mut out), "muting twice changes nothing");
+        assert_eq!(
+            texts(&offer(&mut q, &say("turn right", Priority::Message), T0 + 2 * MS)),
+            ["drop turn right (muted)"]
+        );
+        assert_eq!(texts(&offer(&mut q, &say("stop", Priority::Important), T0 + 2 * MS)), ["start stop"]);
+        out.clear();
+        q.offer_own("left controller disconnected", Priority::Message, 5000, T0 + 2 * MS, &mut out);
+        assert!(out.is_empty() && q.pending().len() == 1, "the agent's own news still waits its turn");
+        assert!(q.set_muted(false, T0 + 3 * MS, &mut out));
+        assert_eq!(
+            texts(&offer(&mut q, &say("door 5", Priority::Text), T0 + 3 * MS)),
+            Vec::<String>::new(),
+            "queued again"
+        );
     }
 
     #[test]

@@ -2,95 +2,21 @@
 //! agent connects to it; hazards, intents and garbage go in, `feedback/applied`,
 //! health stats and the fake remotes' bytes come out.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+mod common;
+
 use std::time::{Duration, Instant};
 
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
+use common::{free_port, wait_applied, HazardStream};
 use feedback_agent::console::ConsoleSpeech;
 use feedback_agent::phone::{phone_channel, PhoneHaptic};
 use feedback_agent::wiimote::fake::FakeHid;
 use feedback_agent::wiimote::{WiimoteBackend, WiimoteConfig};
 use feedback_agent::{Devices, FeedbackConfig};
-use schemas::{
-    Applied, AppliedAction, CostFunction, GroundState, HapticIntent, HapticPattern, Hazard, HealthStats, Keys,
-    Priority, Rumble, SideCosts, SpeechIntent,
-};
+use schemas::{Applied, AppliedAction, HapticIntent, HapticPattern, HealthStats, Keys, Priority, SpeechIntent};
 
 const LEFT: &str = "/dev/hidraw0";
 const RIGHT: &str = "/dev/hidraw1";
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
-}
-
-fn hazard(seq: u64) -> Hazard {
-    Hazard {
-        frame_seq: seq,
-        ficf: SideCosts::default(),
-        cacf: SideCosts::default(),
-        active: CostFunction::Ficf,
-        rumble: Rumble::None,
-        ground: GroundState::Found,
-        plane_camera: [0.0, -1.0, 0.0, 1.2],
-        nearest_m: f32::INFINITY,
-        nearest_bearing_deg: 0.0,
-        ttc_s: None,
-        dropoff_ahead: false,
-        latency: vec![],
-    }
-}
-
-/// Publishes hazards at 30 Hz while `on` is set; remembers when the last one went out.
-struct HazardStream {
-    on: Arc<AtomicBool>,
-    last: Arc<Mutex<Instant>>,
-}
-
-impl HazardStream {
-    fn start(session: zenoh::Session, keys: Keys) -> Self {
-        let on = Arc::new(AtomicBool::new(true));
-        let last = Arc::new(Mutex::new(Instant::now()));
-        let (on2, last2) = (on.clone(), last.clone());
-        tokio::spawn(async move {
-            let mut p = Publisher::<Hazard>::declare(&session, keys.hazard(), "test-compute", Lane::Perception, None)
-                .await
-                .expect("hazard publisher");
-            let mut seq = 0;
-            loop {
-                if on2.load(Ordering::SeqCst) {
-                    if p.put(bus::now_ns(), &hazard(seq)).await.is_err() {
-                        return;
-                    }
-                    *last2.lock().unwrap() = Instant::now();
-                    seq += 1;
-                }
-                tokio::time::sleep(Duration::from_millis(33)).await;
-            }
-        });
-        Self { on, last }
-    }
-
-    fn set(&self, on: bool) {
-        self.on.store(on, Ordering::SeqCst);
-    }
-
-    fn last(&self) -> Instant {
-        *self.last.lock().unwrap()
-    }
-}
-
-async fn wait_applied(sub: &Subscriber<Applied>, within: Duration, pred: impl Fn(&Applied) -> bool) -> Applied {
-    let deadline = Instant::now() + within;
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        match tokio::time::timeout(left, sub.recv()).await {
-            Ok(Some(m)) if pred(&m.body) => return m.body,
-            Ok(Some(_)) => {}
-            _ => panic!("no matching applied action within {within:?}"),
-        }
-    }
-}
 
 fn offline_warning(a: &Applied, offline: bool) -> bool {
     matches!(&a.action, AppliedAction::OfflineWarning { offline: o, .. } if *o == offline)
@@ -107,9 +33,8 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     let session = bus::open_session(&test_bus).await.expect("test session");
     let test_health = Health::new("test");
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &test_health).await.unwrap();
-    let stats = Subscriber::<HealthStats>::declare(&session, keys.health("feedback-agent"), false, &test_health)
-        .await
-        .unwrap();
+    let stats =
+        Subscriber::<HealthStats>::declare(&session, keys.health("feedback-agent"), false, &test_health).await.unwrap();
     let token = session.liveliness().declare_token(keys.health("compute-agent")).await.unwrap();
     let hazards = HazardStream::start(session.clone(), keys.clone());
 
@@ -140,7 +65,10 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     let capture = bus::now_ns();
     let left = HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 };
     haptic.put(capture, &left).await.unwrap();
-    let a = wait_applied(&applied, Duration::from_secs(2), |a| a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 1.0)).await;
+    let a = wait_applied(&applied, Duration::from_secs(2), |a| {
+        a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 1.0)
+    })
+    .await;
     assert_eq!(a.cause_capture_ns, capture);
     assert!(hid.written_to(LEFT).contains(&vec![0x10, 0x01]));
     // The phone backend forwards the same decision to the phone bridge's key.
@@ -156,7 +84,10 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         }
     }
     // ... and its TTL switches it off without any further message.
-    let off = wait_applied(&applied, Duration::from_secs(1), |a| a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 0.0)).await;
+    let off = wait_applied(&applied, Duration::from_secs(1), |a| {
+        a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 0.0)
+    })
+    .await;
     let rumble_ms = (off.applied_ns - a.applied_ns) as f64 / 1e6;
     assert!((250.0..450.0).contains(&rumble_ms), "rumbled {rumble_ms} ms for a 300 ms TTL");
 
@@ -182,19 +113,36 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     wait_applied(&applied, Duration::from_secs(1), |a| offline_warning(a, false)).await;
 
     // Garbage on every subscribed key: counted, never acted on.
-    let nan = schemas::encode("evil", 0, bus::now_ns(), &HapticIntent { left: f32::NAN, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 });
-    let huge = SpeechIntent { text: "a".repeat(10 * 1024 * 1024), priority: Priority::Message, interrupt: false, ttl_ms: 1000, dedup_key: String::new() };
+    let nan = schemas::encode(
+        "evil",
+        0,
+        bus::now_ns(),
+        &HapticIntent { left: f32::NAN, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 },
+    );
+    let huge = SpeechIntent {
+        text: "a".repeat(10 * 1024 * 1024),
+        priority: Priority::Message,
+        interrupt: false,
+        ttl_ms: 1000,
+        dedup_key: String::new(),
+    };
     let huge = schemas::encode("evil", 0, bus::now_ns(), &huge);
     let mut bad_priority = schemas::encode(
         "evil",
         0,
         bus::now_ns(),
-        &SpeechIntent { text: "hi".into(), priority: Priority::Important, interrupt: false, ttl_ms: 1000, dedup_key: String::new() },
+        &SpeechIntent {
+            text: "hi".into(),
+            priority: Priority::Important,
+            interrupt: false,
+            ttl_ms: 1000,
+            dedup_key: String::new(),
+        },
     );
     let (_, header_len) = schemas::decode_header(&bad_priority).unwrap();
     bad_priority[header_len + 8 + 2] = 9; // priority variant index 9 does not exist
-    // Spaced out: haptic and hazard subscribers keep only the newest sample, so
-    // back-to-back garbage would be overwritten before the agent reads it.
+                                          // Spaced out: haptic and hazard subscribers keep only the newest sample, so
+                                          // back-to-back garbage would be overwritten before the agent reads it.
     let garbage = [
         (keys.haptic(), vec![1u8, 2, 3]),
         (keys.haptic(), nan),
@@ -225,8 +173,14 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
 
     // Still alive: a right-hand intent is applied.
     let capture = bus::now_ns();
-    haptic.put(capture, &HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 }).await.unwrap();
-    let a = wait_applied(&applied, Duration::from_secs(1), |a| a.device == "wiimote-right" && a.cause_capture_ns == capture).await;
+    haptic
+        .put(capture, &HapticIntent { left: 0.0, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 })
+        .await
+        .unwrap();
+    let a = wait_applied(&applied, Duration::from_secs(1), |a| {
+        a.device == "wiimote-right" && a.cause_capture_ns == capture
+    })
+    .await;
     assert!(matches!(a.action, AppliedAction::Rumble { right, .. } if right == 1.0));
 
     // Shutdown leaves both motors off.

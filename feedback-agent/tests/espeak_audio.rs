@@ -50,7 +50,7 @@ fn engine(wav_dir: &Path, rate_wpm: u32, playback: Playback) -> EspeakEngine {
 }
 
 fn speak_to_end(engine: &mut EspeakEngine, text: &str) {
-    let mut h = engine.start(text, 0).expect("starts");
+    let mut h = engine.start(text, Priority::Message, 0).expect("starts");
     let t = Instant::now();
     while !h.is_finished(0) {
         assert!(t.elapsed() < Duration::from_secs(20), "espeak-ng did not finish");
@@ -58,7 +58,8 @@ fn speak_to_end(engine: &mut EspeakEngine, text: &str) {
     }
 }
 
-const GUIDANCE: &str = "In twelve metres, turn left at the lift, then walk straight along the corridor to room one hundred and four.";
+const GUIDANCE: &str =
+    "In twelve metres, turn left at the lift, then walk straight along the corridor to room one hundred and four.";
 
 #[test]
 fn utterance_wav_is_speech_with_a_duration_that_fits_text_and_rate() {
@@ -94,7 +95,13 @@ fn interrupt_once(dir: &Path, round: usize) -> (Duration, Duration) {
     let wav = dir.join(format!("round{round}"));
     let e = engine(&wav, 175, player);
     let mut f = Feedback::new(StepSettings::default(), vec![], vec![Box::new(e)], 1);
-    let say = |text: &str, priority| SpeechIntent { text: text.into(), priority, interrupt: false, ttl_ms: 5000, dedup_key: String::new() };
+    let say = |text: &str, priority| SpeechIntent {
+        text: text.into(),
+        priority,
+        interrupt: false,
+        ttl_ms: 5000,
+        dedup_key: String::new(),
+    };
     let now = bus::now_ns();
     f.on_speech(&say(GUIDANCE, Priority::Message), now, now).expect("accepted");
     std::thread::sleep(Duration::from_millis(300));

@@ -268,7 +268,9 @@ impl WiimoteBackend {
                 match protocol::parse_input(&self.buf[..n]) {
                     Ok(InputReport::Status(status)) => {
                         // After any 0x20 the remote stops data reports until 0x12 is sent again.
-                        if let Err(e) = remote.send(&protocol::reporting_mode_report(protocol::MODE_CORE_BUTTONS, remote.rumble)) {
+                        if let Err(e) =
+                            remote.send(&protocol::reporting_mode_report(protocol::MODE_CORE_BUTTONS, remote.rumble))
+                        {
                             self.disconnect(hand, &e, now_ns, out);
                             break;
                         }
@@ -299,7 +301,15 @@ impl HapticDevice for WiimoteBackend {
         "wiimote"
     }
 
-    fn set_levels(&mut self, levels: Levels, pattern: HapticPattern, cause_ns: u64, now_ns: u64, refresh: bool, out: &mut DeviceOutput) {
+    fn set_levels(
+        &mut self,
+        levels: Levels,
+        pattern: HapticPattern,
+        cause_ns: u64,
+        now_ns: u64,
+        refresh: bool,
+        out: &mut DeviceOutput,
+    ) {
         for hand in Hand::BOTH {
             let Some(remote) = self.remotes[hand as usize].as_mut() else { continue };
             let want = hand.level(levels) > 0.0;

@@ -40,10 +40,7 @@ pub fn rumble_report(rumble: bool) -> [u8; 2] {
 
 /// `11 LL`: player LEDs `1..=4` in the high nibble (LED 1 = 0x10), rumble in bit 0.
 pub fn leds_report(player_leds: &[u8], rumble: bool) -> [u8; 2] {
-    let leds = player_leds
-        .iter()
-        .filter(|n| (1..=4).contains(*n))
-        .fold(0u8, |acc, n| acc | (0x10 << (n - 1)));
+    let leds = player_leds.iter().filter(|n| (1..=4).contains(*n)).fold(0u8, |acc, n| acc | (0x10 << (n - 1)));
     [OUT_LEDS, leds | rumble_bit(rumble)]
 }
 

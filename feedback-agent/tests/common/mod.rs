@@ -1,0 +1,83 @@
+//! Helpers shared by the bus tests: a free port, hazards at 30 Hz, waiting for an
+//! applied action.
+
+#![allow(dead_code)] // each test binary uses its own subset
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use bus::{Lane, Publisher, Subscriber};
+use schemas::{Applied, CostFunction, GroundState, Hazard, Keys, Rumble, SideCosts};
+
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
+}
+
+pub fn hazard(seq: u64) -> Hazard {
+    Hazard {
+        frame_seq: seq,
+        ficf: SideCosts::default(),
+        cacf: SideCosts::default(),
+        active: CostFunction::Ficf,
+        rumble: Rumble::None,
+        ground: GroundState::Found,
+        plane_camera: [0.0, -1.0, 0.0, 1.2],
+        nearest_m: f32::INFINITY,
+        nearest_bearing_deg: 0.0,
+        ttc_s: None,
+        dropoff_ahead: false,
+        latency: vec![],
+    }
+}
+
+/// Publishes hazards at 30 Hz while `on` is set; remembers when the last one went out.
+pub struct HazardStream {
+    on: Arc<AtomicBool>,
+    last: Arc<Mutex<Instant>>,
+}
+
+impl HazardStream {
+    pub fn start(session: zenoh::Session, keys: Keys) -> Self {
+        let on = Arc::new(AtomicBool::new(true));
+        let last = Arc::new(Mutex::new(Instant::now()));
+        let (on2, last2) = (on.clone(), last.clone());
+        tokio::spawn(async move {
+            let mut p = Publisher::<Hazard>::declare(&session, keys.hazard(), "test-compute", Lane::Perception, None)
+                .await
+                .expect("hazard publisher");
+            let mut seq = 0;
+            loop {
+                if on2.load(Ordering::SeqCst) {
+                    if p.put(bus::now_ns(), &hazard(seq)).await.is_err() {
+                        return;
+                    }
+                    *last2.lock().unwrap() = Instant::now();
+                    seq += 1;
+                }
+                tokio::time::sleep(Duration::from_millis(33)).await;
+            }
+        });
+        Self { on, last }
+    }
+
+    pub fn set(&self, on: bool) {
+        self.on.store(on, Ordering::SeqCst);
+    }
+
+    pub fn last(&self) -> Instant {
+        *self.last.lock().unwrap()
+    }
+}
+
+pub async fn wait_applied(sub: &Subscriber<Applied>, within: Duration, pred: impl Fn(&Applied) -> bool) -> Applied {
+    let deadline = Instant::now() + within;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match tokio::time::timeout(left, sub.recv()).await {
+            Ok(Some(m)) if pred(&m.body) => return m.body,
+            Ok(Some(_)) => {}
+            _ => panic!("no matching applied action within {within:?}"),
+        }
+    }
+}
