@@ -123,7 +123,7 @@ async fn hazards_reach_feedback_and_offline_warning_follows_a_killed_compute_age
         if let Some(a) = got {
             matched += 1;
             let latency_ms = bus::clock::age_ms(a.body.cause_capture_ns, a.body.applied_ns);
-            assert!(latency_ms >= 0.0 && latency_ms < 200.0, "capture->applied {latency_ms} ms");
+            assert!((0.0..200.0).contains(&latency_ms), "capture->applied {latency_ms} ms");
         }
     }
     assert!(states_seen.len() >= 2, "hazard states did not change: {states_seen:?}");

@@ -85,6 +85,16 @@ fn same_seed_gives_the_same_row_and_another_seed_differs() {
     assert_ne!(a.end_xy_m, c.end_xy_m);
 }
 
+#[test]
+fn study_spread_over_threads_gives_the_walks_in_seed_order_as_walked_alone() {
+    let w = dead_end();
+    let s = wearnav::course::study::study(&w, &quick(3.0), 3, 5);
+    let seeds: Vec<u64> = s.walks.iter().map(|o| o.seed).collect();
+    assert_eq!(seeds, [5, 6, 7]);
+    assert_eq!(s.walks[1], walk(&w, &quick(3.0), 6));
+    assert_eq!(s.rows.len(), 3);
+}
+
 /// Open room with a sign hanging at head height straight between start and goal, and
 /// a knee-high bench off to the side.
 fn sign_in_the_path() -> World {
@@ -164,6 +174,52 @@ to = [5.0, 4.0]
     let (fast, medium, slow) = (clearance(0.2), clearance(0.8), clearance(1.6));
     assert!(fast > medium && medium > slow, "clearances {fast} > {medium} > {slow}");
     assert!(fast > 0.3, "a quick user stays well clear: {fast}");
+}
+
+/// A 3 m wide corridor whose floor drops one stair step (0.18 m) from x = 4 to 6,
+/// wall to wall; the goal's sound comes from beyond it.
+fn step_down_ahead() -> World {
+    world(
+        r#"
+name = "step-ahead"
+start = { x_m = 0.0, y_m = 0.0 }
+goal = { x_m = 9.0, y_m = 0.0 }
+[[walls]]
+label = "north wall"
+from = [-1.0, 1.5]
+to = [12.0, 1.5]
+[[walls]]
+label = "south wall"
+from = [-1.0, -1.5]
+to = [12.0, -1.5]
+[[walls]]
+label = "back wall"
+from = [-1.0, -1.5]
+to = [-1.0, 1.5]
+[[floor_regions]]
+label = "step down"
+center = [5.0, 0.0]
+size_m = [2.0, 2.9]
+height_m = -0.18
+"#,
+    )
+}
+
+#[test]
+fn dropoff_detection_stops_the_user_before_a_step_down_that_the_thesis_pipeline_walks_into() {
+    let w = step_down_ahead();
+    // first time the body steps over the edge, within the straight approach (~4 s at 1 m/s)
+    let stepped_in = |dropoff: bool, seed: u64| {
+        let mut c = quick(7.0);
+        c.perception.dropoff.enabled = dropoff;
+        let out = walk(&w, &c, seed);
+        out.contacts.iter().find(|c| c.part == Part::Body && c.label == "step down").map(|c| c.t_s)
+    };
+    for seed in [1, 3] {
+        assert_eq!(stepped_in(true, seed), None, "seed {seed}: warned and stopped before the edge");
+        let t = stepped_in(false, seed);
+        assert!(t.is_some_and(|t| t < 7.0), "seed {seed}: without the switch the user steps down ({t:?})");
+    }
 }
 
 #[derive(Debug, Parser)]

@@ -103,7 +103,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             Some(frame) = frames.recv() => {
                 let ok = process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
                 failures = if ok { 0 } else { failures + 1 };
-                if failures == FAILURES_BEFORE_DEGRADED || (failures > FAILURES_BEFORE_DEGRADED && failures % 30 == 0) {
+                if failures == FAILURES_BEFORE_DEGRADED || (failures > FAILURES_BEFORE_DEGRADED && failures.is_multiple_of(30)) {
                     publish_blind(&frame, &config, &health, &mut out).await;
                 }
             }

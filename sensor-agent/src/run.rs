@@ -73,7 +73,8 @@ impl WireCodec {
 
 /// What the source thread hands to the publisher.
 enum Produced {
-    Frame { frame: SourceFrame, depth: DepthFrame },
+    // boxed: a frame is ~300 bytes of metadata, the other variants a string
+    Frame { frame: Box<SourceFrame>, depth: DepthFrame },
     Skipped(String),
     End,
     Failed(String),
@@ -115,7 +116,7 @@ fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<
             Ok(Some(frame)) => {
                 sleep_until_ns(frame.stamp_ns);
                 match pack(&frame, codec, &mut buf) {
-                    Ok(depth) => Produced::Frame { frame, depth },
+                    Ok(depth) => Produced::Frame { frame: Box::new(frame), depth },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
                 }
             }
@@ -209,7 +210,7 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
                     tracing::info!("{described} delivering again");
                     health.set_status(true, format!("streaming {described}"));
                 }
-                publish(&mut out, frame, depth).await;
+                publish(&mut out, *frame, depth).await;
             }
         }
     }

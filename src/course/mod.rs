@@ -60,7 +60,7 @@ impl Camera {
 /// table (completion time, rumble signals, cane and body contacts, reorientations).
 #[derive(Debug, Clone, clap::Args)]
 pub struct CourseArgs {
-    /// Built-in world (`taylor-course`, `corridor`, `building`, `approach`) or a scene file.
+    /// Built-in world (`taylor-course`, `corridor`, `building`, `step-down`, `approach`) or a scene file.
     #[arg(long, default_value = "taylor-course")]
     pub world: String,
     /// Cost function driving the rumble.
@@ -105,6 +105,10 @@ pub struct CourseArgs {
     /// Camera pitch below the horizontal, degrees.
     #[arg(long, default_value_t = 30.0)]
     pub pitch_deg: f64,
+    /// Cane sweep amplitude each side of the walking direction, degrees (0: the cane
+    /// held still, pointing ahead).
+    #[arg(long, default_value_t = 17.0)]
+    pub sweep_deg: f64,
     /// Depth camera: `xtion-qvga` renders 320x240 and perceives every pixel, the same
     /// rays the agent samples from the Xtion's 640x480 at its stride of 2, at a quarter of
     /// the rendering cost; `xtion` renders 640x480 exactly as deployed; `d435`.
@@ -116,6 +120,10 @@ pub struct CourseArgs {
     /// List every contact after the table.
     #[arg(long)]
     pub contacts: bool,
+    /// Write one CSV row per camera frame of every walk to this file (pose, sweep,
+    /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance).
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<std::path::PathBuf>,
 }
 
 impl CourseArgs {
@@ -148,8 +156,11 @@ impl CourseArgs {
         c.user.walk_speed_m_s = self.walk_speed_m_s;
         c.user.turn_walk_speed_m_s = c.user.turn_walk_speed_m_s.min(self.walk_speed_m_s);
         c.mount.pitch_deg = self.pitch_deg;
+        anyhow::ensure!((0.0..=60.0).contains(&self.sweep_deg), "--sweep-deg must be between 0 and 60");
+        c.mount.sweep_amplitude_deg = self.sweep_deg;
         (c.camera, c.perception.stride_px) = self.camera.profile_and_stride();
         c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
+        c.trace = self.trace.is_some();
         Ok(c)
     }
 }
@@ -161,6 +172,9 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let result = study(&world, &config, args.runs, args.seed);
     let elapsed_s = started.elapsed().as_secs_f64();
+    if let Some(path) = &args.trace {
+        write_trace(path, &result.walks).with_context(|| format!("writing the trace {}", path.display()))?;
+    }
     if args.json {
         let doc = serde_json::json!({
             "world": world.name(),
@@ -222,6 +236,39 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         }
     }
     println!("{} walks in {:.1} s wall time", args.runs, elapsed_s);
+    Ok(())
+}
+
+fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(
+        f,
+        "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m"
+    )?;
+    for w in walks {
+        for r in &w.trace {
+            writeln!(
+                f,
+                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3}",
+                w.seed,
+                r.t_s,
+                r.x_m,
+                r.y_m,
+                r.yaw_deg,
+                r.sweep_deg,
+                r.speed_m_s,
+                r.rumble.map_or("refused".to_string(), |x| format!("{x:?}")),
+                r.felt,
+                r.nearest_m,
+                r.bearing_deg,
+                r.ttc_s.map_or(String::new(), |t| format!("{t:.2}")),
+                r.forward_cost,
+                r.clearance_m
+            )?;
+        }
+    }
+    f.flush()?;
     Ok(())
 }
 

@@ -85,9 +85,32 @@ pub fn run_seed(seed: u64, i: u32) -> u64 {
     seed.wrapping_add(i as u64)
 }
 
-/// Runs `runs` walks of `world`, seeds `seed`, `seed + 1`, ...
+/// Runs `runs` walks of `world`, seeds `seed`, `seed + 1`, ..., spread over the
+/// machine's cores. Each walk depends only on its seed, so the result is the same
+/// whatever the number of threads.
 pub fn study(world: &World, config: &WalkConfig, runs: u32, seed: u64) -> Study {
-    let walks: Vec<WalkOutcome> = (0..runs).map(|i| walk(world, config, run_seed(seed, i))).collect();
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(runs.max(1) as usize);
+    let next = std::sync::atomic::AtomicU32::new(0);
+    let mut walks: Vec<(u32, WalkOutcome)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut done = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= runs {
+                            return done;
+                        }
+                        done.push((i, walk(world, config, run_seed(seed, i))));
+                    }
+                })
+            })
+            .collect();
+        // a walk is plain arithmetic on owned data; a panic there is a bug to surface
+        workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+    });
+    walks.sort_by_key(|(i, _)| *i);
+    let walks: Vec<WalkOutcome> = walks.into_iter().map(|(_, w)| w).collect();
     let rows: Vec<Row> = walks.iter().map(Row::of).collect();
     let average = Row::mean(&rows);
     Study { walks, rows, average }

@@ -41,13 +41,16 @@ impl Guide for GoalSound {
     }
 }
 
+/// Whether the user can walk straight from a pose to a point (the map's answer).
+type InSight<'a> = Box<dyn Fn(&UserPose, [f64; 2]) -> bool + 'a>;
+
 /// Route guidance stand-in (until the planner speaks real instructions): a fixed
 /// route, and the user is pointed at the farthest waypoint in line of sight, as
 /// ISANA's line-of-sight smoothing and deviation recovery would. Line of sight is
 /// given by the caller (the map), so the guide itself knows no geometry.
 pub struct RouteWaypoints<'a> {
     waypoints: Vec<[f64; 2]>,
-    in_sight: Box<dyn Fn(&UserPose, [f64; 2]) -> bool + 'a>,
+    in_sight: InSight<'a>,
     target: usize,
 }
 

@@ -76,6 +76,39 @@ pub struct WalkConfig {
     pub start_jitter: (f64, f64),
     /// Reaction time jitter, fraction of the reaction time, uniform +-.
     pub reaction_jitter: f64,
+    /// Record a [`TraceRow`] per camera frame in [`WalkOutcome::trace`].
+    pub trace: bool,
+}
+
+/// One camera frame of a walk, for finding out why a contact happened.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TraceRow {
+    /// Seconds into the walk.
+    pub t_s: f64,
+    /// User position, map metres.
+    pub x_m: f64,
+    /// User position, map metres.
+    pub y_m: f64,
+    /// User heading, degrees counter-clockwise from +x.
+    pub yaw_deg: f64,
+    /// Cane sweep angle, degrees (left positive).
+    pub sweep_deg: f64,
+    /// Walking speed, m/s.
+    pub speed_m_s: f64,
+    /// Rumble state perception decided for this frame (`None` when it refused the frame).
+    pub rumble: Option<schemas::Rumble>,
+    /// What the hands felt at this instant.
+    pub felt: Felt,
+    /// Nearest obstacle point in the user frame, metres.
+    pub nearest_m: f32,
+    /// Its bearing, degrees (left positive).
+    pub bearing_deg: f32,
+    /// Time to collision, seconds.
+    pub ttc_s: Option<f32>,
+    /// Active cost function's forward cost.
+    pub forward_cost: f32,
+    /// Closest the body is to any obstacle, metres.
+    pub clearance_m: f64,
 }
 
 /// The Asus Xtion in its 320x240 mode: with a perception stride of 1 these are the
@@ -104,6 +137,7 @@ impl Default for WalkConfig {
             bounded_mm: None,
             start_jitter: (0.15, 10.0),
             reaction_jitter: 0.25,
+            trace: false,
         }
     }
 }
@@ -137,6 +171,9 @@ pub struct WalkOutcome {
     pub reaction_s: f64,
     /// Where the user ended.
     pub end_xy_m: [f64; 2],
+    /// One row per camera frame when [`WalkConfig::trace`] asked for it.
+    #[serde(skip)]
+    pub trace: Vec<TraceRow>,
 }
 
 impl WalkOutcome {
@@ -164,7 +201,8 @@ fn camera_floor(camera: &CameraPose) -> UserPose {
 const SIGHT_STEP_M: f64 = 0.1;
 
 /// True when a body of `radius_m` can walk straight from `pose` to `to` past every
-/// static shape of the floor that reaches below head height (what a floor map holds).
+/// static shape of the floor that reaches below head height, and never over a drop-off
+/// (what a floor map holds).
 fn walkable(world: &World, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool {
     let (dx, dy) = (to[0] - pose.x_m, to[1] - pose.y_m);
     let n = ((dx.hypot(dy) / SIGHT_STEP_M).ceil() as usize).max(1);
@@ -174,6 +212,7 @@ fn walkable(world: &World, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool
         let (x, y) = (pose.x_m + f * dx, pose.y_m + f * dy);
         g.boxes.iter().all(|(b, _)| Shape::Box(*b).body_distance_m(x, y, radius_m, 1.8) > 0.0)
             && g.cylinders.iter().all(|(c, _)| Shape::Cylinder(*c).body_distance_m(x, y, radius_m, 1.8) > 0.0)
+            && g.drop_offs.iter().all(|(d, _)| Shape::DropOff(*d).body_distance_m(x, y, radius_m, 1.8) > radius_m)
     })
 }
 
@@ -189,6 +228,10 @@ fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64) -> Box<dyn Gu
         _ => Box::new(GoalSound { x_m: goal.x_m, y_m: goal.y_m }),
     }
 }
+
+/// A frame's outputs on their way to the feedback step: due time (s), hazard, intent
+/// with its capture stamp.
+type InFlight = (f64, Option<Hazard>, Option<(HapticIntent, u64)>);
 
 fn ns(t_s: f64) -> u64 {
     T0_NS + (t_s * 1e9).round() as u64
@@ -233,8 +276,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let dt = 1.0 / PHYSICS_HZ as f64;
     let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
     let latency_s = config.latency_ms / 1000.0;
-    let mut pending: std::collections::VecDeque<(f64, Option<Hazard>, Option<(HapticIntent, u64)>)> =
-        Default::default();
+    let mut pending: std::collections::VecDeque<InFlight> = Default::default();
     let mut last_floor: Option<(UserPose, u64)> = None;
     let mut out = WalkOutcome {
         seed,
@@ -250,6 +292,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         path_m: 0.0,
         reaction_s: params.reaction_s,
         end_xy_m: [start.x_m, start.y_m],
+        trace: Vec::new(),
     };
     body.measure(world, start.floor, 0.0, |s| s.body_distance_m(start.x_m, start.y_m, radius_m, params.height_m));
     let mut body_now = body.distance_m.clone();
@@ -310,12 +353,37 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
                 intrinsics: k,
             };
-            match pipeline.process(input, &ctx, &mut NoTimer) {
+            let hazard = match pipeline.process(input, &ctx, &mut NoTimer) {
                 Ok(p) => {
                     let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
-                    pending.push_back((t + latency_s, Some(hazard), Some((cue(p, &config.cue), now))));
+                    pending.push_back((t + latency_s, Some(hazard.clone()), Some((cue(p, &config.cue), now))));
+                    Some(hazard)
                 }
-                Err(_) => out.perception_errors += 1,
+                Err(_) => {
+                    out.perception_errors += 1;
+                    None
+                }
+            };
+            if config.trace {
+                let forward_cost = hazard.as_ref().map_or(f32::NAN, |h| match h.active {
+                    schemas::CostFunction::Ficf => h.ficf.forward,
+                    schemas::CostFunction::Cacf => h.cacf.forward,
+                });
+                out.trace.push(TraceRow {
+                    t_s: t,
+                    x_m: pose.x_m,
+                    y_m: pose.y_m,
+                    yaw_deg: pose.yaw_rad.to_degrees(),
+                    sweep_deg: mount.sweep_rad(t).to_degrees(),
+                    speed_m_s: user.speed_m_s(),
+                    rumble: hazard.as_ref().map(|h| h.rumble),
+                    felt: shown,
+                    nearest_m: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_m),
+                    bearing_deg: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_bearing_deg),
+                    ttc_s: hazard.as_ref().and_then(|h| h.ttc_s),
+                    forward_cost,
+                    clearance_m: body_now.iter().copied().fold(f64::INFINITY, f64::min),
+                });
             }
         }
         while pending.front().is_some_and(|(at, _, _)| *at <= t + 1e-9) {

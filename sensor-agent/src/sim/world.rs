@@ -11,11 +11,12 @@ use super::scene::{
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
 /// The built-in worlds, by name, embedded in the binary.
-pub const BUILTIN_WORLDS: [(&str, &str); 4] = [
+pub const BUILTIN_WORLDS: [(&str, &str); 5] = [
     ("taylor-course", include_str!("../../worlds/taylor-course.toml")),
     ("corridor", include_str!("../../worlds/corridor.toml")),
     ("building", include_str!("../../worlds/building.toml")),
     ("approach", include_str!("../../worlds/approach.toml")),
+    ("step-down", include_str!("../../worlds/step-down.toml")),
 ];
 
 /// What an obstacle is, for contact reports.
@@ -662,7 +663,7 @@ mod tests {
         let err = World::load("no-such-world").err().map(|e| e.to_string()).unwrap_or_default();
         assert!(
             err.contains("unknown world `no-such-world`")
-                && err.contains("taylor-course, corridor, building, approach"),
+                && err.contains("taylor-course, corridor, building, approach, step-down"),
             "{err}"
         );
     }
