@@ -140,9 +140,11 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         },
     );
     let (_, header_len) = schemas::decode_header(&bad_priority).unwrap();
-    bad_priority[header_len + 8 + 2] = 9; // priority variant index 9 does not exist
-                                          // Spaced out: haptic and hazard subscribers keep only the newest sample, so
-                                          // back-to-back garbage would be overwritten before the agent reads it.
+    // Priority variant index 9 does not exist.
+    bad_priority[header_len + 8 + 2] = 9;
+    // Spaced out: haptic and hazard subscribers keep only the newest sample, so
+    // back-to-back garbage would be overwritten before the agent reads it (150 ms: a
+    // loaded 2-core machine can hold the agent's loop off for more than 50).
     let garbage = [
         (keys.haptic(), vec![1u8, 2, 3]),
         (keys.haptic(), nan),
@@ -152,7 +154,7 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     ];
     for (key, bytes) in garbage {
         session.put(key, bytes).await.unwrap();
-        tokio::time::sleep(Duration::from_millis(50)).await;
+        tokio::time::sleep(Duration::from_millis(150)).await;
     }
     let deadline = Instant::now() + Duration::from_secs(3);
     let rejects = loop {

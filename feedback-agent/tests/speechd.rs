@@ -349,7 +349,7 @@ fn real_speech_dispatcher_speaks_cuts_and_comes_back() {
         "In twelve metres, turn left at the lift, then walk straight along the corridor to room one hundred and four. "
             .repeat(8);
     let mut rounds = Vec::new();
-    for _ in 0..5 {
+    for _ in 0..10 {
         let mut guidance = engine.start(&long, Priority::Message, 0).expect("queued");
         std::thread::sleep(Duration::from_millis(30));
         let t = Instant::now();
@@ -360,8 +360,11 @@ fn real_speech_dispatcher_speaks_cuts_and_comes_back() {
         wait_finished(&mut warning, Duration::from_secs(10));
     }
     rounds.sort_by(f64::total_cmp);
-    eprintln!("real speech-dispatcher: cut + new SPEAK queued in {:.2} ms median, {:.2} ms max", rounds[2], rounds[4]);
-    assert!(rounds[4] < 100.0, "interrupt round trips took {rounds:?} ms");
+    let (median, max) = (rounds[rounds.len() / 2], rounds[rounds.len() - 1]);
+    eprintln!(
+        "real speech-dispatcher, 10 rounds: CANCEL SELF + SPEAK queued in {median:.2} ms median, {max:.2} ms max"
+    );
+    assert!(max < 100.0, "interrupt round trips took {rounds:?} ms");
     assert_eq!(counters.errors(), 0, "the daemon accepted every command");
 
     // The daemon goes away: the next utterance fails clearly; once it is back, speech resumes.

@@ -33,6 +33,8 @@ pub enum Call {
 struct State {
     /// Plugged nodes and their generation (bumped on unplug so open files fail).
     nodes: Vec<(PathBuf, u64, bool)>,
+    /// Nodes that are input devices without force feedback (EVIOCSFF fails EINVAL).
+    no_ff: Vec<PathBuf>,
     calls: Vec<(PathBuf, Call)>,
     next_id: i16,
 }
@@ -60,6 +62,12 @@ impl FakeFf {
             Some(n) => n.2 = true,
             None => s.nodes.push((path.into(), 0, true)),
         }
+    }
+
+    /// Plug a node that has no force feedback (a keyboard, say).
+    pub fn plug_without_ff(&self, path: &str) {
+        self.plug(path);
+        self.lock().no_ff.push(path.into());
     }
 
     /// Unplug the node at `path`: its open files fail from now on.
@@ -103,6 +111,9 @@ impl FakeNode {
 impl FfNode for FakeNode {
     fn upload_effect(&mut self, request: u64, effect: &mut FfEffect) -> std::io::Result<()> {
         let mut s = self.record(Call::Upload { request, effect: *effect.as_bytes() })?;
+        if s.no_ff.contains(&self.path) {
+            return Err(std::io::Error::from_raw_os_error(libc::EINVAL));
+        }
         if effect.id < 0 {
             effect.id = s.next_id;
             s.next_id += 1;

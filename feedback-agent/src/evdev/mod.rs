@@ -203,6 +203,9 @@ pub struct EvdevBackend {
     actuators: [Option<Actuator>; 2],
     shown: [Option<u16>; 2],
     absence_said: [bool; 2],
+    /// The node refused a rumble effect (not a force-feedback device): never reopened,
+    /// so a wrong path is said once instead of connecting and failing forever.
+    refused: [bool; 2],
     next_open_ns: u64,
 }
 
@@ -215,6 +218,7 @@ impl EvdevBackend {
             actuators: [None, None],
             shown: [None, None],
             absence_said: [false, false],
+            refused: [false, false],
             next_open_ns: 0,
         }
     }
@@ -235,7 +239,7 @@ impl EvdevBackend {
         self.next_open_ns = now_ns + self.config.reconnect_ms * MS;
         for side in Side::BOTH {
             let k = side as usize;
-            if self.actuators[k].is_some() {
+            if self.actuators[k].is_some() || self.refused[k] {
                 continue;
             }
             let Some(path) = self.path(side).map(Path::to_path_buf) else { continue };
@@ -265,8 +269,19 @@ impl EvdevBackend {
 
     fn lose(&mut self, side: Side, why: &std::io::Error, now_ns: u64, out: &mut DeviceOutput) {
         if let Some(actuator) = self.actuators[side as usize].take() {
-            tracing::warn!("{} rumble node lost: {why}", side.word());
             drop(actuator);
+            // EINVAL / ENOSYS from EVIOCSFF: the node exists but cannot rumble.
+            if matches!(why.kind(), std::io::ErrorKind::InvalidInput | std::io::ErrorKind::Unsupported) {
+                tracing::error!(
+                    "the {} node refuses FF_RUMBLE ({why}); check --evdev-{} (fftest shows what a node supports)",
+                    side.word(),
+                    side.word()
+                );
+                self.refused[side as usize] = true;
+                out.status(side.device(), format!("{} controller cannot rumble", side.word()), now_ns);
+                return;
+            }
+            tracing::warn!("{} rumble node lost: {why}", side.word());
             self.absence_said[side as usize] = true;
             out.status(side.device(), format!("{} controller disconnected", side.word()), now_ns);
             self.next_open_ns = now_ns + self.config.reconnect_ms * MS;
@@ -315,7 +330,9 @@ impl HapticDevice for EvdevBackend {
     }
 
     fn next_poll_ns(&self) -> Option<u64> {
-        let missing = Side::BOTH.iter().any(|s| self.path(*s).is_some() && self.actuators[*s as usize].is_none());
+        let missing = Side::BOTH
+            .iter()
+            .any(|s| self.path(*s).is_some() && self.actuators[*s as usize].is_none() && !self.refused[*s as usize]);
         missing.then_some(self.next_open_ns)
     }
 

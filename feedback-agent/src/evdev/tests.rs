@@ -216,3 +216,19 @@ fn a_missing_node_is_said_once_and_only_configured_sides_are_looked_for() {
     assert!(b.is_open(true));
     assert_eq!(b.next_poll_ns(), None, "nothing left to look for");
 }
+
+#[test]
+fn a_node_without_force_feedback_is_said_once_and_left_alone() {
+    let ff = FakeFf::new();
+    ff.plug_without_ff(LEFT);
+    ff.plug(RIGHT);
+    let mut b = EvdevBackend::new(Box::new(ff.clone()), config());
+    let mut out = DeviceOutput::default();
+    b.poll(T0, &mut out);
+    b.set_levels(levels(1.0, 1.0), HapticPattern::Steady, 0, T0, false, &mut out);
+    b.set_levels(levels(1.0, 1.0), HapticPattern::Steady, 0, T0 + MS, true, &mut out);
+    b.poll(T0 + 10_000 * MS, &mut out);
+    assert_eq!(out.say, ["left controller cannot rumble"]);
+    assert_eq!(b.next_poll_ns(), None, "not reopened");
+    assert_eq!(ff.calls_to(RIGHT).last(), Some(&ev_ff(0, 1)), "the other hand still rumbles");
+}
