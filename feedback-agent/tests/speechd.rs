@@ -27,6 +27,8 @@ fn scratch_dir(name: &str) -> PathBuf {
 struct Script {
     /// Lines starting with the first string are answered with the second.
     refuse: Vec<(&'static str, &'static str)>,
+    /// Lines starting with this are never answered (a hung daemon).
+    hang_on: Option<&'static str>,
 }
 
 #[derive(Default)]
@@ -115,6 +117,8 @@ fn serve(stream: UnixStream, shared: &Arc<Mutex<Shared>>, script: &Script) {
             } else {
                 continue;
             }
+        } else if script.hang_on.is_some_and(|prefix| text.starts_with(prefix)) {
+            continue;
         } else if let Some((_, reply)) = script.refuse.iter().find(|(prefix, _)| text.starts_with(prefix)) {
             format!("{reply}\r\n")
         } else if text == "SPEAK" {
@@ -190,7 +194,10 @@ fn speechd_engine_speaks_ssip_byte_for_byte() {
 
 #[test]
 fn error_replies_are_counted_and_reported_clearly() {
-    let script = Script { refuse: vec![("SET SELF RATE", "409 ERR RATE TOO HIGH"), ("SPEAK", "401 ERR NOT ALLOWED")] };
+    let script = Script {
+        refuse: vec![("SET SELF RATE", "409 ERR RATE TOO HIGH"), ("SPEAK", "401 ERR NOT ALLOWED")],
+        ..Script::default()
+    };
     let server = FakeSpeechd::start("errors", script);
     let mut engine = SpeechdEngine::new(server.config()).expect("a refused setting does not prevent speaking");
     let counters = engine.counters();
@@ -216,6 +223,24 @@ fn daemon_gone_is_noticed_and_the_next_utterance_reconnects() {
     assert_eq!(server.connections(), 2);
     assert_eq!(server.received(1), format!("{SETUP}SET SELF PRIORITY important\r\nSPEAK\r\nstop\r\n.\r\n"));
     assert_eq!(counters.connects(), 2);
+}
+
+#[test]
+fn a_hung_daemon_stalls_one_utterance_by_the_reply_timeout_only() {
+    let server = FakeSpeechd::start("hung", Script { hang_on: Some("SPEAK"), ..Script::default() });
+    let config = SpeechdConfig { reply_timeout_ms: 100, reconnect_ms: 1000, ..server.config() };
+    let mut engine = SpeechdEngine::new(config).expect("set-up is answered");
+    let t = Instant::now();
+    let err = engine.start("stop", Priority::Important, 0).err().expect("no answer to SPEAK");
+    let stalled = t.elapsed();
+    assert!(err.to_string().contains("no reply within 100 ms"), "{err}");
+    assert!(stalled < Duration::from_millis(180), "one timeout, no retry: stalled {stalled:?}");
+    // Within the reconnect period the engine does not even try.
+    let t = Instant::now();
+    let err = engine.start("stop", Priority::Important, 500 * MS).err().expect("still waiting to reconnect");
+    assert!(t.elapsed() < Duration::from_millis(20), "{err}");
+    assert!(err.to_string().contains("not connected; retrying every 1000 ms"), "{err}");
+    assert_eq!(engine.counters().losses(), 1);
 }
 
 #[test]

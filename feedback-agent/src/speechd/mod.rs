@@ -9,7 +9,8 @@
 //! other clients on the same machine (a screen reader).
 //!
 //! Replies are awaited with a short timeout so a hung daemon cannot stall the agent's
-//! loop (haptic TTLs run on the same thread). An error reply (3xx/4xx/5xx) is counted
+//! loop (haptic TTLs run on the same thread): at most one timeout per utterance, and
+//! after a failed connection attempt the next one waits `reconnect_ms`. An error reply (3xx/4xx/5xx) is counted
 //! and reported; a lost connection is logged once and reopened at the next utterance,
 //! which is retried once on the new connection.
 
@@ -212,6 +213,8 @@ struct Link {
     notifications: bool,
     ended: VecDeque<u64>,
     next_connect_ns: u64,
+    /// The latest `now` the engine was given (handles' `cut` gets none).
+    last_now_ns: u64,
     /// "connection lost" already logged since the last successful connection.
     loss_logged: bool,
     counters: Arc<SpeechdCounters>,
@@ -307,12 +310,18 @@ impl Link {
                 tracing::warn!("speech-dispatcher connection lost ({e}); reconnecting at the next utterance");
             }
             self.loss_logged = true;
-            // The next utterance may try at once: the daemon may just have restarted.
-            self.next_connect_ns = 0;
+            // A closed socket: the next utterance may try at once (the daemon may just
+            // have restarted). A daemon that stopped answering gets `reconnect_ms`, so
+            // it cannot stall the agent loop on every utterance.
+            self.next_connect_ns = match e {
+                SsipError::Timeout(_) => self.last_now_ns + self.config.reconnect_ms * MS,
+                _ => 0,
+            };
         }
     }
 
     fn ensure(&mut self, now_ns: u64) -> Result<(), SsipError> {
+        self.last_now_ns = now_ns;
         if self.conn.is_some() {
             return Ok(());
         }
@@ -413,6 +422,7 @@ impl SpeechdEngine {
             notifications: false,
             ended: VecDeque::new(),
             next_connect_ns: 0,
+            last_now_ns: 0,
             loss_logged: false,
             counters: counters.clone(),
         };
@@ -465,6 +475,7 @@ impl SpeakingHandle for SpeechdUtterance {
             return true;
         }
         let mut link = lock(&self.link);
+        link.last_now_ns = link.last_now_ns.max(now_ns);
         if link.generation != self.generation || link.conn.is_none() {
             self.done = true;
             return true;
@@ -514,10 +525,12 @@ impl SpeechEngine for SpeechdEngine {
                     return Err(SpeechError::Unavailable(format!("speech-dispatcher: {e} (error {n} since start)")));
                 }
                 Err(e) => {
-                    link.lose(&e);
                     // A connection that worked before may just be stale (daemon
-                    // restarted): one retry on a new one.
-                    if fresh || attempts > 1 {
+                    // restarted): one retry on a new one. Not after a timeout: a hung
+                    // daemon would stall the agent's loop twice.
+                    let stale = matches!(e, SsipError::Closed | SsipError::Io(_));
+                    link.lose(&e);
+                    if fresh || attempts > 1 || !stale {
                         return Err(SpeechError::Unavailable(format!("speech-dispatcher: {e}")));
                     }
                 }
