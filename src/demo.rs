@@ -249,7 +249,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
         tally.stage_breakdown()
     );
     eprintln!(
-        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes (pulse edges included), {} offline warnings, {} rejects",
+        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes made on an intent's arrival (pulse edges are the agent's own timing), {} offline warnings, {} rejects",
         started.elapsed().as_secs_f32(),
         tally.hazards,
         tally.hazards as f32 / started.elapsed().as_secs_f32(),

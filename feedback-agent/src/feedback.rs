@@ -281,12 +281,17 @@ impl Feedback {
         self.drive_haptics(now_ns, false);
     }
 
+    /// Drive every haptic device to the state of now. `refresh` is true when an intent
+    /// has just arrived: devices re-send their state, and what they do is caused by that
+    /// intent (its capture stamp goes into `applied`). Otherwise the agent's own timing
+    /// acts (pulse edges, TTL expiry, alerts) and `applied` says so with a cause of 0, so
+    /// capture -> applied measures the agent, not where in a pulse train an intent fell.
     fn drive_haptics(&mut self, now_ns: u64, refresh: bool) {
         let alert = self.alert.filter(|a| a.is_live(now_ns));
         self.alert = alert;
         let (levels, pattern, cause) = match (alert, self.obstacle) {
             (Some(a), _) => (a.levels_at(now_ns), a.pattern(), 0),
-            (None, Some(o)) => (o.levels_at(now_ns), o.pattern(), o.cause_capture_ns),
+            (None, Some(o)) => (o.levels_at(now_ns), o.pattern(), if refresh { o.cause_capture_ns } else { 0 }),
             (None, None) => (Levels::OFF, HapticPattern::Steady, 0),
         };
         if self.obstacle.is_some_and(|o| !o.is_live(now_ns)) {
@@ -448,7 +453,8 @@ mod tests {
                 _ => None,
             })
             .collect();
-        assert_eq!(rumble, [(1.0, T0), (0.0, T0)]);
+        // on at the intent's arrival, caused by it; off by the agent's own TTL timing
+        assert_eq!(rumble, [(1.0, T0), (0.0, 0)]);
     }
 
     #[test]

@@ -383,7 +383,8 @@ pub struct Applied {
     pub action: AppliedAction,
     /// When the device was driven, ns (wall clock, same epoch as capture stamps).
     pub applied_ns: u64,
-    /// Capture stamp of the intent that caused it (0 when self-initiated).
+    /// Capture stamp of the intent whose arrival caused it; 0 when the agent's own
+    /// timing did (pulse edges, TTL expiry, offline alerts, device news).
     pub cause_capture_ns: u64,
 }
 
