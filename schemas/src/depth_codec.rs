@@ -2,7 +2,10 @@
 //! bounded-error. Each frame decodes on its own (no inter-frame state), so a lost
 //! packet costs one frame, never a stream.
 //!
-//! The packed format (both compressed modes share it; the decoder needs no mode):
+//! The packed format, version 2 (both compressed modes share it; the decoder needs no
+//! mode). It is shaped for speed on one core: one entropy-coded symbol per four pixels,
+//! and a predictor whose reconstruction is a running sum (`cargo bench -p schemas
+//! --bench depth_codec`).
 //!
 //! 1. **Levels.** Structured-light cameras (Kinect, Xtion) measure disparity, so a
 //!    frame holds only a few hundred distinct depths. The distinct valid samples are
@@ -10,24 +13,34 @@
 //!    greedily merges values spanning at most `2 * (step / 2)` units into one level
 //!    whose value is the middle of its span, so every sample is within `step / 2`
 //!    (at most as many levels as quantising to `step`, and never more error).
-//!    Pixels are then coded as level indices, which are proportional to disparity:
-//!    planes are (nearly) linear in them.
+//!    Pixels are then coded as level indices (1-based), which are proportional to
+//!    disparity: neighbours on a surface differ by 0 or 1 index.
 //! 2. **Validity.** Invalid (0) pixels are sent as per-row run lengths, never as
 //!    depths, so they cannot become valid and valid pixels cannot become 0.
-//! 3. **Prediction.** Each valid pixel's level is predicted with LOCO-I's median edge
-//!    detector from its left, upper and upper-left neighbours (Weinberger, Seroussi,
-//!    Sapiro 2000, "The LOCO-I lossless image compression algorithm", section 2.1).
-//!    Invalid pixels take their prediction, so holes do not disturb their neighbours.
-//! 4. **Entropy coding.** Zigzag residuals (255 = escape to a varint) are coded with
-//!    rANS ([`rans`]) under 8 contexts: the activity of the row above (as LOCO-I's
-//!    gradient contexts, section 2.3) and whether the previous residual was zero.
-//!    Level values, run lengths and escapes go in a side stream coded with one more
-//!    rANS model over bytes.
+//! 3. **Prediction.** Each pixel's level is predicted by its left neighbour's; a row's
+//!    first pixel by the first pixel of the row above (level 1 for the first row). An
+//!    invalid pixel carries the level left of it (residual 0). The residual becomes a
+//!    2-bit code: 0, +1, -1, or "exception". On the real frames LOCO-I's median
+//!    predictor (Weinberger, Seroussi, Sapiro 2000) saves about a tenth of the bits,
+//!    but its reconstruction is a chain of four dependent operations per pixel, while
+//!    left prediction's is one addition per four pixels (the running sums of each
+//!    quad's codes are a table).
+//! 4. **Entropy coding.** Four horizontally adjacent pixels' codes (pixel `i` at bits
+//!    `2i`) form one 8-bit quad symbol, coded with rANS ([`rans`]) under 8 contexts
+//!    from the row above: the activity of the quad above (its codes' sizes, 0 / 1 for
+//!    +-1 / 2 for an exception, summed and capped at 3) times 2, plus 1 if the quad
+//!    above-right is not all zero. Quads with no valid pixel are not coded and count as
+//!    all zero; codes of invalid pixels (and of the padding past a row's end) are 0.
+//!    Exceptions go in pixel order to their own rANS stream as `zigzag(residual) - 3`
+//!    bytes, 255 meaning "the rest follows as a varint in the side stream". Level
+//!    values, run lengths and the models go in a side stream coded with one more rANS
+//!    model over bytes.
 //!
-//! Layout: `FORMAT_TAG`, varint side length, side model, varint side word count,
-//! side words (u16 LE); 8 residual models, varint residual word count, residual words.
-//! The side stream holds: level count, first level, level gaps; per row, alternating
-//! valid/invalid run lengths summing to the width; then the escapes in pixel order.
+//! Layout: `FORMAT_TAG`, varint side length, side model, then three word streams (each
+//! a varint word count and u16 LE words): side, quads, exceptions. The side stream
+//! holds: level count, first level, level gaps; per row, alternating valid/invalid run
+//! lengths summing to the width; the 8 quad models; the exception model; the exception
+//! count; the escapes in pixel order.
 
 mod rans;
 
@@ -70,12 +83,142 @@ pub enum CodecError {
 /// the decoder allocate without bound.
 pub const MAX_PIXELS: usize = 1 << 24;
 
-/// First byte of a compressed payload: format version 1.
-const FORMAT_TAG: u8 = 0xD1;
-/// Residual symbol meaning "the zigzag residual minus this follows as a varint".
-const ESCAPE: u32 = 255;
-/// Residual contexts: 4 activity classes x previous residual zero or not.
+/// First byte of a compressed payload: format version 2. Version 1 (0xD1, one MED
+/// residual symbol per pixel) is refused as an unknown format.
+const FORMAT_TAG: u8 = 0xD2;
+/// Pixels per coded symbol.
+const QUAD: usize = 4;
+/// Quad contexts: 4 activity classes of the quad above x quad above-right all zero or not.
 const CONTEXTS: usize = 8;
+/// Pixel code: the residual is in the exception stream.
+const EXCEPTION: u8 = 3;
+/// Exception symbol meaning "the rest of `zigzag - 3` follows as a varint".
+const ESCAPE: u32 = 255;
+/// Smallest zigzag residual that needs an exception (0, +1 and -1 have codes).
+const FIRST_EXCEPTION: u32 = 3;
+
+/// Per quad symbol: the running sums of its four codes' residuals (exceptions count as
+/// 0; quads with exceptions never take the path that uses this).
+const RUNNING_SUM: [[i32; QUAD]; 256] = {
+    let mut table = [[0i32; QUAD]; 256];
+    let mut s = 0;
+    while s < 256 {
+        let mut acc = 0;
+        let mut i = 0;
+        while i < QUAD {
+            acc += match (s >> (2 * i)) & 3 {
+                1 => 1,
+                2 => -1,
+                _ => 0,
+            };
+            table[s][i] = acc;
+            i += 1;
+        }
+        s += 1;
+    }
+    table
+};
+
+/// Residual of each pixel code (the exception's comes from its own stream).
+const CODE_RESIDUAL: [i32; 4] = [0, 1, -1, 0];
+
+/// Per quad symbol: the lowest and highest of its running sums, so one pair of
+/// comparisons per quad keeps every level of the quad in range.
+const SUM_RANGE: [(i32, i32); 256] = {
+    let mut table = [(0i32, 0i32); 256];
+    let mut s = 0;
+    while s < 256 {
+        let (mut lo, mut hi) = (i32::MAX, i32::MIN);
+        let mut i = 0;
+        while i < QUAD {
+            let v = RUNNING_SUM[s][i];
+            if v < lo {
+                lo = v;
+            }
+            if v > hi {
+                hi = v;
+            }
+            i += 1;
+        }
+        table[s] = (lo, hi);
+        s += 1;
+    }
+    table
+};
+
+/// Per quad symbol: how many of its pixels are exceptions.
+const EXCEPTIONS_IN: [u8; 256] = {
+    let mut table = [0u8; 256];
+    let mut s = 0;
+    while s < 256 {
+        let mut i = 0;
+        while i < QUAD {
+            table[s] += ((s >> (2 * i)) & 3 == 3) as u8;
+            i += 1;
+        }
+        s += 1;
+    }
+    table
+};
+
+/// Per quad symbol: its activity class, the sum of its codes' sizes (0 for a zero
+/// residual, 1 for +-1, 2 for an exception) capped at 3.
+const ACTIVITY: [u8; 256] = {
+    let mut table = [0u8; 256];
+    let mut s = 0;
+    while s < 256 {
+        let mut sum = 0;
+        let mut i = 0;
+        while i < QUAD {
+            sum += match (s >> (2 * i)) & 3 {
+                0 => 0,
+                3 => 2,
+                _ => 1,
+            };
+            i += 1;
+        }
+        table[s] = if sum > 3 { 3 } else { sum };
+        s += 1;
+    }
+    table
+};
+
+/// Per validity mask of a quad (bit i = pixel i valid): the code bits of its invalid
+/// pixels, which must be zero.
+const INVALID_CODE_BITS: [u8; 16] = {
+    let mut table = [0u8; 16];
+    let mut m = 0;
+    while m < 16 {
+        let mut i = 0;
+        while i < QUAD {
+            if (m >> i) & 1 == 0 {
+                table[m] |= 3 << (2 * i);
+            }
+            i += 1;
+        }
+        m += 1;
+    }
+    table
+};
+
+/// Validity mask of a quad whose pixels are all valid.
+const ALL_VALID: u8 = (1 << QUAD) - 1;
+
+/// Context of a quad from the two quads above it (row above, same and next column).
+#[inline(always)]
+fn quad_context(above: u8, above_right: u8) -> u8 {
+    ACTIVITY[above as usize] * 2 + (above_right != 0) as u8
+}
+
+#[inline(always)]
+fn zigzag(r: i32) -> u32 {
+    ((r << 1) ^ (r >> 31)) as u32
+}
+
+#[inline(always)]
+fn unzigzag(z: u32) -> i32 {
+    (z >> 1) as i32 ^ -((z & 1) as i32)
+}
 
 fn corrupt(what: &str) -> CodecError {
     CodecError::Corrupt(what.to_string())
@@ -117,11 +260,7 @@ impl<'a> Cursor<'a> {
             self.pos += 1;
             v |= ((b & 0x7f) as u32).checked_shl(shift)?;
             if b < 0x80 {
-                return if shift == 28 && b > 0x0f {
-                    None
-                } else {
-                    Some(v)
-                };
+                return if shift == 28 && b > 0x0f { None } else { Some(v) };
             }
         }
         None
@@ -133,14 +272,12 @@ impl<'a> Cursor<'a> {
         Some(b)
     }
 
-    fn words(&mut self, count: usize, out: &mut Vec<u16>) -> Option<()> {
+    fn words(&mut self, out: &mut Vec<u16>) -> Option<()> {
+        let count = self.varint()? as usize;
         let end = self.pos.checked_add(count.checked_mul(2)?)?;
         let raw = self.bytes.get(self.pos..end)?;
         out.clear();
-        out.extend(
-            raw.chunks_exact(2)
-                .map(|c| u16::from_le_bytes([c[0], c[1]])),
-        );
+        out.extend(raw.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])));
         self.pos = end;
         Some(())
     }
@@ -154,21 +291,22 @@ fn put_words(out: &mut Vec<u8>, words: &[u16]) {
     }
 }
 
-/// Activity class of the row above: LOCO-I-style thresholds on |B-C| + |D-B|.
-const ACTIVITY_CLASS: [u8; 8] = [0, 1, 1, 2, 2, 2, 2, 3];
-
-/// LOCO-I median edge detector: `a` left, `b` up, `c` up-left.
-#[inline(always)]
-fn med(a: i32, b: i32, c: i32) -> i32 {
-    // The median of a, b and a + b - c, without branches (edges are unpredictable).
-    a.min(b)
-        .max(a.max(b).min(a.wrapping_add(b).wrapping_sub(c)))
+/// Grows `zeros` (all zero) to at least `len` and returns that many: the contexts of a
+/// single-model stream.
+fn zeros(zeros: &mut Vec<u8>, len: usize) -> &[u8] {
+    if zeros.len() < len {
+        zeros.resize(len, 0);
+    }
+    &zeros[..len]
 }
 
-#[inline(always)]
-fn context(b: i32, c: i32, d: i32, calm_above: bool) -> usize {
-    let activity = ((b - c).unsigned_abs() + (d - b).unsigned_abs()).min(7);
-    ACTIVITY_CLASS[activity as usize] as usize * 2 + calm_above as usize
+/// A model counted from `symbols`.
+fn byte_model(symbols: &[u8]) -> rans::Model {
+    let mut counts = [0u32; 256];
+    for &b in symbols {
+        counts[b as usize] += 1;
+    }
+    rans::Model::from_counts(&counts)
 }
 
 /// Packs depth images; keeps its buffers between frames so a stream allocates once.
@@ -176,14 +314,22 @@ fn context(b: i32, c: i32, d: i32, calm_above: bool) -> usize {
 pub struct DepthEncoder {
     present: Vec<bool>,
     level_of: Box<[u16; 65536]>,
+    level_values: Vec<u16>,
+    /// The current row's levels (after the first pixel's prediction) and residual
+    /// codes, padded to whole quads.
     levels: Vec<u16>,
-    rows: [Vec<i32>; 2],
+    codes: Vec<u8>,
+    /// Quad symbols of the row above and the current row, plus a zero past the end.
+    quad_rows: [Vec<u8>; 2],
+    masks: Vec<u8>,
+    /// The current row's samples, padded with invalid pixels to whole quads.
+    padded: Vec<u16>,
     symbols: Vec<u8>,
     contexts: Vec<u8>,
-    side: Vec<u8>,
-    side_contexts: Vec<u8>,
-    calm: Vec<bool>,
+    exceptions: Vec<u8>,
     escapes: Vec<u8>,
+    side: Vec<u8>,
+    zeros: Vec<u8>,
     words: Vec<u16>,
 }
 
@@ -198,18 +344,19 @@ impl DepthEncoder {
     pub fn new() -> DepthEncoder {
         DepthEncoder {
             present: vec![false; 65536],
-            level_of: vec![0u16; 65536]
-                .into_boxed_slice()
-                .try_into()
-                .unwrap_or_else(|_| unreachable!()),
+            level_of: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
+            level_values: Vec::new(),
             levels: Vec::new(),
-            rows: [Vec::new(), Vec::new()],
+            codes: Vec::new(),
+            quad_rows: [Vec::new(), Vec::new()],
+            masks: Vec::new(),
+            padded: Vec::new(),
             symbols: Vec::new(),
             contexts: Vec::new(),
-            side: Vec::new(),
-            side_contexts: Vec::new(),
-            calm: Vec::new(),
+            exceptions: Vec::new(),
             escapes: Vec::new(),
+            side: Vec::new(),
+            zeros: Vec::new(),
             words: Vec::new(),
         }
     }
@@ -225,12 +372,7 @@ impl DepthEncoder {
     ) -> Result<(), CodecError> {
         let expected = checked_len(width, height)?;
         if samples.len() != expected {
-            return Err(CodecError::SizeMismatch {
-                width,
-                height,
-                expected,
-                got: samples.len(),
-            });
+            return Err(CodecError::SizeMismatch { width, height, expected, got: samples.len() });
         }
         out.clear();
         let half_step = match mode {
@@ -249,47 +391,41 @@ impl DepthEncoder {
         }
         self.side.clear();
         self.build_levels(samples, half_step);
-        self.write_validity(samples, width as usize);
-        self.predict(samples, width as usize);
-        self.side.extend_from_slice(&self.escapes);
-
-        put_varint(out, self.side.len() as u32);
-        let mut side_counts = [0u32; 256];
-        for &b in &self.side {
-            side_counts[b as usize] += 1;
-        }
-        let side_model = [rans::Model::from_counts(&side_counts)];
-        side_model[0].write(out);
-        self.side_contexts.clear();
-        self.side_contexts.resize(self.side.len(), 0);
-        rans::encode(
-            &self.side,
-            &self.side_contexts,
-            &side_model,
-            &mut self.words,
-        );
-        put_words(out, &self.words);
+        self.code_quads(samples, width as usize);
 
         // Four interleaved histograms: one would chain every increment of the same
-        // (mostly zero) symbol through a store-to-load forward.
-        let mut counts = [[[0u32; 256]; CONTEXTS]; 4];
+        // (mostly all-zero) symbol through a store-to-load forward.
+        let mut parts = [[[0u32; 256]; CONTEXTS]; 4];
         for (i, (&s, &c)) in self.symbols.iter().zip(&self.contexts).enumerate() {
-            counts[i & 3][c as usize & (CONTEXTS - 1)][s as usize] += 1;
+            parts[i & 3][c as usize & (CONTEXTS - 1)][s as usize] += 1;
         }
-        let mut merged = [[0u32; 256]; CONTEXTS];
-        for part in &counts {
-            for (m, p) in merged.iter_mut().zip(part) {
-                for (a, b) in m.iter_mut().zip(p) {
+        let mut counts = [[0u32; 256]; CONTEXTS];
+        for part in &parts {
+            for (sum, p) in counts.iter_mut().zip(part) {
+                for (a, b) in sum.iter_mut().zip(p) {
                     *a += b;
                 }
             }
         }
-        let counts = merged;
-        let models: Vec<rans::Model> = counts.iter().map(rans::Model::from_counts).collect();
-        for m in &models {
-            m.write(out);
+        let quad_models: Vec<rans::Model> = counts.iter().map(rans::Model::from_counts).collect();
+        for m in &quad_models {
+            m.write(&mut self.side);
         }
-        rans::encode(&self.symbols, &self.contexts, &models, &mut self.words);
+        let exception_model = byte_model(&self.exceptions);
+        exception_model.write(&mut self.side);
+        put_varint(&mut self.side, self.exceptions.len() as u32);
+        self.side.extend_from_slice(&self.escapes);
+
+        put_varint(out, self.side.len() as u32);
+        let side_model = byte_model(&self.side);
+        side_model.write(out);
+        let side_contexts = zeros(&mut self.zeros, self.side.len());
+        rans::encode(&self.side, side_contexts, &[side_model], &mut self.words);
+        put_words(out, &self.words);
+        rans::encode(&self.symbols, &self.contexts, &quad_models, &mut self.words);
+        put_words(out, &self.words);
+        let exception_contexts = zeros(&mut self.zeros, self.exceptions.len());
+        rans::encode(&self.exceptions, exception_contexts, &[exception_model], &mut self.words);
         put_words(out, &self.words);
         Ok(())
     }
@@ -303,126 +439,215 @@ impl DepthEncoder {
             self.present[s as usize] = true;
         }
         self.present[0] = false;
-        self.levels.clear();
+        self.level_values.clear();
         let span = 2 * half_step as u32;
         let mut group: Option<(u32, u32)> = None;
         for (v, _) in self.present.iter().enumerate().filter(|(_, &p)| p) {
             let v = v as u32;
-            {
-                match group {
-                    Some((lo, _)) if v - lo <= span => group = Some((lo, v)),
-                    _ => {
-                        if let Some((lo, hi)) = group {
-                            self.levels.push(((lo + hi) / 2) as u16);
-                        }
-                        group = Some((v, v));
+            match group {
+                Some((lo, _)) if v - lo <= span => group = Some((lo, v)),
+                _ => {
+                    if let Some((lo, hi)) = group {
+                        self.level_values.push(((lo + hi) / 2) as u16);
                     }
+                    group = Some((v, v));
                 }
-                self.level_of[v as usize] = self.levels.len() as u16 + 1;
             }
+            self.level_of[v as usize] = self.level_values.len() as u16 + 1;
         }
         if let Some((lo, hi)) = group {
-            self.levels.push(((lo + hi) / 2) as u16);
+            self.level_values.push(((lo + hi) / 2) as u16);
         }
-        put_varint(&mut self.side, self.levels.len() as u32);
+        put_varint(&mut self.side, self.level_values.len() as u32);
         let mut prev = 0u16;
-        for &l in &self.levels {
+        for &l in &self.level_values {
             put_varint(&mut self.side, (l - prev) as u32);
             prev = l;
         }
     }
 
-    fn write_validity(&mut self, samples: &[u16], width: usize) {
-        for row in samples.chunks_exact(width) {
-            let mut x = 0;
-            while x < width {
-                let valid = row[x..].iter().take_while(|&&s| s != 0).count();
-                x += valid;
-                let invalid = row[x..].iter().take_while(|&&s| s == 0).count();
-                x += invalid;
-                put_varint(&mut self.side, valid as u32);
-                if x < width || invalid > 0 {
-                    put_varint(&mut self.side, invalid as u32);
-                }
-            }
-        }
-    }
-
-    /// Fills `symbols`/`contexts` with the residual of every valid pixel and
-    /// `escapes` with the varint tails of large ones.
-    fn predict(&mut self, samples: &[u16], width: usize) {
+    /// Writes each row's validity runs to the side stream; fills `symbols`/`contexts`
+    /// with the quad symbol of every quad holding a valid pixel, `exceptions` with the
+    /// exception bytes and `escapes` with their varints.
+    fn code_quads(&mut self, samples: &[u16], width: usize) {
         // Split borrows: pushing through `self` would make the compiler reload every
         // other buffer's pointer after each push.
         let DepthEncoder {
             level_of,
-            rows: [prev, cur],
+            levels,
+            codes,
+            quad_rows: [above, quads],
+            masks,
+            padded,
             symbols,
             contexts,
-            calm,
+            exceptions,
             escapes,
+            side,
             ..
         } = self;
+        let n_quads = width.div_ceil(QUAD);
+        // Levels lead with the prediction of the row's first pixel.
+        levels.clear();
+        levels.resize(n_quads * QUAD + 1, 0);
+        codes.clear();
+        codes.resize(n_quads * QUAD, 0);
+        for buf in [&mut *above, &mut *quads] {
+            buf.clear();
+            buf.resize(n_quads + 1, 0);
+        }
+        masks.clear();
+        masks.resize(n_quads, 0);
+        padded.clear();
+        padded.resize(n_quads * QUAD, 0);
+        // One slot per quad of the image; `coded` of them end up used.
+        let n_total = n_quads * (samples.len() / width);
         symbols.clear();
+        symbols.resize(n_total, 0);
         contexts.clear();
+        contexts.resize(n_total, 0);
+        let mut coded = 0usize;
+        exceptions.clear();
         escapes.clear();
-        prev.clear();
-        prev.resize(width + 2, 0);
-        cur.clear();
-        cur.resize(width + 2, 0);
-        calm.clear();
-        calm.resize(width, true);
         let level_of: &[u16; 65536] = level_of;
+        // The level of the first pixel of the row above predicts the first pixel; 1
+        // (the first level) before the first row, so every prediction is a level.
+        let mut row_start = 1u16;
         for row in samples.chunks_exact(width) {
-            cur[0] = prev[1];
-            let (mut a, mut b, mut c) = (cur[0], prev[1], prev[0]);
-            let pixels = row
-                .iter()
-                .zip(&prev[2..])
-                .zip(&mut cur[1..])
-                .zip(calm.iter_mut());
-            for (((&s, &d), cell), calm_x) in pixels {
-                let pred = med(a, b, c);
-                let ctx = context(b, c, d, *calm_x) as u8;
-                (c, b) = (b, d);
-                if s == 0 {
-                    *cell = pred;
-                    a = pred;
-                    *calm_x = true;
-                    continue;
-                }
-                let level = level_of[s as usize] as i32;
-                *cell = level;
-                a = level;
-                let r = level - pred;
-                let z = ((r << 1) ^ (r >> 31)) as u32;
-                contexts.push(ctx);
-                *calm_x = z == 0;
-                if z >= ESCAPE {
-                    symbols.push(ESCAPE as u8);
-                    put_varint(escapes, z - ESCAPE);
-                } else {
-                    symbols.push(z as u8);
+            padded[..width].copy_from_slice(row);
+            // Each step is a pass of its own over the row, so that all but the level
+            // lookup and the carrying over holes have nothing chained from pixel to
+            // pixel, and the compiler vectorises them.
+            levels[0] = row_start;
+            for (lv, &s) in levels[1..].iter_mut().zip(padded.iter()) {
+                // Index 0 is never a level: invalid pixels get 0 here.
+                *lv = level_of[s as usize];
+            }
+            for (mask, px) in masks.iter_mut().zip(padded.chunks_exact(QUAD)) {
+                *mask = (px[0] != 0) as u8
+                    | ((px[1] != 0) as u8) << 1
+                    | ((px[2] != 0) as u8) << 2
+                    | ((px[3] != 0) as u8) << 3;
+            }
+            write_runs(side, masks, width);
+            carry_over_holes(levels, masks);
+            let pairs = levels[1..].iter().zip(levels.iter());
+            for (code, (&level, &left)) in codes.iter_mut().zip(pairs) {
+                // In u16, eight pixels to a vector register. Levels and their
+                // predictions lie in 1..=65535, so their difference is +-1 exactly when
+                // it is modulo 2^16.
+                let d = level.wrapping_sub(left);
+                *code = (d == 1) as u8 | ((d == u16::MAX) as u8) << 1 | ((d.wrapping_add(1) > 2) as u8 * EXCEPTION);
+            }
+            // Symbols and contexts are written whether the quad is coded or not, and
+            // kept by moving the end only for coded ones: no branch per quad.
+            let (symbols_out, contexts_out) = (&mut symbols[..], &mut contexts[..]);
+            let mut any_exception = 0u8;
+            let quad_cells = quads.iter_mut().zip(masks.iter()).zip(codes.chunks_exact(QUAD));
+            let above_pairs = above.iter().zip(&above[1..]);
+            for (((quad, &mask), c), (&up, &up_right)) in quad_cells.zip(above_pairs) {
+                // Code i (< 4) moves from bit 8i to bit 2i.
+                let w = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                let sym = (w | w >> 6 | w >> 12 | w >> 18) as u8;
+                *quad = sym;
+                symbols_out[coded] = sym;
+                contexts_out[coded] = quad_context(up, up_right);
+                coded += (mask != 0) as usize;
+                any_exception |= EXCEPTIONS_IN[sym as usize];
+            }
+            // Exceptions are a few per cent of pixels: a pass of their own, so that
+            // pushing them does not weigh on the loop above.
+            if any_exception != 0 {
+                for (q, &quad) in quads[..n_quads].iter().enumerate() {
+                    if EXCEPTIONS_IN[quad as usize] == 0 {
+                        continue;
+                    }
+                    for x in q * QUAD..(q + 1) * QUAD {
+                        if codes[x] == EXCEPTION {
+                            let e = zigzag(levels[x + 1] as i32 - levels[x] as i32) - FIRST_EXCEPTION;
+                            if e >= ESCAPE {
+                                exceptions.push(ESCAPE as u8);
+                                put_varint(escapes, e - ESCAPE);
+                            } else {
+                                exceptions.push(e as u8);
+                            }
+                        }
+                    }
                 }
             }
-            cur[width + 1] = cur[width];
-            std::mem::swap(prev, cur);
+            row_start = levels[1];
+            std::mem::swap(above, quads);
+        }
+        symbols.truncate(coded);
+        contexts.truncate(coded);
+    }
+}
+
+/// Gives every invalid pixel of a row (0 in `levels`, after the row's leading
+/// prediction) the level left of it, so its residual is 0.
+fn carry_over_holes(levels: &mut [u16], masks: &[u8]) {
+    let (start, pixels) = levels.split_at_mut(1);
+    let mut left = start[0];
+    for (&mask, lv) in masks.iter().zip(pixels.chunks_exact_mut(QUAD)) {
+        if mask == ALL_VALID {
+            left = lv[QUAD - 1];
+        } else if mask == 0 {
+            lv.fill(left);
+        } else {
+            for l in lv {
+                if *l == 0 {
+                    *l = left;
+                }
+                left = *l;
+            }
         }
     }
+}
+
+/// Appends a row's validity runs, from its quads' masks: alternating valid and
+/// invalid run lengths, starting with a valid one (maybe 0), up to the row's width.
+fn write_runs(side: &mut Vec<u8>, masks: &[u8], width: usize) {
+    let (mut valid, mut run) = (true, 0u32);
+    for (q, &mask) in masks.iter().enumerate() {
+        let pixels = QUAD.min(width - q * QUAD);
+        // Whole quads that continue the run: most of a row.
+        if pixels == QUAD && mask == if valid { ALL_VALID } else { 0 } {
+            run += QUAD as u32;
+            continue;
+        }
+        for i in 0..pixels {
+            if ((mask >> i) & 1 != 0) != valid {
+                put_varint(side, run);
+                (valid, run) = (!valid, 0);
+            }
+            run += 1;
+        }
+    }
+    put_varint(side, run);
 }
 
 /// Unpacks depth images; keeps its buffers between frames.
 #[derive(Debug, Clone)]
 pub struct DepthDecoder {
     side: Vec<u8>,
-    words: Vec<u16>,
+    zeros: Vec<u8>,
+    side_words: Vec<u16>,
+    quad_words: Vec<u16>,
+    exception_words: Vec<u16>,
     /// Level values by index (0 is unused: index 0 never decodes).
     levels: Box<[u16; 65536]>,
-    runs: Vec<u32>,
-    rows: [Vec<i32>; 2],
-    tables: rans::Tables,
-    calm: Vec<bool>,
+    /// Validity mask of every quad of the image, row by row.
+    masks: Vec<u8>,
+    /// Quad symbols of the row above and the current row (0 for quads with no valid
+    /// pixel), plus a zero past the end.
+    quad_rows: [Vec<u8>; 2],
+    /// One row's contexts and decoded symbols (coded quads only).
     contexts: Vec<u8>,
-    symbols: Vec<u8>,
+    decoded: Vec<u8>,
+    exceptions: Vec<u8>,
+    /// Residuals of the exceptions, in pixel order.
+    residuals: Vec<i32>,
+    tables: rans::Tables,
 }
 
 impl Default for DepthDecoder {
@@ -431,22 +656,29 @@ impl Default for DepthDecoder {
     }
 }
 
+/// The residual stream's models, read from the side stream.
+struct Models {
+    quads: Vec<rans::Model>,
+    exceptions: rans::Model,
+}
+
 impl DepthDecoder {
     /// A decoder with empty buffers.
     pub fn new() -> DepthDecoder {
         DepthDecoder {
             side: Vec::new(),
-            words: Vec::new(),
-            levels: vec![0u16; 65536]
-                .into_boxed_slice()
-                .try_into()
-                .unwrap_or_else(|_| unreachable!()),
-            runs: Vec::new(),
-            rows: [Vec::new(), Vec::new()],
-            tables: rans::Tables::new(),
-            calm: Vec::new(),
+            zeros: Vec::new(),
+            side_words: Vec::new(),
+            quad_words: Vec::new(),
+            exception_words: Vec::new(),
+            levels: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
+            masks: Vec::new(),
+            quad_rows: [Vec::new(), Vec::new()],
             contexts: Vec::new(),
-            symbols: Vec::new(),
+            decoded: Vec::new(),
+            exceptions: Vec::new(),
+            residuals: Vec::new(),
+            tables: rans::Tables::new(),
         }
     }
 
@@ -463,50 +695,31 @@ impl DepthDecoder {
         match mode {
             DepthEncoding::Raw => {
                 if data.len() != expected * 2 {
-                    return Err(CodecError::SizeMismatch {
-                        width,
-                        height,
-                        expected,
-                        got: data.len() / 2,
-                    });
+                    return Err(CodecError::SizeMismatch { width, height, expected, got: data.len() / 2 });
                 }
                 out.clear();
-                out.extend(
-                    data.chunks_exact(2)
-                        .map(|c| u16::from_le_bytes([c[0], c[1]])),
-                );
+                out.extend(data.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])));
                 Ok(())
             }
             DepthEncoding::Bounded { step: 0 } => Err(CodecError::ZeroStep),
             DepthEncoding::Lossless | DepthEncoding::Bounded { .. } => {
-                out.clear();
+                // Decoding writes every pixel: zeroing the buffer first would be a
+                // wasted pass over it.
                 out.resize(expected, 0);
                 if expected == 0 {
-                    return if data == [FORMAT_TAG] {
-                        Ok(())
-                    } else {
-                        Err(corrupt("empty image with a body"))
-                    };
+                    return if data == [FORMAT_TAG] { Ok(()) } else { Err(corrupt("empty image with a body")) };
                 }
                 self.decode_packed(data, width as usize, out)
             }
         }
     }
 
-    fn decode_packed(
-        &mut self,
-        data: &[u8],
-        width: usize,
-        out: &mut [u16],
-    ) -> Result<(), CodecError> {
+    fn decode_packed(&mut self, data: &[u8], width: usize, out: &mut [u16]) -> Result<(), CodecError> {
         let mut cur = Cursor::new(data);
         if cur.byte() != Some(FORMAT_TAG) {
-            return Err(corrupt("bad format tag"));
+            return Err(corrupt("unknown format tag (not a version 2 payload)"));
         }
-        // Side stream.
-        let side_len = cur
-            .varint()
-            .ok_or_else(|| corrupt("truncated side length"))? as usize;
+        let side_len = cur.varint().ok_or_else(|| corrupt("truncated side length"))? as usize;
         // Every pixel costs at most a run byte and a 5-byte escape; more is forged.
         if side_len > 8 * out.len() + (1 << 20) {
             return Err(corrupt("side stream longer than any image needs"));
@@ -514,24 +727,42 @@ impl DepthDecoder {
         let side_model = rans::Model::read(&mut cur)
             .ok_or_else(|| corrupt("truncated side model"))?
             .map_err(|_| corrupt("bad side model"))?;
-        self.tables.fill(0, &side_model);
-        let n_words = cur
-            .varint()
-            .ok_or_else(|| corrupt("truncated side words"))? as usize;
-        cur.words(n_words, &mut self.words)
-            .ok_or_else(|| corrupt("truncated side words"))?;
-        let mut dec =
-            rans::Decoder::new(&self.words).map_err(|_| corrupt("side stream too short"))?;
-        self.side.clear();
-        self.side
-            .extend((0..side_len).map(|_| dec.symbol(&self.tables, 0)));
-        dec.finish()
-            .map_err(|_| corrupt("side stream does not decode"))?;
+        cur.words(&mut self.side_words).ok_or_else(|| corrupt("truncated side words"))?;
+        cur.words(&mut self.quad_words).ok_or_else(|| corrupt("truncated quad words"))?;
+        cur.words(&mut self.exception_words).ok_or_else(|| corrupt("truncated exception words"))?;
+        if cur.pos != data.len() {
+            return Err(corrupt("trailing bytes"));
+        }
 
-        let mut side = Cursor::new(&self.side);
-        let n_levels = side
-            .varint()
-            .ok_or_else(|| corrupt("truncated level count"))? as usize;
+        self.tables.fill(0, &side_model);
+        let mut dec = rans::Decoder::new(&self.side_words).map_err(|_| corrupt("side stream too short"))?;
+        self.side.clear();
+        self.side.resize(side_len, 0);
+        dec.symbols(&self.tables, zeros(&mut self.zeros, side_len), &mut self.side);
+        dec.finish().map_err(|_| corrupt("side stream does not decode"))?;
+
+        let side = std::mem::take(&mut self.side);
+        let result = self.decode_body(&side, width, out);
+        self.side = side;
+        result
+    }
+
+    /// Everything after the side stream's entropy decoding: `side` is its bytes.
+    fn decode_body(&mut self, side: &[u8], width: usize, out: &mut [u16]) -> Result<(), CodecError> {
+        let mut side = Cursor::new(side);
+        let n_levels = self.read_levels(&mut side)?;
+        self.read_validity(&mut side, width, out.len() / width)?;
+        let models = read_models(&mut side)?;
+        self.decode_exceptions(&models.exceptions, &mut side, out.len())?;
+        if side.pos != side.bytes.len() {
+            return Err(corrupt("unused side bytes"));
+        }
+        self.decode_rows(&models.quads, width, n_levels, out)
+    }
+
+    /// Reads the level values into `levels`; returns their count.
+    fn read_levels(&mut self, side: &mut Cursor) -> Result<u32, CodecError> {
+        let n_levels = side.varint().ok_or_else(|| corrupt("truncated level count"))? as usize;
         if n_levels > 65535 {
             return Err(corrupt("more levels than u16 values"));
         }
@@ -544,29 +775,30 @@ impl DepthDecoder {
             }
             self.levels[i + 1] = value as u16;
         }
-        self.runs.clear();
-        let height = out.len() / width;
-        for _ in 0..height {
+        Ok(n_levels as u32)
+    }
+
+    /// Reads the validity runs into the quads' masks.
+    fn read_validity(&mut self, side: &mut Cursor, width: usize, height: usize) -> Result<(), CodecError> {
+        let n_quads = width.div_ceil(QUAD);
+        self.masks.clear();
+        self.masks.resize(n_quads * height, 0);
+        let mut run = || -> Result<usize, CodecError> {
+            side.varint().map(|r| r as usize).ok_or_else(|| corrupt("truncated validity runs"))
+        };
+        for masks in self.masks.chunks_exact_mut(n_quads) {
             let mut x = 0usize;
             loop {
-                let valid = side
-                    .varint()
-                    .ok_or_else(|| corrupt("truncated validity runs"))?
-                    as usize;
-                x += valid;
-                self.runs.push(valid as u32);
-                if x > width {
+                let end = x + run()?;
+                if end > width {
                     return Err(corrupt("validity runs overflow the row"));
                 }
+                mark_valid(masks, x, end);
+                x = end;
                 if x == width {
                     break;
                 }
-                let invalid = side
-                    .varint()
-                    .ok_or_else(|| corrupt("truncated validity runs"))?
-                    as usize;
-                x += invalid;
-                self.runs.push(invalid as u32);
+                x += run()?;
                 if x > width {
                     return Err(corrupt("validity runs overflow the row"));
                 }
@@ -575,128 +807,212 @@ impl DepthDecoder {
                 }
             }
         }
+        Ok(())
+    }
 
-        // Residual stream.
-        let mut models = Vec::with_capacity(CONTEXTS);
-        for _ in 0..CONTEXTS {
-            models.push(
-                rans::Model::read(&mut cur)
-                    .ok_or_else(|| corrupt("truncated residual model"))?
-                    .map_err(|_| corrupt("bad residual model"))?,
-            );
+    /// Decodes the exceptions' residuals into `residuals`: their count and escapes
+    /// from `side`, their bytes from the exception stream.
+    fn decode_exceptions(&mut self, model: &rans::Model, side: &mut Cursor, n_pixels: usize) -> Result<(), CodecError> {
+        let n_exceptions = side.varint().ok_or_else(|| corrupt("truncated exception count"))? as usize;
+        if n_exceptions > n_pixels {
+            return Err(corrupt("more exceptions than pixels"));
         }
+        self.tables.fill(0, model);
+        let mut dec = rans::Decoder::new(&self.exception_words).map_err(|_| corrupt("exception stream too short"))?;
+        self.exceptions.clear();
+        self.exceptions.resize(n_exceptions, 0);
+        dec.symbols(&self.tables, zeros(&mut self.zeros, n_exceptions), &mut self.exceptions);
+        dec.finish().map_err(|_| corrupt("exception stream does not decode"))?;
+        self.residuals.clear();
+        for &e in &self.exceptions {
+            let e = if e as u32 == ESCAPE {
+                side.varint().and_then(|rest| rest.checked_add(ESCAPE)).ok_or_else(|| corrupt("truncated escapes"))?
+            } else {
+                e as u32
+            };
+            let z = e.checked_add(FIRST_EXCEPTION).ok_or_else(|| corrupt("exception out of range"))?;
+            self.residuals.push(unzigzag(z));
+        }
+        Ok(())
+    }
+
+    /// Decodes the quad symbols and undoes the prediction, row by row, into `out`.
+    fn decode_rows(
+        &mut self,
+        models: &[rans::Model],
+        width: usize,
+        n_levels: u32,
+        out: &mut [u16],
+    ) -> Result<(), CodecError> {
         for (ctx, m) in models.iter().enumerate() {
             self.tables.fill(ctx, m);
         }
-        let n_words = cur
-            .varint()
-            .ok_or_else(|| corrupt("truncated residual words"))? as usize;
-        cur.words(n_words, &mut self.words)
-            .ok_or_else(|| corrupt("truncated residual words"))?;
-        if cur.pos != data.len() {
-            return Err(corrupt("trailing bytes"));
-        }
-        let mut dec =
-            rans::Decoder::new(&self.words).map_err(|_| corrupt("residual stream too short"))?;
-
+        let n_quads = width.div_ceil(QUAD);
         let DepthDecoder {
-            rows: [prev, row],
-            calm,
+            quad_words,
+            masks,
             contexts,
-            symbols,
+            decoded,
             tables,
             levels,
-            runs,
+            residuals,
+            quad_rows: [above_quads, quads],
             ..
         } = self;
-        prev.clear();
-        prev.resize(width + 2, 0);
-        row.clear();
-        row.resize(width + 2, 0);
-        calm.clear();
-        calm.resize(width, true);
-        let levels: &[u16; 65536] = levels;
-        let n_levels = n_levels as u32;
-        let mut runs = runs.iter().map(|&r| r as usize);
-        for out_row in out.chunks_exact_mut(width) {
-            // Pass 1: every valid pixel's context depends on the row above only, so the
-            // row's symbols decode in one batch, apart from the prediction chain.
-            let row_runs = runs.clone();
-            contexts.clear();
-            let mut x = 0usize;
-            while x < width {
-                let valid = runs.next().ok_or_else(|| corrupt("validity runs"))?;
-                let end = x + valid;
-                let cells = prev[x..end + 2].windows(3).zip(&calm[x..end]);
-                contexts.extend(cells.map(|(w, &calm_x)| context(w[1], w[0], w[2], calm_x) as u8));
-                x = end;
-                if x < width {
-                    x += runs.next().ok_or_else(|| corrupt("validity runs"))?;
-                }
-            }
-            symbols.clear();
-            symbols.resize(contexts.len(), 0);
-            dec.symbols(tables, contexts, symbols);
-
-            // Pass 2: undo the prediction.
-            let mut runs = row_runs;
-            let mut syms = symbols.iter();
-            let mut out_of_range = false;
-            row[0] = prev[1];
-            let mut x = 0usize;
-            while x < width {
-                let valid = runs.next().unwrap_or(0);
-                let end = x + valid;
-                // Neighbours ride in registers: reloading the pixel just stored would put
-                // a store-to-load forward on the critical path of every pixel.
-                let (mut a, mut b, mut c) = (row[x], prev[x + 1], prev[x]);
-                let run = prev[x + 2..end + 2]
-                    .iter()
-                    .zip(&mut row[x + 1..end + 1])
-                    .zip(&mut calm[x..end])
-                    .zip(out_row[x..end].iter_mut().zip(&mut syms));
-                for (((&d, cell), calm_x), (out_x, &sym)) in run {
-                    let z = if sym as u32 == ESCAPE {
-                        side.varint()
-                            .and_then(|e| e.checked_add(ESCAPE))
-                            .ok_or_else(|| corrupt("truncated escapes"))?
-                    } else {
-                        sym as u32
-                    };
-                    *calm_x = z == 0;
-                    let r = (z >> 1) as i32 ^ -((z & 1) as i32);
-                    let level = med(a, b, c).wrapping_add(r);
-                    out_of_range |= (level as u32).wrapping_sub(1) >= n_levels;
-                    *cell = level;
-                    *out_x = levels[level as usize & 0xffff];
-                    (a, c, b) = (level, b, d);
-                }
-                x = end;
-                if x == width {
-                    break;
-                }
-                let end = x + runs.next().unwrap_or(0);
-                let mut a = row[x];
-                for xi in x..end {
-                    a = med(a, prev[xi + 1], prev[xi]);
-                    row[xi + 1] = a;
-                }
-                calm[x..end].fill(true);
-                out_row[x..end].fill(0);
-                x = end;
-            }
-            if out_of_range {
-                return Err(corrupt("level index out of range"));
-            }
-            row[width + 1] = row[width];
-            std::mem::swap(prev, row);
+        for buf in [&mut *above_quads, &mut *quads] {
+            buf.clear();
+            buf.resize(n_quads + 1, 0);
         }
-        dec.finish()
-            .map_err(|_| corrupt("residual stream does not decode"))?;
-        if side.pos != self.side.len() {
-            return Err(corrupt("unused escapes"));
+        let mut dec = rans::Decoder::new(quad_words).map_err(|_| corrupt("quad stream too short"))?;
+        let levels: &[u16; 65536] = levels;
+        let mut residuals = residuals.iter();
+        // Out-of-range levels, codes on invalid pixels, missing exceptions.
+        let mut bad = false;
+        // Sign bit set when a fast-path quad leaves 1..=n_levels.
+        let mut below = 0i32;
+        let n_levels_i32 = n_levels as i32;
+        let mut row_start = 1i32;
+        for (out_row, row_masks) in out.chunks_exact_mut(width).zip(masks.chunks_exact(n_quads)) {
+            // Contexts depend on the row above only, so a row's symbols decode in one
+            // batch with the rANS lanes overlapping.
+            contexts.clear();
+            let above_pairs = above_quads.iter().zip(&above_quads[1..]);
+            for (&mask, (&up, &up_right)) in row_masks.iter().zip(above_pairs) {
+                if mask != 0 {
+                    contexts.push(quad_context(up, up_right));
+                }
+            }
+            decoded.clear();
+            decoded.resize(contexts.len(), 0);
+            dec.symbols(tables, contexts, decoded);
+            let mut next = decoded.iter().copied();
+            let mut take = |mask: u8| if mask != 0 { next.next().unwrap_or(0) } else { 0 };
+
+            // The first quad pixel by pixel: its first level predicts the next row's.
+            let (head, rest) = out_row.split_at_mut(QUAD.min(width));
+            let (sym, mask) = (take(row_masks[0]), row_masks[0]);
+            quads[0] = sym;
+            let first = Quad { sym, mask }.decode(row_start, head, &mut residuals, levels, n_levels, &mut bad);
+            let mut left = first.1;
+            row_start = first.0;
+            let mut out_quads = rest.chunks_exact_mut(QUAD);
+            let cells = (&mut out_quads).zip(quads[1..].iter_mut().zip(&row_masks[1..]));
+            for (out_q, (quad, &mask)) in cells {
+                let sym = take(mask);
+                *quad = sym;
+                if mask == ALL_VALID && EXCEPTIONS_IN[sym as usize] == 0 {
+                    // The common case: four valid pixels, residuals in -1..=1. Each level
+                    // is the left one plus a tabled running sum, so the chain from quad
+                    // to quad is one addition.
+                    let sums = &RUNNING_SUM[sym as usize];
+                    let (lo, hi) = SUM_RANGE[sym as usize];
+                    below |= left.wrapping_add(lo).wrapping_sub(1) | n_levels_i32.wrapping_sub(left.wrapping_add(hi));
+                    for i in 0..QUAD {
+                        out_q[i] = levels[left.wrapping_add(sums[i]) as usize & 0xffff];
+                    }
+                    left = left.wrapping_add(sums[QUAD - 1]);
+                } else if mask == 0 {
+                    out_q.fill(0);
+                } else {
+                    left = Quad { sym, mask }.decode(left, out_q, &mut residuals, levels, n_levels, &mut bad).1;
+                }
+            }
+            let tail = out_quads.into_remainder();
+            if !tail.is_empty() {
+                let q = n_quads - 1;
+                let (sym, mask) = (take(row_masks[q]), row_masks[q]);
+                quads[q] = sym;
+                Quad { sym, mask }.decode(left, tail, &mut residuals, levels, n_levels, &mut bad);
+            }
+            std::mem::swap(above_quads, quads);
+        }
+        dec.finish().map_err(|_| corrupt("quad stream does not decode"))?;
+        if bad || below < 0 {
+            return Err(corrupt("level index out of range or codes on invalid pixels"));
+        }
+        if residuals.next().is_some() {
+            return Err(corrupt("unused exceptions"));
         }
         Ok(())
+    }
+}
+
+/// Sets the mask bits of pixels `start..end` of a row.
+fn mark_valid(masks: &mut [u8], start: usize, end: usize) {
+    if start == end {
+        return;
+    }
+    let (first, last) = (start / QUAD, (end - 1) / QUAD);
+    // Pixels from `start % QUAD` on in the first quad, up to `end` in the last.
+    let head = ALL_VALID & (ALL_VALID << (start % QUAD));
+    let tail = ALL_VALID >> (QUAD - 1 - (end - 1) % QUAD);
+    if first == last {
+        masks[first] |= head & tail;
+    } else {
+        masks[first] |= head;
+        masks[first + 1..last].fill(ALL_VALID);
+        masks[last] |= tail;
+    }
+}
+
+/// Reads the quad and exception models from the side stream.
+fn read_models(side: &mut Cursor) -> Result<Models, CodecError> {
+    let mut read =
+        || rans::Model::read(side).ok_or_else(|| corrupt("truncated model"))?.map_err(|_| corrupt("bad model"));
+    let quads = (0..CONTEXTS).map(|_| read()).collect::<Result<_, _>>()?;
+    let exceptions = read()?;
+    Ok(Models { quads, exceptions })
+}
+
+/// A quad decoded pixel by pixel: one that is partly valid, holds exceptions, starts
+/// a row or is cut by the row's end.
+struct Quad {
+    sym: u8,
+    mask: u8,
+}
+
+impl Quad {
+    /// Decodes the quad into `out_q` (shorter than a quad at the row's end) from the
+    /// level left of it; returns its first and last levels (an invalid pixel carries
+    /// the level left of it). Sets `bad` on a code at an invalid pixel, a missing
+    /// exception or a level out of `1..=n_levels`.
+    #[inline]
+    fn decode(
+        self,
+        mut left: i32,
+        out_q: &mut [u16],
+        residuals: &mut std::slice::Iter<i32>,
+        levels: &[u16; 65536],
+        n_levels: u32,
+        bad: &mut bool,
+    ) -> (i32, i32) {
+        let Quad { sym, mask } = self;
+        *bad |= sym & INVALID_CODE_BITS[mask as usize & 15] != 0;
+        let mut first = left;
+        // Selects rather than branches: validity and codes are noise to a predictor.
+        let pending = residuals.as_slice();
+        let mut used = 0usize;
+        for (i, o) in out_q.iter_mut().enumerate() {
+            let valid = (mask >> i) & 1 != 0;
+            let code = (sym >> (2 * i)) & 3;
+            let exception = code == EXCEPTION;
+            let e = pending.get(used).copied();
+            *bad |= exception && e.is_none();
+            used += exception as usize;
+            let r = if exception { e.unwrap_or(0) } else { CODE_RESIDUAL[code as usize] };
+            let level = left.wrapping_add(r);
+            *bad |= valid && (level as u32).wrapping_sub(1) >= n_levels;
+            let value = levels[level as usize & 0xffff];
+            *o = if valid { value } else { 0 };
+            left = if valid { level } else { left };
+            if i == 0 {
+                first = left;
+            }
+        }
+        if used > 0 {
+            residuals.nth(used - 1);
+        }
+        (first, left)
     }
 }
 
@@ -722,13 +1038,7 @@ pub fn encode(
 
 /// Unpack a payload into `out` (resized to width x height), with this thread's
 /// [`DepthDecoder`] so repeated calls allocate nothing.
-pub fn decode(
-    data: &[u8],
-    width: u32,
-    height: u32,
-    mode: DepthEncoding,
-    out: &mut Vec<u16>,
-) -> Result<(), CodecError> {
+pub fn decode(data: &[u8], width: u32, height: u32, mode: DepthEncoding, out: &mut Vec<u16>) -> Result<(), CodecError> {
     DECODER.with(|d| match d.try_borrow_mut() {
         Ok(mut dec) => dec.decode(data, width, height, mode, out),
         Err(_) => DepthDecoder::new().decode(data, width, height, mode, out),
@@ -742,30 +1052,19 @@ mod tests {
     /// A 16-bit grayscale PNG from `../shared/data/real`, or `None` (with a message)
     /// when the data folder is absent.
     fn real_png(name: &str) -> Option<(u32, u32, Vec<u16>)> {
-        let path = format!(
-            "{}/../../shared/data/real/{name}",
-            env!("CARGO_MANIFEST_DIR")
-        );
+        let path = format!("{}/../../shared/data/real/{name}", env!("CARGO_MANIFEST_DIR"));
         let Ok(file) = std::fs::File::open(&path) else {
             println!("skipping: {path} not present");
             return None;
         };
-        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
-            .read_info()
-            .unwrap();
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
         let mut buf = vec![0; reader.output_buffer_size()];
         let info = reader.next_frame(&mut buf).unwrap();
-        let samples = buf
-            .chunks_exact(2)
-            .map(|b| u16::from_be_bytes([b[0], b[1]]))
-            .collect();
+        let samples = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
         Some((info.width, info.height, samples))
     }
 
-    const REAL: [&str; 2] = [
-        "tum_depth_640x480_u16_5000perm.png",
-        "redwood_00000_depth_640x480_u16_mm.png",
-    ];
+    const REAL: [&str; 2] = ["tum_depth_640x480_u16_5000perm.png", "redwood_00000_depth_640x480_u16_mm.png"];
 
     fn round_trip(samples: &[u16], w: u32, h: u32, mode: DepthEncoding) -> (Vec<u8>, Vec<u16>) {
         let mut packed = Vec::new();
@@ -785,11 +1084,7 @@ mod tests {
             } else {
                 assert_ne!(b, 0, "valid pixel {i} ({o}) became invalid");
                 let err = o.abs_diff(b);
-                assert!(
-                    err <= step / 2,
-                    "pixel {i}: {o} -> {b}, error {err} > {}",
-                    step / 2
-                );
+                assert!(err <= step / 2, "pixel {i}: {o} -> {b}, error {err} > {}", step / 2);
                 worst = worst.max(err);
             }
         }
@@ -840,41 +1135,11 @@ mod tests {
         let update = std::env::var_os("UPDATE_VECTORS").is_some_and(|v| v == "1");
         let scene = synthetic_scene();
         let cases: Vec<(&str, Vec<u16>, u32, u32, DepthEncoding)> = vec![
-            (
-                "lossless_scene",
-                scene.clone(),
-                48,
-                32,
-                DepthEncoding::Lossless,
-            ),
-            (
-                "bounded_step5_scene",
-                scene.clone(),
-                48,
-                32,
-                DepthEncoding::Bounded { step: 5 },
-            ),
-            (
-                "bounded_step1000_scene",
-                scene,
-                48,
-                32,
-                DepthEncoding::Bounded { step: 1000 },
-            ),
-            (
-                "lossless_all_invalid",
-                vec![0; 8 * 4],
-                8,
-                4,
-                DepthEncoding::Lossless,
-            ),
-            (
-                "lossless_one_pixel",
-                vec![1234],
-                1,
-                1,
-                DepthEncoding::Lossless,
-            ),
+            ("lossless_scene", scene.clone(), 48, 32, DepthEncoding::Lossless),
+            ("bounded_step5_scene", scene.clone(), 48, 32, DepthEncoding::Bounded { step: 5 }),
+            ("bounded_step1000_scene", scene, 48, 32, DepthEncoding::Bounded { step: 1000 }),
+            ("lossless_all_invalid", vec![0; 8 * 4], 8, 4, DepthEncoding::Lossless),
+            ("lossless_one_pixel", vec![1234], 1, 1, DepthEncoding::Lossless),
             ("lossless_empty", vec![], 0, 0, DepthEncoding::Lossless),
         ];
         let mut stale = Vec::new();
@@ -883,13 +1148,9 @@ mod tests {
             if let DepthEncoding::Bounded { step } = mode {
                 assert_bounded(&samples, &back, step);
             }
-            let json =
-                serde_json::json!({ "encoding": mode, "width": w, "height": h, "samples": back });
+            let json = serde_json::json!({ "encoding": mode, "width": w, "height": h, "samples": back });
             let json = serde_json::to_vec_pretty(&json).unwrap();
-            for (file, bytes) in [
-                (format!("{name}.bin"), packed),
-                (format!("{name}.json"), json),
-            ] {
+            for (file, bytes) in [(format!("{name}.bin"), packed), (format!("{name}.json"), json)] {
                 let path = dir.join(&file);
                 if update {
                     std::fs::create_dir_all(&dir).unwrap();
@@ -931,19 +1192,14 @@ mod tests {
             let (packed, back) = round_trip(&samples, w, h, mode);
             let worst = assert_bounded(&samples, &back, step);
             let ratio = (samples.len() * 2) as f64 / packed.len() as f64;
-            println!(
-                "{name}: bounded step {step}: {} bytes, {ratio:.2}x, max error {worst}",
-                packed.len()
-            );
+            println!("{name}: bounded step {step}: {} bytes, {ratio:.2}x, max error {worst}", packed.len());
             assert!(ratio >= 12.0, "{name}: bounded ratio {ratio:.2}");
         }
     }
 
     #[test]
     fn extreme_values_keep_their_bound_for_every_step() {
-        let samples = [
-            0, 1, 2, 3, 65535, 65534, 0, 1500, 1502, 1499, 800, 812, 0, 2750, 65533, 7,
-        ];
+        let samples = [0, 1, 2, 3, 65535, 65534, 0, 1500, 1502, 1499, 800, 812, 0, 2750, 65533, 7];
         for step in [1, 2, 3, 4, 5, 25, 1000, 65535] {
             let (_, back) = round_trip(&samples, 4, 4, DepthEncoding::Bounded { step });
             assert_bounded(&samples, &back, step);
@@ -981,11 +1237,7 @@ mod tests {
         assert!(back.is_empty());
         let (packed, back) = round_trip(&[0; 640 * 480], 640, 480, DepthEncoding::Lossless);
         assert!(back.iter().all(|&s| s == 0));
-        assert!(
-            packed.len() < 1000,
-            "{} bytes for an empty frame",
-            packed.len()
-        );
+        assert!(packed.len() < 1000, "{} bytes for an empty frame", packed.len());
     }
 
     #[test]
@@ -1000,29 +1252,13 @@ mod tests {
         let mut out = Vec::new();
         assert!(matches!(
             encode(&[1, 2, 3], 2, 2, DepthEncoding::Lossless, &mut out),
-            Err(CodecError::SizeMismatch {
-                expected: 4,
-                got: 3,
-                ..
-            })
+            Err(CodecError::SizeMismatch { expected: 4, got: 3, .. })
         ));
-        assert_eq!(
-            encode(&[1; 4], 2, 2, DepthEncoding::Bounded { step: 0 }, &mut out),
-            Err(CodecError::ZeroStep)
-        );
+        assert_eq!(encode(&[1; 4], 2, 2, DepthEncoding::Bounded { step: 0 }, &mut out), Err(CodecError::ZeroStep));
         let mut back = Vec::new();
+        assert!(matches!(decode(&[0; 6], 2, 2, DepthEncoding::Raw, &mut back), Err(CodecError::SizeMismatch { .. })));
         assert!(matches!(
-            decode(&[0; 6], 2, 2, DepthEncoding::Raw, &mut back),
-            Err(CodecError::SizeMismatch { .. })
-        ));
-        assert!(matches!(
-            decode(
-                &[FORMAT_TAG],
-                1 << 16,
-                1 << 16,
-                DepthEncoding::Lossless,
-                &mut back
-            ),
+            decode(&[FORMAT_TAG], 1 << 16, 1 << 16, DepthEncoding::Lossless, &mut back),
             Err(CodecError::TooLarge { .. })
         ));
     }
@@ -1034,47 +1270,27 @@ mod tests {
         let mut dec = DepthDecoder::new();
         for frame in 0..4 {
             let samples: Vec<u16> = (0..40 * 30)
-                .map(|i| {
-                    if rng.next().is_multiple_of(9) {
-                        0
-                    } else {
-                        1000 + (i % 40) as u16 * frame
-                    }
-                })
+                .map(|i| if rng.next().is_multiple_of(9) { 0 } else { 1000 + (i % 40) as u16 * frame })
                 .collect();
             let mut reused = Vec::new();
-            enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused)
-                .unwrap();
+            enc.encode(&samples, 40, 30, DepthEncoding::Lossless, &mut reused).unwrap();
             let mut fresh = Vec::new();
-            DepthEncoder::new()
-                .encode(&samples, 40, 30, DepthEncoding::Lossless, &mut fresh)
-                .unwrap();
+            DepthEncoder::new().encode(&samples, 40, 30, DepthEncoding::Lossless, &mut fresh).unwrap();
             assert_eq!(reused, fresh);
             let mut back = Vec::new();
-            dec.decode(&reused, 40, 30, DepthEncoding::Lossless, &mut back)
-                .unwrap();
+            dec.decode(&reused, 40, 30, DepthEncoding::Lossless, &mut back).unwrap();
             assert_eq!(back, samples);
         }
     }
 
     #[test]
     fn every_truncation_of_a_payload_is_refused() {
-        let samples: Vec<u16> = (0..32 * 24)
-            .map(|i| {
-                if i % 11 == 0 {
-                    0
-                } else {
-                    900 + (i % 32) as u16 * 3 + (i / 32) as u16
-                }
-            })
-            .collect();
+        let samples: Vec<u16> =
+            (0..32 * 24).map(|i| if i % 11 == 0 { 0 } else { 900 + (i % 32) as u16 * 3 + (i / 32) as u16 }).collect();
         let (packed, _) = round_trip(&samples, 32, 24, DepthEncoding::Lossless);
         let mut back = Vec::new();
         for cut in 0..packed.len() {
-            assert!(
-                decode(&packed[..cut], 32, 24, DepthEncoding::Lossless, &mut back).is_err(),
-                "cut at {cut}"
-            );
+            assert!(decode(&packed[..cut], 32, 24, DepthEncoding::Lossless, &mut back).is_err(), "cut at {cut}");
         }
         let mut longer = packed.clone();
         longer.push(0);
@@ -1082,17 +1298,55 @@ mod tests {
     }
 
     #[test]
-    fn random_corruption_gives_an_error_or_an_image_never_a_panic() {
-        let mut rng = Rng(7);
-        let samples: Vec<u16> = (0..64 * 48)
-            .map(|i| {
-                if i % 13 < 2 {
+    fn version_1_payloads_are_refused_as_an_unknown_format() {
+        let mut back = Vec::new();
+        // The tag of the per-pixel MED format that version 2 replaced.
+        let old = [0xD1, 3, 1, 2, 0, 0];
+        assert_eq!(
+            decode(&old, 2, 2, DepthEncoding::Lossless, &mut back),
+            Err(CodecError::Corrupt("unknown format tag (not a version 2 payload)".to_string()))
+        );
+    }
+
+    #[test]
+    fn payload_full_of_exceptions_and_escapes_refuses_every_cut_and_survives_every_flip() {
+        // Random depths: nearly every pixel is an exception, many need escapes, and a
+        // few holes make partly valid quads; 13 columns leave a cut quad per row.
+        let mut rng = Rng(99);
+        let samples: Vec<u16> = (0..13 * 9)
+            .map(|_| {
+                let r = rng.next();
+                if r.is_multiple_of(7) {
                     0
                 } else {
-                    1200 + (i % 64) as u16 * 5
+                    (r >> 20) as u16 | 1
                 }
             })
             .collect();
+        let (packed, back) = round_trip(&samples, 13, 9, DepthEncoding::Lossless);
+        assert_eq!(back, samples);
+        let mut out = Vec::new();
+        for cut in 0..packed.len() {
+            assert!(decode(&packed[..cut], 13, 9, DepthEncoding::Lossless, &mut out).is_err(), "cut at {cut}");
+        }
+        let mut refused = 0;
+        for i in 0..packed.len() {
+            for bit in 0..8 {
+                let mut bad = packed.clone();
+                bad[i] ^= 1 << bit;
+                match decode(&bad, 13, 9, DepthEncoding::Lossless, &mut out) {
+                    Err(_) => refused += 1,
+                    Ok(()) => assert_eq!(out.len(), samples.len()),
+                }
+            }
+        }
+        assert!(refused * 100 >= packed.len() * 8 * 95, "only {refused} of {} flips refused", packed.len() * 8);
+    }
+
+    #[test]
+    fn random_corruption_gives_an_error_or_an_image_never_a_panic() {
+        let mut rng = Rng(7);
+        let samples: Vec<u16> = (0..64 * 48).map(|i| if i % 13 < 2 { 0 } else { 1200 + (i % 64) as u16 * 5 }).collect();
         let (packed, _) = round_trip(&samples, 64, 48, DepthEncoding::Bounded { step: 5 });
         let mut back = Vec::new();
         let mut refused = 0;

@@ -6,24 +6,38 @@
     ((480, 640), dtype('uint16'))
 
 Mirrors the Rust decoder step for step (see the format notes at the top of
-``depth_codec.rs``): a rANS side stream (level values, per-row validity runs,
-escapes), then rANS residuals under 8 contexts, undone through LOCO-I's median edge
-predictor on level indices. Pure Python, so a 640x480 frame takes about a second:
-fine for monitors and tests, not for 30 Hz.
+``depth_codec.rs``, format version 2): a rANS side stream (level values, per-row
+validity runs, models, escapes), rANS exceptions, then rANS quad symbols (four 2-bit
+residual codes) under 8 contexts from the row above, undone by left prediction on
+level indices. Pure Python, so a 640x480 frame takes a few tenths of a second: fine for
+monitors and tests, not for 30 Hz.
 """
 
 import numpy as np
 
-FORMAT_TAG = 0xD1
+FORMAT_TAG = 0xD2
 PROB_BITS = 12
 PROB_SCALE = 1 << PROB_BITS
 SLOT_MASK = PROB_SCALE - 1
 STATE_LOW = 1 << 16
 LANES = 4
 CONTEXTS = 8
+QUAD = 4
+EXCEPTION = 3
 ESCAPE = 255
+FIRST_EXCEPTION = 3
 MAX_PIXELS = 1 << 24
-ACTIVITY_CLASS = (0, 1, 1, 2, 2, 2, 2, 3)
+CODE_RESIDUAL = (0, 1, -1, 0)
+
+
+def _activity(sym):
+    """Activity class of a quad symbol: its codes' sizes (0, 1 for +-1, 2 for an
+    exception) summed and capped at 3."""
+    total = sum((0, 1, 1, 2)[(sym >> (2 * i)) & 3] for i in range(QUAD))
+    return min(total, 3)
+
+
+ACTIVITY = tuple(_activity(s) for s in range(256))
 
 
 class DepthCodecError(ValueError):
@@ -107,13 +121,29 @@ class _Rans:
             raise DepthCodecError(f"{self.what} does not decode")
 
 
-def _med(a, b, c):
-    lo, hi = (a, b) if a < b else (b, a)
-    if c >= hi:
-        return lo
-    if c <= lo:
-        return hi
-    return a + b - c
+def _read_runs(sc, width, height):
+    """Per row, the validity of each pixel, from alternating valid/invalid runs."""
+    rows = []
+    for _ in range(height):
+        valid = []
+        x = 0
+        while True:
+            run = sc.varint("validity runs")
+            x += run
+            if x > width:
+                raise DepthCodecError("validity runs overflow the row")
+            valid.extend([True] * run)
+            if x == width:
+                break
+            run = sc.varint("validity runs")
+            x += run
+            if x > width:
+                raise DepthCodecError("validity runs overflow the row")
+            valid.extend([False] * run)
+            if x == width:
+                break
+        rows.append(valid)
+    return rows
 
 
 def _unpack(data, width, height):
@@ -124,12 +154,17 @@ def _unpack(data, width, height):
         return np.zeros((height, width), dtype=np.uint16)
     cur = _Cursor(data)
     if cur.byte() != FORMAT_TAG:
-        raise DepthCodecError("bad format tag")
+        raise DepthCodecError("unknown format tag (not a version 2 payload)")
     side_len = cur.varint("side length")
     if side_len > 8 * n + (1 << 20):
         raise DepthCodecError("side stream longer than any image needs")
     side_table = _read_table(cur, "side model")
-    dec = _Rans(cur.words("side words"), "side stream")
+    side_words = cur.words("side words")
+    quad_words = cur.words("quad words")
+    exception_words = cur.words("exception words")
+    if cur.pos != len(data):
+        raise DepthCodecError("trailing bytes")
+    dec = _Rans(side_words, "side stream")
     side = bytes(dec.symbol(side_table) for _ in range(side_len))
     dec.finish()
 
@@ -145,74 +180,62 @@ def _unpack(data, width, height):
         if gap == 0 or value > 65535:
             raise DepthCodecError("levels not strictly increasing in 1..=65535")
         levels.append(value)
-    runs = []
-    for _ in range(height):
-        row_runs = []
-        x = 0
-        while True:
-            valid = sc.varint("validity runs")
-            x += valid
-            row_runs.append(valid)
-            if x > width:
-                raise DepthCodecError("validity runs overflow the row")
-            if x == width:
-                break
-            invalid = sc.varint("validity runs")
-            x += invalid
-            row_runs.append(invalid)
-            if x > width:
-                raise DepthCodecError("validity runs overflow the row")
-            if x == width:
-                break
-        runs.append(row_runs)
-
-    tables = [_read_table(cur, "residual model") for _ in range(CONTEXTS)]
-    words = cur.words("residual words")
-    if cur.pos != len(data):
-        raise DepthCodecError("trailing bytes")
-    dec = _Rans(words, "residual stream")
-
-    out = np.zeros((height, width), dtype=np.uint16)
-    prev = [0] * (width + 2)
-    calm = [True] * width
-    for y in range(height):
-        row = [0] * (width + 2)
-        row[0] = prev[1]
-        out_row = [0] * width
-        x = 0
-        it = iter(runs[y])
-        while True:
-            valid = next(it)
-            for xi in range(x, x + valid):
-                a, b, c, d = row[xi], prev[xi + 1], prev[xi], prev[xi + 2]
-                activity = min(abs(b - c) + abs(d - b), 7)
-                ctx = ACTIVITY_CLASS[activity] * 2 + (1 if calm[xi] else 0)
-                z = dec.symbol(tables[ctx])
-                if z == ESCAPE:
-                    z = ESCAPE + sc.varint("escapes")
-                calm[xi] = z == 0
-                r = (z >> 1) ^ -(z & 1)
-                level = _med(a, b, c) + r
-                if not 1 <= level <= n_levels:
-                    raise DepthCodecError("level index out of range")
-                row[xi + 1] = level
-                out_row[xi] = levels[level]
-            x += valid
-            if x == width:
-                break
-            invalid = next(it)
-            for xi in range(x, x + invalid):
-                row[xi + 1] = _med(row[xi], prev[xi + 1], prev[xi])
-                calm[xi] = True
-            x += invalid
-            if x == width:
-                break
-        row[width + 1] = row[width]
-        out[y] = out_row
-        prev = row
+    validity = _read_runs(sc, width, height)
+    quad_tables = [_read_table(sc, "quad model") for _ in range(CONTEXTS)]
+    exception_table = _read_table(sc, "exception model")
+    n_exceptions = sc.varint("exception count")
+    if n_exceptions > n:
+        raise DepthCodecError("more exceptions than pixels")
+    dec = _Rans(exception_words, "exception stream")
+    exception_bytes = [dec.symbol(exception_table) for _ in range(n_exceptions)]
     dec.finish()
+    residuals = []
+    for e in exception_bytes:
+        if e == ESCAPE:
+            e = ESCAPE + sc.varint("escapes")
+        z = e + FIRST_EXCEPTION
+        residuals.append((z >> 1) ^ -(z & 1))
     if sc.pos != len(side):
-        raise DepthCodecError("unused escapes")
+        raise DepthCodecError("unused side bytes")
+
+    n_quads = (width + QUAD - 1) // QUAD
+    dec = _Rans(quad_words, "quad stream")
+    out = np.zeros((height, width), dtype=np.uint16)
+    above = [0] * (n_quads + 1)
+    pending = iter(residuals)
+    row_start = 1
+    for y in range(height):
+        valid = validity[y] + [False] * (n_quads * QUAD - width)
+        quads = [0] * (n_quads + 1)
+        for q in range(n_quads):
+            if any(valid[q * QUAD:(q + 1) * QUAD]):
+                ctx = ACTIVITY[above[q]] * 2 + (1 if above[q + 1] else 0)
+                quads[q] = dec.symbol(quad_tables[ctx])
+        left = row_start
+        out_row = [0] * width
+        for x in range(n_quads * QUAD):
+            code = (quads[x // QUAD] >> (2 * (x % QUAD))) & 3
+            if not valid[x]:
+                if code:
+                    raise DepthCodecError("residual code on an invalid pixel")
+            else:
+                if code == EXCEPTION:
+                    r = next(pending, None)
+                    if r is None:
+                        raise DepthCodecError("missing exception")
+                else:
+                    r = CODE_RESIDUAL[code]
+                left += r
+                if not 1 <= left <= n_levels:
+                    raise DepthCodecError("level index out of range")
+                out_row[x] = levels[left]
+            if x == 0:
+                row_start = left
+        out[y] = out_row
+        above = quads
+    dec.finish()
+    if next(pending, None) is not None:
+        raise DepthCodecError("unused exceptions")
     return out
 
 

@@ -27,22 +27,35 @@ pub enum RansError {
 #[derive(Debug, Clone)]
 pub struct Model {
     freq: [u16; 256],
-    start: [u16; 256],
-    /// `reciprocal(freq)`, so encoding multiplies instead of dividing.
-    rcp: [u128; 256],
+    /// What encoding a symbol needs, in one place so a symbol costs one cache line.
+    encoding: [EncodeSlot; 256],
 }
 
-/// `m` with `(x * m) >> 64 == x / f` for every `x < 2^32` and `1 <= f <= 4096`:
+/// A symbol's frequency, start and `reciprocal(freq)` (so encoding multiplies
+/// instead of dividing).
+#[derive(Debug, Clone, Copy, Default)]
+struct EncodeSlot {
+    rcp: u64,
+    freq: u32,
+    start: u32,
+}
+
+/// `m` with `divide(x, m, f) == x / f` for every `1 <= x < 2^32` and `1 <= f <= 4096`:
 /// `m = floor((2^64 - 1) / f) + 1` overshoots `2^64 / f` by less than `f / 2^64`, so the
 /// product's error stays below `2^-32`, while a non-integer `x / f` lies at least
-/// `1 / f >= 2^-12` below the next integer.
-fn reciprocal(f: u32) -> u128 {
-    u64::MAX as u128 / f.max(1) as u128 + 1
+/// `1 / f >= 2^-12` below the next integer. For `f = 1` that `m` is `2^64`, one past
+/// u64: `2^64 - 1` gives `x - 1`, which `divide` corrects.
+fn reciprocal(f: u32) -> u64 {
+    if f <= 1 {
+        u64::MAX
+    } else {
+        u64::MAX / f as u64 + 1
+    }
 }
 
 #[inline(always)]
-fn divide(x: u32, rcp: u128) -> u32 {
-    ((x as u128 * rcp) >> 64) as u32
+fn divide(x: u32, rcp: u64, f: u32) -> u32 {
+    ((x as u128 * rcp as u128) >> 64) as u32 + (f == 1) as u32
 }
 
 impl Model {
@@ -84,8 +97,11 @@ impl Model {
             *s = acc as u16;
             acc += f as u32;
         }
-        let rcp = freq.map(|f| reciprocal(f as u32));
-        Model { freq, start, rcp }
+        let mut encoding = [EncodeSlot::default(); 256];
+        for ((slot, &f), &st) in encoding.iter_mut().zip(&freq).zip(&start) {
+            *slot = EncodeSlot { rcp: reciprocal(f as u32), freq: f as u32, start: st as u32 };
+        }
+        Model { freq, encoding }
     }
 
     /// Appends the model: the count of symbols up to the last used one, then each
@@ -130,25 +146,44 @@ impl Model {
 /// state `i % LANES`) so the decoder's table lookups overlap. Every symbol must have a non-zero frequency
 /// in its model (true when the models were counted from these symbols).
 pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec<u16>) {
+    // At most one word per symbol, then the states: written by index, so whether a
+    // symbol spills a word is a select rather than a branch the predictor loses.
     words.clear();
+    words.resize(symbols.len() + 2 * LANES, 0);
+    let mut n = 0usize;
     let mut states = [STATE_LOW; LANES];
-    let limit = ((STATE_LOW >> PROB_BITS) as u64) << 16;
-    for (i, (&s, &c)) in symbols.iter().zip(contexts).enumerate().rev() {
-        let m = &models[c as usize];
-        let f = m.freq[s as usize] as u32;
+    let limit = (STATE_LOW >> PROB_BITS) << 16;
+    let mut put = |x: u32, s: u8, c: u8| -> u32 {
+        let e = models[c as usize].encoding[s as usize];
+        let f = e.freq;
         debug_assert!(f > 0, "symbol {s} not in model {c}");
-        let x = &mut states[i % LANES];
-        if *x as u64 >= limit * f as u64 {
-            words.push(*x as u16);
-            *x >>= 16;
+        let spill = x as u64 >= limit as u64 * f as u64;
+        words[n] = x as u16;
+        n += spill as usize;
+        // Never 0: a state at least `STATE_LOW` keeps at least 16 after a spill.
+        let kept = if spill { x >> 16 } else { x };
+        let q = divide(kept, e.rcp, f);
+        (q << PROB_BITS) + (kept - q * f) + e.start
+    };
+    // Symbol i belongs to lane i % LANES; last to first, whole groups of lanes with the
+    // states in registers.
+    let len = symbols.len().min(contexts.len());
+    let whole = len / LANES * LANES;
+    for i in (whole..len).rev() {
+        states[i % LANES] = put(states[i % LANES], symbols[i], contexts[i]);
+    }
+    let groups = symbols[..whole].chunks_exact(LANES).zip(contexts[..whole].chunks_exact(LANES)).rev();
+    for (s, c) in groups {
+        for lane in (0..LANES).rev() {
+            states[lane] = put(states[lane], s[lane], c[lane]);
         }
-        let q = divide(*x, m.rcp[s as usize]);
-        *x = (q << PROB_BITS) + (*x - q * f) + m.start[s as usize] as u32;
     }
     for x in states.iter().rev() {
-        words.push(*x as u16);
-        words.push((*x >> 16) as u16);
+        words[n] = *x as u16;
+        words[n + 1] = (*x >> 16) as u16;
+        n += 2;
     }
+    words.truncate(n);
     words.reverse();
 }
 
@@ -170,10 +205,7 @@ pub struct Tables {
 impl Tables {
     /// Tables with every context empty.
     pub fn new() -> Tables {
-        let entries = vec![0u32; TABLE_LEN]
-            .into_boxed_slice()
-            .try_into()
-            .unwrap_or_else(|_| unreachable!());
+        let entries = vec![0u32; TABLE_LEN].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!());
         Tables { entries }
     }
 
@@ -216,31 +248,7 @@ impl<'a> Decoder<'a> {
         for (x, w) in lanes.iter_mut().zip(words.chunks_exact(2)) {
             *x = (w[0] as u32) << 16 | w[1] as u32;
         }
-        Ok(Decoder {
-            words,
-            pos: 2 * LANES,
-            lanes,
-        })
-    }
-
-    /// The next symbol under context `ctx` (`< MAX_CONTEXTS`) of `tables`.
-    #[inline(always)]
-    pub fn symbol(&mut self, tables: &Tables, ctx: usize) -> u8 {
-        let x = self.lanes[0];
-        let e = tables.entries[(ctx << PROB_BITS | (x & SLOT_MASK) as usize) & (TABLE_LEN - 1)];
-        let f = ((e >> 8) & SLOT_MASK) + 1;
-        let mut next = f * (x >> PROB_BITS) + (e >> (8 + PROB_BITS));
-        if next < STATE_LOW {
-            // Past the end reads zeros; `finish` then sees `pos` beyond the stream.
-            next = next << 16 | self.words.get(self.pos).map_or(0, |&w| w as u32);
-            self.pos += 1;
-        }
-        // A plain shift: `rotate_left` is an out-of-line memmove per symbol.
-        for i in 1..LANES {
-            self.lanes[i - 1] = self.lanes[i];
-        }
-        self.lanes[LANES - 1] = next;
-        e as u8
+        Ok(Decoder { words, pos: 2 * LANES, lanes })
     }
 
     /// Decodes one symbol per entry of `contexts` into `out` (same length). The states
@@ -248,19 +256,22 @@ impl<'a> Decoder<'a> {
     /// others' instead of passing through memory.
     pub fn symbols(&mut self, tables: &Tables, contexts: &[u8], out: &mut [u8]) {
         let words = self.words;
+        // `new` saw at least the state words, so `last` is an index.
+        let last = words.len() - 1;
         let mut pos = self.pos;
         let mut lanes = self.lanes;
         let mut step = |x: u32, ctx: u8| -> (u32, u8) {
-            let e = tables.entries
-                [((ctx as usize) << PROB_BITS | (x & SLOT_MASK) as usize) & (TABLE_LEN - 1)];
+            let e = tables.entries[((ctx as usize) << PROB_BITS | (x & SLOT_MASK) as usize) & (TABLE_LEN - 1)];
             let f = ((e >> 8) & SLOT_MASK) + 1;
-            let mut next = f * (x >> PROB_BITS) + (e >> (8 + PROB_BITS));
-            if next < STATE_LOW {
-                // Past the end reads zeros; `finish` then sees `pos` beyond the stream.
-                next = next << 16 | words.get(pos).map_or(0, |&w| w as u32);
-                pos += 1;
-            }
-            (next, e as u8)
+            let next = f * (x >> PROB_BITS) + (e >> (8 + PROB_BITS));
+            // Selects, not a branch: whether a lane needs a word is a coin toss the
+            // predictor loses. Past the end reads zeros; `finish` then sees `pos` beyond
+            // the stream.
+            let renorm = next < STATE_LOW;
+            let word = words[pos.min(last)] as u32 & ((pos <= last) as u32).wrapping_neg();
+            let refilled = next << 16 | word;
+            pos += renorm as usize;
+            (if renorm { refilled } else { next }, e as u8)
         };
         let mut ctx_chunks = contexts.chunks_exact(LANES);
         let mut out_chunks = out.chunks_exact_mut(LANES);
@@ -269,11 +280,7 @@ impl<'a> Decoder<'a> {
                 (lanes[i], o[i]) = step(lanes[i], c[i]);
             }
         }
-        for (&c, o) in ctx_chunks
-            .remainder()
-            .iter()
-            .zip(out_chunks.into_remainder())
-        {
+        for (&c, o) in ctx_chunks.remainder().iter().zip(out_chunks.into_remainder()) {
             let next;
             (next, *o) = step(lanes[0], c);
             for i in 1..LANES {
@@ -312,9 +319,13 @@ mod tests {
             tables.fill(c, m);
         }
         let mut dec = Decoder::new(&words).unwrap();
-        for (i, (&s, &c)) in symbols.iter().zip(contexts).enumerate() {
-            assert_eq!(dec.symbol(&tables, c as usize), s, "symbol {i}");
-        }
+        // In two batches, so a batch ending mid-round of the lanes is covered too.
+        let mut back = vec![0u8; symbols.len()];
+        let cut = symbols.len() / 3;
+        let (first, second) = back.split_at_mut(cut);
+        dec.symbols(&tables, &contexts[..cut], first);
+        dec.symbols(&tables, &contexts[cut..], second);
+        assert_eq!(back, symbols);
         dec.finish().unwrap();
         words.len() * 2
     }
@@ -324,25 +335,15 @@ mod tests {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         for f in 1..=PROB_SCALE {
             let r = reciprocal(f);
-            let mut xs = vec![
-                0,
-                1,
-                f - 1,
-                f,
-                f + 1,
-                u32::MAX,
-                u32::MAX - 1,
-                u32::MAX / f * f,
-                u32::MAX / f * f - 1,
-            ];
+            let mut xs = vec![1, f - 1, f, f + 1, u32::MAX, u32::MAX - 1, u32::MAX / f * f, u32::MAX / f * f - 1];
             for _ in 0..200 {
                 seed ^= seed << 13;
                 seed ^= seed >> 7;
                 seed ^= seed << 17;
-                xs.push(seed as u32);
+                xs.push((seed as u32).max(1));
             }
-            for x in xs {
-                assert_eq!(divide(x, r), x / f, "{x} / {f}");
+            for x in xs.into_iter().filter(|&x| x >= 1) {
+                assert_eq!(divide(x, r, f), x / f, "{x} / {f}");
             }
         }
     }
@@ -350,9 +351,7 @@ mod tests {
     #[test]
     fn skewed_source_codes_below_one_bit_per_symbol() {
         // 99 % zeros: entropy ~0.1 bit/symbol, far below Huffman's 1-bit floor.
-        let symbols: Vec<u8> = (0..100_000u32)
-            .map(|i| if i % 100 == 7 { (i % 5 + 1) as u8 } else { 0 })
-            .collect();
+        let symbols: Vec<u8> = (0..100_000u32).map(|i| if i % 100 == 7 { (i % 5 + 1) as u8 } else { 0 }).collect();
         let bytes = round_trip(&symbols, &vec![0; symbols.len()], 1);
         assert!(bytes < 100_000 / 8 / 5, "{bytes} bytes");
     }
