@@ -20,11 +20,11 @@
 //! 3. **Prediction.** Each pixel's level is predicted by its left neighbour's; a row's
 //!    first pixel by the first pixel of the row above (level 1 for the first row). An
 //!    invalid pixel carries the level left of it (residual 0). The residual becomes a
-//!    2-bit code: 0, +1, -1, or "exception". On the real frames LOCO-I's median
-//!    predictor (Weinberger, Seroussi, Sapiro 2000) saves about a tenth of the bits,
-//!    but its reconstruction is a chain of four dependent operations per pixel, while
-//!    left prediction's is one addition per four pixels (the running sums of each
-//!    quad's codes are a table).
+//!    2-bit code: 0, +1, -1, or "exception". LOCO-I's median predictor (Weinberger,
+//!    Seroussi, Sapiro 2000, which format 1 used) saves about a tenth of the bits on
+//!    the TUM frame and nothing on the Redwood one, but its reconstruction is a chain
+//!    of four dependent operations per pixel, while left prediction's is one addition
+//!    per four pixels (the running sums of each quad's codes are a table).
 //! 4. **Entropy coding.** Four horizontally adjacent pixels' codes (pixel `i` at bits
 //!    `2i`) form one 8-bit quad symbol, coded with rANS ([`rans`]) under 8 contexts
 //!    from the row above: the activity of the quad above (its codes' sizes, 0 / 1 for
