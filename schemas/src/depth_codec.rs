@@ -183,6 +183,18 @@ const ACTIVITY: [u8; 256] = {
     table
 };
 
+/// Per quad symbol: the validity mask that lets its quad take the fast path (all
+/// valid), or one no quad has when the symbol holds an exception.
+const FAST_MASK: [u8; 256] = {
+    let mut table = [0u8; 256];
+    let mut s = 0;
+    while s < 256 {
+        table[s] = if EXCEPTIONS_IN[s] == 0 { ALL_VALID } else { 0x80 };
+        s += 1;
+    }
+    table
+};
+
 /// Per validity mask of a quad (bit i = pixel i valid): the code bits of its invalid
 /// pixels, which must be zero.
 const INVALID_CODE_BITS: [u8; 16] = {
@@ -595,10 +607,9 @@ fn carry_over_holes(levels: &mut [u16], masks: &[u8]) {
             lv.fill(left);
         } else {
             for l in lv {
-                if *l == 0 {
-                    *l = left;
-                }
-                left = *l;
+                // A select: which pixels of a ragged hole edge are valid is noise.
+                left = if *l == 0 { left } else { *l };
+                *l = left;
             }
         }
     }
@@ -900,7 +911,7 @@ impl DepthDecoder {
             for (out_q, (quad, &mask)) in cells {
                 let sym = take(mask);
                 *quad = sym;
-                if mask == ALL_VALID && EXCEPTIONS_IN[sym as usize] == 0 {
+                if mask == FAST_MASK[sym as usize] {
                     // The common case: four valid pixels, residuals in -1..=1. Each level
                     // is the left one plus a tabled running sum, so the chain from quad
                     // to quad is one addition.
