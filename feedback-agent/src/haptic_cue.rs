@@ -129,8 +129,10 @@ impl HapticCue {
     /// Levels and duty outside 0..1 are clamped, periods to `limits`; NaN is refused.
     /// The cue expires `ttl_ms` after capture, but never later than `max_ttl_ms` after
     /// `now_ns` (a sender's clock far ahead must not make a cue immortal). When `previous`
-    /// is a live pulse cue, its phase is kept: intents arrive at 30 Hz, and restarting
-    /// the phase on each one would hold a 500 ms pulse on forever.
+    /// is a live pulse cue on the same side(s), its phase is kept: intents arrive at
+    /// 30 Hz, and restarting the phase on each one would hold a 500 ms pulse on forever.
+    /// A change of side starts the new train at once: "turn left" must not wait for the
+    /// gap of a "turn right" pulse to end.
     pub fn from_intent(
         intent: &HapticIntent,
         capture_ns: u64,
@@ -170,10 +172,10 @@ impl HapticCue {
                 }
                 let period_ns = period as u64 * MS;
                 let on_ns = (period_ns as f64 * duty as f64).round() as u64;
+                let sides = |l: &Levels| (l.left > 0.0, l.right > 0.0);
+                let same_train = previous.is_some_and(|p| now_ns < p.expires_ns && sides(&p.levels) == sides(&levels));
                 let origin_ns = match previous.map(|p| p.shape) {
-                    Some(Shape::Pulses { origin_ns, .. }) if previous.is_some_and(|p| now_ns < p.expires_ns) => {
-                        origin_ns
-                    }
+                    Some(Shape::Pulses { origin_ns, .. }) if same_train => origin_ns,
                     _ => now_ns,
                 };
                 (Shape::Pulses { period_ns, on_ns, origin_ns }, HapticPattern::Pulses { period_ms: period, duty })
@@ -345,6 +347,21 @@ mod tests {
         assert!(saw_off, "a 500 ms pulse must switch off within a second of 30 Hz intents");
         // 300 ms in: inside the off half of the first period.
         assert!(cue.levels_at(T0 + 300 * MS).is_off());
+    }
+
+    #[test]
+    fn a_change_of_side_starts_the_new_pulse_train_at_once() {
+        let p = HapticPattern::Pulses { period_ms: 500, duty: 0.5 };
+        let limits = CueLimits::default();
+        let right = accept(&intent(0.0, 1.0, p, 300), T0, T0).cue;
+        // 300 ms in the right-hand train is in its gap; a left intent arrives
+        let now = T0 + 300 * MS;
+        let left = HapticCue::from_intent(&intent(1.0, 0.0, p, 300), now, now, &limits, Some(&right)).unwrap().cue;
+        assert_eq!(left.levels_at(now), Levels { left: 1.0, right: 0.0 }, "felt at arrival, not 200 ms later");
+        // the same side again keeps the phase
+        let later = now + 100 * MS;
+        let again = HapticCue::from_intent(&intent(1.0, 0.0, p, 300), later, later, &limits, Some(&left)).unwrap().cue;
+        assert!(again.levels_at(now + 260 * MS).is_off(), "gap of the train that started at {now}");
     }
 
     #[test]
