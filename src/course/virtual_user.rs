@@ -210,9 +210,12 @@ impl VirtualUser {
         let turn = p.turn_rate_deg_s.to_radians();
         while self.touches.front().is_some_and(|touch| touch.t_s <= t_s - p.reaction_s) {
             if let Some(touch) = self.touches.pop_front() {
-                // turn away, then walk on in the new direction before heading back
+                // turn away, then walk on in the new direction before heading back; a
+                // turn in place that bumped keeps going the other way (in a corner,
+                // turning back and forth between the two walls finds no way out)
                 self.bump_until_s = t_s + p.bump_turn_s;
                 self.bump_left = !touch.on_left;
+                self.in_place_left = self.bump_left;
                 self.commit_until_s = self.bump_until_s + p.commit_s;
             }
         }

@@ -233,6 +233,14 @@ fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64) -> Box<dyn Gu
 /// with its capture stamp.
 type InFlight = (f64, Option<Hazard>, Option<(HapticIntent, u64)>);
 
+/// Share of the full sweep at walking speed `speed_m_s`: the two-point touch technique
+/// taps the cane left and right in step with the feet, so a user standing still (turning
+/// in place, waiting) holds it ahead instead of sweeping; full sweep from half the
+/// walking speed up.
+fn sweep_scale(speed_m_s: f64, params: &UserParams) -> f64 {
+    (2.0 * speed_m_s / params.walk_speed_m_s.max(1e-6)).clamp(0.0, 1.0)
+}
+
 fn ns(t_s: f64) -> u64 {
     T0_NS + (t_s * 1e9).round() as u64
 }
@@ -311,7 +319,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             break;
         }
         if step % frame_every == 0 {
-            let camera = mount.camera_pose(&pose, mount.sweep_rad(t));
+            let sweep = mount.sweep_rad(t) * sweep_scale(user.speed_m_s(), &params);
+            let camera = mount.camera_pose(&pose, sweep);
             renderer.render(world, &camera, t, &mut depth_rng, &mut depth);
             seen.update(renderer.obstacle_ids(), &depth, t);
             out.frames += 1;
@@ -374,7 +383,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                     x_m: pose.x_m,
                     y_m: pose.y_m,
                     yaw_deg: pose.yaw_rad.to_degrees(),
-                    sweep_deg: mount.sweep_rad(t).to_degrees(),
+                    sweep_deg: sweep.to_degrees(),
                     speed_m_s: user.speed_m_s(),
                     rumble: hazard.as_ref().map(|h| h.rumble),
                     felt: shown,
@@ -437,7 +446,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let entering = body.entering();
         // the body cannot go deeper into anything it touches
         let blocking = body.distance_m.iter().zip(&body_now).position(|(&d, &was)| d <= TOUCH_M && d < was);
-        let camera = mount.camera_pose(&proposed, mount.sweep_rad(t_next));
+        let camera = mount.camera_pose(&proposed, mount.sweep_rad(t_next) * sweep_scale(speed, &params));
         // which side an obstacle is on: probe a little to the left and right of the body
         let on_left = |id: ObstacleId| {
             let (s, c) = proposed.yaw_rad.sin_cos();
@@ -474,7 +483,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             body_now.copy_from_slice(&body.distance_m);
         }
         let now_pose = user.pose();
-        let sweep = mount.sweep_rad(t_next);
+        let sweep = mount.sweep_rad(t_next) * sweep_scale(user.speed_m_s(), &params);
         let (hand, tip) = mount.cane_segment(&now_pose, sweep);
         cane.measure(world, now_pose.floor, t_next, |s| match s {
             Shape::DropOff(_) => f64::INFINITY,
