@@ -34,7 +34,7 @@ impl WalkingHeading {
             self.offset_rad = 0.0;
             return 0.0;
         };
-        if !cfg.enabled || !(m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite()) {
+        if !(cfg.enabled && m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite()) {
             self.travel_m = [0.0; 2];
             self.offset_rad = 0.0;
             return 0.0;
