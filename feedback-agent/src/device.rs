@@ -97,3 +97,41 @@ pub trait SpeechEngine: Send {
     /// `priority` is for engines that rank against other clients (speech-dispatcher).
     fn start(&mut self, text: &str, priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError>;
 }
+
+/// Which hand a two-handed backend (two remotes, two rumble nodes) drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hand {
+    /// Left hand.
+    Left,
+    /// Right hand.
+    Right,
+}
+
+impl Hand {
+    /// Both hands, left first.
+    pub const BOTH: [Hand; 2] = [Hand::Left, Hand::Right];
+
+    /// "left" or "right", for logs and what is spoken.
+    pub fn word(self) -> &'static str {
+        match self {
+            Hand::Left => "left",
+            Hand::Right => "right",
+        }
+    }
+
+    /// This hand's entry of a backend's `[left, right]` device names.
+    pub fn device(self, names: [&'static str; 2]) -> &'static str {
+        match self {
+            Hand::Left => names[0],
+            Hand::Right => names[1],
+        }
+    }
+
+    /// This hand's rumble level.
+    pub fn level(self, levels: Levels) -> f32 {
+        match self {
+            Hand::Left => levels.left,
+            Hand::Right => levels.right,
+        }
+    }
+}

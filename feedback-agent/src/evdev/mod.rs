@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use schemas::{AppliedAction, HapticPattern};
 
-use crate::device::{DeviceOutput, HapticDevice};
+use crate::device::{DeviceOutput, Hand, HapticDevice};
 use crate::haptic_cue::Levels;
 use ff::FfEffect;
 
@@ -113,36 +113,8 @@ impl Default for EvdevConfig {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Side {
-    Left,
-    Right,
-}
-
-impl Side {
-    const BOTH: [Side; 2] = [Side::Left, Side::Right];
-
-    fn word(self) -> &'static str {
-        match self {
-            Side::Left => "left",
-            Side::Right => "right",
-        }
-    }
-
-    fn device(self) -> &'static str {
-        match self {
-            Side::Left => "evdev-left",
-            Side::Right => "evdev-right",
-        }
-    }
-
-    fn level(self, levels: Levels) -> f32 {
-        match self {
-            Side::Left => levels.left,
-            Side::Right => levels.right,
-        }
-    }
-}
+/// Device names of the two rumble nodes in `feedback/applied`.
+const DEVICES: [&str; 2] = ["evdev-left", "evdev-right"];
 
 /// One open node and the effect on it: the single source of truth for its motor.
 struct Actuator {
@@ -228,16 +200,16 @@ impl EvdevBackend {
         self.actuators[if left { 0 } else { 1 }].is_some()
     }
 
-    fn path(&self, side: Side) -> Option<&Path> {
+    fn path(&self, side: Hand) -> Option<&Path> {
         match side {
-            Side::Left => self.config.left.as_deref(),
-            Side::Right => self.config.right.as_deref(),
+            Hand::Left => self.config.left.as_deref(),
+            Hand::Right => self.config.right.as_deref(),
         }
     }
 
     fn open_missing(&mut self, now_ns: u64, out: &mut DeviceOutput) {
         self.next_open_ns = now_ns + self.config.reconnect_ms * MS;
-        for side in Side::BOTH {
+        for side in Hand::BOTH {
             let k = side as usize;
             if self.actuators[k].is_some() || self.refused[k] {
                 continue;
@@ -251,23 +223,23 @@ impl EvdevBackend {
                     self.shown[k] = None;
                     let text = format!("{} controller connected", side.word());
                     if std::mem::take(&mut self.absence_said[k]) {
-                        out.status(side.device(), text, now_ns);
+                        out.status(side.device(DEVICES), text, now_ns);
                     } else {
-                        out.applied(side.device(), AppliedAction::DeviceStatus { text }, now_ns, 0);
+                        out.applied(side.device(DEVICES), AppliedAction::DeviceStatus { text }, now_ns, 0);
                     }
                 }
                 Err(e) => {
                     if !self.absence_said[k] {
                         self.absence_said[k] = true;
                         tracing::warn!("cannot open {} for the {} hand: {e}", path.display(), side.word());
-                        out.status(side.device(), format!("{} controller not found", side.word()), now_ns);
+                        out.status(side.device(DEVICES), format!("{} controller not found", side.word()), now_ns);
                     }
                 }
             }
         }
     }
 
-    fn lose(&mut self, side: Side, why: &std::io::Error, now_ns: u64, out: &mut DeviceOutput) {
+    fn lose(&mut self, side: Hand, why: &std::io::Error, now_ns: u64, out: &mut DeviceOutput) {
         if let Some(actuator) = self.actuators[side as usize].take() {
             drop(actuator);
             // EINVAL / ENOSYS from EVIOCSFF: the node exists but cannot rumble.
@@ -278,12 +250,12 @@ impl EvdevBackend {
                     side.word()
                 );
                 self.refused[side as usize] = true;
-                out.status(side.device(), format!("{} controller cannot rumble", side.word()), now_ns);
+                out.status(side.device(DEVICES), format!("{} controller cannot rumble", side.word()), now_ns);
                 return;
             }
             tracing::warn!("{} rumble node lost: {why}", side.word());
             self.absence_said[side as usize] = true;
-            out.status(side.device(), format!("{} controller disconnected", side.word()), now_ns);
+            out.status(side.device(DEVICES), format!("{} controller disconnected", side.word()), now_ns);
             self.next_open_ns = now_ns + self.config.reconnect_ms * MS;
         }
     }
@@ -303,7 +275,7 @@ impl HapticDevice for EvdevBackend {
         refresh: bool,
         out: &mut DeviceOutput,
     ) {
-        for side in Side::BOTH {
+        for side in Hand::BOTH {
             let k = side as usize;
             let Some(actuator) = self.actuators[k].as_mut() else { continue };
             let magnitude = ff::magnitude(side.level(levels));
@@ -312,10 +284,10 @@ impl HapticDevice for EvdevBackend {
                     self.shown[k] = Some(magnitude);
                     let level = magnitude as f32 / u16::MAX as f32;
                     let (left, right) = match side {
-                        Side::Left => (level, 0.0),
-                        Side::Right => (0.0, level),
+                        Hand::Left => (level, 0.0),
+                        Hand::Right => (0.0, level),
                     };
-                    out.applied(side.device(), AppliedAction::Rumble { left, right, pattern }, now_ns, cause_ns);
+                    out.applied(side.device(DEVICES), AppliedAction::Rumble { left, right, pattern }, now_ns, cause_ns);
                 }
                 Ok(()) => {}
                 Err(e) => self.lose(side, &e, now_ns, out),
@@ -330,7 +302,7 @@ impl HapticDevice for EvdevBackend {
     }
 
     fn next_poll_ns(&self) -> Option<u64> {
-        let missing = Side::BOTH
+        let missing = Hand::BOTH
             .iter()
             .any(|s| self.path(*s).is_some() && self.actuators[*s as usize].is_none() && !self.refused[*s as usize]);
         missing.then_some(self.next_open_ns)

@@ -14,7 +14,7 @@ pub mod protocol;
 
 use schemas::{AppliedAction, HapticPattern};
 
-use crate::device::{DeviceOutput, HapticDevice};
+use crate::device::{DeviceOutput, Hand, HapticDevice};
 use crate::haptic_cue::Levels;
 use link::{HidBus, HidLink, LinkError, RemoteId};
 use protocol::InputReport;
@@ -51,44 +51,14 @@ impl Default for WiimoteConfig {
     }
 }
 
-/// Which hand.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Hand {
-    /// Left hand: player LED 1.
-    Left,
-    /// Right hand: player LED 2.
-    Right,
-}
+/// Device names of the two remotes in `feedback/applied`.
+const DEVICES: [&str; 2] = ["wiimote-left", "wiimote-right"];
 
-impl Hand {
-    const BOTH: [Hand; 2] = [Hand::Left, Hand::Right];
-
-    fn word(self) -> &'static str {
-        match self {
-            Hand::Left => "left",
-            Hand::Right => "right",
-        }
-    }
-
-    fn device(self) -> &'static str {
-        match self {
-            Hand::Left => "wiimote-left",
-            Hand::Right => "wiimote-right",
-        }
-    }
-
-    fn player_led(self) -> u8 {
-        match self {
-            Hand::Left => 1,
-            Hand::Right => 2,
-        }
-    }
-
-    fn level(self, levels: Levels) -> f32 {
-        match self {
-            Hand::Left => levels.left,
-            Hand::Right => levels.right,
-        }
+/// The player LED that tells the remotes apart: 1 on the left, 2 on the right.
+fn player_led(hand: Hand) -> u8 {
+    match hand {
+        Hand::Left => 1,
+        Hand::Right => 2,
     }
 }
 
@@ -171,7 +141,7 @@ impl WiimoteBackend {
             tracing::warn!(path = %remote.id.path, "{} remote lost: {why}", hand.word());
             drop(remote);
             self.absence_said[hand as usize] = true;
-            out.status(hand.device(), format!("{} controller disconnected", hand.word()), now_ns);
+            out.status(hand.device(DEVICES), format!("{} controller disconnected", hand.word()), now_ns);
             self.next_scan_ns = now_ns + self.config.reconnect_ms * MS;
         }
     }
@@ -222,7 +192,7 @@ impl WiimoteBackend {
             };
             let mut remote = Remote { link, id, rumble: false, battery_low_said: false };
             let hello = remote
-                .send(&protocol::leds_report(&[hand.player_led()], false))
+                .send(&protocol::leds_report(&[player_led(hand)], false))
                 .and_then(|_| remote.send(&protocol::reporting_mode_report(protocol::MODE_CORE_BUTTONS, false)))
                 .and_then(|_| remote.send(&protocol::status_request_report(false)));
             match hello {
@@ -232,9 +202,9 @@ impl WiimoteBackend {
                     let text = format!("{} controller connected", hand.word());
                     // Spoken only when its absence was: no chatter at a normal start.
                     if std::mem::take(&mut self.absence_said[hand as usize]) {
-                        out.status(hand.device(), text, now_ns);
+                        out.status(hand.device(DEVICES), text, now_ns);
                     } else {
-                        out.applied(hand.device(), AppliedAction::DeviceStatus { text }, now_ns, 0);
+                        out.applied(hand.device(DEVICES), AppliedAction::DeviceStatus { text }, now_ns, 0);
                     }
                 }
                 Err(e) => {
@@ -248,7 +218,7 @@ impl WiimoteBackend {
     fn note_absent(&mut self, hand: Hand, now_ns: u64, out: &mut DeviceOutput) {
         if !self.absence_said[hand as usize] {
             self.absence_said[hand as usize] = true;
-            out.status(hand.device(), format!("{} controller not found", hand.word()), now_ns);
+            out.status(hand.device(DEVICES), format!("{} controller not found", hand.word()), now_ns);
         }
     }
 
@@ -276,14 +246,14 @@ impl WiimoteBackend {
                         }
                         let low = status.battery_low_flag || status.battery_percent <= self.config.low_battery_percent;
                         out.applied(
-                            hand.device(),
+                            hand.device(DEVICES),
                             AppliedAction::DeviceStatus { text: format!("battery {} %", status.battery_percent) },
                             now_ns,
                             0,
                         );
                         if low && !remote.battery_low_said {
                             remote.battery_low_said = true;
-                            out.status(hand.device(), format!("{} controller battery low", hand.word()), now_ns);
+                            out.status(hand.device(DEVICES), format!("{} controller battery low", hand.word()), now_ns);
                         } else if !low && status.battery_percent > self.config.low_battery_percent + 10 {
                             remote.battery_low_said = false;
                         }
@@ -325,7 +295,7 @@ impl HapticDevice for WiimoteBackend {
                         Hand::Left => (level, 0.0),
                         Hand::Right => (0.0, level),
                     };
-                    out.applied(hand.device(), AppliedAction::Rumble { left, right, pattern }, now_ns, cause_ns);
+                    out.applied(hand.device(DEVICES), AppliedAction::Rumble { left, right, pattern }, now_ns, cause_ns);
                 }
                 Ok(()) => {}
                 Err(e) => self.disconnect(hand, &e, now_ns, out),
