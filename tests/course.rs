@@ -20,14 +20,14 @@ fn world(items: &str) -> World {
     }
 }
 
-/// A 3 m wide corridor along +x, closed by a wall across at x = 6; the goal's sound
-/// comes from behind that wall.
-fn dead_end() -> World {
-    world(
+/// A 3 m wide corridor along +x, closed behind the start, with `items` (TOML tables)
+/// in it; the goal's sound comes from x = 9.
+fn corridor(name: &str, items: &str) -> World {
+    world(&format!(
         r#"
-name = "dead-end"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 9.0, y_m = 0.0 }
+name = "{name}"
+start = {{ x_m = 0.0, y_m = 0.0 }}
+goal = {{ x_m = 9.0, y_m = 0.0 }}
 [[walls]]
 label = "north wall"
 from = [-1.0, 1.5]
@@ -37,13 +37,22 @@ label = "south wall"
 from = [-1.0, -1.5]
 to = [12.0, -1.5]
 [[walls]]
-label = "end wall"
-from = [6.0, -1.5]
-to = [6.0, 1.5]
-[[walls]]
 label = "back wall"
 from = [-1.0, -1.5]
 to = [-1.0, 1.5]
+{items}"#
+    ))
+}
+
+/// The corridor closed by a wall across at x = 6: the goal is unreachable.
+fn dead_end() -> World {
+    corridor(
+        "dead-end",
+        r#"
+[[walls]]
+label = "end wall"
+from = [6.0, -1.5]
+to = [6.0, 1.5]
 "#,
     )
 }
@@ -176,26 +185,12 @@ to = [5.0, 4.0]
     assert!(fast > 0.3, "a quick user stays well clear: {fast}");
 }
 
-/// A 3 m wide corridor whose floor drops one stair step (0.18 m) from x = 4 to 6,
-/// wall to wall; the goal's sound comes from beyond it.
+/// The corridor with its floor one stair step (0.18 m) lower from x = 4 to 6, wall
+/// to wall; the goal's sound comes from beyond it.
 fn step_down_ahead() -> World {
-    world(
+    corridor(
+        "step-ahead",
         r#"
-name = "step-ahead"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 9.0, y_m = 0.0 }
-[[walls]]
-label = "north wall"
-from = [-1.0, 1.5]
-to = [12.0, 1.5]
-[[walls]]
-label = "south wall"
-from = [-1.0, -1.5]
-to = [12.0, -1.5]
-[[walls]]
-label = "back wall"
-from = [-1.0, -1.5]
-to = [-1.0, 1.5]
 [[floor_regions]]
 label = "step down"
 center = [5.0, 0.0]
