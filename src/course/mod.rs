@@ -87,9 +87,6 @@ pub struct CourseArgs {
     /// Switch off the time-to-collision warning.
     #[arg(long)]
     pub no_ttc: bool,
-    /// Take the costs where the camera points, not in the walking direction (thesis).
-    #[arg(long)]
-    pub no_walking_frame: bool,
     /// What the user heads for: the goal's sound (thesis) or the world's route.
     #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
     pub guide: GuideKind,
@@ -141,7 +138,6 @@ impl CourseArgs {
         c.perception.hysteresis.enabled = !self.no_hysteresis;
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.ttc.enabled = !self.no_ttc;
-        c.perception.walking_frame.enabled = !self.no_walking_frame;
         c.guide = self.guide;
         anyhow::ensure!(
             self.timeout_s.is_finite() && self.timeout_s > 0.0,
@@ -187,7 +183,6 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "hysteresis": !args.no_hysteresis,
             "dropoff": !args.no_dropoff,
             "ttc": !args.no_ttc,
-            "walking_frame": !args.no_walking_frame,
             "guide": args.guide,
             "camera": config.camera.name,
             "user": config.user,
@@ -200,7 +195,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | ttc {} | walking frame {} | guide {:?} | {} runs from seed {}",
+        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | ttc {} | guide {:?} | {} runs from seed {}",
         world.name(),
         config.camera.name,
         args.cost,
@@ -208,7 +203,6 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         on_off(!args.no_hysteresis),
         on_off(!args.no_dropoff),
         on_off(!args.no_ttc),
-        on_off(!args.no_walking_frame),
         args.guide,
         args.runs,
         args.seed

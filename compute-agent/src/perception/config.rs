@@ -37,8 +37,6 @@ pub struct PerceptionConfig {
     pub dropoff: DropoffConfig,
     /// Beyond the thesis: time to collision with approaching obstacles.
     pub ttc: TtcConfig,
-    /// Beyond the thesis: costs in the walking direction rather than the swept camera's.
-    pub walking_frame: WalkingFrameConfig,
 }
 
 impl Default for PerceptionConfig {
@@ -55,7 +53,6 @@ impl Default for PerceptionConfig {
             memory: MemoryConfig::default(),
             dropoff: DropoffConfig::default(),
             ttc: TtcConfig::default(),
-            walking_frame: WalkingFrameConfig::default(),
         }
     }
 }
@@ -362,29 +359,5 @@ impl Default for TtcConfig {
             warn_s: 2.0,
             max_step_m: 0.5,
         }
-    }
-}
-
-/// Costs, time to collision and the nearest obstacle in the direction the user walks
-/// (see [`super::walking_frame`]).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
-pub struct WalkingFrameConfig {
-    /// Switch.
-    pub enabled: bool,
-    /// Smoothing of the camera's travel, seconds: 0.3 s damps the sideways wobble of a
-    /// 0.7 Hz sweep to about 3 deg (measured on the sim's swept walk) and follows a
-    /// real change of direction within a step.
-    pub tau_s: f32,
-    /// Slower than this there is no walking direction, m/s.
-    pub min_speed_m_s: f32,
-    /// Travel further than this off the camera heading is not walking (turning in
-    /// place swings the camera sideways), degrees; twice the thesis users' sweep.
-    pub max_offset_deg: f32,
-}
-
-impl Default for WalkingFrameConfig {
-    fn default() -> Self {
-        Self { enabled: true, tau_s: 0.3, min_speed_m_s: 0.7, max_offset_deg: 25.0 }
     }
 }

@@ -33,7 +33,6 @@ pub mod organized_cloud;
 pub mod synthetic_scene;
 pub mod time_to_collision;
 pub mod timing;
-pub mod walking_frame;
 
 use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
@@ -50,7 +49,6 @@ use nearest_scan::{BinLayout, ScanBuilder, UserFrame};
 use obstacle_memory::{ObstacleMemory, ViewCone};
 use organized_cloud::SampledCloud;
 use time_to_collision::{nearest_in_path, ClosingSpeed};
-use walking_frame::{to_walking_frame, WalkingHeading};
 
 /// One organized depth frame, borrowed.
 #[derive(Debug, Clone, Copy)]
@@ -185,10 +183,6 @@ pub struct Perception {
     pub remembered: usize,
     /// Obstacle points (above the band, below head height) in the sample.
     pub obstacle_points: usize,
-    /// Walking direction relative to the camera heading, degrees, positive left: the
-    /// costs, time to collision and nearest obstacle are taken in that direction (0:
-    /// standing, turning in place, or the switch off — the camera's heading).
-    pub walking_offset_deg: f32,
 }
 
 impl Perception {
@@ -229,7 +223,6 @@ impl Perception {
             path_ground: PathGround::default(),
             remembered: 0,
             obstacle_points: 0,
-            walking_offset_deg: 0.0,
         }
     }
 }
@@ -247,7 +240,6 @@ pub struct Pipeline {
     scan: ScanBuilder,
     memory: ObstacleMemory,
     closing: ClosingSpeed,
-    heading: WalkingHeading,
     debounce: RumbleDebounce,
     cost_points: Vec<[f32; 2]>,
     out: Perception,
@@ -266,7 +258,6 @@ impl Pipeline {
             scan: ScanBuilder::default(),
             memory: ObstacleMemory::default(),
             closing: ClosingSpeed::default(),
-            heading: WalkingHeading::default(),
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
             out: Perception::empty(),
@@ -367,9 +358,6 @@ impl Pipeline {
         timer.stop();
 
         timer.start("cost_function");
-        let offset = self.heading.update(ctx.stamp_ns, ctx.motion, &cfg.walking_frame);
-        to_walking_frame(&mut self.cost_points, offset);
-        out.walking_offset_deg = offset.to_degrees();
         out.ficf = side_costs(self.cost_points.iter().copied(), &cfg.ficf);
         out.cacf = side_costs(self.cost_points.iter().copied(), &cfg.cacf);
         out.rumble_ficf = rumble(&out.ficf, &cfg.ficf);
