@@ -203,9 +203,9 @@ height_m = -0.18
 #[test]
 fn dropoff_detection_stops_the_user_before_a_step_down_that_the_thesis_pipeline_walks_into() {
     let w = step_down_ahead();
-    // first time the body steps over the edge, within the straight approach (~4 s at 1 m/s)
+    // first time the body steps over the edge, within 9 s (the edge is 3.8 m ahead)
     let stepped_in = |dropoff: bool, seed: u64| {
-        let mut c = quick(7.0);
+        let mut c = quick(9.0);
         c.perception.dropoff.enabled = dropoff;
         let out = walk(&w, &c, seed);
         out.contacts.iter().find(|c| c.part == Part::Body && c.label == "step down").map(|c| c.t_s)
@@ -213,7 +213,7 @@ fn dropoff_detection_stops_the_user_before_a_step_down_that_the_thesis_pipeline_
     for seed in [1, 3] {
         assert_eq!(stepped_in(true, seed), None, "seed {seed}: warned and stopped before the edge");
         let t = stepped_in(false, seed);
-        assert!(t.is_some_and(|t| t < 7.0), "seed {seed}: without the switch the user steps down ({t:?})");
+        assert!(t.is_some(), "seed {seed}: without the switch the user steps down");
     }
 }
 

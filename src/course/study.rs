@@ -28,6 +28,8 @@ pub struct Row {
     pub body_head_high: f64,
     /// Reorientations.
     pub reorientations: f64,
+    /// Times an experimenter led the user back on course.
+    pub assists: f64,
     /// Completed (1) or not (0); the average is the completion rate.
     pub completed: f64,
 }
@@ -44,6 +46,7 @@ impl Row {
             body_out_fov: w.count(Part::Body, Some(false)) as f64,
             body_head_high: w.contacts.iter().filter(|c| c.part == Part::Body && c.head_high).count() as f64,
             reorientations: w.reorientations as f64,
+            assists: w.assists as f64,
             completed: if w.completed { 1.0 } else { 0.0 },
         }
     }
@@ -64,6 +67,7 @@ impl Row {
             body_out_fov: avg(|r| r.body_out_fov),
             body_head_high: avg(|r| r.body_head_high),
             reorientations: avg(|r| r.reorientations),
+            assists: avg(|r| r.assists),
             completed: avg(|r| r.completed),
         })
     }
@@ -119,11 +123,11 @@ pub fn study(world: &World, config: &WalkConfig, runs: u32, seed: u64) -> Study 
 /// The table as text: header, one line per run, the average line.
 pub fn table(study: &Study) -> String {
     let mut s = String::from(
-        "run   seed   time_s  signals  cane  body_in_fov  body_out_fov  (head_high)  reorient  completed\n",
+        "run   seed   time_s  signals  cane  body_in_fov  body_out_fov  (head_high)  reorient  assists  completed\n",
     );
     let line = |label: &str, r: &Row| {
         format!(
-            "{label:<5} {:>5} {:>8.1} {:>8.1} {:>5.2} {:>12.2} {:>13.2} {:>12.2} {:>9.2} {:>10}\n",
+            "{label:<5} {:>5} {:>8.1} {:>8.1} {:>5.2} {:>12.2} {:>13.2} {:>12.2} {:>9.2} {:>8.2} {:>10}\n",
             r.seed.map_or("-".to_string(), |v| v.to_string()),
             r.time_s,
             r.signals,
@@ -132,6 +136,7 @@ pub fn table(study: &Study) -> String {
             r.body_out_fov,
             r.body_head_high,
             r.reorientations,
+            r.assists,
             if r.seed.is_some() {
                 if r.completed > 0.0 {
                     "yes".to_string()
@@ -166,6 +171,7 @@ mod tests {
             body_out_fov: 1.0,
             body_head_high: 1.0,
             reorientations: 0.0,
+            assists: 0.0,
             completed,
         }
     }

@@ -23,6 +23,11 @@ pub trait Guide {
     /// Map heading (radians, counter-clockwise from +x) the user wants to walk, from
     /// where the user is at `t_s`; `None` when there is nothing to head for.
     fn heading_target_rad(&mut self, pose: &UserPose, t_s: f64) -> Option<f64>;
+
+    /// Times someone had to lead the user back on course (0 for a guide that never does).
+    fn assists(&self) -> u32 {
+        0
+    }
 }
 
 /// A sound source at the goal: the user hears its bearing, nothing else (Taylor's music).
@@ -70,6 +75,73 @@ impl Guide for RouteWaypoints<'_> {
         let w = self.waypoints.get(self.target)?;
         let (dx, dy) = (w[0] - pose.x_m, w[1] - pose.y_m);
         (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx))
+    }
+}
+
+/// The goal's sound, with an experimenter standing by as in Taylor's study (2017, sec.
+/// 3.2: users who lost their way were reoriented): when the user has come no nearer the
+/// goal for `stuck_after_s`, the experimenter leads them along the course (the route's
+/// farthest waypoint in sight) until the goal is in a straight line of walking, then
+/// leaves them to the sound again. The rumble still decides every step; only what the
+/// user heads for changes.
+pub struct ExperimenterAssist<'a> {
+    sound: GoalSound,
+    route: RouteWaypoints<'a>,
+    goal_in_sight: Box<dyn Fn(&UserPose) -> bool + 'a>,
+    stuck_after_s: f64,
+    best_m: f64,
+    best_t_s: f64,
+    leading: bool,
+    assists: u32,
+}
+
+/// Coming this much nearer the goal counts as progress, metres.
+const PROGRESS_M: f64 = 0.3;
+
+impl<'a> ExperimenterAssist<'a> {
+    /// Sound at `sound`, the course's `route` for leading, `goal_in_sight` from the map.
+    pub fn new(
+        sound: GoalSound,
+        route: RouteWaypoints<'a>,
+        goal_in_sight: impl Fn(&UserPose) -> bool + 'a,
+        stuck_after_s: f64,
+    ) -> Self {
+        Self {
+            sound,
+            route,
+            goal_in_sight: Box::new(goal_in_sight),
+            stuck_after_s,
+            best_m: f64::INFINITY,
+            best_t_s: 0.0,
+            leading: false,
+            assists: 0,
+        }
+    }
+}
+
+impl Guide for ExperimenterAssist<'_> {
+    fn heading_target_rad(&mut self, pose: &UserPose, t_s: f64) -> Option<f64> {
+        let d = (self.sound.x_m - pose.x_m).hypot(self.sound.y_m - pose.y_m);
+        if d < self.best_m - PROGRESS_M {
+            self.best_m = d;
+            self.best_t_s = t_s;
+        }
+        if self.leading && (self.goal_in_sight)(pose) {
+            self.leading = false;
+            (self.best_m, self.best_t_s) = (d, t_s);
+        } else if !self.leading && t_s - self.best_t_s > self.stuck_after_s {
+            self.leading = true;
+            self.assists += 1;
+        }
+        if self.leading {
+            self.route.heading_target_rad(pose, t_s)
+        } else {
+            self.sound.heading_target_rad(pose, t_s)
+        }
+    }
+
+    fn assists(&self) -> u32 {
+        self.assists
     }
 }
 
@@ -323,6 +395,29 @@ mod tests {
         assert_eq!(u.speed_m_s(), 0.0);
         assert!(u.pose().yaw_rad < -1.0, "turned right: {}", u.pose().yaw_rad);
         assert!(u.pose().x_m - before.x_m < 0.5, "stopped within a reaction time and a ramp");
+    }
+
+    #[test]
+    fn experimenter_leads_a_stuck_user_until_the_goal_is_in_sight() {
+        // goal at (5, 0) behind a wall at x = 2.5 for |y| < 2; the route goes round by y = 3
+        let blocked = |p: &UserPose| p.y_m.abs() < 2.0 && p.x_m < 2.5;
+        let route = RouteWaypoints::new(vec![[1.0, 3.0], [5.0, 3.0], [5.0, 0.0]], move |p: &UserPose, w: [f64; 2]| {
+            !(blocked(p) && w[0] > 2.5)
+        });
+        let mut g = ExperimenterAssist::new(GoalSound { x_m: 5.0, y_m: 0.0 }, route, move |p| !blocked(p), 10.0);
+        let at = |x, y| UserPose { x_m: x, y_m: y, yaw_rad: 0.0, floor: 0 };
+        // pressed against the wall, heading for the sound, for 10 s: no help yet
+        assert!(g.heading_target_rad(&at(2.2, 0.0), 0.0).unwrap().abs() < 1e-9);
+        assert!(g.heading_target_rad(&at(2.2, 0.0), 9.0).unwrap().abs() < 1e-9);
+        assert_eq!(g.assists(), 0);
+        // stuck past 10 s: led to the first waypoint of the way round
+        let h = g.heading_target_rad(&at(2.2, 0.0), 10.5).unwrap();
+        assert!(h > 1.0, "led towards (1, 3): {h}");
+        assert_eq!(g.assists(), 1);
+        // round the wall the goal is in sight: back to the sound
+        let h = g.heading_target_rad(&at(3.0, 3.0), 14.0).unwrap();
+        assert!((h - (-3f64).atan2(2.0)).abs() < 1e-9, "{h}");
+        assert_eq!(g.assists(), 1);
     }
 
     #[test]

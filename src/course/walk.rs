@@ -21,7 +21,7 @@ use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, ObstacleId, Render
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
-use super::virtual_user::{GoalSound, Guide, RouteWaypoints, Touch, UserParams, VirtualUser};
+use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteWaypoints, Touch, UserParams, VirtualUser};
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
 pub const PHYSICS_HZ: u32 = 120;
@@ -44,7 +44,14 @@ pub enum GuideKind {
     /// The world's scripted route: the farthest waypoint in line of sight (stand-in
     /// for route guidance; the goal's sound in worlds without a route).
     Route,
+    /// The goal's sound, and an experimenter who leads a user stuck for
+    /// [`STUCK_AFTER_S`] along the route until the goal is in sight (Taylor's
+    /// reorienting; the goal's sound alone in worlds without a route).
+    Assisted,
 }
+
+/// No nearer the goal for this long, an assisted user is led back on course, seconds.
+pub const STUCK_AFTER_S: f64 = 20.0;
 
 /// Everything that makes one walk.
 #[derive(Debug, Clone)]
@@ -159,6 +166,8 @@ pub struct WalkOutcome {
     pub contacts: Vec<Contact>,
     /// Episodes of walking away from the goal for more than [`REORIENT_AFTER_S`].
     pub reorientations: u32,
+    /// Times an experimenter led the user back on course ([`GuideKind::Assisted`]).
+    pub assists: u32,
     /// Frames the perception refused (no intent sent for them).
     pub perception_errors: u32,
     /// Camera frames processed.
@@ -224,6 +233,18 @@ fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64) -> Box<dyn Gu
             let mut points = w.waypoints.clone();
             points.push([goal.x_m, goal.y_m]);
             Box::new(RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, p, to, radius_m)))
+        }
+        (GuideKind::Assisted, Some(w)) => {
+            let mut points = w.waypoints.clone();
+            points.push([goal.x_m, goal.y_m]);
+            let route = RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, p, to, radius_m));
+            let to = [goal.x_m, goal.y_m];
+            Box::new(ExperimenterAssist::new(
+                GoalSound { x_m: goal.x_m, y_m: goal.y_m },
+                route,
+                move |p: &UserPose| walkable(world, p, to, radius_m),
+                STUCK_AFTER_S,
+            ))
         }
         _ => Box::new(GoalSound { x_m: goal.x_m, y_m: goal.y_m }),
     }
@@ -294,6 +315,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         offline_signals: 0,
         contacts: Vec::new(),
         reorientations: 0,
+        assists: 0,
         perception_errors: 0,
         frames: 0,
         min_clearance_m: f64::INFINITY,
@@ -506,6 +528,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         }
         out.end_xy_m = [now_pose.x_m, now_pose.y_m];
     }
+    out.assists = guide.assists();
     out
 }
 
