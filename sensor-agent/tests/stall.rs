@@ -99,9 +99,10 @@ async fn camera_that_stops_delivering_is_reported_stalled_within_500_ms() {
     let after_ms = (stalled_ns - last_frame_ns) as f64 / 1e6;
     eprintln!("stall reported {after_ms:.0} ms after the last frame arrived: {status}");
     // the next frame was due one period (33 ms) after the last; the report must come
-    // within 500 ms of the camera going quiet, and not before it did
+    // within 500 ms of the camera going quiet (plus the hop to this subscriber, which a
+    // loaded CI machine can stretch), and not before it did
     assert!(after_ms > 400.0, "reported {after_ms:.0} ms after the last frame: a false alarm");
-    assert!(after_ms < 33.0 + 500.0 + 50.0, "reported {after_ms:.0} ms after the last frame: {status}");
+    assert!(after_ms < 33.0 + 500.0 + 150.0, "reported {after_ms:.0} ms after the last frame: {status}");
 
     release.store(true, Ordering::SeqCst);
     shutdown.trigger();
