@@ -17,7 +17,7 @@ use feedback_agent::feedback::{Feedback, StepSettings};
 use feedback_agent::wiimote::fake::FakeHid;
 use feedback_agent::wiimote::{WiimoteBackend, WiimoteConfig};
 use feedback_agent::{Devices, FeedbackConfig};
-use schemas::{CostFunction, GroundState, HapticIntent, HapticPattern, Hazard, Keys, Rumble, SideCosts};
+use schemas::{GroundState, HapticIntent, HapticPattern, Hazard, Keys};
 
 const LEFT: &str = "/dev/hidraw0";
 const RIGHT: &str = "/dev/hidraw1";
@@ -78,20 +78,7 @@ fn in_agent(n: u64) {
 }
 
 fn hazard() -> Hazard {
-    Hazard {
-        frame_seq: 0,
-        ficf: SideCosts::default(),
-        cacf: SideCosts::default(),
-        active: CostFunction::Ficf,
-        rumble: Rumble::None,
-        ground: GroundState::Found,
-        plane_camera: [0.0, -1.0, 0.0, 1.2],
-        nearest_m: f32::INFINITY,
-        nearest_bearing_deg: 0.0,
-        ttc_s: None,
-        dropoff_ahead: false,
-        latency: vec![],
-    }
+    Hazard::nothing_ahead(0, GroundState::Found)
 }
 
 async fn over_bus(n: u64, hz: u64) -> anyhow::Result<()> {

@@ -379,7 +379,7 @@ mod tests {
     use crate::console::ConsoleSpeech;
     use crate::wiimote::fake::FakeHid;
     use crate::wiimote::{WiimoteBackend, WiimoteConfig};
-    use schemas::{CostFunction, GroundState, Rumble, SideCosts};
+    use schemas::GroundState;
 
     const T0: u64 = 1_700_000_000_000_000_000;
     const LEFT: &str = "/dev/hidraw0";
@@ -399,20 +399,7 @@ mod tests {
     }
 
     fn hazard(ground: GroundState) -> Hazard {
-        Hazard {
-            frame_seq: 0,
-            ficf: SideCosts::default(),
-            cacf: SideCosts::default(),
-            active: CostFunction::Ficf,
-            rumble: Rumble::None,
-            ground,
-            plane_camera: [0.0, -1.0, 0.0, 1.2],
-            nearest_m: f32::INFINITY,
-            nearest_bearing_deg: 0.0,
-            ttc_s: None,
-            dropoff_ahead: false,
-            latency: vec![],
-        }
+        Hazard::nothing_ahead(0, ground)
     }
 
     fn steady(left: f32, right: f32, ttl_ms: u32) -> HapticIntent {

@@ -228,6 +228,28 @@ pub struct Hazard {
     pub latency: Vec<StageLatency>,
 }
 
+impl Hazard {
+    /// A frame where nothing is in the way: no costs, no rumble, the floor in `ground`
+    /// state, 1.2 m below a level camera. What a test or a tool sends to keep a feedback
+    /// agent's watchdog fed.
+    pub fn nothing_ahead(frame_seq: u64, ground: GroundState) -> Self {
+        Hazard {
+            frame_seq,
+            ficf: SideCosts::default(),
+            cacf: SideCosts::default(),
+            active: CostFunction::Ficf,
+            rumble: Rumble::None,
+            ground,
+            plane_camera: [0.0, -1.0, 0.0, 1.2],
+            nearest_m: f32::INFINITY,
+            nearest_bearing_deg: 0.0,
+            ttc_s: None,
+            dropoff_ahead: false,
+            latency: vec![],
+        }
+    }
+}
+
 /// Pose on the floor map.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pose {

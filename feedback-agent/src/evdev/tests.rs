@@ -2,7 +2,7 @@ use super::fake::{Call, FakeFf};
 use super::*;
 use crate::console::ConsoleSpeech;
 use crate::feedback::{Feedback, StepSettings};
-use schemas::{CostFunction, GroundState, HapticIntent, Hazard, Rumble, SideCosts};
+use schemas::{GroundState, HapticIntent, Hazard};
 
 const T0: u64 = 1_700_000_000_000_000_000;
 const LEFT: &str = "/dev/input/event5";
@@ -47,20 +47,7 @@ fn upload(id: i16, magnitude: u16) -> Call {
 
 /// A fresh hazard with the floor found: keeps detection online.
 fn found() -> Hazard {
-    Hazard {
-        frame_seq: 0,
-        ficf: SideCosts::default(),
-        cacf: SideCosts::default(),
-        active: CostFunction::Ficf,
-        rumble: Rumble::None,
-        ground: GroundState::Found,
-        plane_camera: [0.0, -1.0, 0.0, 1.2],
-        nearest_m: f32::INFINITY,
-        nearest_bearing_deg: 0.0,
-        ttc_s: None,
-        dropoff_ahead: false,
-        latency: vec![],
-    }
+    Hazard::nothing_ahead(0, GroundState::Found)
 }
 
 fn levels(left: f32, right: f32) -> Levels {

@@ -8,27 +8,14 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use bus::{Lane, Publisher, Subscriber};
-use schemas::{Applied, CostFunction, GroundState, Hazard, Keys, Rumble, SideCosts};
+use schemas::{Applied, GroundState, Hazard, Keys};
 
 pub fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
 }
 
 pub fn hazard(seq: u64) -> Hazard {
-    Hazard {
-        frame_seq: seq,
-        ficf: SideCosts::default(),
-        cacf: SideCosts::default(),
-        active: CostFunction::Ficf,
-        rumble: Rumble::None,
-        ground: GroundState::Found,
-        plane_camera: [0.0, -1.0, 0.0, 1.2],
-        nearest_m: f32::INFINITY,
-        nearest_bearing_deg: 0.0,
-        ttc_s: None,
-        dropoff_ahead: false,
-        latency: vec![],
-    }
+    Hazard::nothing_ahead(seq, GroundState::Found)
 }
 
 /// Publishes hazards at 30 Hz while `on` is set; remembers when the last one went out.
