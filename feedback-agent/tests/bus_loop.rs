@@ -6,14 +6,14 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
-use common::{free_port, wait_applied, HazardStream};
+use bus::{BusOptions, Lane, Publisher, Shutdown, Subscriber};
+use common::{wait_applied, HazardStream, Loopback};
 use feedback_agent::console::ConsoleSpeech;
 use feedback_agent::phone::{phone_channel, PhoneHaptic};
 use feedback_agent::wiimote::fake::FakeHid;
 use feedback_agent::wiimote::{WiimoteBackend, WiimoteConfig};
 use feedback_agent::{Devices, FeedbackConfig};
-use schemas::{Applied, AppliedAction, HapticIntent, HapticPattern, HealthStats, Keys, Priority, SpeechIntent};
+use schemas::{Applied, AppliedAction, HapticIntent, HapticPattern, HealthStats, Priority, SpeechIntent};
 
 const LEFT: &str = "/dev/hidraw0";
 const RIGHT: &str = "/dev/hidraw1";
@@ -24,14 +24,7 @@ fn offline_warning(a: &Applied, offline: bool) -> bool {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() {
-    let user = format!("fbtest{}", std::process::id());
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let test_bus = BusOptions { listen: vec![endpoint.clone()], no_multicast: true, ..BusOptions::for_user(&user) };
-    let agent_bus = BusOptions { connect: vec![endpoint], no_multicast: true, ..BusOptions::for_user(&user) };
-    let keys = Keys::new(&user).unwrap();
-    let session = bus::open_session(&test_bus).await.expect("test session");
-    let test_health = Health::new("test");
+    let Loopback { user, test_bus, agent_bus, keys, session, health: test_health } = Loopback::open("fbtest").await;
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &test_health).await.unwrap();
     let stats =
         Subscriber::<HealthStats>::declare(&session, keys.health("feedback-agent"), false, &test_health).await.unwrap();

@@ -5,22 +5,15 @@ mod common;
 
 use std::time::Duration;
 
-use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
-use common::{free_port, wait_applied, HazardStream};
+use bus::{Lane, Publisher, Shutdown, Subscriber};
+use common::{wait_applied, HazardStream, Loopback};
 use feedback_agent::console::ConsoleSpeech;
 use feedback_agent::{Devices, FeedbackConfig};
-use schemas::{Applied, AppliedAction, Command, Keys, Priority, SpeechIntent};
+use schemas::{Applied, AppliedAction, Command, Priority, SpeechIntent};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn mute_command_over_the_bus_silences_guidance_but_not_warnings() {
-    let user = format!("fbmute{}", std::process::id());
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let test_bus = BusOptions { listen: vec![endpoint.clone()], no_multicast: true, ..BusOptions::for_user(&user) };
-    let agent_bus = BusOptions { connect: vec![endpoint], no_multicast: true, ..BusOptions::for_user(&user) };
-    let keys = Keys::new(&user).unwrap();
-    let session = bus::open_session(&test_bus).await.expect("test session");
-    let test_health = Health::new("test");
+    let Loopback { agent_bus, keys, session, health: test_health, .. } = Loopback::open("fbmute").await;
     let applied = Subscriber::<Applied>::declare(&session, keys.applied(), false, &test_health).await.unwrap();
     let _token = session.liveliness().declare_token(keys.health("compute-agent")).await.unwrap();
     let _hazards = HazardStream::start(session.clone(), keys.clone());

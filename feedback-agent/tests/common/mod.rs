@@ -7,8 +7,31 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use bus::{Lane, Publisher, Subscriber};
+use bus::{BusOptions, Health, Lane, Publisher, Subscriber};
 use schemas::{Applied, GroundState, Hazard, Keys};
+
+/// A test session listening on a free loopback port, and the bus options an agent
+/// under test connects with: one user of its own, no multicast.
+pub struct Loopback {
+    pub user: String,
+    pub test_bus: BusOptions,
+    pub agent_bus: BusOptions,
+    pub keys: Keys,
+    pub session: zenoh::Session,
+    pub health: Arc<Health>,
+}
+
+impl Loopback {
+    pub async fn open(user_prefix: &str) -> Loopback {
+        let user = format!("{user_prefix}{}", std::process::id());
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let test_bus = BusOptions { listen: vec![endpoint.clone()], no_multicast: true, ..BusOptions::for_user(&user) };
+        let agent_bus = BusOptions { connect: vec![endpoint], no_multicast: true, ..BusOptions::for_user(&user) };
+        let keys = Keys::new(&user).expect("test user name");
+        let session = bus::open_session(&test_bus).await.expect("test session");
+        Loopback { user, test_bus, agent_bus, keys, session, health: Health::new("test") }
+    }
+}
 
 pub fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
