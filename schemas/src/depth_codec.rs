@@ -2,10 +2,10 @@
 //! bounded-error. Each frame decodes on its own (no inter-frame state), so a lost
 //! packet costs one frame, never a stream.
 //!
-//! The packed format, version 2 (both compressed modes share it; the decoder needs no
+//! The packed format, version 3 (both compressed modes share it; the decoder needs no
 //! mode). It is shaped for speed on one core: one entropy-coded symbol per four pixels,
-//! and a predictor whose reconstruction is a running sum (`cargo bench -p schemas
-//! --bench depth_codec`).
+//! a predictor whose reconstruction is a running sum, and every quad of a row decoded
+//! in one batch (`cargo bench -p schemas --bench depth_codec`).
 //!
 //! 1. **Levels.** Structured-light cameras (Kinect, Xtion) measure disparity, so a
 //!    frame holds only a few hundred distinct depths. The distinct valid samples are
@@ -29,8 +29,13 @@
 //!    `2i`) form one 8-bit quad symbol, coded with rANS ([`rans`]) under 8 contexts
 //!    from the row above: the activity of the quad above (its codes' sizes, 0 / 1 for
 //!    +-1 / 2 for an exception, summed and capped at 3) times 2, plus 1 if the quad
-//!    above-right is not all zero. Quads with no valid pixel are not coded and count as
-//!    all zero; codes of invalid pixels (and of the padding past a row's end) are 0.
+//!    above-right is not all zero. Codes of invalid pixels (and of the padding past a
+//!    row's end) are 0. A quad with no valid pixel is all zero and takes a ninth
+//!    context, whose model (implied, not sent) gives symbol 0 every slot: it costs no
+//!    bits and leaves the rANS state as it is, but takes its turn among the
+//!    interleaved states. Version 2 skipped such quads, which made the decoder gather
+//!    a row's coded quads before and scatter their symbols after the rANS batch; that
+//!    was a fifth of its time.
 //!    Exceptions go in pixel order to their own rANS stream as `zigzag(residual) - 3`
 //!    bytes, 255 meaning "the rest follows as a varint in the side stream". Level
 //!    values, run lengths and the models go in a side stream coded with one more rANS
@@ -83,9 +88,10 @@ pub enum CodecError {
 /// the decoder allocate without bound.
 pub const MAX_PIXELS: usize = 1 << 24;
 
-/// First byte of a compressed payload: format version 2. Version 1 (0xD1, one MED
-/// residual symbol per pixel) is refused as an unknown format.
-const FORMAT_TAG: u8 = 0xD2;
+/// First byte of a compressed payload: format version 3. Versions 1 (0xD1, one MED
+/// residual symbol per pixel) and 2 (0xD2, quads with no valid pixel not coded) are
+/// refused as unknown formats.
+const FORMAT_TAG: u8 = 0xD3;
 /// Pixels per coded symbol.
 const QUAD: usize = 4;
 /// Quad contexts: 4 activity classes of the quad above x quad above-right all zero or not.
@@ -119,28 +125,33 @@ const RUNNING_SUM: [[i32; QUAD]; 256] = {
     table
 };
 
-/// Residual of each pixel code (the exception's comes from its own stream).
-const CODE_RESIDUAL: [i32; 4] = [0, 1, -1, 0];
-
-/// Per quad symbol: the lowest and highest of its running sums, so one pair of
-/// comparisons per quad keeps every level of the quad in range.
-const SUM_RANGE: [(i32, i32); 256] = {
-    let mut table = [(0i32, 0i32); 256];
+/// [`RUNNING_SUM`] modulo 2^16, to add to a level index's low 16 bits.
+const WRAPPING_SUM: [[u16; QUAD]; 256] = {
+    let mut table = [[0u16; QUAD]; 256];
     let mut s = 0;
     while s < 256 {
-        let (mut lo, mut hi) = (i32::MAX, i32::MIN);
         let mut i = 0;
         while i < QUAD {
-            let v = RUNNING_SUM[s][i];
-            if v < lo {
-                lo = v;
-            }
-            if v > hi {
-                hi = v;
-            }
+            table[s][i] = RUNNING_SUM[s][i] as u16;
             i += 1;
         }
-        table[s] = (lo, hi);
+        s += 1;
+    }
+    table
+};
+
+/// Per quad symbol and pixel: how many of the pixels up to it are exceptions.
+const EXCEPTIONS_UPTO: [[u8; QUAD]; 256] = {
+    let mut table = [[0u8; QUAD]; 256];
+    let mut s = 0;
+    while s < 256 {
+        let mut count = 0;
+        let mut i = 0;
+        while i < QUAD {
+            count += ((s >> (2 * i)) & 3 == 3) as u8;
+            table[s][i] = count;
+            i += 1;
+        }
         s += 1;
     }
     table
@@ -161,50 +172,16 @@ const EXCEPTIONS_IN: [u8; 256] = {
     table
 };
 
-/// Per quad symbol: its activity class, the sum of its codes' sizes (0 for a zero
-/// residual, 1 for +-1, 2 for an exception) capped at 3.
-const ACTIVITY: [u8; 256] = {
-    let mut table = [0u8; 256];
-    let mut s = 0;
-    while s < 256 {
-        let mut sum = 0;
-        let mut i = 0;
-        while i < QUAD {
-            sum += match (s >> (2 * i)) & 3 {
-                0 => 0,
-                3 => 2,
-                _ => 1,
-            };
-            i += 1;
-        }
-        table[s] = if sum > 3 { 3 } else { sum };
-        s += 1;
-    }
-    table
-};
-
-/// Per quad symbol: the validity mask that lets its quad take the fast path (all
-/// valid), or one no quad has when the symbol holds an exception.
-const FAST_MASK: [u8; 256] = {
-    let mut table = [0u8; 256];
-    let mut s = 0;
-    while s < 256 {
-        table[s] = if EXCEPTIONS_IN[s] == 0 { ALL_VALID } else { 0x80 };
-        s += 1;
-    }
-    table
-};
-
-/// Per validity mask of a quad (bit i = pixel i valid): the code bits of its invalid
-/// pixels, which must be zero.
-const INVALID_CODE_BITS: [u8; 16] = {
-    let mut table = [0u8; 16];
+/// Per validity mask of a quad (bit i = pixel i valid): what keeps each pixel's depth,
+/// all ones for a valid pixel and zero for an invalid one.
+const KEEP: [[u16; QUAD]; 16] = {
+    let mut table = [[0u16; QUAD]; 16];
     let mut m = 0;
     while m < 16 {
         let mut i = 0;
         while i < QUAD {
-            if (m >> i) & 1 == 0 {
-                table[m] |= 3 << (2 * i);
+            if (m >> i) & 1 != 0 {
+                table[m][i] = u16::MAX;
             }
             i += 1;
         }
@@ -216,10 +193,48 @@ const INVALID_CODE_BITS: [u8; 16] = {
 /// Validity mask of a quad whose pixels are all valid.
 const ALL_VALID: u8 = (1 << QUAD) - 1;
 
+/// Context of a quad with no valid pixel, one past the coded ones: its symbol is 0.
+const UNCODED: u8 = CONTEXTS as u8;
+
+/// `context`, or [`UNCODED`] for a quad with no valid pixel. Masks rather than a
+/// select, which the compiler does not vectorise here.
+#[inline(always)]
+fn context_or_uncoded(mask: u8, context: u8) -> u8 {
+    let coded = ((mask != 0) as u8).wrapping_neg();
+    (context & coded) | (UNCODED & !coded)
+}
+
+/// Counts of a model whose only symbol is 0: it has every slot, so coding it costs
+/// nothing and leaves the rANS state unchanged.
+const CERTAIN_ZERO: [u32; 256] = {
+    let mut counts = [0u32; 256];
+    counts[0] = 1;
+    counts
+};
+
+/// Activity class of a quad symbol: the sum of its codes' sizes (0 for a zero
+/// residual, 1 for +-1, 2 for an exception) capped at 3. Bit arithmetic rather than a
+/// table, so that a row's worth vectorises.
+#[inline(always)]
+fn activity(sym: u8) -> u8 {
+    // Per 2-bit code: 1 if it is not zero, plus 1 if it is an exception.
+    let sizes = ((sym | sym >> 1) & 0x55) + (sym & sym >> 1 & 0x55);
+    let pairs = (sizes & 0x33) + (sizes >> 2 & 0x33);
+    ((pairs & 0x0f) + (pairs >> 4)).min(3)
+}
+
+/// The code bits of a quad's valid pixels (bit i of `mask` = pixel i valid): those of
+/// invalid pixels must be zero.
+#[inline(always)]
+fn valid_code_bits(mask: u8) -> u8 {
+    let spread = (mask & 1) | (mask & 2) << 1 | (mask & 4) << 2 | (mask & 8) << 3;
+    spread * 3
+}
+
 /// Context of a quad from the two quads above it (row above, same and next column).
 #[inline(always)]
 fn quad_context(above: u8, above_right: u8) -> u8 {
-    ACTIVITY[above as usize] * 2 + (above_right != 0) as u8
+    activity(above) * 2 + (above_right != 0) as u8
 }
 
 #[inline(always)]
@@ -324,16 +339,18 @@ fn byte_model(symbols: &[u8]) -> rans::Model {
 /// Packs depth images; keeps its buffers between frames so a stream allocates once.
 #[derive(Debug, Clone)]
 pub struct DepthEncoder {
-    present: Vec<bool>,
+    present: Box<[bool; 65536]>,
     level_of: Box<[u16; 65536]>,
     level_values: Vec<u16>,
     /// The current row's levels (after the first pixel's prediction) and residual
     /// codes, padded to whole quads.
     levels: Vec<u16>,
     codes: Vec<u8>,
-    /// Quad symbols of the row above and the current row, plus a zero past the end.
-    quad_rows: [Vec<u8>; 2],
+    /// Quad symbols of the row above, plus a zero past the end.
+    above: Vec<u8>,
     masks: Vec<u8>,
+    /// The current row's quads that hold an exception.
+    exception_quads: Vec<usize>,
     /// The current row's samples, padded with invalid pixels to whole quads.
     padded: Vec<u16>,
     symbols: Vec<u8>,
@@ -355,13 +372,14 @@ impl DepthEncoder {
     /// An encoder with empty buffers.
     pub fn new() -> DepthEncoder {
         DepthEncoder {
-            present: vec![false; 65536],
+            present: vec![false; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
             level_of: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
             level_values: Vec::new(),
             levels: Vec::new(),
             codes: Vec::new(),
-            quad_rows: [Vec::new(), Vec::new()],
+            above: Vec::new(),
             masks: Vec::new(),
+            exception_quads: Vec::new(),
             padded: Vec::new(),
             symbols: Vec::new(),
             contexts: Vec::new(),
@@ -407,22 +425,32 @@ impl DepthEncoder {
 
         // Four interleaved histograms: one would chain every increment of the same
         // (mostly all-zero) symbol through a store-to-load forward.
-        let mut parts = [[[0u32; 256]; CONTEXTS]; 4];
-        for (i, (&s, &c)) in self.symbols.iter().zip(&self.contexts).enumerate() {
-            parts[i & 3][c as usize & (CONTEXTS - 1)][s as usize] += 1;
+        // Uncoded quads' symbols are counted too (in their own context) rather than
+        // skipped with a branch.
+        let mut parts = [[0u32; 16 * 256]; 4];
+        let (symbols, contexts) = (self.symbols.chunks_exact(4), self.contexts.chunks_exact(4));
+        let (symbols_left, contexts_left) = (symbols.remainder(), contexts.remainder());
+        for (s, c) in symbols.zip(contexts) {
+            for k in 0..4 {
+                parts[k][(c[k] as usize & 15) << 8 | s[k] as usize] += 1;
+            }
         }
-        let mut counts = [[0u32; 256]; CONTEXTS];
+        for (&s, &c) in symbols_left.iter().zip(contexts_left) {
+            parts[0][(c as usize & 15) << 8 | s as usize] += 1;
+        }
+        let mut counts = [[0u32; 256]; 16];
         for part in &parts {
-            for (sum, p) in counts.iter_mut().zip(part) {
+            for (sum, p) in counts.iter_mut().zip(part.chunks_exact(256)) {
                 for (a, b) in sum.iter_mut().zip(p) {
                     *a += b;
                 }
             }
         }
-        let quad_models: Vec<rans::Model> = counts.iter().map(rans::Model::from_counts).collect();
+        let mut quad_models: Vec<rans::Model> = counts[..CONTEXTS].iter().map(rans::Model::from_counts).collect();
         for m in &quad_models {
             m.write(&mut self.side);
         }
+        quad_models.push(rans::Model::from_counts(&CERTAIN_ZERO));
         let exception_model = byte_model(&self.exceptions);
         exception_model.write(&mut self.side);
         put_varint(&mut self.side, self.exceptions.len() as u32);
@@ -479,8 +507,8 @@ impl DepthEncoder {
     }
 
     /// Writes each row's validity runs to the side stream; fills `symbols`/`contexts`
-    /// with the quad symbol of every quad holding a valid pixel, `exceptions` with the
-    /// exception bytes and `escapes` with their varints.
+    /// with every quad's symbol and context ([`UNCODED`] for quads with no valid
+    /// pixel), `exceptions` with the exception bytes and `escapes` with their varints.
     fn code_quads(&mut self, samples: &[u16], width: usize) {
         // Split borrows: pushing through `self` would make the compiler reload every
         // other buffer's pointer after each push.
@@ -488,8 +516,9 @@ impl DepthEncoder {
             level_of,
             levels,
             codes,
-            quad_rows: [above, quads],
+            above,
             masks,
+            exception_quads,
             padded,
             symbols,
             contexts,
@@ -504,28 +533,27 @@ impl DepthEncoder {
         levels.resize(n_quads * QUAD + 1, 0);
         codes.clear();
         codes.resize(n_quads * QUAD, 0);
-        for buf in [&mut *above, &mut *quads] {
-            buf.clear();
-            buf.resize(n_quads + 1, 0);
-        }
+        above.clear();
+        above.resize(n_quads + 1, 0);
         masks.clear();
         masks.resize(n_quads, 0);
+        exception_quads.clear();
+        exception_quads.resize(n_quads, 0);
         padded.clear();
         padded.resize(n_quads * QUAD, 0);
-        // One slot per quad of the image; `coded` of them end up used.
         let n_total = n_quads * (samples.len() / width);
         symbols.clear();
         symbols.resize(n_total, 0);
         contexts.clear();
         contexts.resize(n_total, 0);
-        let mut coded = 0usize;
         exceptions.clear();
         escapes.clear();
         let level_of: &[u16; 65536] = level_of;
         // The level of the first pixel of the row above predicts the first pixel; 1
         // (the first level) before the first row, so every prediction is a level.
         let mut row_start = 1u16;
-        for row in samples.chunks_exact(width) {
+        let quad_rows = symbols.chunks_exact_mut(n_quads).zip(contexts.chunks_exact_mut(n_quads));
+        for (row, (row_symbols, row_contexts)) in samples.chunks_exact(width).zip(quad_rows) {
             padded[..width].copy_from_slice(row);
             // Each step is a pass of its own over the row, so that all but the level
             // lookup and the carrying over holes have nothing chained from pixel to
@@ -535,8 +563,10 @@ impl DepthEncoder {
                 // Index 0 is never a level: invalid pixels get 0 here.
                 *lv = level_of[s as usize];
             }
-            for (mask, px) in masks.iter_mut().zip(padded.chunks_exact(QUAD)) {
-                *mask = (px[0] != 0) as u8
+            // Indexed rather than by chunks, which the compiler does not vectorise.
+            for q in 0..n_quads {
+                let px = &padded[QUAD * q..QUAD * q + QUAD];
+                masks[q] = (px[0] != 0) as u8
                     | ((px[1] != 0) as u8) << 1
                     | ((px[2] != 0) as u8) << 2
                     | ((px[3] != 0) as u8) << 3;
@@ -551,47 +581,37 @@ impl DepthEncoder {
                 let d = level.wrapping_sub(left);
                 *code = (d == 1) as u8 | ((d == u16::MAX) as u8) << 1 | ((d.wrapping_add(1) > 2) as u8 * EXCEPTION);
             }
-            // Symbols and contexts are written whether the quad is coded or not, and
-            // kept by moving the end only for coded ones: no branch per quad.
-            let (symbols_out, contexts_out) = (&mut symbols[..], &mut contexts[..]);
-            let mut any_exception = 0u8;
-            let quad_cells = quads.iter_mut().zip(masks.iter()).zip(codes.chunks_exact(QUAD));
-            let above_pairs = above.iter().zip(&above[1..]);
-            for (((quad, &mask), c), (&up, &up_right)) in quad_cells.zip(above_pairs) {
-                // Code i (< 4) moves from bit 8i to bit 2i.
-                let w = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-                let sym = (w | w >> 6 | w >> 12 | w >> 18) as u8;
-                *quad = sym;
-                symbols_out[coded] = sym;
-                contexts_out[coded] = quad_context(up, up_right);
-                coded += (mask != 0) as usize;
-                any_exception |= EXCEPTIONS_IN[sym as usize];
+            for (q, sym) in row_symbols.iter_mut().enumerate() {
+                let c = &codes[QUAD * q..QUAD * q + QUAD];
+                *sym = c[0] | c[1] << 2 | c[2] << 4 | c[3] << 6;
             }
-            // Exceptions are a few per cent of pixels: a pass of their own, so that
-            // pushing them does not weigh on the loop above.
-            if any_exception != 0 {
-                for (q, &quad) in quads[..n_quads].iter().enumerate() {
-                    if EXCEPTIONS_IN[quad as usize] == 0 {
-                        continue;
-                    }
-                    for x in q * QUAD..(q + 1) * QUAD {
-                        if codes[x] == EXCEPTION {
-                            let e = zigzag(levels[x + 1] as i32 - levels[x] as i32) - FIRST_EXCEPTION;
-                            if e >= ESCAPE {
-                                exceptions.push(ESCAPE as u8);
-                                put_varint(escapes, e - ESCAPE);
-                            } else {
-                                exceptions.push(e as u8);
-                            }
+            let context_cells = row_contexts.iter_mut().zip(masks.iter());
+            for ((ctx, &mask), (&up, &up_right)) in context_cells.zip(above.iter().zip(&above[1..])) {
+                *ctx = context_or_uncoded(mask, quad_context(up, up_right));
+            }
+            // Exceptions are a few per cent of pixels: their quads are listed without
+            // a branch, then visited.
+            let mut n_exception_quads = 0usize;
+            for (q, &sym) in row_symbols.iter().enumerate() {
+                exception_quads[n_exception_quads] = q;
+                n_exception_quads += (EXCEPTIONS_IN[sym as usize] != 0) as usize;
+            }
+            for &q in &exception_quads[..n_exception_quads] {
+                for x in q * QUAD..(q + 1) * QUAD {
+                    if codes[x] == EXCEPTION {
+                        let e = zigzag(levels[x + 1] as i32 - levels[x] as i32) - FIRST_EXCEPTION;
+                        if e >= ESCAPE {
+                            exceptions.push(ESCAPE as u8);
+                            put_varint(escapes, e - ESCAPE);
+                        } else {
+                            exceptions.push(e as u8);
                         }
                     }
                 }
             }
             row_start = levels[1];
-            std::mem::swap(above, quads);
+            above[..n_quads].copy_from_slice(row_symbols);
         }
-        symbols.truncate(coded);
-        contexts.truncate(coded);
     }
 }
 
@@ -645,19 +665,23 @@ pub struct DepthDecoder {
     side_words: Vec<u16>,
     quad_words: Vec<u16>,
     exception_words: Vec<u16>,
-    /// Level values by index (0 is unused: index 0 never decodes).
+    /// Level values by index; index 0, which no level has, gives 0 (an invalid pixel).
     levels: Box<[u16; 65536]>,
     /// Validity mask of every quad of the image, row by row.
     masks: Vec<u8>,
-    /// Quad symbols of the row above and the current row (0 for quads with no valid
-    /// pixel), plus a zero past the end.
-    quad_rows: [Vec<u8>; 2],
-    /// One row's contexts and decoded symbols (coded quads only).
+    /// Invalid pixels per row.
+    invalid: Vec<usize>,
+    /// Per quad of the row above: activity class times 2, and whether it is not all
+    /// zero (plus a zero past the row's end).
+    above: [Vec<u8>; 2],
+    /// One row's contexts and quad symbols.
     contexts: Vec<u8>,
-    decoded: Vec<u8>,
+    quads: Vec<u8>,
     exceptions: Vec<u8>,
     /// Residuals of the exceptions, in pixel order.
     residuals: Vec<i32>,
+    /// One row's level indices, padded to whole quads (0 for invalid pixels).
+    indices: Vec<u16>,
     tables: rans::Tables,
 }
 
@@ -684,13 +708,23 @@ impl DepthDecoder {
             exception_words: Vec::new(),
             levels: vec![0u16; 65536].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!()),
             masks: Vec::new(),
-            quad_rows: [Vec::new(), Vec::new()],
+            invalid: Vec::new(),
+            above: [Vec::new(), Vec::new()],
             contexts: Vec::new(),
-            decoded: Vec::new(),
+            quads: Vec::new(),
             exceptions: Vec::new(),
             residuals: Vec::new(),
-            tables: rans::Tables::new(),
+            indices: Vec::new(),
+            tables: DepthDecoder::tables(),
         }
+    }
+
+    /// Decoding tables with the uncoded quads' model in place: the frame's models
+    /// never overwrite it.
+    fn tables() -> rans::Tables {
+        let mut tables = rans::Tables::new();
+        tables.fill(UNCODED as usize, &rans::Model::from_counts(&CERTAIN_ZERO));
+        tables
     }
 
     /// Unpacks a payload into `out` (resized to width x height).
@@ -728,7 +762,7 @@ impl DepthDecoder {
     fn decode_packed(&mut self, data: &[u8], width: usize, out: &mut [u16]) -> Result<(), CodecError> {
         let mut cur = Cursor::new(data);
         if cur.byte() != Some(FORMAT_TAG) {
-            return Err(corrupt("unknown format tag (not a version 2 payload)"));
+            return Err(corrupt("unknown format tag (not a version 3 payload)"));
         }
         let side_len = cur.varint().ok_or_else(|| corrupt("truncated side length"))? as usize;
         // Every pixel costs at most a run byte and a 5-byte escape; more is forged.
@@ -794,17 +828,21 @@ impl DepthDecoder {
         let n_quads = width.div_ceil(QUAD);
         self.masks.clear();
         self.masks.resize(n_quads * height, 0);
+        self.invalid.clear();
+        self.invalid.resize(height, 0);
         let mut run = || -> Result<usize, CodecError> {
             side.varint().map(|r| r as usize).ok_or_else(|| corrupt("truncated validity runs"))
         };
-        for masks in self.masks.chunks_exact_mut(n_quads) {
+        for (masks, invalid) in self.masks.chunks_exact_mut(n_quads).zip(&mut self.invalid) {
             let mut x = 0usize;
+            let mut valid = 0usize;
             loop {
                 let end = x + run()?;
                 if end > width {
                     return Err(corrupt("validity runs overflow the row"));
                 }
                 mark_valid(masks, x, end);
+                valid += end - x;
                 x = end;
                 if x == width {
                     break;
@@ -817,6 +855,7 @@ impl DepthDecoder {
                     break;
                 }
             }
+            *invalid = width - valid;
         }
         Ok(())
     }
@@ -860,88 +899,66 @@ impl DepthDecoder {
         }
         let n_quads = width.div_ceil(QUAD);
         let DepthDecoder {
-            quad_words,
-            masks,
-            contexts,
-            decoded,
-            tables,
-            levels,
-            residuals,
-            quad_rows: [above_quads, quads],
-            ..
+            quad_words, masks, invalid, contexts, above, quads, tables, levels, residuals, indices, ..
         } = self;
-        for buf in [&mut *above_quads, &mut *quads] {
-            buf.clear();
-            buf.resize(n_quads + 1, 0);
-        }
+        // Per quad of the row above: its activity class times 2 and whether it is
+        // not all zero (one more, zero, past the row's end), from which the contexts
+        // are sums.
+        let [activities, nonzero] = above;
+        activities.clear();
+        activities.resize(n_quads, 0);
+        nonzero.clear();
+        nonzero.resize(n_quads + 1, 0);
+        contexts.clear();
+        contexts.resize(n_quads, 0);
+        quads.clear();
+        quads.resize(n_quads, 0);
+        indices.clear();
+        indices.resize(n_quads * QUAD, 0);
         let mut dec = rans::Decoder::new(quad_words).map_err(|_| corrupt("quad stream too short"))?;
         let levels: &[u16; 65536] = levels;
-        let mut residuals = residuals.iter();
-        // Out-of-range levels, codes on invalid pixels, missing exceptions.
-        let mut bad = false;
-        // Sign bit set when a fast-path quad leaves 1..=n_levels.
-        let mut below = 0i32;
-        let n_levels_i32 = n_levels as i32;
+        let mut pending = &residuals[..];
+        // Sign bit set when a level leaves 1..=n_levels or an exception is missing.
+        let mut status = 0i32;
+        // Code bits on invalid pixels.
+        let mut codes_on_invalid = 0u8;
+        let n_levels_u16 = n_levels as u16;
         let mut row_start = 1i32;
-        for (out_row, row_masks) in out.chunks_exact_mut(width).zip(masks.chunks_exact(n_quads)) {
+        let rows = out.chunks_exact_mut(width).zip(masks.chunks_exact(n_quads)).zip(invalid.iter());
+        for ((out_row, row_masks), &row_invalid) in rows {
             // Contexts depend on the row above only, so a row's symbols decode in one
-            // batch with the rANS lanes overlapping.
-            contexts.clear();
-            let above_pairs = above_quads.iter().zip(&above_quads[1..]);
-            for (&mask, (&up, &up_right)) in row_masks.iter().zip(above_pairs) {
-                if mask != 0 {
-                    contexts.push(quad_context(up, up_right));
-                }
+            // batch with the rANS lanes overlapping. The passes around it are byte
+            // arithmetic with nothing chained from quad to quad: vectorised.
+            let contexts_in = contexts.iter_mut().zip(row_masks).zip(activities.iter().zip(&nonzero[1..]));
+            for ((ctx, &mask), (&act, &right)) in contexts_in {
+                *ctx = context_or_uncoded(mask, act + right);
             }
-            decoded.clear();
-            decoded.resize(contexts.len(), 0);
-            dec.symbols(tables, contexts, decoded);
-            let mut next = decoded.iter().copied();
-            let mut take = |mask: u8| if mask != 0 { next.next().unwrap_or(0) } else { 0 };
-
-            // The first quad pixel by pixel: its first level predicts the next row's.
-            let (head, rest) = out_row.split_at_mut(QUAD.min(width));
-            let (sym, mask) = (take(row_masks[0]), row_masks[0]);
-            quads[0] = sym;
-            let first = Quad { sym, mask }.decode(row_start, head, &mut residuals, levels, n_levels, &mut bad);
-            let mut left = first.1;
-            row_start = first.0;
-            let mut out_quads = rest.chunks_exact_mut(QUAD);
-            let cells = (&mut out_quads).zip(quads[1..].iter_mut().zip(&row_masks[1..]));
-            for (out_q, (quad, &mask)) in cells {
-                let sym = take(mask);
-                *quad = sym;
-                if mask == FAST_MASK[sym as usize] {
-                    // The common case: four valid pixels, residuals in -1..=1. Each level
-                    // is the left one plus a tabled running sum, so the chain from quad
-                    // to quad is one addition.
-                    let sums = &RUNNING_SUM[sym as usize];
-                    let (lo, hi) = SUM_RANGE[sym as usize];
-                    below |= left.wrapping_add(lo).wrapping_sub(1) | n_levels_i32.wrapping_sub(left.wrapping_add(hi));
-                    for i in 0..QUAD {
-                        out_q[i] = levels[left.wrapping_add(sums[i]) as usize & 0xffff];
-                    }
-                    left = left.wrapping_add(sums[QUAD - 1]);
-                } else if mask == 0 {
-                    out_q.fill(0);
-                } else {
-                    left = Quad { sym, mask }.decode(left, out_q, &mut residuals, levels, n_levels, &mut bad).1;
-                }
+            dec.symbols(tables, contexts, quads);
+            let above_out = activities.iter_mut().zip(nonzero.iter_mut());
+            for ((&sym, &mask), (act, nz)) in quads.iter().zip(row_masks).zip(above_out) {
+                codes_on_invalid |= sym & !valid_code_bits(mask);
+                *act = activity(sym) * 2;
+                *nz = (sym != 0) as u8;
             }
-            let tail = out_quads.into_remainder();
-            if !tail.is_empty() {
-                let q = n_quads - 1;
-                let (sym, mask) = (take(row_masks[q]), row_masks[q]);
-                quads[q] = sym;
-                Quad { sym, mask }.decode(left, tail, &mut residuals, levels, n_levels, &mut bad);
+            let first;
+            (first, status) = row_levels(quads, row_masks, row_start, &mut pending, n_levels, indices, status);
+            row_start = first;
+            // A valid pixel's level is in 1..=n_levels (the quads with exceptions have
+            // checked theirs), an invalid pixel's index is 0: every index is at most
+            // n_levels and the row has as many zeros as invalid pixels.
+            let row_indices = &indices[..width];
+            let highest = row_indices.iter().copied().max().unwrap_or(0);
+            let zeros: u32 = row_indices.iter().map(|&i| (i == 0) as u32).sum();
+            status |= -((highest > n_levels_u16 || zeros as usize != row_invalid) as i32);
+            for (o, &i) in out_row.iter_mut().zip(row_indices) {
+                *o = levels[i as usize];
             }
-            std::mem::swap(above_quads, quads);
         }
         dec.finish().map_err(|_| corrupt("quad stream does not decode"))?;
-        if bad || below < 0 {
+        if status < 0 || codes_on_invalid != 0 {
             return Err(corrupt("level index out of range or codes on invalid pixels"));
         }
-        if residuals.next().is_some() {
+        if !pending.is_empty() {
             return Err(corrupt("unused exceptions"));
         }
         Ok(())
@@ -975,56 +992,91 @@ fn read_models(side: &mut Cursor) -> Result<Models, CodecError> {
     Ok(Models { quads, exceptions })
 }
 
-/// A quad decoded pixel by pixel: one that is partly valid, holds exceptions, starts
-/// a row or is cut by the row's end.
-struct Quad {
-    sym: u8,
-    mask: u8,
+/// Undoes the prediction for one row: fills `indices` (whole quads) with each pixel's
+/// level index, 0 for invalid pixels, from the quads' symbols and validity masks, the
+/// level predicting the first pixel and the exceptions' residuals (advanced past the
+/// row's). Returns the first pixel's level, which predicts the next row's, and
+/// `status` with its sign bit set if a quad with exceptions has a valid pixel out of
+/// `1..=n_levels` or misses an exception. The other quads' levels are the caller's to
+/// check: each is the left one plus at most 1 either way, so the first out of range is
+/// 0 or `n_levels + 1`, whatever came before.
+fn row_levels(
+    quads: &[u8],
+    masks: &[u8],
+    row_start: i32,
+    pending: &mut &[i32],
+    n_levels: u32,
+    indices: &mut [u16],
+    mut status: i32,
+) -> (i32, i32) {
+    let mut left = row_start;
+    let mut quad = |sym: u8, mask: u8, left: i32, idx: &mut [u16]| -> (i32, i32) {
+        if EXCEPTIONS_IN[sym as usize] != 0 {
+            let (head, last, quad_status) = exception_quad(sym, mask, left, pending, n_levels, idx);
+            status |= quad_status;
+            return (head, last);
+        }
+        // Each level is the left one plus a tabled running sum, so the chain from quad
+        // to quad is one addition; an invalid pixel has code 0 and carries the level
+        // left of it.
+        let (sums, keep) = (&WRAPPING_SUM[sym as usize], &KEEP[mask as usize & 15]);
+        for i in 0..QUAD {
+            idx[i] = (left as u16).wrapping_add(sums[i]) & keep[i];
+        }
+        (left.wrapping_add(RUNNING_SUM[sym as usize][0]), left.wrapping_add(RUNNING_SUM[sym as usize][QUAD - 1]))
+    };
+    let mut cells = quads.iter().zip(masks).zip(indices.chunks_exact_mut(QUAD));
+    let Some(((&sym, &mask), idx)) = cells.next() else {
+        return (row_start, status);
+    };
+    let first;
+    (first, left) = quad(sym, mask, left, idx);
+    for ((&sym, &mask), idx) in cells {
+        left = quad(sym, mask, left, idx).1;
+    }
+    (first, status)
 }
 
-impl Quad {
-    /// Decodes the quad into `out_q` (shorter than a quad at the row's end) from the
-    /// level left of it; returns its first and last levels (an invalid pixel carries
-    /// the level left of it). Sets `bad` on a code at an invalid pixel, a missing
-    /// exception or a level out of `1..=n_levels`.
-    #[inline]
-    fn decode(
-        self,
-        mut left: i32,
-        out_q: &mut [u16],
-        residuals: &mut std::slice::Iter<i32>,
-        levels: &[u16; 65536],
-        n_levels: u32,
-        bad: &mut bool,
-    ) -> (i32, i32) {
-        let Quad { sym, mask } = self;
-        *bad |= sym & INVALID_CODE_BITS[mask as usize & 15] != 0;
-        let mut first = left;
-        // Selects rather than branches: validity and codes are noise to a predictor.
-        let pending = residuals.as_slice();
-        let mut used = 0usize;
-        for (i, o) in out_q.iter_mut().enumerate() {
-            let valid = (mask >> i) & 1 != 0;
-            let code = (sym >> (2 * i)) & 3;
-            let exception = code == EXCEPTION;
-            let e = pending.get(used).copied();
-            *bad |= exception && e.is_none();
-            used += exception as usize;
-            let r = if exception { e.unwrap_or(0) } else { CODE_RESIDUAL[code as usize] };
-            let level = left.wrapping_add(r);
-            *bad |= valid && (level as u32).wrapping_sub(1) >= n_levels;
-            let value = levels[level as usize & 0xffff];
-            *o = if valid { value } else { 0 };
-            left = if valid { level } else { left };
-            if i == 0 {
-                first = left;
-            }
+/// Undoes the prediction for a quad holding exceptions, taking their residuals from
+/// `pending`; returns its first and last levels (an invalid pixel carries the level
+/// left of it) and a status whose sign bit is set on a missing exception or a valid
+/// pixel's level out of `1..=n_levels`. Not inlined: a tenth of quads at most come
+/// here, and inlined it would crowd the common path's registers.
+#[inline(never)]
+fn exception_quad(
+    sym: u8,
+    mask: u8,
+    left: i32,
+    pending: &mut &[i32],
+    n_levels: u32,
+    idx: &mut [u16],
+) -> (i32, i32, i32) {
+    let mut status = 0i32;
+    let taken = match pending.split_at_checked(EXCEPTIONS_IN[sym as usize] as usize) {
+        Some((taken, rest)) => {
+            *pending = rest;
+            taken
         }
-        if used > 0 {
-            residuals.nth(used - 1);
+        None => {
+            status = -1;
+            &[]
         }
-        (first, left)
+    };
+    // Pixel i's level adds to the running sum of the quad's other codes those of its
+    // exceptions up to i: a prefix of theirs.
+    let mut prefix = [0i32; 2 * QUAD];
+    for (k, &r) in taken.iter().enumerate().take(QUAD) {
+        prefix[k + 1] = prefix[k].wrapping_add(r);
     }
+    let (sums, upto, keep) = (&RUNNING_SUM[sym as usize], &EXCEPTIONS_UPTO[sym as usize], &KEEP[mask as usize & 15]);
+    let mut levels = [0i32; QUAD];
+    for (i, (level, o)) in levels.iter_mut().zip(idx.iter_mut()).enumerate() {
+        *level = left.wrapping_add(sums[i]).wrapping_add(prefix[upto[i] as usize & (2 * QUAD - 1)]);
+        let valid = (mask >> i) & 1 != 0;
+        status |= -((valid & ((*level as u32).wrapping_sub(1) >= n_levels)) as i32);
+        *o = *level as u16 & keep[i];
+    }
+    (levels[0], levels[QUAD - 1], status)
 }
 
 thread_local! {
@@ -1309,14 +1361,20 @@ mod tests {
     }
 
     #[test]
-    fn version_1_payloads_are_refused_as_an_unknown_format() {
+    fn version_1_and_2_payloads_are_refused_as_an_unknown_format() {
         let mut back = Vec::new();
-        // The tag of the per-pixel MED format that version 2 replaced.
-        let old = [0xD1, 3, 1, 2, 0, 0];
-        assert_eq!(
-            decode(&old, 2, 2, DepthEncoding::Lossless, &mut back),
-            Err(CodecError::Corrupt("unknown format tag (not a version 2 payload)".to_string()))
-        );
+        // Version 2's tag on a payload of this version (whose rANS lanes it would
+        // take in another order), and the tag of the per-pixel MED format, version 1.
+        let samples = [1000, 1001, 0, 0];
+        let mut packed = Vec::new();
+        encode(&samples, 2, 2, DepthEncoding::Lossless, &mut packed).unwrap();
+        for tag in [0xD2, 0xD1] {
+            packed[0] = tag;
+            assert_eq!(
+                decode(&packed, 2, 2, DepthEncoding::Lossless, &mut back),
+                Err(CodecError::Corrupt("unknown format tag (not a version 3 payload)".to_string()))
+            );
+        }
     }
 
     #[test]

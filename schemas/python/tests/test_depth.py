@@ -73,11 +73,14 @@ def test_wrong_sizes_and_zero_step_are_refused():
     with pytest.raises(DepthCodecError):
         decode_depth("Raw", bytes(6), 2, 2)
     with pytest.raises(DepthCodecError):
-        decode_depth({"Bounded": {"step": 0}}, bytes([0xD2]), 0, 0)
+        decode_depth({"Bounded": {"step": 0}}, bytes([0xD3]), 0, 0)
     with pytest.raises(DepthCodecError):
-        decode_depth("Lossless", bytes([0xD2]), 1 << 16, 1 << 16)
+        decode_depth("Lossless", bytes([0xD3]), 1 << 16, 1 << 16)
 
 
-def test_version_1_payloads_are_refused_as_an_unknown_format():
+def test_version_1_and_2_payloads_are_refused_as_an_unknown_format():
     with pytest.raises(DepthCodecError, match="unknown format"):
         decode_depth("Lossless", bytes([0xD1, 3, 1, 2, 0, 0]), 2, 2)
+    data, want = case(VECTORS / "lossless_scene.bin")
+    with pytest.raises(DepthCodecError, match="unknown format"):
+        decode_depth(want["encoding"], bytes([0xD2]) + data[1:], want["width"], want["height"])

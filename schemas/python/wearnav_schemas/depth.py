@@ -6,22 +6,24 @@
     ((480, 640), dtype('uint16'))
 
 Mirrors the Rust decoder step for step (see the format notes at the top of
-``depth_codec.rs``, format version 2): a rANS side stream (level values, per-row
+``depth_codec.rs``, format version 3): a rANS side stream (level values, per-row
 validity runs, models, escapes), rANS exceptions, then rANS quad symbols (four 2-bit
-residual codes) under 8 contexts from the row above, undone by left prediction on
-level indices. Pure Python, so a 640x480 frame takes a few tenths of a second: fine for
-monitors and tests, not for 30 Hz.
+residual codes) under 8 contexts from the row above (a ninth, whose only symbol is 0,
+for quads with no valid pixel), undone by left prediction on level indices. Pure
+Python, so a 640x480 frame takes a few tenths of a second: fine for monitors and
+tests, not for 30 Hz.
 """
 
 import numpy as np
 
-FORMAT_TAG = 0xD2
+FORMAT_TAG = 0xD3
 PROB_BITS = 12
 PROB_SCALE = 1 << PROB_BITS
 SLOT_MASK = PROB_SCALE - 1
 STATE_LOW = 1 << 16
 LANES = 4
 CONTEXTS = 8
+UNCODED = CONTEXTS
 QUAD = 4
 EXCEPTION = 3
 ESCAPE = 255
@@ -88,12 +90,20 @@ def _read_table(cur, what):
     freqs = [cur.varint(what) for _ in range(used)]
     if any(f > PROB_SCALE for f in freqs) or sum(freqs) not in (0, PROB_SCALE):
         raise DepthCodecError(f"bad {what}")
+    return _table(freqs)
+
+
+def _table(freqs):
     if sum(freqs) == 0:
         return [0] * PROB_SCALE
     table = []
     for sym, f in enumerate(freqs):
         table.extend(sym | ((f - 1) << 8) | (off << 20) for off in range(f))
     return table
+
+
+# The uncoded quads' model: symbol 0 in every slot, so it costs no bits.
+UNCODED_TABLE = _table([PROB_SCALE])
 
 
 class _Rans:
@@ -154,7 +164,7 @@ def _unpack(data, width, height):
         return np.zeros((height, width), dtype=np.uint16)
     cur = _Cursor(data)
     if cur.byte() != FORMAT_TAG:
-        raise DepthCodecError("unknown format tag (not a version 2 payload)")
+        raise DepthCodecError("unknown format tag (not a version 3 payload)")
     side_len = cur.varint("side length")
     if side_len > 8 * n + (1 << 20):
         raise DepthCodecError("side stream longer than any image needs")
@@ -181,7 +191,7 @@ def _unpack(data, width, height):
             raise DepthCodecError("levels not strictly increasing in 1..=65535")
         levels.append(value)
     validity = _read_runs(sc, width, height)
-    quad_tables = [_read_table(sc, "quad model") for _ in range(CONTEXTS)]
+    quad_tables = [_read_table(sc, "quad model") for _ in range(CONTEXTS)] + [UNCODED_TABLE]
     exception_table = _read_table(sc, "exception model")
     n_exceptions = sc.varint("exception count")
     if n_exceptions > n:
@@ -210,7 +220,9 @@ def _unpack(data, width, height):
         for q in range(n_quads):
             if any(valid[q * QUAD:(q + 1) * QUAD]):
                 ctx = ACTIVITY[above[q]] * 2 + (1 if above[q + 1] else 0)
-                quads[q] = dec.symbol(quad_tables[ctx])
+            else:
+                ctx = UNCODED
+            quads[q] = dec.symbol(quad_tables[ctx])
         left = row_start
         out_row = [0] * width
         for x in range(n_quads * QUAD):

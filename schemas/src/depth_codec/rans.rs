@@ -152,12 +152,16 @@ pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec
     words.resize(symbols.len() + 2 * LANES, 0);
     let mut n = 0usize;
     let mut states = [STATE_LOW; LANES];
-    let limit = (STATE_LOW >> PROB_BITS) << 16;
+    // Per context, its symbols' slots: a lookup with no bounds check.
+    let by_context: [&[EncodeSlot; 256]; MAX_CONTEXTS] =
+        std::array::from_fn(|c| &models[c.min(models.len().saturating_sub(1))].encoding);
     let mut put = |x: u32, s: u8, c: u8| -> u32 {
-        let e = models[c as usize].encoding[s as usize];
+        let e = by_context[c as usize & (MAX_CONTEXTS - 1)][s as usize];
         let f = e.freq;
         debug_assert!(f > 0, "symbol {s} not in model {c}");
-        let spill = x as u64 >= limit as u64 * f as u64;
+        // Whether `x >= ((STATE_LOW >> PROB_BITS) << 16) * f`: that bound is
+        // `f << (32 - PROB_BITS)`.
+        let spill = x >> (32 - PROB_BITS) >= f;
         words[n] = x as u16;
         n += spill as usize;
         // Never 0: a state at least `STATE_LOW` keeps at least 16 after a spill.
@@ -191,39 +195,46 @@ pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec
 pub const LANES: usize = 4;
 
 /// Number of models a [`Tables`] holds.
-pub const MAX_CONTEXTS: usize = 8;
+pub const MAX_CONTEXTS: usize = 16;
+/// Every 16-bit slot index is in the tables, so a lookup needs no bounds check.
 const TABLE_LEN: usize = MAX_CONTEXTS << PROB_BITS;
+const _: () = assert!(TABLE_LEN == 1 << 16);
 
-/// Decoding tables of up to [`MAX_CONTEXTS`] models: per context and slot, the symbol,
-/// its frequency minus one and the slot's offset in the symbol's range, packed
-/// `sym | (freq-1) << 8 | off << (8 + PROB_BITS)`.
+/// Decoding tables of up to [`MAX_CONTEXTS`] models, per context and slot: the symbol,
+/// and its frequency and the slot's offset in the symbol's range packed
+/// `freq | off << 16`. Apart, so that a step reads each field with a plain load instead
+/// of unpacking it from one word.
 #[derive(Debug, Clone)]
 pub struct Tables {
-    entries: Box<[u32; TABLE_LEN]>,
+    steps: Box<[u32; TABLE_LEN]>,
+    symbols: Box<[u8; TABLE_LEN]>,
 }
 
 impl Tables {
     /// Tables with every context empty.
     pub fn new() -> Tables {
-        let entries = vec![0u32; TABLE_LEN].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!());
-        Tables { entries }
+        let steps = vec![1u32; TABLE_LEN].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!());
+        let symbols = vec![0u8; TABLE_LEN].into_boxed_slice().try_into().unwrap_or_else(|_| unreachable!());
+        Tables { steps, symbols }
     }
 
     /// Rebuilds context `ctx`'s table from `model`. An empty model's slots decode to
     /// symbol 0 with a frequency of 1, which shrinks the state until [`Decoder::finish`]
     /// refuses the stream.
     pub fn fill(&mut self, ctx: usize, model: &Model) {
-        let base = ctx << PROB_BITS;
-        let table = &mut self.entries[base..base + PROB_SCALE as usize];
+        let range = ctx << PROB_BITS..(ctx + 1) << PROB_BITS;
+        let (steps, symbols) = (&mut self.steps[range.clone()], &mut self.symbols[range]);
         if model.is_empty() {
-            table.iter_mut().for_each(|e| *e = 0);
+            steps.fill(1);
+            symbols.fill(0);
             return;
         }
         let mut slot = 0usize;
         for s in 0..256usize {
             let f = model.freq[s] as u32;
             for off in 0..f {
-                table[slot] = s as u32 | ((f - 1) << 8) | (off << (8 + PROB_BITS));
+                steps[slot] = f | off << 16;
+                symbols[slot] = s as u8;
                 slot += 1;
             }
         }
@@ -255,23 +266,31 @@ impl<'a> Decoder<'a> {
     /// live in registers for the whole batch, so each lane's lookup chain overlaps the
     /// others' instead of passing through memory.
     pub fn symbols(&mut self, tables: &Tables, contexts: &[u8], out: &mut [u8]) {
+        if self.pos + contexts.len() <= self.words.len() {
+            // A symbol takes at most one word: the batch stays within the stream.
+            self.batch(tables, contexts, out, |words, pos| words[pos] as u32);
+        } else {
+            // Past the end reads zeros; `finish` then sees `pos` beyond the stream.
+            self.batch(tables, contexts, out, |words, pos| words.get(pos).map_or(0, |&w| w as u32));
+        }
+    }
+
+    #[inline(always)]
+    fn batch(&mut self, tables: &Tables, contexts: &[u8], out: &mut [u8], word_at: impl Fn(&[u16], usize) -> u32) {
         let words = self.words;
-        // `new` saw at least the state words, so `last` is an index.
-        let last = words.len() - 1;
+        let (steps, symbols) = (&*tables.steps, &*tables.symbols);
         let mut pos = self.pos;
         let mut lanes = self.lanes;
         let mut step = |x: u32, ctx: u8| -> (u32, u8) {
-            let e = tables.entries[((ctx as usize) << PROB_BITS | (x & SLOT_MASK) as usize) & (TABLE_LEN - 1)];
-            let f = ((e >> 8) & SLOT_MASK) + 1;
-            let next = f * (x >> PROB_BITS) + (e >> (8 + PROB_BITS));
-            // Selects, not a branch: whether a lane needs a word is a coin toss the
-            // predictor loses. Past the end reads zeros; `finish` then sees `pos` beyond
-            // the stream.
+            let slot = ((ctx as u32) << PROB_BITS | (x & SLOT_MASK)) as u16 as usize;
+            let e = steps[slot];
+            let next = (e & 0xffff) * (x >> PROB_BITS) + (e >> 16);
+            // A select, not a branch, for whether the lane takes a word: a coin toss
+            // the predictor loses.
             let renorm = next < STATE_LOW;
-            let word = words[pos.min(last)] as u32 & ((pos <= last) as u32).wrapping_neg();
-            let refilled = next << 16 | word;
+            let word = word_at(words, pos);
             pos += renorm as usize;
-            (if renorm { refilled } else { next }, e as u8)
+            (if renorm { next << 16 | word } else { next }, symbols[slot])
         };
         let mut ctx_chunks = contexts.chunks_exact(LANES);
         let mut out_chunks = out.chunks_exact_mut(LANES);
