@@ -563,10 +563,8 @@ impl DepthEncoder {
                 // Index 0 is never a level: invalid pixels get 0 here.
                 *lv = level_of[s as usize];
             }
-            // Indexed rather than by chunks, which the compiler does not vectorise.
-            for q in 0..n_quads {
-                let px = &padded[QUAD * q..QUAD * q + QUAD];
-                masks[q] = (px[0] != 0) as u8
+            for (mask, px) in masks.iter_mut().zip(padded.as_chunks::<QUAD>().0) {
+                *mask = (px[0] != 0) as u8
                     | ((px[1] != 0) as u8) << 1
                     | ((px[2] != 0) as u8) << 2
                     | ((px[3] != 0) as u8) << 3;
@@ -581,9 +579,10 @@ impl DepthEncoder {
                 let d = level.wrapping_sub(left);
                 *code = (d == 1) as u8 | ((d == u16::MAX) as u8) << 1 | ((d.wrapping_add(1) > 2) as u8 * EXCEPTION);
             }
-            for (q, sym) in row_symbols.iter_mut().enumerate() {
-                let c = &codes[QUAD * q..QUAD * q + QUAD];
-                *sym = c[0] | c[1] << 2 | c[2] << 4 | c[3] << 6;
+            for (sym, c) in row_symbols.iter_mut().zip(codes.as_chunks::<QUAD>().0) {
+                // Code i (< 4) moves from bit 8i to bit 2i.
+                let w = u32::from_le_bytes(*c);
+                *sym = (w | w >> 6 | w >> 12 | w >> 18) as u8;
             }
             let context_cells = row_contexts.iter_mut().zip(masks.iter());
             for ((ctx, &mask), (&up, &up_right)) in context_cells.zip(above.iter().zip(&above[1..])) {
@@ -620,7 +619,7 @@ impl DepthEncoder {
 fn carry_over_holes(levels: &mut [u16], masks: &[u8]) {
     let (start, pixels) = levels.split_at_mut(1);
     let mut left = start[0];
-    for (&mask, lv) in masks.iter().zip(pixels.chunks_exact_mut(QUAD)) {
+    for (&mask, lv) in masks.iter().zip(pixels.as_chunks_mut::<QUAD>().0) {
         if mask == ALL_VALID {
             left = lv[QUAD - 1];
         } else if mask == 0 {
@@ -661,7 +660,6 @@ fn write_runs(side: &mut Vec<u8>, masks: &[u8], width: usize) {
 #[derive(Debug, Clone)]
 pub struct DepthDecoder {
     side: Vec<u8>,
-    zeros: Vec<u8>,
     side_words: Vec<u16>,
     quad_words: Vec<u16>,
     exception_words: Vec<u16>,
@@ -674,8 +672,7 @@ pub struct DepthDecoder {
     /// Per quad of the row above: activity class times 2, and whether it is not all
     /// zero (plus a zero past the row's end).
     above: [Vec<u8>; 2],
-    /// One row's contexts and quad symbols.
-    contexts: Vec<u8>,
+    /// One row's quad contexts, which decode into its quad symbols in place.
     quads: Vec<u8>,
     exceptions: Vec<u8>,
     /// Residuals of the exceptions, in pixel order.
@@ -702,7 +699,6 @@ impl DepthDecoder {
     pub fn new() -> DepthDecoder {
         DepthDecoder {
             side: Vec::new(),
-            zeros: Vec::new(),
             side_words: Vec::new(),
             quad_words: Vec::new(),
             exception_words: Vec::new(),
@@ -710,7 +706,6 @@ impl DepthDecoder {
             masks: Vec::new(),
             invalid: Vec::new(),
             above: [Vec::new(), Vec::new()],
-            contexts: Vec::new(),
             quads: Vec::new(),
             exceptions: Vec::new(),
             residuals: Vec::new(),
@@ -781,9 +776,10 @@ impl DepthDecoder {
 
         self.tables.fill(0, &side_model);
         let mut dec = rans::Decoder::new(&self.side_words).map_err(|_| corrupt("side stream too short"))?;
+        // Context 0 for every byte, decoded in place.
         self.side.clear();
         self.side.resize(side_len, 0);
-        dec.symbols(&self.tables, zeros(&mut self.zeros, side_len), &mut self.side);
+        dec.symbols(&self.tables, &mut self.side);
         dec.finish().map_err(|_| corrupt("side stream does not decode"))?;
 
         let side = std::mem::take(&mut self.side);
@@ -871,7 +867,7 @@ impl DepthDecoder {
         let mut dec = rans::Decoder::new(&self.exception_words).map_err(|_| corrupt("exception stream too short"))?;
         self.exceptions.clear();
         self.exceptions.resize(n_exceptions, 0);
-        dec.symbols(&self.tables, zeros(&mut self.zeros, n_exceptions), &mut self.exceptions);
+        dec.symbols(&self.tables, &mut self.exceptions);
         dec.finish().map_err(|_| corrupt("exception stream does not decode"))?;
         self.residuals.clear();
         for &e in &self.exceptions {
@@ -898,9 +894,7 @@ impl DepthDecoder {
             self.tables.fill(ctx, m);
         }
         let n_quads = width.div_ceil(QUAD);
-        let DepthDecoder {
-            quad_words, masks, invalid, contexts, above, quads, tables, levels, residuals, indices, ..
-        } = self;
+        let DepthDecoder { quad_words, masks, invalid, above, quads, tables, levels, residuals, indices, .. } = self;
         // Per quad of the row above: its activity class times 2 and whether it is
         // not all zero (one more, zero, past the row's end), from which the contexts
         // are sums.
@@ -909,8 +903,6 @@ impl DepthDecoder {
         activities.resize(n_quads, 0);
         nonzero.clear();
         nonzero.resize(n_quads + 1, 0);
-        contexts.clear();
-        contexts.resize(n_quads, 0);
         quads.clear();
         quads.resize(n_quads, 0);
         indices.clear();
@@ -929,20 +921,20 @@ impl DepthDecoder {
             // Contexts depend on the row above only, so a row's symbols decode in one
             // batch with the rANS lanes overlapping. The passes around it are byte
             // arithmetic with nothing chained from quad to quad: vectorised.
-            let contexts_in = contexts.iter_mut().zip(row_masks).zip(activities.iter().zip(&nonzero[1..]));
-            for ((ctx, &mask), (&act, &right)) in contexts_in {
+            let contexts = quads.iter_mut().zip(row_masks).zip(activities.iter().zip(&nonzero[1..]));
+            for ((ctx, &mask), (&act, &right)) in contexts {
                 *ctx = context_or_uncoded(mask, act + right);
             }
-            dec.symbols(tables, contexts, quads);
+            dec.symbols(tables, quads);
             let above_out = activities.iter_mut().zip(nonzero.iter_mut());
             for ((&sym, &mask), (act, nz)) in quads.iter().zip(row_masks).zip(above_out) {
                 codes_on_invalid |= sym & !valid_code_bits(mask);
                 *act = activity(sym) * 2;
                 *nz = (sym != 0) as u8;
             }
-            let first;
-            (first, status) = row_levels(quads, row_masks, row_start, &mut pending, n_levels, indices, status);
+            let (first, row_status) = row_levels(quads, row_masks, row_start, &mut pending, n_levels, indices);
             row_start = first;
+            status |= row_status;
             // A valid pixel's level is in 1..=n_levels (the quads with exceptions have
             // checked theirs), an invalid pixel's index is 0: every index is at most
             // n_levels and the row has as many zeros as invalid pixels.
@@ -995,8 +987,8 @@ fn read_models(side: &mut Cursor) -> Result<Models, CodecError> {
 /// Undoes the prediction for one row: fills `indices` (whole quads) with each pixel's
 /// level index, 0 for invalid pixels, from the quads' symbols and validity masks, the
 /// level predicting the first pixel and the exceptions' residuals (advanced past the
-/// row's). Returns the first pixel's level, which predicts the next row's, and
-/// `status` with its sign bit set if a quad with exceptions has a valid pixel out of
+/// row's). Returns the first pixel's level, which predicts the next row's, and a
+/// status whose sign bit is set if a quad with exceptions has a valid pixel out of
 /// `1..=n_levels` or misses an exception. The other quads' levels are the caller's to
 /// check: each is the left one plus at most 1 either way, so the first out of range is
 /// 0 or `n_levels + 1`, whatever came before.
@@ -1007,10 +999,9 @@ fn row_levels(
     pending: &mut &[i32],
     n_levels: u32,
     indices: &mut [u16],
-    mut status: i32,
 ) -> (i32, i32) {
-    let mut left = row_start;
-    let mut quad = |sym: u8, mask: u8, left: i32, idx: &mut [u16]| -> (i32, i32) {
+    let mut status = 0i32;
+    let mut quad = |sym: u8, mask: u8, left: i32, idx: &mut [u16; QUAD]| -> (i32, i32) {
         if EXCEPTIONS_IN[sym as usize] != 0 {
             let (head, last, quad_status) = exception_quad(sym, mask, left, pending, n_levels, idx);
             status |= quad_status;
@@ -1025,12 +1016,11 @@ fn row_levels(
         }
         (left.wrapping_add(RUNNING_SUM[sym as usize][0]), left.wrapping_add(RUNNING_SUM[sym as usize][QUAD - 1]))
     };
-    let mut cells = quads.iter().zip(masks).zip(indices.chunks_exact_mut(QUAD));
+    let mut cells = quads.iter().zip(masks).zip(indices.as_chunks_mut::<QUAD>().0);
     let Some(((&sym, &mask), idx)) = cells.next() else {
         return (row_start, status);
     };
-    let first;
-    (first, left) = quad(sym, mask, left, idx);
+    let (first, mut left) = quad(sym, mask, row_start, idx);
     for ((&sym, &mask), idx) in cells {
         left = quad(sym, mask, left, idx).1;
     }
@@ -1049,34 +1039,26 @@ fn exception_quad(
     left: i32,
     pending: &mut &[i32],
     n_levels: u32,
-    idx: &mut [u16],
+    idx: &mut [u16; QUAD],
 ) -> (i32, i32, i32) {
-    let mut status = 0i32;
-    let taken = match pending.split_at_checked(EXCEPTIONS_IN[sym as usize] as usize) {
-        Some((taken, rest)) => {
-            *pending = rest;
-            taken
-        }
-        None => {
-            status = -1;
-            &[]
-        }
-    };
-    // Pixel i's level adds to the running sum of the quad's other codes those of its
-    // exceptions up to i: a prefix of theirs.
-    let mut prefix = [0i32; 2 * QUAD];
-    for (k, &r) in taken.iter().enumerate().take(QUAD) {
-        prefix[k + 1] = prefix[k].wrapping_add(r);
-    }
+    let n = EXCEPTIONS_IN[sym as usize] as usize;
+    let status = -((pending.len() < n) as i32);
+    // Pixel i's level adds to the running sum of the quad's other codes the residuals
+    // of its exceptions up to i: a prefix of the pending ones (those past the quad's
+    // are read but never used).
+    let r = |k: usize| pending.get(k).copied().unwrap_or(0);
+    let (p1, p2, p3) = (r(0), r(0).wrapping_add(r(1)), r(0).wrapping_add(r(1)).wrapping_add(r(2)));
+    let prefix = [0, p1, p2, p3, p3.wrapping_add(r(3))];
+    *pending = pending.get(n..).unwrap_or(&[]);
     let (sums, upto, keep) = (&RUNNING_SUM[sym as usize], &EXCEPTIONS_UPTO[sym as usize], &KEEP[mask as usize & 15]);
     let mut levels = [0i32; QUAD];
+    let mut out_of_range = false;
     for (i, (level, o)) in levels.iter_mut().zip(idx.iter_mut()).enumerate() {
-        *level = left.wrapping_add(sums[i]).wrapping_add(prefix[upto[i] as usize & (2 * QUAD - 1)]);
-        let valid = (mask >> i) & 1 != 0;
-        status |= -((valid & ((*level as u32).wrapping_sub(1) >= n_levels)) as i32);
+        *level = left.wrapping_add(sums[i]).wrapping_add(prefix[(upto[i] as usize).min(QUAD)]);
+        out_of_range |= (mask >> i) & 1 != 0 && (*level as u32).wrapping_sub(1) >= n_levels;
         *o = *level as u16 & keep[i];
     }
-    (levels[0], levels[QUAD - 1], status)
+    (levels[0], levels[QUAD - 1], status | -(out_of_range as i32))
 }
 
 thread_local! {

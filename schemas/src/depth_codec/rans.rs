@@ -40,22 +40,23 @@ struct EncodeSlot {
     start: u32,
 }
 
-/// `m` with `divide(x, m, f) == x / f` for every `1 <= x < 2^32` and `1 <= f <= 4096`:
-/// `m = floor((2^64 - 1) / f) + 1` overshoots `2^64 / f` by less than `f / 2^64`, so the
-/// product's error stays below `2^-32`, while a non-integer `x / f` lies at least
-/// `1 / f >= 2^-12` below the next integer. For `f = 1` that `m` is `2^64`, one past
-/// u64: `2^64 - 1` gives `x - 1`, which `divide` corrects.
+/// Shift of [`quotient`]'s product.
+const RECIPROCAL_SHIFT: u32 = 32 + PROB_BITS;
+
+/// `m = ceil(2^44 / f)`, with `quotient(x, m) == x / f` for every `1 <= f <= 4096` and
+/// `x < f * 2^20`, the states the encoder divides (it spills a word first otherwise).
+/// `m` exceeds `2^44 / f` by less than 1, so `x * m / 2^44` exceeds `x / f` by less
+/// than `x / 2^44 < f / 2^24 <= 1 / f` for `f < 4096` (exact for the power of two
+/// 4096), while a non-integer `x / f` lies at least `1 / f` below the next integer. The
+/// product is at most `(f * 2^20 - 1) * (2^44 / f + 1) < 2^64 + f * 2^20 - 2^44 / f`,
+/// which fits in 64 bits for `f <= 4096`.
 fn reciprocal(f: u32) -> u64 {
-    if f <= 1 {
-        u64::MAX
-    } else {
-        u64::MAX / f as u64 + 1
-    }
+    (1u64 << RECIPROCAL_SHIFT).div_ceil(f as u64)
 }
 
 #[inline(always)]
-fn divide(x: u32, rcp: u64, f: u32) -> u32 {
-    ((x as u128 * rcp as u128) >> 64) as u32 + (f == 1) as u32
+fn quotient(x: u32, rcp: u64) -> u32 {
+    ((x as u64 * rcp) >> RECIPROCAL_SHIFT) as u32
 }
 
 impl Model {
@@ -99,7 +100,8 @@ impl Model {
         }
         let mut encoding = [EncodeSlot::default(); 256];
         for ((slot, &f), &st) in encoding.iter_mut().zip(&freq).zip(&start) {
-            *slot = EncodeSlot { rcp: reciprocal(f as u32), freq: f as u32, start: st as u32 };
+            // Symbols not in the model are never encoded: any reciprocal will do.
+            *slot = EncodeSlot { rcp: reciprocal((f as u32).max(1)), freq: f as u32, start: st as u32 };
         }
         Model { freq, encoding }
     }
@@ -166,18 +168,18 @@ pub fn encode(symbols: &[u8], contexts: &[u8], models: &[Model], words: &mut Vec
         n += spill as usize;
         // Never 0: a state at least `STATE_LOW` keeps at least 16 after a spill.
         let kept = if spill { x >> 16 } else { x };
-        let q = divide(kept, e.rcp, f);
+        let q = quotient(kept, e.rcp);
         (q << PROB_BITS) + (kept - q * f) + e.start
     };
     // Symbol i belongs to lane i % LANES; last to first, whole groups of lanes with the
     // states in registers.
     let len = symbols.len().min(contexts.len());
-    let whole = len / LANES * LANES;
+    let (groups, _) = symbols[..len].as_chunks::<LANES>();
+    let whole = groups.len() * LANES;
     for i in (whole..len).rev() {
         states[i % LANES] = put(states[i % LANES], symbols[i], contexts[i]);
     }
-    let groups = symbols[..whole].chunks_exact(LANES).zip(contexts[..whole].chunks_exact(LANES)).rev();
-    for (s, c) in groups {
+    for (s, c) in groups.iter().zip(contexts[..whole].as_chunks::<LANES>().0).rev() {
         for lane in (0..LANES).rev() {
             states[lane] = put(states[lane], s[lane], c[lane]);
         }
@@ -262,46 +264,50 @@ impl<'a> Decoder<'a> {
         Ok(Decoder { words, pos: 2 * LANES, lanes })
     }
 
-    /// Decodes one symbol per entry of `contexts` into `out` (same length). The states
-    /// live in registers for the whole batch, so each lane's lookup chain overlaps the
-    /// others' instead of passing through memory.
-    pub fn symbols(&mut self, tables: &Tables, contexts: &[u8], out: &mut [u8]) {
-        if self.pos + contexts.len() <= self.words.len() {
+    /// Decodes one symbol per byte of `buf`, which holds the symbols' contexts and
+    /// gets the symbols in their place (one buffer, so one register fewer in the loop).
+    /// The states live in registers for the whole batch, so each lane's lookup chain
+    /// overlaps the others' instead of passing through memory.
+    pub fn symbols(&mut self, tables: &Tables, buf: &mut [u8]) {
+        if self.pos + buf.len() <= self.words.len() {
             // A symbol takes at most one word: the batch stays within the stream.
-            self.batch(tables, contexts, out, |words, pos| words[pos] as u32);
+            self.batch(tables, buf, |words, pos| words[pos] as u32);
         } else {
             // Past the end reads zeros; `finish` then sees `pos` beyond the stream.
-            self.batch(tables, contexts, out, |words, pos| words.get(pos).map_or(0, |&w| w as u32));
+            self.batch(tables, buf, |words, pos| words.get(pos).map_or(0, |&w| w as u32));
         }
     }
 
     #[inline(always)]
-    fn batch(&mut self, tables: &Tables, contexts: &[u8], out: &mut [u8], word_at: impl Fn(&[u16], usize) -> u32) {
+    fn batch(&mut self, tables: &Tables, buf: &mut [u8], word_at: impl Fn(&[u16], usize) -> u32) {
         let words = self.words;
         let (steps, symbols) = (&*tables.steps, &*tables.symbols);
         let mut pos = self.pos;
         let mut lanes = self.lanes;
-        let mut step = |x: u32, ctx: u8| -> (u32, u8) {
-            let slot = ((ctx as u32) << PROB_BITS | (x & SLOT_MASK)) as u16 as usize;
+        let mut step = |x: u32, ctx: &mut u8| -> u32 {
+            let slot = ((*ctx as u32) << PROB_BITS | (x & SLOT_MASK)) as u16 as usize;
             let e = steps[slot];
+            *ctx = symbols[slot];
             let next = (e & 0xffff) * (x >> PROB_BITS) + (e >> 16);
             // A select, not a branch, for whether the lane takes a word: a coin toss
             // the predictor loses.
             let renorm = next < STATE_LOW;
             let word = word_at(words, pos);
             pos += renorm as usize;
-            (if renorm { next << 16 | word } else { next }, symbols[slot])
+            if renorm {
+                next << 16 | word
+            } else {
+                next
+            }
         };
-        let mut ctx_chunks = contexts.chunks_exact(LANES);
-        let mut out_chunks = out.chunks_exact_mut(LANES);
-        for (c, o) in (&mut ctx_chunks).zip(&mut out_chunks) {
-            for i in 0..LANES {
-                (lanes[i], o[i]) = step(lanes[i], c[i]);
+        let (groups, rest) = buf.as_chunks_mut::<LANES>();
+        for group in groups {
+            for (x, ctx) in lanes.iter_mut().zip(group) {
+                *x = step(*x, ctx);
             }
         }
-        for (&c, o) in ctx_chunks.remainder().iter().zip(out_chunks.into_remainder()) {
-            let next;
-            (next, *o) = step(lanes[0], c);
+        for ctx in rest {
+            let next = step(lanes[0], ctx);
             for i in 1..LANES {
                 lanes[i - 1] = lanes[i];
             }
@@ -339,30 +345,34 @@ mod tests {
         }
         let mut dec = Decoder::new(&words).unwrap();
         // In two batches, so a batch ending mid-round of the lanes is covered too.
-        let mut back = vec![0u8; symbols.len()];
+        let mut back = contexts.to_vec();
         let cut = symbols.len() / 3;
         let (first, second) = back.split_at_mut(cut);
-        dec.symbols(&tables, &contexts[..cut], first);
-        dec.symbols(&tables, &contexts[cut..], second);
+        dec.symbols(&tables, first);
+        dec.symbols(&tables, second);
         assert_eq!(back, symbols);
         dec.finish().unwrap();
         words.len() * 2
     }
 
     #[test]
-    fn reciprocal_division_is_exact_for_every_frequency() {
+    fn reciprocal_quotient_is_exact_for_every_frequency_and_state_below_the_spill_bound() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         for f in 1..=PROB_SCALE {
             let r = reciprocal(f);
-            let mut xs = vec![1, f - 1, f, f + 1, u32::MAX, u32::MAX - 1, u32::MAX / f * f, u32::MAX / f * f - 1];
+            // The encoder divides `x < f << (32 - PROB_BITS)`: the bound minus one is
+            // where the product is largest.
+            let bound = ((f as u64) << (32 - PROB_BITS)) - 1;
+            let bound = bound as u32;
+            let mut xs = vec![1, f - 1, f, f + 1, bound, bound - 1, bound / f * f, bound / f * f - 1];
             for _ in 0..200 {
                 seed ^= seed << 13;
                 seed ^= seed >> 7;
                 seed ^= seed << 17;
-                xs.push((seed as u32).max(1));
+                xs.push((seed % (bound as u64 + 1)) as u32);
             }
-            for x in xs.into_iter().filter(|&x| x >= 1) {
-                assert_eq!(divide(x, r, f), x / f, "{x} / {f}");
+            for x in xs {
+                assert_eq!(quotient(x, r), x / f, "{x} / {f}");
             }
         }
     }
