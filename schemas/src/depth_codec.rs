@@ -675,7 +675,7 @@ pub struct DepthDecoder {
     /// One row's quad contexts, which decode into its quad symbols in place.
     quads: Vec<u8>,
     exceptions: Vec<u8>,
-    /// Residuals of the exceptions, in pixel order.
+    /// Residuals of the exceptions, in pixel order, then `QUAD` zeros.
     residuals: Vec<i32>,
     /// One row's level indices, padded to whole quads (0 for invalid pixels).
     indices: Vec<u16>,
@@ -879,6 +879,8 @@ impl DepthDecoder {
             let z = e.checked_add(FIRST_EXCEPTION).ok_or_else(|| corrupt("exception out of range"))?;
             self.residuals.push(unzigzag(z));
         }
+        // Padding, so that a quad's exceptions are always read as a whole quad's worth.
+        self.residuals.extend([0; QUAD]);
         Ok(())
     }
 
@@ -939,9 +941,13 @@ impl DepthDecoder {
             // checked theirs), an invalid pixel's index is 0: every index is at most
             // n_levels and the row has as many zeros as invalid pixels.
             let row_indices = &indices[..width];
-            let highest = row_indices.iter().copied().max().unwrap_or(0);
-            let zeros: u32 = row_indices.iter().map(|&i| (i == 0) as u32).sum();
-            status |= -((highest > n_levels_u16 || zeros as usize != row_invalid) as i32);
+            let highest = row_indices.iter().fold(0u16, |m, &i| m.max(i));
+            // Counted in 16 bits, eight pixels to a vector register, a block at a time.
+            let zeros: usize = row_indices
+                .chunks(u16::MAX as usize)
+                .map(|block| block.iter().fold(0u16, |z, &i| z + (i == 0) as u16) as usize)
+                .sum();
+            status |= -((highest > n_levels_u16 || zeros != row_invalid) as i32);
             for (o, &i) in out_row.iter_mut().zip(row_indices) {
                 *o = levels[i as usize];
             }
@@ -950,7 +956,7 @@ impl DepthDecoder {
         if status < 0 || codes_on_invalid != 0 {
             return Err(corrupt("level index out of range or codes on invalid pixels"));
         }
-        if !pending.is_empty() {
+        if pending.len() > QUAD {
             return Err(corrupt("unused exceptions"));
         }
         Ok(())
@@ -986,12 +992,13 @@ fn read_models(side: &mut Cursor) -> Result<Models, CodecError> {
 
 /// Undoes the prediction for one row: fills `indices` (whole quads) with each pixel's
 /// level index, 0 for invalid pixels, from the quads' symbols and validity masks, the
-/// level predicting the first pixel and the exceptions' residuals (advanced past the
-/// row's). Returns the first pixel's level, which predicts the next row's, and a
-/// status whose sign bit is set if a quad with exceptions has a valid pixel out of
-/// `1..=n_levels` or misses an exception. The other quads' levels are the caller's to
-/// check: each is the left one plus at most 1 either way, so the first out of range is
-/// 0 or `n_levels + 1`, whatever came before.
+/// level predicting the first pixel and the exceptions' residuals (`pending`, advanced
+/// past the row's; it ends with `QUAD` zeros that no quad takes). Returns the first
+/// pixel's level, which predicts the next row's, and a status whose sign bit is set if
+/// a quad with exceptions has a valid pixel out of `1..=n_levels` or misses an
+/// exception. The other quads' levels are the caller's to check: each is the left one
+/// plus at most 1 either way, so the first out of range is 0 or `n_levels + 1`,
+/// whatever came before.
 fn row_levels(
     quads: &[u8],
     masks: &[u8],
@@ -1042,21 +1049,22 @@ fn exception_quad(
     idx: &mut [u16; QUAD],
 ) -> (i32, i32, i32) {
     let n = EXCEPTIONS_IN[sym as usize] as usize;
-    let status = -((pending.len() < n) as i32);
+    let left_over = pending.len().saturating_sub(QUAD);
+    let status = -((left_over < n) as i32);
     // Pixel i's level adds to the running sum of the quad's other codes the residuals
     // of its exceptions up to i: a prefix of the pending ones (those past the quad's
     // are read but never used).
-    let r = |k: usize| pending.get(k).copied().unwrap_or(0);
-    let (p1, p2, p3) = (r(0), r(0).wrapping_add(r(1)), r(0).wrapping_add(r(1)).wrapping_add(r(2)));
-    let prefix = [0, p1, p2, p3, p3.wrapping_add(r(3))];
-    *pending = pending.get(n..).unwrap_or(&[]);
+    let &[r0, r1, r2, r3] = pending.first_chunk::<QUAD>().unwrap_or(&[0; QUAD]);
+    *pending = &pending[n.min(left_over)..];
+    let (p2, p3) = (r0.wrapping_add(r1), r0.wrapping_add(r1).wrapping_add(r2));
+    let prefix = [0, r0, p2, p3, p3.wrapping_add(r3), 0, 0, 0];
     let (sums, upto, keep) = (&RUNNING_SUM[sym as usize], &EXCEPTIONS_UPTO[sym as usize], &KEEP[mask as usize & 15]);
-    let mut levels = [0i32; QUAD];
+    let level = |i: usize| left.wrapping_add(sums[i]).wrapping_add(prefix[upto[i] as usize & 7]);
+    let levels = [level(0), level(1), level(2), level(3)];
     let mut out_of_range = false;
-    for (i, (level, o)) in levels.iter_mut().zip(idx.iter_mut()).enumerate() {
-        *level = left.wrapping_add(sums[i]).wrapping_add(prefix[(upto[i] as usize).min(QUAD)]);
-        out_of_range |= (mask >> i) & 1 != 0 && (*level as u32).wrapping_sub(1) >= n_levels;
-        *o = *level as u16 & keep[i];
+    for i in 0..QUAD {
+        out_of_range |= ((mask >> i) & 1 != 0) & ((levels[i] as u32).wrapping_sub(1) >= n_levels);
+        idx[i] = levels[i] as u16 & keep[i];
     }
     (levels[0], levels[QUAD - 1], status | -(out_of_range as i32))
 }
