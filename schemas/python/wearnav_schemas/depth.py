@@ -17,7 +17,7 @@ tests, not for 30 Hz.
 import numpy as np
 
 FORMAT_TAG = 0xD3
-PROB_BITS = 12
+PROB_BITS = 10
 PROB_SCALE = 1 << PROB_BITS
 SLOT_MASK = PROB_SCALE - 1
 STATE_LOW = 1 << 16
@@ -98,7 +98,7 @@ def _table(freqs):
         return [0] * PROB_SCALE
     table = []
     for sym, f in enumerate(freqs):
-        table.extend(sym | ((f - 1) << 8) | (off << 20) for off in range(f))
+        table.extend(sym | ((f - 1) << 8) | (off << (8 + PROB_BITS)) for off in range(f))
     return table
 
 
@@ -118,7 +118,7 @@ class _Rans:
     def symbol(self, table):
         x = self.lanes[0]
         e = table[x & SLOT_MASK]
-        nxt = (((e >> 8) & 0xFFF) + 1) * (x >> PROB_BITS) + (e >> 20)
+        nxt = (((e >> 8) & SLOT_MASK) + 1) * (x >> PROB_BITS) + (e >> (8 + PROB_BITS))
         if nxt < STATE_LOW:
             w = self.words[self.pos] if self.pos < len(self.words) else 0
             nxt = (nxt << 16) | w
