@@ -360,6 +360,7 @@ pub struct DepthEncoder {
     side: Vec<u8>,
     zeros: Vec<u8>,
     words: Vec<u16>,
+    rans: rans::Encoder,
 }
 
 impl Default for DepthEncoder {
@@ -388,6 +389,7 @@ impl DepthEncoder {
             side: Vec::new(),
             zeros: Vec::new(),
             words: Vec::new(),
+            rans: rans::Encoder::default(),
         }
     }
 
@@ -460,12 +462,12 @@ impl DepthEncoder {
         let side_model = byte_model(&self.side);
         side_model.write(out);
         let side_contexts = zeros(&mut self.zeros, self.side.len());
-        rans::encode(&self.side, side_contexts, &[side_model], &mut self.words);
+        self.rans.encode(&self.side, side_contexts, &[side_model], &mut self.words);
         put_words(out, &self.words);
-        rans::encode(&self.symbols, &self.contexts, &quad_models, &mut self.words);
+        self.rans.encode(&self.symbols, &self.contexts, &quad_models, &mut self.words);
         put_words(out, &self.words);
         let exception_contexts = zeros(&mut self.zeros, self.exceptions.len());
-        rans::encode(&self.exceptions, exception_contexts, &[exception_model], &mut self.words);
+        self.rans.encode(&self.exceptions, exception_contexts, &[exception_model], &mut self.words);
         put_words(out, &self.words);
         Ok(())
     }
