@@ -943,12 +943,14 @@ impl DepthDecoder {
             // checked theirs), an invalid pixel's index is 0: every index is at most
             // n_levels and the row has as many zeros as invalid pixels.
             let row_indices = &indices[..width];
-            let highest = row_indices.iter().fold(0u16, |m, &i| m.max(i));
-            // Counted in 16 bits, eight pixels to a vector register, a block at a time.
-            let zeros: usize = row_indices
-                .chunks(u16::MAX as usize)
-                .map(|block| block.iter().fold(0u16, |z, &i| z + (i == 0) as u16) as usize)
-                .sum();
+            // In 16 bits, eight pixels to a vector register, a block at a time.
+            let (mut highest, mut zeros) = (0u16, 0usize);
+            for block in row_indices.chunks(u16::MAX as usize) {
+                let (block_highest, block_zeros) =
+                    block.iter().fold((0u16, 0u16), |(m, z), &i| (m.max(i), z + (i == 0) as u16));
+                highest = highest.max(block_highest);
+                zeros += block_zeros as usize;
+            }
             status |= -((highest > n_levels_u16 || zeros != row_invalid) as i32);
             for (o, &i) in out_row.iter_mut().zip(row_indices) {
                 *o = levels[i as usize];
