@@ -922,6 +922,15 @@ impl DepthDecoder {
         let mut row_start = 1i32;
         let rows = out.chunks_exact_mut(width).zip(masks.chunks_exact(n_quads)).zip(invalid.iter());
         for ((out_row, row_masks), &row_invalid) in rows {
+            if row_invalid == width {
+                // No valid pixel (a frame's top and bottom margins): every quad is
+                // uncoded, symbol 0 at no cost, and the first level carries on.
+                dec.skip_certain(n_quads);
+                activities.fill(0);
+                nonzero.fill(0);
+                out_row.fill(0);
+                continue;
+            }
             // Contexts depend on the row above only, so a row's symbols decode in one
             // batch with the rANS lanes overlapping. The passes around it are byte
             // arithmetic with nothing chained from quad to quad: vectorised.
@@ -1295,6 +1304,20 @@ mod tests {
         let (packed, back) = round_trip(&[0; 640 * 480], 640, 480, DepthEncoding::Lossless);
         assert!(back.iter().all(|&s| s == 0));
         assert!(packed.len() < 1000, "{} bytes for an empty frame", packed.len());
+    }
+
+    #[test]
+    fn rows_with_no_valid_pixel_between_valid_ones_round_trip() {
+        // 9 and 13 columns: 3 and 4 quads a row, so skipping a row leaves the rANS
+        // lanes turned by 3 and by 0; the empty rows come first, between and last.
+        let mut rng = Rng(5);
+        for w in [9usize, 13] {
+            let samples: Vec<u16> = (0..w * 10)
+                .map(|i| if [0, 4, 5, 9].contains(&(i / w)) { 0 } else { 1500 + (rng.next() % 40) as u16 })
+                .collect();
+            let (_, back) = round_trip(&samples, w as u32, 10, DepthEncoding::Lossless);
+            assert_eq!(back, samples, "{w} columns");
+        }
     }
 
     #[test]

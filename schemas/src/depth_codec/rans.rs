@@ -346,6 +346,13 @@ impl<'a> Decoder<'a> {
         self.pos = pos;
     }
 
+    /// Passes over `n` symbols of a model whose only symbol has every slot: decoding
+    /// such a symbol reads nothing and leaves its state as it is, so all that changes
+    /// is which lane serves the next symbol.
+    pub fn skip_certain(&mut self, n: usize) {
+        self.lanes.rotate_left(n % LANES);
+    }
+
     /// Checks the stream ended where the encoder began: every word used, every state
     /// back at its start value.
     pub fn finish(self) -> Result<(), RansError> {
@@ -419,6 +426,38 @@ mod tests {
         let symbols: Vec<u8> = (0..5000u32).map(|i| (i * 7 % 251) as u8).collect();
         let contexts: Vec<u8> = (0..5000u32).map(|i| (i % 3) as u8).collect();
         round_trip(&symbols, &contexts, 3);
+    }
+
+    #[test]
+    fn skipping_certain_symbols_decodes_like_decoding_them() {
+        // Context 1 is certain (symbol 0 only); runs of it of every length mod LANES.
+        let mut symbols = Vec::new();
+        let mut contexts = Vec::new();
+        for run in 0..3 * LANES {
+            symbols.extend((0..5u8).map(|i| i * 37 % 11));
+            contexts.extend([0; 5]);
+            symbols.extend(std::iter::repeat_n(0, run));
+            contexts.extend(std::iter::repeat_n(1, run));
+        }
+        let mut counts = [[0u32; 256]; 2];
+        for (&s, &c) in symbols.iter().zip(&contexts) {
+            counts[c as usize][s as usize] += 1;
+        }
+        let models: Vec<Model> = counts.iter().map(Model::from_counts).collect();
+        let mut words = Vec::new();
+        Encoder::default().encode(&symbols, &contexts, &models, &mut words);
+        let mut tables = Tables::new();
+        tables.fill(0, &models[0]);
+        let mut dec = Decoder::new(&words).unwrap();
+        let mut at = 0;
+        for run in 0..3 * LANES {
+            let mut five = [0u8; 5];
+            dec.symbols(&tables, &mut five);
+            assert_eq!(five[..], symbols[at..at + 5]);
+            dec.skip_certain(run);
+            at += 5 + run;
+        }
+        dec.finish().unwrap();
     }
 
     #[test]
