@@ -938,7 +938,16 @@ impl DepthDecoder {
             for ((ctx, &mask), (&act, &right)) in contexts {
                 *ctx = context_or_uncoded(mask, act + right);
             }
-            dec.symbols(tables, quads);
+            // Uncoded quads at the row's ends (a frame's side margins) are symbol 0 at
+            // no cost: skipped, turning the lanes as decoding them would.
+            let lead = row_masks.iter().take_while(|&&m| m == 0).count();
+            let trail = row_masks[lead..].iter().rev().take_while(|&&m| m == 0).count();
+            let coded = lead..n_quads - trail;
+            quads[..lead].fill(0);
+            quads[coded.end..].fill(0);
+            dec.skip_certain(lead);
+            dec.symbols(tables, &mut quads[coded.clone()]);
+            dec.skip_certain(trail);
             let above_out = activities.iter_mut().zip(nonzero.iter_mut());
             for ((&sym, &mask), (act, nz)) in quads.iter().zip(row_masks).zip(above_out) {
                 codes_on_invalid |= sym & !valid_code_bits(mask);
@@ -1307,14 +1316,21 @@ mod tests {
     }
 
     #[test]
-    fn rows_with_no_valid_pixel_between_valid_ones_round_trip() {
+    fn rows_with_no_valid_pixel_and_empty_row_ends_round_trip() {
         // 9 and 13 columns: 3 and 4 quads a row, so skipping a row leaves the rANS
-        // lanes turned by 3 and by 0; the empty rows come first, between and last.
+        // lanes turned by 3 and by 0; the empty rows come first, between and last, and
+        // other rows start or end with quads of invalid pixels (1 or 2 of them).
         let mut rng = Rng(5);
         for w in [9usize, 13] {
-            let samples: Vec<u16> = (0..w * 10)
-                .map(|i| if [0, 4, 5, 9].contains(&(i / w)) { 0 } else { 1500 + (rng.next() % 40) as u16 })
-                .collect();
+            let invalid = |x: usize, y: usize| {
+                [0, 4, 5, 9].contains(&y)
+                    || (y == 2 && x < 4)
+                    || (y == 3 && x >= 8)
+                    || (y == 6 && x < 8)
+                    || (y == 7 && (x < 4 || x >= w - 1))
+            };
+            let samples: Vec<u16> =
+                (0..w * 10).map(|i| if invalid(i % w, i / w) { 0 } else { 1500 + (rng.next() % 40) as u16 }).collect();
             let (_, back) = round_trip(&samples, w as u32, 10, DepthEncoding::Lossless);
             assert_eq!(back, samples, "{w} columns");
         }
