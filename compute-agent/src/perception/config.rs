@@ -330,7 +330,8 @@ impl Default for DropoffConfig {
     }
 }
 
-/// Time to collision from the frame-to-frame change of the nearest range in the path.
+/// Time to collision with an obstacle moving towards the user, from the frame-to-frame
+/// change of its range with the user's own motion taken out (see `time_to_collision`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default)]
 pub struct TtcConfig {
@@ -338,14 +339,18 @@ pub struct TtcConfig {
     pub enabled: bool,
     /// Width of the path watched, metres.
     pub path_width_m: f32,
-    /// Closing speeds below this are noise, m/s.
+    /// The obstacle's own closing speeds below this are noise (or a static obstacle), m/s.
     pub min_closing_speed_m_s: f32,
     /// Weight of a new closing-speed measurement (exponential smoothing).
     pub smoothing: f32,
     /// An obstacle closer in time than this raises a warning even below the cost
     /// thresholds (a person walking towards the user).
     pub warn_s: f32,
-    /// Range jumps larger than this between frames are a different obstacle, not motion.
+    /// The range is compared with the newest frame at least this old, seconds (see
+    /// `time_to_collision`: shorter reads the scan's bin steps as motion).
+    pub baseline_s: f32,
+    /// Range changes larger than this over the baseline are a different obstacle, not
+    /// motion (a person at 1.5 m/s and the user at 1 m/s close 0.63 m in 0.25 s).
     pub max_step_m: f32,
 }
 
@@ -357,7 +362,8 @@ impl Default for TtcConfig {
             min_closing_speed_m_s: 0.3,
             smoothing: 0.5,
             warn_s: 2.0,
-            max_step_m: 0.5,
+            baseline_s: 0.25,
+            max_step_m: 1.0,
         }
     }
 }

@@ -48,7 +48,7 @@ use hysteresis::RumbleDebounce;
 use nearest_scan::{BinLayout, ScanBuilder, UserFrame};
 use obstacle_memory::{ObstacleMemory, ViewCone};
 use organized_cloud::SampledCloud;
-use time_to_collision::{nearest_in_path, ClosingSpeed};
+use time_to_collision::ClosingSpeed;
 
 /// One organized depth frame, borrowed.
 #[derive(Debug, Clone, Copy)]
@@ -173,7 +173,8 @@ pub struct Perception {
     pub nearest_m: f32,
     /// Bearing of the nearest obstacle, degrees, positive left (0 if none).
     pub nearest_bearing_deg: f32,
-    /// Time to collision with the nearest approaching obstacle in the path, seconds.
+    /// Time to collision with the nearest obstacle in the path when it moves towards the
+    /// user (its own motion, odometry taken out), seconds.
     pub ttc_s: Option<f32>,
     /// Ground ahead missing or lower than the plane.
     pub dropoff_ahead: bool,
@@ -336,6 +337,7 @@ impl Pipeline {
         timer.start("memory");
         self.cost_points.clear();
         self.cost_points.extend(scan_points(&out.scan));
+        let seen_points = self.cost_points.len();
         if cfg.memory.enabled {
             let cone = ViewCone {
                 half_hfov_rad: view.half_hfov_rad,
@@ -367,17 +369,19 @@ impl Pipeline {
             Some((r, p)) => (r, p[1].atan2(p[0]).to_degrees()),
             None => (f32::INFINITY, 0.0),
         };
-        let ahead = nearest_in_path(self.cost_points.iter().copied(), cfg.ttc.path_width_m);
-        out.ttc_s =
-            if cfg.ttc.enabled { self.closing.update(ctx.stamp_ns, ahead.map(|p| p[0]), &cfg.ttc) } else { None };
+        let approach = if cfg.ttc.enabled {
+            self.closing.update(ctx.stamp_ns, ctx.motion, &self.cost_points[..seen_points], &cfg.ttc)
+        } else {
+            None
+        };
+        out.ttc_s = approach.map(|a| a.ttc_s);
         let mut raw = match cfg.cost_function {
             CostFunction::Ficf => out.rumble_ficf,
             CostFunction::Cacf => out.rumble_cacf,
         };
-        if raw == Rumble::None && out.ttc_s.is_some_and(|t| t < cfg.ttc.warn_s) {
+        if let Some(a) = approach.filter(|a| raw == Rumble::None && a.ttc_s < cfg.ttc.warn_s) {
             // turn away from the side of the path the approaching obstacle is on
-            let left_of_path = ahead.is_some_and(|p| p[1] > 0.0);
-            raw = if left_of_path { Rumble::Right } else { Rumble::Left };
+            raw = if a.point[1] > 0.0 { Rumble::Right } else { Rumble::Left };
         }
         if out.dropoff_ahead {
             raw = Rumble::Both;
