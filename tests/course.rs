@@ -1,6 +1,7 @@
 //! The virtual user study (issue 6) on small worlds: the closed loop stops the user
-//! before a wall, counts a head-high contact as such, gives a verdict on an unreachable
-//! goal, is deterministic per seed, and reacts later with a slower user.
+//! before a wall, counts a head-high contact as such, stays quiet in a clear corridor
+//! however the cane sweeps, gives a verdict on an unreachable goal, is deterministic per
+//! seed, and reacts later with a slower user.
 //!
 //! The full 20-run table is a CLI run (`wearnav course`); the ignored test
 //! `course_cli` runs it from this harness too: `COURSE_ARGS="--world taylor-course
@@ -134,6 +135,33 @@ fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
         assert_eq!(c.seen_ago_s, None);
     }
     assert_eq!(out.count(Part::Cane, None), 0, "the cane passes under the sign");
+}
+
+#[test]
+fn sweeping_the_cane_along_the_walls_of_a_clear_corridor_raises_no_rumble() {
+    // 2 m wide: every sweep points the camera's path at a wall 3.4 m ahead, which a time
+    // to collision without the user's own motion taken out reads as an approach
+    let w = world(
+        r#"
+name = "narrow"
+start = { x_m = 0.0, y_m = 0.0 }
+goal = { x_m = 12.0, y_m = 0.0 }
+[[walls]]
+label = "north wall"
+from = [-1.0, 1.0]
+to = [14.0, 1.0]
+[[walls]]
+label = "south wall"
+from = [-1.0, -1.0]
+to = [14.0, -1.0]
+"#,
+    );
+    for seed in [1, 2, 3] {
+        let out = walk(&w, &quick(20.0), seed);
+        assert!(out.completed, "seed {seed}: ended at {:?}", out.end_xy_m);
+        assert_eq!(out.signals, 0, "seed {seed}: rumble in a clear corridor");
+        assert!(out.contacts.is_empty(), "seed {seed}: {:?}", out.contacts);
+    }
 }
 
 #[test]
