@@ -88,6 +88,23 @@ pub struct Motion {
     pub yaw_rad: f32,
 }
 
+impl Motion {
+    /// True when every component is a number (a bad odometry message can carry NaN).
+    pub fn is_finite(&self) -> bool {
+        self.forward_m.is_finite() && self.left_m.is_finite() && self.yaw_rad.is_finite()
+    }
+
+    /// The map from a point `(x forward, y left)` of the previous frame's user frame to
+    /// where a static point lies in the current one.
+    pub fn to_current_frame(self) -> impl Fn([f32; 2]) -> [f32; 2] {
+        let (s, c) = self.yaw_rad.sin_cos();
+        move |[x, y]| {
+            let (dx, dy) = (x - self.forward_m, y - self.left_m);
+            [c * dx + s * dy, -s * dx + c * dy]
+        }
+    }
+}
+
 /// What else is known about the frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FrameContext {

@@ -90,16 +90,15 @@ impl ObstacleMemory {
         cfg: &MemoryConfig,
     ) {
         self.ensure(cfg);
-        if let Some(m) = motion.filter(|m| m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite()) {
+        if let Some(m) = motion.filter(Motion::is_finite) {
             self.spare.iter_mut().for_each(|c| *c = Cell::default());
-            let (s, c) = m.yaw_rad.sin_cos();
+            let carry = m.to_current_frame();
             for idx in 0..self.cells.len() {
                 let cell = self.cells[idx];
                 if !cell.occupied {
                     continue;
                 }
-                let (dx, dy) = (cell.x_m - m.forward_m, cell.y_m - m.left_m);
-                let (nx, ny) = (c * dx + s * dy, -s * dx + c * dy);
+                let [nx, ny] = carry([cell.x_m, cell.y_m]);
                 if let Some(j) = self.index(nx, ny, cfg) {
                     self.spare[j] = Cell { x_m: nx, y_m: ny, ..cell };
                 }

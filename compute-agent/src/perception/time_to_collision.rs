@@ -61,15 +61,12 @@ impl ClosingSpeed {
         points: &[[f32; 2]],
         cfg: &TtcConfig,
     ) -> Option<Approach> {
-        let motion = motion.filter(|m| m.forward_m.is_finite() && m.left_m.is_finite() && m.yaw_rad.is_finite());
+        let motion = motion.filter(Motion::is_finite);
         let frame_s = self.last_ns.replace(stamp_ns).map_or(0.0, |t| stamp_ns.saturating_sub(t) as f32 * 1e-9);
         if let Some(m) = motion {
-            let (s, c) = m.yaw_rad.sin_cos();
-            for (_, earlier) in &mut self.history {
-                for p in earlier.iter_mut() {
-                    let (dx, dy) = (p[0] - m.forward_m, p[1] - m.left_m);
-                    *p = [c * dx + s * dy, -s * dx + c * dy];
-                }
+            let carry = m.to_current_frame();
+            for p in self.history.iter_mut().flat_map(|(_, earlier)| earlier.iter_mut()) {
+                *p = carry(*p);
             }
         }
         while self.history.front().is_some_and(|(t, _)| stamp_ns.saturating_sub(*t) > MAX_GAP_NS || *t > stamp_ns) {
