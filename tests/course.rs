@@ -24,6 +24,12 @@ fn world(items: &str) -> World {
 /// A 3 m wide corridor along +x, closed behind the start, with `items` (TOML tables)
 /// in it; the goal's sound comes from x = 9.
 fn corridor(name: &str, items: &str) -> World {
+    corridor_of_width(name, 3.0, items)
+}
+
+/// [`corridor`], `width_m` wide.
+fn corridor_of_width(name: &str, width_m: f64, items: &str) -> World {
+    let half = width_m / 2.0;
     world(&format!(
         r#"
 name = "{name}"
@@ -31,16 +37,16 @@ start = {{ x_m = 0.0, y_m = 0.0 }}
 goal = {{ x_m = 9.0, y_m = 0.0 }}
 [[walls]]
 label = "north wall"
-from = [-1.0, 1.5]
-to = [12.0, 1.5]
+from = [-1.0, {half:.2}]
+to = [12.0, {half:.2}]
 [[walls]]
 label = "south wall"
-from = [-1.0, -1.5]
-to = [12.0, -1.5]
+from = [-1.0, -{half:.2}]
+to = [12.0, -{half:.2}]
 [[walls]]
 label = "back wall"
-from = [-1.0, -1.5]
-to = [-1.0, 1.5]
+from = [-1.0, -{half:.2}]
+to = [-1.0, {half:.2}]
 {items}"#
     ))
 }
@@ -141,21 +147,7 @@ fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
 fn sweeping_the_cane_along_the_walls_of_a_clear_corridor_raises_no_rumble() {
     // 2 m wide: every sweep points the camera's path at a wall 3.4 m ahead, which a time
     // to collision without the user's own motion taken out reads as an approach
-    let w = world(
-        r#"
-name = "narrow"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 12.0, y_m = 0.0 }
-[[walls]]
-label = "north wall"
-from = [-1.0, 1.0]
-to = [14.0, 1.0]
-[[walls]]
-label = "south wall"
-from = [-1.0, -1.0]
-to = [14.0, -1.0]
-"#,
-    );
+    let w = corridor_of_width("narrow", 2.0, "");
     for seed in [1, 2, 3] {
         let out = walk(&w, &quick(20.0), seed);
         assert!(out.completed, "seed {seed}: ended at {:?}", out.end_xy_m);
