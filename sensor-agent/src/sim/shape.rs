@@ -84,20 +84,42 @@ impl Shape {
     /// surface, 0 inside. A drop-off counts as the volume of its hole: a point over
     /// the opening at floor level or below is in it.
     pub fn point_distance_m(&self, p: [f64; 3]) -> f64 {
+        let (center, yaw) = self.footprint_frame();
+        let [x, y] = to_local(center, yaw, p[0], p[1]);
+        self.local_point_distance_m([x, y, p[2]])
+    }
+
+    /// Centre and turn of the shape's own horizontal frame.
+    fn footprint_frame(&self) -> ([f64; 2], f64) {
         match self {
-            Shape::Box(b) => {
-                let h = rect_distance_m(b.center_m, b.half_size_m, b.yaw_rad, p[0], p[1]);
-                h.hypot(interval_gap(p[2], p[2], b.bottom_m, b.top_m))
-            }
-            Shape::Cylinder(c) => {
-                let r = (p[0] - c.center_m[0]).hypot(p[1] - c.center_m[1]);
-                (r - c.radius_m).max(0.0).hypot(interval_gap(p[2], p[2], c.bottom_m, c.top_m))
-            }
-            Shape::DropOff(d) => {
-                let h = rect_distance_m(d.center_m, d.half_size_m, d.yaw_rad, p[0], p[1]);
-                h.hypot(interval_gap(p[2], p[2], -d.depth_m, 0.0))
-            }
+            Shape::Box(b) => (b.center_m, b.yaw_rad),
+            Shape::Cylinder(c) => (c.center_m, 0.0),
+            Shape::DropOff(d) => (d.center_m, d.yaw_rad),
         }
+    }
+
+    /// [`Shape::point_distance_m`] of a point already in the shape's own frame (see
+    /// [`Shape::footprint_frame`]): the hot loop of the cane's distance, so no turn and
+    /// no `hypot` (libm's is overflow-safe and slow; these are metres).
+    fn local_point_distance_m(&self, p: [f64; 3]) -> f64 {
+        let (ex, ey, ez) = match self {
+            Shape::Box(b) => (
+                (p[0].abs() - b.half_size_m[0]).max(0.0),
+                (p[1].abs() - b.half_size_m[1]).max(0.0),
+                interval_gap(p[2], p[2], b.bottom_m, b.top_m),
+            ),
+            Shape::Cylinder(c) => (
+                ((p[0] * p[0] + p[1] * p[1]).sqrt() - c.radius_m).max(0.0),
+                0.0,
+                interval_gap(p[2], p[2], c.bottom_m, c.top_m),
+            ),
+            Shape::DropOff(d) => (
+                (p[0].abs() - d.half_size_m[0]).max(0.0),
+                (p[1].abs() - d.half_size_m[1]).max(0.0),
+                interval_gap(p[2], p[2], -d.depth_m, 0.0),
+            ),
+        };
+        (ex * ex + ey * ey + ez * ez).sqrt()
     }
 
     /// Exact distance from a standing body — a vertical cylinder of `radius_m` from the
@@ -124,11 +146,15 @@ impl Shape {
     pub fn segment_distance_m(&self, a: [f64; 3], b: [f64; 3]) -> f64 {
         let length_m = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
         let steps = (length_m / SEGMENT_STEP_M).ceil().max(1.0) as usize;
+        // the segment in the shape's own frame once, then every sample is a lerp
+        let (center, yaw) = self.footprint_frame();
+        let la = to_local(center, yaw, a[0], a[1]);
+        let lb = to_local(center, yaw, b[0], b[1]);
         let mut best = f64::INFINITY;
         for i in 0..=steps {
             let f = i as f64 / steps as f64;
-            let p = [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])];
-            best = best.min(self.point_distance_m(p));
+            let p = [la[0] + f * (lb[0] - la[0]), la[1] + f * (lb[1] - la[1]), a[2] + f * (b[2] - a[2])];
+            best = best.min(self.local_point_distance_m(p));
         }
         best
     }
@@ -193,6 +219,38 @@ mod tests {
         });
         assert_eq!(sign.body_distance_m(0.0, 0.0, 0.25, 1.8), 0.0);
         assert!((sign.body_distance_m(0.0, 0.0, 0.25, 1.5) - 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn cane_segment_distance_to_turned_box_and_hanging_sign_is_exact() {
+        // a wall turned 30 degrees, its near face 0.4 m from the cane's tip: the tip
+        // (on the floor, 1.1 m ahead of a hand at 1 m) is the nearest point
+        let yaw = 30f64.to_radians();
+        let (s, c) = yaw.sin_cos();
+        let face = [1.1 + 0.4 * c, 0.4 * s];
+        let wall = Shape::Box(OrientedBox {
+            center_m: [face[0] + 0.05 * c, face[1] + 0.05 * s],
+            half_size_m: [0.05, 3.0],
+            yaw_rad: yaw,
+            bottom_m: 0.0,
+            top_m: 1.8,
+        });
+        let d = wall.segment_distance_m([0.0, 0.0, 1.0], [1.1, 0.0, 0.0]);
+        assert!((d - 0.4 * c * c - 0.4 * s * s).abs() < 1e-9, "{d}");
+        assert!((wall.point_distance_m([1.1, 0.0, 0.0]) - 0.4).abs() < 1e-9);
+        // a sign hanging from 1.55 m over the cane: the hand, 0.35 m short of its near
+        // edge and 0.55 m below it, is nearer than the cane under it (0.87 m below)
+        let sign = Shape::Box(OrientedBox {
+            center_m: [0.5, 0.0],
+            half_size_m: [0.15, 0.6],
+            yaw_rad: 0.0,
+            bottom_m: 1.55,
+            top_m: 1.85,
+        });
+        let d = sign.segment_distance_m([0.0, 0.0, 1.0], [1.1, 0.0, 0.0]);
+        let hand_gap = (0.35f64.powi(2) + 0.55f64.powi(2)).sqrt();
+        assert!((d - hand_gap).abs() < 1e-9, "{d} vs {hand_gap}");
+        assert!(1.55 - (1.0 - 0.35 / 1.1) > hand_gap);
     }
 
     #[test]
