@@ -44,13 +44,14 @@ pub enum GuideKind {
     /// The world's scripted route: the farthest waypoint in line of sight (stand-in
     /// for route guidance; the goal's sound in worlds without a route).
     Route,
-    /// The goal's sound, and an experimenter who leads a user stuck for
-    /// [`STUCK_AFTER_S`] along the route until the goal is in sight (Taylor's
-    /// reorienting; the goal's sound alone in worlds without a route).
+    /// The goal's sound, and an experimenter who leads a user stuck for 20 s along the
+    /// route until the goal is in sight (Taylor's reorienting; the goal's sound alone
+    /// in worlds without a route).
     Assisted,
 }
 
-/// No nearer the goal for this long, an assisted user is led back on course, seconds.
+/// No nearer the goal for this long, an assisted user is led back on course, seconds
+/// (the 20 s of [`GuideKind::Assisted`]'s help).
 pub const STUCK_AFTER_S: f64 = 20.0;
 
 /// Everything that makes one walk.
