@@ -293,8 +293,12 @@ impl VirtualUser {
         }
         let felt = self.perceived(t_s);
         if felt != self.acting {
-            if felt == Felt::Both || felt == Felt::Offline {
+            let in_place = |f: Felt| f == Felt::Both || f == Felt::Offline;
+            if in_place(felt) && !in_place(self.acting) {
                 // turn towards the side the guide points to, and stay with that side
+                // (from Both to Offline and back the user is still turning in place:
+                // turning back towards the guide there undoes a turn away from a bump,
+                // and between two obstacles the user swings between them for ever)
                 let err = target_rad.map_or(0.0, |h| wrap_pi(h - self.pose.yaw_rad));
                 self.in_place_left = err >= 0.0;
             }
@@ -395,6 +399,40 @@ mod tests {
         assert_eq!(u.speed_m_s(), 0.0);
         assert!(u.pose().yaw_rad < -1.0, "turned right: {}", u.pose().yaw_rad);
         assert!(u.pose().x_m - before.x_m < 0.5, "stopped within a reaction time and a ramp");
+    }
+
+    #[test]
+    fn turning_in_place_away_from_a_bump_goes_on_when_both_becomes_offline() {
+        let mut u = user(0.2);
+        let dt = 0.01;
+        let mut t = 0.0;
+        // stopped by Both, the goal to the left: turns left
+        while t < 0.5 {
+            u.feel(t, Felt::Both);
+            let (p, v) = u.propose(t, dt, Some(1.5));
+            u.commit(p, v);
+            t += dt;
+        }
+        assert!(u.pose().yaw_rad > 0.0);
+        // the cane hits something on the left: turns right, away from it
+        u.touch(Touch { t_s: t, on_left: true });
+        while t < 2.0 {
+            u.feel(t, Felt::Both);
+            let (p, v) = u.propose(t, dt, Some(1.5));
+            u.commit(p, v);
+            t += dt;
+        }
+        let after_bump = u.pose().yaw_rad;
+        // a wall fills the view: still turning in place, still to the right (turning
+        // back towards the goal would swing into what was just hit)
+        while t < 3.0 {
+            u.feel(t, Felt::Offline);
+            let (p, v) = u.propose(t, dt, Some(1.5));
+            u.commit(p, v);
+            t += dt;
+        }
+        assert!(u.pose().yaw_rad < after_bump - 0.3, "{} then {}", after_bump, u.pose().yaw_rad);
+        assert_eq!(u.speed_m_s(), 0.0);
     }
 
     #[test]
