@@ -1,5 +1,6 @@
 //! The virtual user study (issue 6) on small worlds: the closed loop stops the user
-//! before a wall, counts a head-high contact as such, stays quiet in a clear corridor
+//! before a wall, counts a head-high contact as such, stops the user before a sign a
+//! 10-degree camera saw from afar, stays quiet in a clear corridor
 //! however the cane sweeps, gives a verdict on an unreachable goal, is deterministic per
 //! seed, and reacts later with a slower user.
 //!
@@ -141,6 +142,37 @@ fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
         assert_eq!(c.seen_ago_s, None);
     }
     assert_eq!(out.count(Part::Cane, None), 0, "the cane passes under the sign");
+}
+
+/// Open room with a sign hanging at head height 5 m straight ahead: far enough for a
+/// camera pitched 10 degrees down to see it before it leaves the top of the view.
+fn sign_far_in_the_path() -> World {
+    world(
+        r#"
+name = "sign-ahead"
+start = { x_m = 0.0, y_m = 0.0 }
+goal = { x_m = 9.0, y_m = 0.0 }
+[[hanging]]
+label = "sign"
+center = [5.0, 0.0]
+size_m = [0.3, 1.2]
+bottom_m = 1.55
+top_m = 1.85
+"#,
+    )
+}
+
+#[test]
+fn head_high_sign_seen_from_afar_is_remembered_and_the_user_stops_before_it() {
+    // the memory used to drop the sign while it was in the image's top rows and weigh
+    // what it kept at a quarter of the sign in view: 10 of 10 walks ran into it
+    let mut config = quick(12.0);
+    config.mount.pitch_deg = 10.0;
+    for seed in [1, 2, 3] {
+        let out = walk(&sign_far_in_the_path(), &config, seed);
+        assert_eq!(out.count(Part::Body, None), 0, "seed {seed}: {:?}", out.contacts);
+        assert!(out.signals >= 1, "seed {seed}: the sign was signalled");
+    }
 }
 
 #[test]

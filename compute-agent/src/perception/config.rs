@@ -282,17 +282,35 @@ pub struct MemoryConfig {
     pub cell_m: f32,
     /// Half extent of the square grid around the user, metres.
     pub radius_m: f32,
-    /// A remembered obstacle is forgotten after this long unseen, nanoseconds (3 s: a
-    /// walking user covers ~4 m, beyond every cost region).
+    /// A remembered obstacle is forgotten after this long unseen, nanoseconds, however
+    /// still the user stands (10 s: a person who walked off is not kept for long).
     pub ttl_ns: u64,
     /// Assumed vertical field of view for the visibility test of xyz input, degrees
     /// (Kinect-class: 45).
     pub xyz_vertical_fov_deg: f32,
+    /// A remembered cell is taken as seen (the camera's word replaces it) only this far
+    /// inside the image's top and bottom edges, degrees: the scan needs a few rows of an
+    /// obstacle to range it.
+    pub view_margin_deg: f32,
+    /// A remembered obstacle is forgotten once the user has moved this far since it was
+    /// last seen, metres (odometry error grows with motion, not with time).
+    pub forget_after_m: f32,
+    /// Turning counts as this much motion per radian, metres.
+    pub turn_m_per_rad: f32,
 }
 
 impl Default for MemoryConfig {
     fn default() -> Self {
-        Self { enabled: true, cell_m: 0.1, radius_m: 5.0, ttl_ns: 3_000_000_000, xyz_vertical_fov_deg: 45.0 }
+        Self {
+            enabled: true,
+            cell_m: 0.1,
+            radius_m: 5.0,
+            ttl_ns: 10_000_000_000,
+            xyz_vertical_fov_deg: 45.0,
+            view_margin_deg: 3.0,
+            forget_after_m: 5.0,
+            turn_m_per_rad: 0.5,
+        }
     }
 }
 

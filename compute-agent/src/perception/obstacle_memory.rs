@@ -2,9 +2,19 @@
 //! collided mostly with what the camera no longer saw: a divider beside them, a sign at
 //! head height that left the top of the 45 deg vertical view as they came close. We keep
 //! the scan's obstacles in a small egocentric grid, move it by the user's own motion
-//! (odometry / IMU yaw) and forget cells after `ttl_ns`. Each frame a remembered cell is
-//! either in view (the camera is authoritative there: the cell is dropped and re-added
-//! only if the scan still sees it) or out of view (it is handed to the cost functions).
+//! (odometry / IMU yaw) and forget a cell once the user has moved `forget_after_m` since
+//! it was seen (odometry error grows with motion: a user standing before a sign keeps
+//! it) or after `ttl_ns`. Each frame a remembered cell is either in view (the camera is
+//! authoritative there: the cell is dropped and re-added only if the scan still sees
+//! it) or out of view (it is handed to the cost functions).
+//!
+//! In view means `view_margin_deg` inside the image's top and bottom edges: a sign in
+//! the top rows is seen by too few pixels for the scan to range it, and dropping it
+//! there forgot it the moment it mattered. Handed to the costs, a cell stands for every
+//! degree of bearing it covers, as the scan's one point per degree would: one point per
+//! 10 cm cell made a remembered sign 1.5 m ahead weigh a quarter of the same sign in
+//! view, and the user walked into it (`wearnav course`, sign 1.2 m wide in the path,
+//! camera 10 deg down: 10 of 10 walks before, 0-1 after).
 
 use std::f32::consts::PI;
 
@@ -27,14 +37,15 @@ pub struct ViewCone {
 }
 
 impl ViewCone {
-    /// True when a point at user `(x, y)` and height `h` projects into the image.
-    pub fn sees(&self, x: f32, y: f32, h: f32) -> bool {
+    /// True when a point at user `(x, y)` and height `h` projects into the image, at
+    /// least `margin_rad` inside its top and bottom edges.
+    pub fn sees(&self, x: f32, y: f32, h: f32, margin_rad: f32) -> bool {
         let r = (x * x + y * y).sqrt();
         if x <= 0.0 || r > self.range_max_m || y.abs() > x * self.half_hfov_rad.tan() {
             return false;
         }
         let elevation = (h - self.camera_height_m).atan2(r);
-        (elevation + self.pitch_down_rad).abs() <= self.half_vfov_rad
+        (elevation + self.pitch_down_rad).abs() <= self.half_vfov_rad - margin_rad
     }
 }
 
@@ -44,6 +55,8 @@ struct Cell {
     x_m: f32,
     y_m: f32,
     seen_ns: u64,
+    // user motion since last seen: metres walked plus `turn_m_per_rad` per radian turned
+    moved_m: f32,
     height_m: f32,
     occupied: bool,
 }
@@ -56,7 +69,7 @@ pub struct ObstacleMemory {
     side: usize,
     nearest_by_degree: Vec<f32>,
     /// Remembered obstacles out of view this frame, user `(x, y)`, one per degree of
-    /// bearing (the nearest), like the scan's own density.
+    /// bearing (the nearest cell covering it), like the scan's own density.
     pub out_of_view: Vec<[f32; 2]>,
 }
 
@@ -93,6 +106,7 @@ impl ObstacleMemory {
         if let Some(m) = motion.filter(Motion::is_finite) {
             self.spare.iter_mut().for_each(|c| *c = Cell::default());
             let carry = m.to_current_frame();
+            let moved = m.forward_m.hypot(m.left_m) + cfg.turn_m_per_rad * m.yaw_rad.abs();
             for idx in 0..self.cells.len() {
                 let cell = self.cells[idx];
                 if !cell.occupied {
@@ -100,7 +114,7 @@ impl ObstacleMemory {
                 }
                 let [nx, ny] = carry([cell.x_m, cell.y_m]);
                 if let Some(j) = self.index(nx, ny, cfg) {
-                    self.spare[j] = Cell { x_m: nx, y_m: ny, ..cell };
+                    self.spare[j] = Cell { x_m: nx, y_m: ny, moved_m: cell.moved_m + moved, ..cell };
                 }
             }
             std::mem::swap(&mut self.cells, &mut self.spare);
@@ -113,13 +127,19 @@ impl ObstacleMemory {
                 continue;
             }
             let (x, y) = (cell.x_m, cell.y_m);
-            if stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns || view.sees(x, y, cell.height_m) {
+            let expired = cell.moved_m > cfg.forget_after_m || stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns;
+            if expired || view.sees(x, y, cell.height_m, cfg.view_margin_deg.to_radians()) {
                 self.cells[idx] = Cell::default();
                 continue;
             }
-            let deg = ((y.atan2(x) + PI).to_degrees() as usize).min(359);
+            // a cell stands for every degree of bearing it covers, as the scan would
             let r = (x * x + y * y).sqrt();
-            self.nearest_by_degree[deg] = self.nearest_by_degree[deg].min(r);
+            let centre = (y.atan2(x) + PI).to_degrees();
+            let half = (0.5 * cfg.cell_m / r.max(cfg.cell_m)).to_degrees();
+            for d in (centre - half).floor() as i32..=(centre + half).floor() as i32 {
+                let deg = d.rem_euclid(360) as usize;
+                self.nearest_by_degree[deg] = self.nearest_by_degree[deg].min(r);
+            }
         }
         self.out_of_view.clear();
         for (deg, &r) in self.nearest_by_degree.iter().enumerate() {
@@ -130,7 +150,7 @@ impl ObstacleMemory {
         }
         for [x, y, h] in scan_obstacles {
             if let Some(j) = self.index(x, y, cfg) {
-                self.cells[j] = Cell { x_m: x, y_m: y, seen_ns: stamp_ns, height_m: h, occupied: true };
+                self.cells[j] = Cell { x_m: x, y_m: y, seen_ns: stamp_ns, moved_m: 0.0, height_m: h, occupied: true };
             }
         }
     }
@@ -159,12 +179,12 @@ mod tests {
         // sign 1.9 m high, 3.0 m ahead: in view (elevation 16.7 deg up, top of view 12.5 deg)?
         // at 3.0 m it is at atan(0.9/3.0)=16.7 deg > 12.5: start further, at 4.5 m (11.3 deg).
         let mut x = 4.5f32;
-        assert!(view().sees(x, 0.0, 1.9));
+        assert!(view().sees(x, 0.0, 1.9, 0.0));
         m.update(0, None, &view(), [[x, 0.0, 1.9]].into_iter(), &cfg);
         for k in 1..=30u64 {
             let step = 0.05; // 1.5 m/s
             x -= step;
-            let visible = view().sees(x, 0.0, 1.9);
+            let visible = view().sees(x, 0.0, 1.9, 0.0);
             let seen = visible.then_some([x, 0.0, 1.9]);
             m.update(
                 k * FRAME_NS,
@@ -174,7 +194,7 @@ mod tests {
                 &cfg,
             );
         }
-        assert!(!view().sees(x, 0.0, 1.9), "sign left the view at {x}");
+        assert!(!view().sees(x, 0.0, 1.9, 0.0), "sign left the view at {x}");
         let nearest = m.out_of_view.iter().map(|p| p[0]).fold(f32::INFINITY, f32::min);
         assert!((nearest - x).abs() < 0.12, "remembered at {nearest}, truly at {x}");
     }
@@ -186,11 +206,77 @@ mod tests {
         m.update(0, None, &view(), [[1.0, 0.0, 0.5]].into_iter(), &cfg);
         let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 90f32.to_radians() };
         m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
-        assert_eq!(m.out_of_view.len(), 1);
-        let [x, y] = m.out_of_view[0];
-        assert!(x.abs() < 0.1 && (y + 1.0).abs() < 0.1, "({x}, {y})");
+        // one 10 cm cell 1 m away covers 5.7 degrees of bearing
+        assert!((5..=7).contains(&m.out_of_view.len()), "{}", m.out_of_view.len());
+        for &[x, y] in &m.out_of_view {
+            assert!(x.abs() < 0.1 && (y + 1.0).abs() < 0.1, "({x}, {y})");
+        }
         m.update(FRAME_NS + cfg.ttl_ns + 1, None, &view(), std::iter::empty(), &cfg);
         assert!(m.out_of_view.is_empty());
+    }
+
+    #[test]
+    fn a_sign_in_the_top_rows_of_the_image_is_kept_until_it_is_well_inside() {
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        // 1.6 m high, 3.2 m ahead: 11.1 deg above the axis of a camera at 1 m pitched
+        // 10 deg down, 1.4 deg inside the top edge (12.5 deg): in the image, but the scan
+        // no longer ranges it there
+        m.update(0, None, &view(), [[3.2, 0.0, 1.6]].into_iter(), &cfg);
+        assert!(view().sees(3.2, 0.0, 1.6, 0.0));
+        m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        assert!(!m.out_of_view.is_empty(), "kept");
+        // well inside (3 deg from the edge or more), the camera's word counts
+        m.update(2 * FRAME_NS, None, &view(), [[6.0, 0.0, 1.6]].into_iter(), &cfg);
+        m.update(3 * FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        assert!(m.out_of_view.iter().all(|p| p[0] < 5.0), "{:?}", m.out_of_view);
+    }
+
+    #[test]
+    fn a_near_cell_weighs_as_many_degrees_as_it_covers() {
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        // beside the user, out of view: 0.5 m away a 10 cm cell covers 11.4 degrees
+        m.update(0, None, &view(), [[0.0, 0.5, 0.5]].into_iter(), &cfg);
+        m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        assert!((11..=13).contains(&m.out_of_view.len()), "{}", m.out_of_view.len());
+        assert!(m.out_of_view.iter().all(|p| (p[0].hypot(p[1]) - 0.5).abs() < 1e-3));
+        // 4 m away it covers 1.4: one or two degrees
+        let mut far = ObstacleMemory::default();
+        far.update(0, None, &view(), [[0.0, 4.0, 0.5]].into_iter(), &cfg);
+        far.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        assert!((1..=2).contains(&far.out_of_view.len()), "{}", far.out_of_view.len());
+    }
+
+    #[test]
+    fn standing_still_keeps_an_obstacle_that_walking_on_forgets() {
+        let cfg = MemoryConfig::default();
+        let still = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 };
+        let mut m = ObstacleMemory::default();
+        m.update(0, None, &view(), [[0.0, 1.0, 0.5]].into_iter(), &cfg);
+        // 5 s standing beside it: still there (the old 3 s time to live forgot it)
+        for k in 1..=150u64 {
+            m.update(k * FRAME_NS, Some(still), &view(), std::iter::empty(), &cfg);
+        }
+        assert!(!m.out_of_view.is_empty());
+        // past the time to live, even standing, it goes
+        m.update(cfg.ttl_ns + 1, Some(still), &view(), std::iter::empty(), &cfg);
+        assert!(m.out_of_view.is_empty());
+        // walking on away from one behind the user (never in view) forgets it after
+        // `forget_after_m`
+        let cfg = MemoryConfig { forget_after_m: 2.0, ..cfg };
+        let mut w = ObstacleMemory::default();
+        w.update(0, None, &view(), [[-0.5, 0.0, 0.5]].into_iter(), &cfg);
+        let back = Motion { forward_m: 0.02, left_m: 0.0, yaw_rad: 0.0 };
+        let steps = (cfg.forget_after_m / 0.02).round() as u64;
+        for k in 1..steps - 1 {
+            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty(), &cfg);
+        }
+        assert!(!w.out_of_view.is_empty(), "kept until {} m walked", cfg.forget_after_m);
+        for k in steps - 1..steps + 2 {
+            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty(), &cfg);
+        }
+        assert!(w.out_of_view.is_empty());
     }
 
     #[test]
