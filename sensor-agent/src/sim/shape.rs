@@ -102,22 +102,15 @@ impl Shape {
     /// [`Shape::footprint_frame`]): the hot loop of the cane's distance, so no turn and
     /// no `hypot` (libm's is overflow-safe and slow; these are metres).
     fn local_point_distance_m(&self, p: [f64; 3]) -> f64 {
-        let (ex, ey, ez) = match self {
-            Shape::Box(b) => (
-                (p[0].abs() - b.half_size_m[0]).max(0.0),
-                (p[1].abs() - b.half_size_m[1]).max(0.0),
-                interval_gap(p[2], p[2], b.bottom_m, b.top_m),
-            ),
+        // how far outside a centred rectangle of half sizes `half`, along x and along y
+        let outside = |half: [f64; 2]| ((p[0].abs() - half[0]).max(0.0), (p[1].abs() - half[1]).max(0.0));
+        let ((ex, ey), ez) = match self {
+            Shape::Box(b) => (outside(b.half_size_m), interval_gap(p[2], p[2], b.bottom_m, b.top_m)),
             Shape::Cylinder(c) => (
-                ((p[0] * p[0] + p[1] * p[1]).sqrt() - c.radius_m).max(0.0),
-                0.0,
+                (((p[0] * p[0] + p[1] * p[1]).sqrt() - c.radius_m).max(0.0), 0.0),
                 interval_gap(p[2], p[2], c.bottom_m, c.top_m),
             ),
-            Shape::DropOff(d) => (
-                (p[0].abs() - d.half_size_m[0]).max(0.0),
-                (p[1].abs() - d.half_size_m[1]).max(0.0),
-                interval_gap(p[2], p[2], -d.depth_m, 0.0),
-            ),
+            Shape::DropOff(d) => (outside(d.half_size_m), interval_gap(p[2], p[2], -d.depth_m, 0.0)),
         };
         (ex * ex + ey * ey + ez * ez).sqrt()
     }
