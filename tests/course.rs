@@ -112,27 +112,27 @@ fn study_spread_over_threads_gives_the_walks_in_seed_order_as_walked_alone() {
     assert_eq!(s.rows.len(), 3);
 }
 
-/// Open room with a sign hanging at head height straight between start and goal, and
-/// a knee-high bench off to the side.
-fn sign_in_the_path() -> World {
-    world(
+/// Open room with a sign (0.3 x 1.2 m, 1.55-1.85 m high) hanging at head height
+/// `sign_x_m` straight ahead of the start, on the way to the goal at `goal_x_m`.
+fn sign_ahead(name: &str, sign_x_m: f64, goal_x_m: f64) -> World {
+    world(&format!(
         r#"
-name = "sign"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 6.0, y_m = 0.0 }
+name = "{name}"
+start = {{ x_m = 0.0, y_m = 0.0 }}
+goal = {{ x_m = {goal_x_m:.1}, y_m = 0.0 }}
 [[hanging]]
 label = "sign"
-center = [3.0, 0.0]
+center = [{sign_x_m:.1}, 0.0]
 size_m = [0.3, 1.2]
 bottom_m = 1.55
 top_m = 1.85
-"#,
-    )
+"#
+    ))
 }
 
 #[test]
 fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
-    let out = walk(&sign_in_the_path(), &quick(12.0), 1);
+    let out = walk(&sign_ahead("sign", 3.0, 6.0), &quick(12.0), 1);
     let body: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body).collect();
     assert!(!body.is_empty(), "walked into the sign: {:?}", out.contacts);
     for c in &body {
@@ -144,32 +144,16 @@ fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
     assert_eq!(out.count(Part::Cane, None), 0, "the cane passes under the sign");
 }
 
-/// Open room with a sign hanging at head height 5 m straight ahead: far enough for a
-/// camera pitched 10 degrees down to see it before it leaves the top of the view.
-fn sign_far_in_the_path() -> World {
-    world(
-        r#"
-name = "sign-ahead"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 9.0, y_m = 0.0 }
-[[hanging]]
-label = "sign"
-center = [5.0, 0.0]
-size_m = [0.3, 1.2]
-bottom_m = 1.55
-top_m = 1.85
-"#,
-    )
-}
-
 #[test]
 fn head_high_sign_seen_from_afar_is_remembered_and_the_user_stops_before_it() {
-    // the memory used to drop the sign while it was in the image's top rows and weigh
-    // what it kept at a quarter of the sign in view: 10 of 10 walks ran into it
+    // 5 m ahead: far enough for a camera pitched 10 degrees down to see it before it
+    // leaves the top of the view; the memory used to drop the sign while it was in the
+    // image's top rows and weigh what it kept at a quarter of the sign in view: 10 of
+    // 10 walks ran into it
     let mut config = quick(12.0);
     config.mount.pitch_deg = 10.0;
     for seed in [1, 2, 3] {
-        let out = walk(&sign_far_in_the_path(), &config, seed);
+        let out = walk(&sign_ahead("sign-ahead", 5.0, 9.0), &config, seed);
         assert_eq!(out.count(Part::Body, None), 0, "seed {seed}: {:?}", out.contacts);
         assert!(out.signals >= 1, "seed {seed}: the sign was signalled");
     }
