@@ -11,7 +11,7 @@
 use clap::Parser;
 use sensor_agent::sim::World;
 use wearnav::course::contacts::Part;
-use wearnav::course::study::Row;
+use wearnav::course::study::{LeadTimes, Row};
 use wearnav::course::walk::{walk, WalkConfig};
 use wearnav::course::CourseArgs;
 
@@ -140,7 +140,10 @@ fn head_high_sign_in_the_path_is_a_body_contact_outside_the_field_of_view() {
         assert!(c.head_high, "{c:?}");
         assert!(!c.in_fov, "a camera pitched 30 deg down never sees above its own height: {c:?}");
         assert_eq!(c.seen_ago_s, None);
+        assert_eq!(c.warned_ago_s, None, "nothing warned of it: {c:?}");
     }
+    let lead = LeadTimes::of(std::slice::from_ref(&out), Part::Body);
+    assert_eq!(lead, LeadTimes { not_warned: body.len() as u32, too_late: 0, in_time: 0 });
     assert_eq!(out.count(Part::Cane, None), 0, "the cane passes under the sign");
 }
 
@@ -193,6 +196,11 @@ top_m = 0.4
     assert_eq!(body.len(), 1, "{:?}", out.contacts);
     assert!(body[0].in_fov && !body[0].head_high, "{:?}", body[0]);
     assert!(body[0].seen_ago_s.is_some_and(|s| s < 0.1), "{:?}", body[0]);
+    // the rumble began about 1.2 m before the bench (1 m/s): felt for over a second
+    assert!(body[0].warned_ago_s.is_some_and(|s| s > 1.0), "{:?}", body[0]);
+    let lead = LeadTimes::of(std::slice::from_ref(&out), Part::Body);
+    // ... which is too late for a user who takes 1000 s to react
+    assert_eq!(lead, LeadTimes { not_warned: 0, too_late: 1, in_time: 0 });
     assert!(out.count(Part::Cane, None) >= 1, "the cane found it first");
 }
 

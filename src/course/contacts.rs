@@ -52,6 +52,10 @@ pub struct Contact {
     pub in_fov: bool,
     /// Seconds since the camera last got depth from it; `None`: never in this walk.
     pub seen_ago_s: Option<f64>,
+    /// Seconds the user's hands had felt a cue (a rumble, or detection offline) without
+    /// a break when the contact began; `None`: nothing was felt. Shorter than the
+    /// walk's reaction time: the warning came too late to act on.
+    pub warned_ago_s: Option<f64>,
     /// The touched part of the obstacle is entirely above the cane's handle: only the
     /// camera (or the head) can find it.
     pub head_high: bool,

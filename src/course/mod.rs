@@ -22,7 +22,8 @@ use anyhow::Context;
 use schemas::CostFunction;
 use sensor_agent::sim::{CameraProfile, World};
 
-use study::{study, table};
+use contacts::Part;
+use study::{study, table, LeadTimes};
 use walk::{GuideKind, WalkConfig};
 
 /// Cost function on the command line.
@@ -189,6 +190,10 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "runs": result.walks,
             "rows": result.rows,
             "average": result.average,
+            "lead_times": {
+                "cane": LeadTimes::of(&result.walks, Part::Cane),
+                "body": LeadTimes::of(&result.walks, Part::Body),
+            },
             "wall_time_s": elapsed_s,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
@@ -208,6 +213,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         args.seed
     );
     print!("{}", table(&result));
+    println!("{}", LeadTimes::of(&result.walks, Part::Cane).line("cane"));
+    println!("{}", LeadTimes::of(&result.walks, Part::Body).line("body"));
     for w in result.walks.iter().filter(|w| !w.completed) {
         println!(
             "seed {}: goal not reached within {:.0} s (ended at {:.2}, {:.2}, {:.1} m from the goal)",
@@ -222,7 +229,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         for w in &result.walks {
             for c in &w.contacts {
                 println!(
-                    "seed {} t {:6.1} s {:?} {:<18} {:<8} in_fov {:<5} head_high {:<5} seen {}",
+                    "seed {} t {:6.1} s {:?} {:<18} {:<8} in_fov {:<5} head_high {:<5} seen {:<11} felt {}",
                     w.seed,
                     c.t_s,
                     c.part,
@@ -230,7 +237,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
                     c.kind,
                     c.in_fov,
                     c.head_high,
-                    c.seen_ago_s.map_or("never".to_string(), |s| format!("{s:.1} s ago"))
+                    c.seen_ago_s.map_or("never".to_string(), |s| format!("{s:.1} s ago")),
+                    c.warned_ago_s.map_or("nothing".to_string(), |s| format!("{s:.1} s before"))
                 );
             }
         }

@@ -84,6 +84,48 @@ pub struct Study {
     pub average: Option<Row>,
 }
 
+/// Contacts of one part by how long before them the user felt a cue: the warning's
+/// lead time against the walk's reaction time says whether a contact was the cue's
+/// fault (none, or too late to act on) or the user's reaction to it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct LeadTimes {
+    /// Nothing was felt when the contact began.
+    pub not_warned: u32,
+    /// A cue had been felt for less than the walk's reaction time.
+    pub too_late: u32,
+    /// A cue had been felt for the reaction time or longer.
+    pub in_time: u32,
+}
+
+impl LeadTimes {
+    /// Counts the contacts of `part` over `walks`.
+    pub fn of(walks: &[WalkOutcome], part: Part) -> LeadTimes {
+        let mut n = LeadTimes::default();
+        for w in walks {
+            for c in w.contacts.iter().filter(|c| c.part == part) {
+                match c.warned_ago_s {
+                    None => n.not_warned += 1,
+                    Some(ago) if ago < w.reaction_s => n.too_late += 1,
+                    Some(_) => n.in_time += 1,
+                }
+            }
+        }
+        n
+    }
+
+    /// One line: `cane contacts 12: 2 with nothing felt, 7 felt too late to act on
+    /// (less than the reaction time before), 3 felt in time`.
+    pub fn line(&self, part: &str) -> String {
+        format!(
+            "{part} contacts {}: {} with nothing felt, {} felt too late to act on (less than the reaction time before), {} felt in time",
+            self.not_warned + self.too_late + self.in_time,
+            self.not_warned,
+            self.too_late,
+            self.in_time
+        )
+    }
+}
+
 /// Seed of run `i` of a study started at `seed`.
 pub fn run_seed(seed: u64, i: u32) -> u64 {
     seed.wrapping_add(i as u64)
@@ -184,5 +226,54 @@ mod tests {
         let text = table(&Study { walks: vec![], rows: vec![row(100.0, 1.0)], average: Some(avg) });
         assert!(text.contains("yes"), "{text}");
         assert!(text.contains("50 %"), "{text}");
+    }
+
+    fn walk_with(reaction_s: f64, contacts: &[(Part, Option<f64>)]) -> WalkOutcome {
+        WalkOutcome {
+            seed: 1,
+            completed: true,
+            time_s: 10.0,
+            signals: 0,
+            offline_signals: 0,
+            contacts: contacts
+                .iter()
+                .map(|&(part, warned_ago_s)| super::super::contacts::Contact {
+                    t_s: 5.0,
+                    part,
+                    obstacle: 0,
+                    label: "wall".into(),
+                    kind: "Wall".into(),
+                    in_fov: true,
+                    seen_ago_s: Some(0.0),
+                    warned_ago_s,
+                    head_high: false,
+                })
+                .collect(),
+            reorientations: 0,
+            assists: 0,
+            perception_errors: 0,
+            frames: 300,
+            min_clearance_m: 0.0,
+            path_m: 8.0,
+            reaction_s,
+            end_xy_m: [0.0, 0.0],
+            trace: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn lead_times_split_contacts_at_each_walks_own_reaction_time() {
+        let walks = [
+            walk_with(0.5, &[(Part::Cane, None), (Part::Cane, Some(0.3)), (Part::Cane, Some(0.5)), (Part::Body, None)]),
+            // a slower user: 0.6 s of warning is too late for them
+            walk_with(0.8, &[(Part::Cane, Some(0.6)), (Part::Cane, Some(2.0))]),
+        ];
+        let cane = LeadTimes::of(&walks, Part::Cane);
+        assert_eq!(cane, LeadTimes { not_warned: 1, too_late: 2, in_time: 2 });
+        assert_eq!(LeadTimes::of(&walks, Part::Body), LeadTimes { not_warned: 1, too_late: 0, in_time: 0 });
+        assert_eq!(
+            cane.line("cane"),
+            "cane contacts 5: 1 with nothing felt, 2 felt too late to act on (less than the reaction time before), 2 felt in time"
+        );
     }
 }

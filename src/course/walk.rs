@@ -328,6 +328,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     body.measure(world, start.floor, 0.0, |s| s.body_distance_m(start.x_m, start.y_m, radius_m, params.height_m));
     let mut body_now = body.distance_m.clone();
     let mut shown = Felt::None;
+    let mut felt_since: Option<f64> = None;
     let mut away_since: Option<f64> = None;
     let mut away_counted = false;
 
@@ -440,6 +441,11 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 Felt::Offline => out.offline_signals += 1,
                 Felt::None => {}
             }
+            if state == Felt::None {
+                felt_since = None;
+            } else if shown == Felt::None {
+                felt_since = Some(t);
+            }
             shown = state;
         }
         user.feel(t, state);
@@ -493,6 +499,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 &camera,
                 config,
                 &seen,
+                felt_since,
                 body.touch_bottom_m[id.0 as usize],
                 &mount,
             ));
@@ -523,6 +530,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 &camera,
                 config,
                 &seen,
+                felt_since,
                 cane.touch_bottom_m[id.0 as usize],
                 &mount,
             ));
@@ -542,6 +550,7 @@ fn contact(
     camera: &CameraPose,
     config: &WalkConfig,
     seen: &SeenLog,
+    felt_since_s: Option<f64>,
     touch_bottom_m: f64,
     mount: &CaneMount,
 ) -> Contact {
@@ -554,6 +563,7 @@ fn contact(
         kind: obstacle.map_or_else(String::new, |o| format!("{:?}", o.kind)),
         in_fov: in_field_of_view(world, id, camera, &config.camera, t_s),
         seen_ago_s: seen.ago_s(id, t_s),
+        warned_ago_s: felt_since_s.map(|since| t_s - since),
         head_high: touch_bottom_m > mount.handle_height_m,
     }
 }
