@@ -81,10 +81,15 @@ struct Side {
     last_level: f32,
     /// Gap of the pattern the motor last ran with.
     gap_ns: u64,
+    /// When the last two pulses began (the motor going from off to on).
+    onsets_ns: [Option<u64>; 2],
 }
 
 impl Side {
     fn set(&mut self, level: f32, pattern: HapticPattern, now_ns: u64) {
+        if level > 0.0 && self.level <= 0.0 {
+            self.onsets_ns = [self.onsets_ns[1], Some(now_ns)];
+        }
         if level > 0.0 {
             self.last_on_ns = Some(now_ns);
             self.last_level = level;
@@ -99,6 +104,15 @@ impl Side {
             self.last_on_ns = Some(now_ns);
         }
         self.level = level;
+    }
+
+    /// The time between the last two pulses while the side is felt rumbling, ns: what
+    /// a person can tell of the pulse rate (nothing before the second pulse).
+    fn pulse_period_ns(&self, now_ns: u64) -> Option<u64> {
+        match self.onsets_ns {
+            [Some(a), Some(b)] if self.felt(now_ns) > 0.0 && b > a => Some(b - a),
+            _ => None,
+        }
     }
 
     /// The level felt at `now_ns` (0 once a gap has passed without a pulse).
@@ -149,6 +163,14 @@ impl FeltRumble {
             (false, true) => Felt::Right,
         }
     }
+
+    /// The pulse period felt at `now_ns` on the rumbling side(s), ms (the shorter of
+    /// the two); `None` while nothing pulses or only one pulse has come.
+    pub fn pulse_period_ms(&self, now_ns: u64) -> Option<f64> {
+        let l = self.left.pulse_period_ns(now_ns);
+        let r = self.right.pulse_period_ns(now_ns);
+        l.into_iter().chain(r).min().map(|ns| ns as f64 / 1e6)
+    }
 }
 
 #[cfg(test)]
@@ -175,6 +197,24 @@ mod tests {
         assert_eq!(f.felt(300 * MS), Felt::Left, "inside the 200 ms gap");
         assert_eq!(f.felt(419 * MS), Felt::Left);
         assert_eq!(f.felt(421 * MS), Felt::None, "the next pulse did not come");
+    }
+
+    #[test]
+    fn pulse_rate_is_felt_from_the_second_pulse_on() {
+        let fast = HapticPattern::Pulses { period_ms: 200, duty: 0.5 };
+        let mut f = FeltRumble::default();
+        f.apply(&rumble(1.0, 0.0, fast, 0));
+        assert_eq!(f.pulse_period_ms(50 * MS), None, "one pulse tells no rate");
+        f.apply(&rumble(0.0, 0.0, fast, 100));
+        f.apply(&rumble(1.0, 0.0, fast, 200));
+        assert_eq!(f.pulse_period_ms(250 * MS), Some(200.0));
+        // the train stops: no rate once the side is no longer felt
+        f.apply(&rumble(0.0, 0.0, fast, 300));
+        assert_eq!(f.pulse_period_ms(300 * MS + 100 * MS + GAP_MARGIN_NS + MS), None);
+        // a steady rumble has no pulses to count
+        let mut g = FeltRumble::default();
+        g.apply(&rumble(1.0, 1.0, HapticPattern::Steady, 0));
+        assert_eq!(g.pulse_period_ms(500 * MS), None);
     }
 
     #[test]

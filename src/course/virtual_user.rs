@@ -159,6 +159,10 @@ pub struct UserParams {
     pub reaction_s: f64,
     /// Largest change of walking speed, m/s^2.
     pub accel_m_s2: f64,
+    /// A user told that the pulses quicken as the obstacle nears: a side rumble pulsing
+    /// at this period or faster makes them stop and turn in place, ms. 0: the thesis's
+    /// instruction (turn while walking slowly), pulse rate ignored.
+    pub fast_pulse_ms: f64,
     /// How long the user turns away after a cane or body touch, seconds.
     pub bump_turn_s: f64,
     /// After a rumble episode ends the user keeps the cleared heading this long before
@@ -178,6 +182,7 @@ impl Default for UserParams {
             turn_rate_deg_s: 60.0,
             reaction_s: 0.5,
             accel_m_s2: 2.0,
+            fast_pulse_ms: 0.0,
             bump_turn_s: 1.0,
             commit_s: 1.0,
             shoulder_width_m: 0.45,
@@ -201,7 +206,8 @@ pub struct VirtualUser {
     params: UserParams,
     pose: UserPose,
     speed_m_s: f64,
-    felt: VecDeque<(f64, Felt)>,
+    /// What was felt, and whether the pulses were fast, from when.
+    felt: VecDeque<(f64, Felt, bool)>,
     touches: VecDeque<Touch>,
     acting: Felt,
     in_place_left: bool,
@@ -242,10 +248,12 @@ impl VirtualUser {
         self.speed_m_s
     }
 
-    /// Records what the hands feel at `t_s` (called every step, in time order).
-    pub fn feel(&mut self, t_s: f64, felt: Felt) {
-        if self.felt.back().is_none_or(|(_, f)| *f != felt) {
-            self.felt.push_back((t_s, felt));
+    /// Records what the hands feel at `t_s` (called every step, in time order), with
+    /// the pulse period felt, ms (`None`: steady, or not yet two pulses).
+    pub fn feel(&mut self, t_s: f64, felt: Felt, pulse_ms: Option<f64>) {
+        let fast = self.params.fast_pulse_ms > 0.0 && pulse_ms.is_some_and(|ms| ms <= self.params.fast_pulse_ms);
+        if self.felt.back().is_none_or(|&(_, f, q)| (f, q) != (felt, fast)) {
+            self.felt.push_back((t_s, felt, fast));
         }
     }
 
@@ -263,15 +271,16 @@ impl VirtualUser {
         }
     }
 
-    /// What the user acts on at `t_s`: the newest sensation at least `reaction_s` old.
-    fn perceived(&mut self, t_s: f64) -> Felt {
+    /// What the user acts on at `t_s`: the newest sensation at least `reaction_s` old,
+    /// and whether its pulses were fast.
+    fn perceived(&mut self, t_s: f64) -> (Felt, bool) {
         let due = t_s - self.params.reaction_s;
         while self.felt.len() > 1 && self.felt[1].0 <= due {
             self.felt.pop_front();
         }
         match self.felt.front() {
-            Some((t, f)) if *t <= due => *f,
-            _ => Felt::None,
+            Some(&(t, f, fast)) if t <= due => (f, fast),
+            _ => (Felt::None, false),
         }
     }
 
@@ -291,7 +300,9 @@ impl VirtualUser {
                 self.commit_until_s = self.bump_until_s + p.commit_s;
             }
         }
-        let felt = self.perceived(t_s);
+        let (felt, fast) = self.perceived(t_s);
+        // near (fast pulses): stop while turning away, as for both sides
+        let side_speed = if fast { 0.0 } else { p.turn_walk_speed_m_s };
         if felt != self.acting {
             let in_place = |f: Felt| f == Felt::Both || f == Felt::Offline;
             if in_place(felt) && !in_place(self.acting) {
@@ -311,8 +322,8 @@ impl VirtualUser {
             (0.0, if self.bump_left { turn } else { -turn })
         } else {
             match felt {
-                Felt::Left => (p.turn_walk_speed_m_s, turn),
-                Felt::Right => (p.turn_walk_speed_m_s, -turn),
+                Felt::Left => (side_speed, turn),
+                Felt::Right => (side_speed, -turn),
                 Felt::Both => (0.0, if self.in_place_left { turn } else { -turn }),
                 // not seeing (a wall filling the view hides the floor): no step forward,
                 // but turn slowly so the camera can find the floor again
@@ -363,7 +374,7 @@ mod tests {
         let dt = 0.01;
         let mut t = from_s;
         while t < to_s {
-            u.feel(t, felt);
+            u.feel(t, felt, None);
             let (p, v) = u.propose(t, dt, Some(0.0));
             u.commit(p, v);
             t += dt;
@@ -383,6 +394,34 @@ mod tests {
     }
 
     #[test]
+    fn a_user_told_about_the_pulse_rate_stops_to_turn_when_the_pulses_are_fast() {
+        let run = |fast_pulse_ms: f64, pulse_ms: f64| {
+            let mut u = VirtualUser::new(
+                UserParams { reaction_s: 0.2, fast_pulse_ms, ..UserParams::default() },
+                UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 },
+            );
+            walk(&mut u, 0.0, 1.0, Felt::None);
+            let dt = 0.01;
+            let mut t = 1.0;
+            while t < 2.5 {
+                u.feel(t, Felt::Left, Some(pulse_ms));
+                let (p, v) = u.propose(t, dt, Some(0.0));
+                u.commit(p, v);
+                t += dt;
+            }
+            (u.speed_m_s(), u.pose().yaw_rad)
+        };
+        // thesis instruction: turn left walking slowly, whatever the rate
+        let (v, yaw) = run(0.0, 200.0);
+        assert!((v - 0.4).abs() < 1e-9 && yaw > 0.5, "{v} {yaw}");
+        // told about the rate: fast pulses (near) -> turn in place; slow ones -> walk on
+        let (v, yaw) = run(350.0, 200.0);
+        assert!(v == 0.0 && yaw > 0.5, "{v} {yaw}");
+        let (v, _) = run(350.0, 600.0);
+        assert!((v - 0.4).abs() < 1e-9, "{v}");
+    }
+
+    #[test]
     fn both_stops_and_turns_in_place_towards_the_guide_side() {
         let mut u = user(0.2);
         walk(&mut u, 0.0, 1.0, Felt::None);
@@ -390,7 +429,7 @@ mod tests {
         let dt = 0.01;
         let mut t = 1.0;
         while t < 3.0 {
-            u.feel(t, Felt::Both);
+            u.feel(t, Felt::Both, None);
             // the goal is to the right
             let (p, v) = u.propose(t, dt, Some(-1.0));
             u.commit(p, v);
@@ -408,7 +447,7 @@ mod tests {
         let mut t = 0.0;
         // stopped by Both, the goal to the left: turns left
         while t < 0.5 {
-            u.feel(t, Felt::Both);
+            u.feel(t, Felt::Both, None);
             let (p, v) = u.propose(t, dt, Some(1.5));
             u.commit(p, v);
             t += dt;
@@ -417,7 +456,7 @@ mod tests {
         // the cane hits something on the left: turns right, away from it
         u.touch(Touch { t_s: t, on_left: true });
         while t < 2.0 {
-            u.feel(t, Felt::Both);
+            u.feel(t, Felt::Both, None);
             let (p, v) = u.propose(t, dt, Some(1.5));
             u.commit(p, v);
             t += dt;
@@ -426,7 +465,7 @@ mod tests {
         // a wall fills the view: still turning in place, still to the right (turning
         // back towards the goal would swing into what was just hit)
         while t < 3.0 {
-            u.feel(t, Felt::Offline);
+            u.feel(t, Felt::Offline, None);
             let (p, v) = u.propose(t, dt, Some(1.5));
             u.commit(p, v);
             t += dt;

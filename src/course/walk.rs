@@ -448,7 +448,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             }
             shown = state;
         }
-        user.feel(t, state);
+        user.feel(t, state, felt.pulse_period_ms(now));
 
         // reorientations: heading far off the goal's bearing for too long
         let to_goal = (goal.y_m - pose.y_m).atan2(goal.x_m - pose.x_m);
