@@ -17,7 +17,7 @@ pub struct DemoArgs {
     /// User name: the key prefix `wearnav/<user>`.
     #[arg(long, default_value = "demo")]
     pub user: String,
-    /// Frame source: `sim:<world>` (approach, taylor-course, corridor, building, step-down),
+    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor, building, step-down),
     /// `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
     #[arg(long, default_value = "sim:approach")]
     pub source: String,

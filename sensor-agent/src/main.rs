@@ -27,7 +27,7 @@ enum Codec {
 struct Cli {
     #[command(flatten)]
     bus: bus::BusOptions,
-    /// Frame source: `sim:<world>` (approach, taylor-course, corridor, building, step-down, or a
+    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor, building, step-down, or a
     /// scene TOML file), `pcd:<file-or-dir>`, `tum:<dir>` (TUM RGB-D layout),
     /// `png:<dir>` (16-bit depth PNGs; give --depth-scale and --intrinsics) or
     /// `openni2:[device-uri]` (a real camera; builds with the `openni2` feature only).

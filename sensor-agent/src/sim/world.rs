@@ -11,8 +11,9 @@ use super::scene::{
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
 /// The built-in worlds, by name, embedded in the binary.
-pub const BUILTIN_WORLDS: [(&str, &str); 5] = [
+pub const BUILTIN_WORLDS: [(&str, &str); 6] = [
     ("taylor-course", include_str!("../../worlds/taylor-course.toml")),
+    ("open-course", include_str!("../../worlds/open-course.toml")),
     ("corridor", include_str!("../../worlds/corridor.toml")),
     ("building", include_str!("../../worlds/building.toml")),
     ("approach", include_str!("../../worlds/approach.toml")),
@@ -663,7 +664,7 @@ mod tests {
         let err = World::load("no-such-world").err().map(|e| e.to_string()).unwrap_or_default();
         assert!(
             err.contains("unknown world `no-such-world`")
-                && err.contains("taylor-course, corridor, building, approach, step-down"),
+                && err.contains("taylor-course, open-course, corridor, building, approach, step-down"),
             "{err}"
         );
     }
@@ -724,6 +725,23 @@ mod tests {
         assert!(walk > 1.5 * straight, "the course must turn: {walk:.1} m vs {straight:.1} m straight");
         let start = w.start();
         assert!((start.x_m < 1.0) && (start.y_m - 5.0).abs() < 0.5 && start.yaw_rad == 0.0, "middle-left facing right");
+    }
+
+    #[test]
+    fn open_course_goal_is_straight_ahead_past_a_divider_across_the_way() {
+        let w = builtin("open-course");
+        let walk = walking_distance_m(&w, [10.0, 10.0]).unwrap_or(f64::INFINITY);
+        let straight = (w.goal().x_m - w.start().x_m).hypot(w.goal().y_m - w.start().y_m);
+        println!("open-course: {walk:.1} m of walking, {straight:.1} m straight");
+        // the straight way is blocked, but going round costs little: the sound leads
+        assert!(walk > straight + 0.3 && walk < 1.3 * straight, "{walk:.1} m vs {straight:.1} m straight");
+        let start = w.start();
+        let ahead = w.nearest_to_segment(0, [start.x_m, start.y_m, 1.0], [w.goal().x_m, w.goal().y_m, 1.0], 0.0);
+        assert!(ahead.is_some_and(|n| n.distance_m == 0.0), "something stands on the straight line: {ahead:?}");
+        assert_eq!(
+            (count(&w, ObstacleKind::Wall), count(&w, ObstacleKind::Chair), count(&w, ObstacleKind::Hanging)),
+            (6, 3, 2)
+        );
     }
 
     #[test]
