@@ -28,7 +28,9 @@ enum Command {
     /// ratio, encode/decode medians and max error: for choosing a mode for your Wi-Fi.
     Codec(codec_cmd::CodecArgs),
     /// Replay Taylor's obstacle-course study with a virtual user who follows the cues,
-    /// and print the thesis's table (time, rumble signals, cane and body contacts).
+    /// and print the thesis's table (time, rumble signals, cane and body contacts), then
+    /// how many contacts came with no cue felt, with one felt too late to act on (less
+    /// than the user's reaction time before), or with one felt in time.
     Course(wearnav::course::CourseArgs),
 }
 
