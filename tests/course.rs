@@ -205,6 +205,26 @@ top_m = 0.4
 }
 
 #[test]
+fn user_standing_at_a_step_down_is_never_let_walk_off_it_unwarned() {
+    // the sound leads across the sunken area of `step-down`: the user stops at its edge
+    // again and again, turns in place and walks on. The thesis's ground guard (0.2 m
+    // either way) took the floor 18 cm below for the ground once it filled the view,
+    // the drop-off vanished and the user stepped off the edge with nothing felt.
+    let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
+    let unwarned = |max_offset_drop_m: f32| {
+        let mut config = quick(40.0);
+        config.perception.ground.max_offset_drop_m = max_offset_drop_m;
+        (1..=2)
+            .map(|seed| walk(&w, &config, seed))
+            .flat_map(|out| out.contacts)
+            .filter(|c| c.part == Part::Body && c.kind == "DropOff" && c.warned_ago_s.is_none())
+            .count()
+    };
+    assert_eq!(unwarned(0.08), 0);
+    assert!(unwarned(0.2) >= 2, "the thesis's guard lets the user off the edge unwarned");
+}
+
+#[test]
 fn slower_reaction_brings_the_user_closer_to_a_wall_ahead() {
     let w = world(
         r#"

@@ -93,6 +93,16 @@ pub struct GroundConfig {
     /// After this many consecutive guard rejections the new plane is taken as the truth
     /// (the user really stepped up, or the cane height changed for good).
     pub reseed_after_frames: u32,
+    /// Beyond the thesis: a plane lower than the running average by more than this is
+    /// a floor below the user's (a step down seen from above: stepping down moves the
+    /// camera with the user, so the user's own floor keeps its offset), not the ground.
+    /// The thesis's symmetric guard (`max_offset_jump_m`, 0.2 m) took an 18 cm step's
+    /// lower floor for the ground the moment it filled the view, and the drop-off
+    /// vanished under a user standing at the edge. Metres.
+    pub max_offset_drop_m: f32,
+    /// After this many consecutive frames of a lower plane it is taken as the truth (the
+    /// cane held higher for good), frames: 5 s at 30 Hz, longer than a stop at an edge.
+    pub reseed_lower_after_frames: u32,
     /// Ground not found for more than this many frames in a row -> `Degraded`. 5 frames is
     /// 170 ms at 30 Hz: shorter than a step, longer than one bad frame.
     pub max_lost_frames: u32,
@@ -114,6 +124,8 @@ impl Default for GroundConfig {
             max_offset_jump_m: 0.2,
             average_weight: 0.3,
             reseed_after_frames: 10,
+            max_offset_drop_m: 0.08,
+            reseed_lower_after_frames: 150,
             max_lost_frames: 5,
             seed: 0x5eed_ca9e,
         }

@@ -350,11 +350,13 @@ impl GroundTracker {
         let accepted = match (fit, self.average) {
             (Some(f), None) => Some(f.plane),
             (Some(f), Some(avg)) => {
-                if (f.plane.offset_m - avg.offset_m).abs() <= cfg.max_offset_jump_m {
+                let lower_by = f.plane.offset_m - avg.offset_m;
+                if lower_by.abs() <= cfg.max_offset_jump_m && lower_by <= cfg.max_offset_drop_m {
                     Some(f.plane)
                 } else {
                     self.rejected_frames += 1;
-                    (self.rejected_frames > cfg.reseed_after_frames).then(|| {
+                    let reseed = if lower_by > 0.0 { cfg.reseed_lower_after_frames } else { cfg.reseed_after_frames };
+                    (self.rejected_frames > reseed).then(|| {
                         self.average = None;
                         f.plane
                     })
@@ -455,15 +457,40 @@ mod tests {
     #[test]
     fn persistent_new_height_is_accepted_after_reseed_frames() {
         let cfg = GroundConfig::default();
+        // nearer (a step up, the cane held lower): after `reseed_after_frames`
         let mut t = GroundTracker::default();
         t.update(fit(true, 1.0), None, &cfg);
         let mut last = None;
         for _ in 0..=cfg.reseed_after_frames {
-            last = t.update(fit(true, 1.5), None, &cfg);
+            last = t.update(fit(true, 0.7), None, &cfg);
         }
         let d = last.unwrap();
         assert_eq!(d.state, GroundState::Found);
+        assert!((d.plane.offset_m - 0.7).abs() < 1e-6);
+        // farther (the cane held higher for good): only after `reseed_lower_after_frames`
+        let mut t = GroundTracker::default();
+        t.update(fit(true, 1.0), None, &cfg);
+        for i in 0..cfg.reseed_lower_after_frames {
+            let d = t.update(fit(true, 1.5), None, &cfg).unwrap();
+            assert!((d.plane.offset_m - 1.0).abs() < 1e-6 && d.state != GroundState::Found, "frame {i}: {d:?}");
+        }
+        let d = t.update(fit(true, 1.5), None, &cfg).unwrap();
+        assert_eq!(d.state, GroundState::Found);
         assert!((d.plane.offset_m - 1.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn floor_a_step_below_is_not_taken_for_the_ground() {
+        let cfg = GroundConfig::default();
+        let mut t = GroundTracker::default();
+        t.update(fit(true, 1.0), None, &cfg);
+        // within the thesis's 0.2 m guard, but lower than the user's floor: a step down
+        let d = t.update(fit(true, 1.15), None, &cfg).unwrap();
+        assert_eq!(d.state, GroundState::Lost);
+        assert!((d.plane.offset_m - 1.0).abs() < 1e-6);
+        // a few centimetres either way are the cane's bob and the fit's noise
+        assert_eq!(t.update(fit(true, 1.05), None, &cfg).unwrap().state, GroundState::Found);
+        assert_eq!(t.update(fit(true, 0.9), None, &cfg).unwrap().state, GroundState::Found);
     }
 
     #[test]
