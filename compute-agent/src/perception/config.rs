@@ -100,8 +100,13 @@ pub struct GroundConfig {
     /// lower floor for the ground the moment it filled the view, and the drop-off
     /// vanished under a user standing at the edge. Metres.
     pub max_offset_drop_m: f32,
-    /// After this many consecutive frames of a lower plane it is taken as the truth (the
-    /// cane held higher for good), frames: 5 s at 30 Hz, longer than a stop at an edge.
+    /// A plane lower by up to this is a floor a step (or a curb, a platform) below,
+    /// metres; farther below, the thesis's reseed applies (after a false ground such as
+    /// a seat, the true floor shows up 0.4-0.6 m lower and must be taken back quickly).
+    pub max_step_down_m: f32,
+    /// After this many consecutive frames of a floor a step below it is taken as the
+    /// truth (the cane held higher for good), frames: 5 s at 30 Hz, longer than a stop
+    /// at an edge.
     pub reseed_lower_after_frames: u32,
     /// Ground not found for more than this many frames in a row -> `Degraded`. 5 frames is
     /// 170 ms at 30 Hz: shorter than a step, longer than one bad frame.
@@ -125,6 +130,7 @@ impl Default for GroundConfig {
             average_weight: 0.3,
             reseed_after_frames: 10,
             max_offset_drop_m: 0.08,
+            max_step_down_m: 0.3,
             reseed_lower_after_frames: 150,
             max_lost_frames: 5,
             seed: 0x5eed_ca9e,

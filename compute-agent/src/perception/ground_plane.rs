@@ -355,7 +355,10 @@ impl GroundTracker {
                     Some(f.plane)
                 } else {
                     self.rejected_frames += 1;
-                    let reseed = if lower_by > 0.0 { cfg.reseed_lower_after_frames } else { cfg.reseed_after_frames };
+                    // a floor a step below waits long; a jump beyond the guard either
+                    // way is the thesis's case (a table top, or the true floor after one)
+                    let step_below = lower_by > 0.0 && lower_by <= cfg.max_step_down_m;
+                    let reseed = if step_below { cfg.reseed_lower_after_frames } else { cfg.reseed_after_frames };
                     (self.rejected_frames > reseed).then(|| {
                         self.average = None;
                         f.plane
@@ -467,16 +470,23 @@ mod tests {
         let d = last.unwrap();
         assert_eq!(d.state, GroundState::Found);
         assert!((d.plane.offset_m - 0.7).abs() < 1e-6);
-        // farther (the cane held higher for good): only after `reseed_lower_after_frames`
+        // farther below than a step (the true floor after a false one): the same
+        let mut t = GroundTracker::default();
+        t.update(fit(true, 1.0), None, &cfg);
+        for _ in 0..cfg.reseed_after_frames {
+            t.update(fit(true, 1.5), None, &cfg);
+        }
+        assert!((t.update(fit(true, 1.5), None, &cfg).unwrap().plane.offset_m - 1.5).abs() < 1e-6);
+        // a step below (the cane held higher for good): only after `reseed_lower_after_frames`
         let mut t = GroundTracker::default();
         t.update(fit(true, 1.0), None, &cfg);
         for i in 0..cfg.reseed_lower_after_frames {
-            let d = t.update(fit(true, 1.5), None, &cfg).unwrap();
+            let d = t.update(fit(true, 1.15), None, &cfg).unwrap();
             assert!((d.plane.offset_m - 1.0).abs() < 1e-6 && d.state != GroundState::Found, "frame {i}: {d:?}");
         }
-        let d = t.update(fit(true, 1.5), None, &cfg).unwrap();
+        let d = t.update(fit(true, 1.15), None, &cfg).unwrap();
         assert_eq!(d.state, GroundState::Found);
-        assert!((d.plane.offset_m - 1.5).abs() < 1e-6);
+        assert!((d.plane.offset_m - 1.15).abs() < 1e-6);
     }
 
     #[test]
