@@ -434,6 +434,13 @@ mod tests {
         })
     }
 
+    /// A tracker whose running average is a floor `offset_m` below the camera.
+    fn tracking(offset_m: f32, cfg: &GroundConfig) -> GroundTracker {
+        let mut t = GroundTracker::default();
+        t.update(fit(true, offset_m), None, cfg);
+        t
+    }
+
     #[test]
     fn table_top_jump_is_rejected_and_average_plane_stands_in() {
         let cfg = GroundConfig::default();
@@ -461,8 +468,7 @@ mod tests {
     fn persistent_new_height_is_accepted_after_reseed_frames() {
         let cfg = GroundConfig::default();
         // nearer (a step up, the cane held lower): after `reseed_after_frames`
-        let mut t = GroundTracker::default();
-        t.update(fit(true, 1.0), None, &cfg);
+        let mut t = tracking(1.0, &cfg);
         let mut last = None;
         for _ in 0..=cfg.reseed_after_frames {
             last = t.update(fit(true, 0.7), None, &cfg);
@@ -471,15 +477,13 @@ mod tests {
         assert_eq!(d.state, GroundState::Found);
         assert!((d.plane.offset_m - 0.7).abs() < 1e-6);
         // farther below than a step (the true floor after a false one): the same
-        let mut t = GroundTracker::default();
-        t.update(fit(true, 1.0), None, &cfg);
+        let mut t = tracking(1.0, &cfg);
         for _ in 0..cfg.reseed_after_frames {
             t.update(fit(true, 1.5), None, &cfg);
         }
         assert!((t.update(fit(true, 1.5), None, &cfg).unwrap().plane.offset_m - 1.5).abs() < 1e-6);
         // a step below (the cane held higher for good): only after `reseed_lower_after_frames`
-        let mut t = GroundTracker::default();
-        t.update(fit(true, 1.0), None, &cfg);
+        let mut t = tracking(1.0, &cfg);
         for i in 0..cfg.reseed_lower_after_frames {
             let d = t.update(fit(true, 1.15), None, &cfg).unwrap();
             assert!((d.plane.offset_m - 1.0).abs() < 1e-6 && d.state != GroundState::Found, "frame {i}: {d:?}");
@@ -492,8 +496,7 @@ mod tests {
     #[test]
     fn floor_a_step_below_is_not_taken_for_the_ground() {
         let cfg = GroundConfig::default();
-        let mut t = GroundTracker::default();
-        t.update(fit(true, 1.0), None, &cfg);
+        let mut t = tracking(1.0, &cfg);
         // within the thesis's 0.2 m guard, but lower than the user's floor: a step down
         let d = t.update(fit(true, 1.15), None, &cfg).unwrap();
         assert_eq!(d.state, GroundState::Lost);
