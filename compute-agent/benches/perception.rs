@@ -2,13 +2,18 @@
 //! synthetic frames and on the simulator's noisy frames at 10 and 30 deg pitch:
 //! `cargo bench -p compute-agent --bench perception`.
 //! One core, one frame at a time, the pipeline reused across runs as in the agent.
-//! `PERCEPTION_BENCH_RUNS` sets the runs per frame (default 200).
+//! `PERCEPTION_BENCH_RUNS` sets the runs per frame (default 200). Last, the memory
+//! beyond the field of view alone, full of a walk's worth of obstacles.
 
 use std::path::Path;
 use std::time::Instant;
 
+use compute_agent::perception::config::MemoryConfig;
+use compute_agent::perception::obstacle_memory::{ObstacleMemory, ViewCone};
 use compute_agent::perception::synthetic_scene::{Block, Scene};
-use compute_agent::perception::{DepthInput, FrameContext, InstantTimer, PerceptionConfig, Pipeline, StageMedians};
+use compute_agent::perception::{
+    DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline, StageMedians,
+};
 use schemas::Intrinsics;
 
 enum Frame {
@@ -167,4 +172,44 @@ fn main() {
             None => {}
         }
     }
+    memory_bench(runs);
+}
+
+/// The memory's update on its own, as on a walk down a corridor lined with obstacles:
+/// each frame the user steps 3 cm and the cane sweeps, and the scan adds 60 points
+/// (one per degree) 1-4 m ahead. Prints the median per frame and the cells held.
+fn memory_bench(runs: usize) {
+    let cfg = MemoryConfig::default();
+    let view = ViewCone {
+        half_hfov_rad: 29f32.to_radians(),
+        half_vfov_rad: 22.5f32.to_radians(),
+        pitch_down_rad: 30f32.to_radians(),
+        camera_height_m: 0.9,
+        range_max_m: 4.0,
+    };
+    let mut memory = ObstacleMemory::default();
+    let frames = 300 + runs;
+    let mut times = Vec::with_capacity(runs);
+    let sweep = |k: usize| 17f32.to_radians() * (std::f32::consts::TAU * 0.7 * k as f32 / 30.0).sin();
+    for k in 1..=frames {
+        let d = sweep(k) - sweep(k - 1);
+        let motion = Motion { forward_m: 0.03, left_m: 0.0, yaw_rad: d };
+        let scan = (0..60).map(|b| {
+            let bearing = (b as f32 - 29.5).to_radians();
+            let r = 1.0 + 3.0 * ((k * 7 + b * 13) % 29) as f32 / 29.0;
+            [r * bearing.cos(), r * bearing.sin(), 0.5]
+        });
+        let t0 = Instant::now();
+        memory.update(k as u64 * 33_333_333, Some(motion), &view, scan, &cfg);
+        if k > 300 {
+            times.push(t0.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "obstacle memory, walking and sweeping\n  update={:.3} ms median, {} cells held, {} out of view",
+        times[times.len() / 2],
+        memory.len(),
+        memory.out_of_view.len()
+    );
 }

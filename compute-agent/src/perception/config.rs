@@ -298,7 +298,7 @@ pub struct MemoryConfig {
     pub enabled: bool,
     /// Cell size, metres.
     pub cell_m: f32,
-    /// Half extent of the square grid around the user, metres.
+    /// Obstacles farther than this from the user are not kept, metres.
     pub radius_m: f32,
     /// A remembered obstacle is forgotten after this long unseen, nanoseconds, however
     /// still the user stands (10 s: a person who walked off is not kept for long).
@@ -310,11 +310,10 @@ pub struct MemoryConfig {
     /// inside the image's top and bottom edges, degrees: the scan needs a few rows of an
     /// obstacle to range it.
     pub view_margin_deg: f32,
-    /// A remembered obstacle is forgotten once the user has moved this far since it was
-    /// last seen, metres (odometry error grows with motion, not with time).
+    /// A remembered obstacle is forgotten once it has moved this far in the user's frame
+    /// since it was last seen (walking on, turning away), metres: odometry error grows
+    /// with motion, not with time.
     pub forget_after_m: f32,
-    /// Turning counts as this much motion per radian, metres.
-    pub turn_m_per_rad: f32,
 }
 
 impl Default for MemoryConfig {
@@ -327,7 +326,6 @@ impl Default for MemoryConfig {
             xyz_vertical_fov_deg: 45.0,
             view_margin_deg: 3.0,
             forget_after_m: 5.0,
-            turn_m_per_rad: 0.5,
         }
     }
 }

@@ -2,11 +2,16 @@
 //! collided mostly with what the camera no longer saw: a divider beside them, a sign at
 //! head height that left the top of the 45 deg vertical view as they came close. We keep
 //! the scan's obstacles in a small egocentric grid, move it by the user's own motion
-//! (odometry / IMU yaw) and forget a cell once the user has moved `forget_after_m` since
-//! it was seen (odometry error grows with motion: a user standing before a sign keeps
-//! it) or after `ttl_ns`. Each frame a remembered cell is either in view (the camera is
-//! authoritative there: the cell is dropped and re-added only if the scan still sees
-//! it) or out of view (it is handed to the cost functions).
+//! (odometry / IMU yaw) and forget a cell once it has moved `forget_after_m` in the
+//! user's frame since it was seen (odometry error grows with motion: a user standing
+//! before a sign keeps it) or after `ttl_ns`. The cell's own displacement is the
+//! measure, not the path the camera travelled: a camera on a sweeping cane swings
+//! +-17 deg and sideways about once a second, which adds up to metres of path and
+//! radians of turn without taking the user anywhere, and summing it forgot a head-high
+//! sign seen 3 m ahead before the user reached it (`wearnav course`, camera 10 deg
+//! down). Each frame a remembered cell is either in view (the camera is authoritative
+//! there: the cell is dropped and re-added only if the scan still sees it) or out of
+//! view (it is handed to the cost functions).
 //!
 //! In view means `view_margin_deg` inside the image's top and bottom edges: a sign in
 //! the top rows is seen by too few pixels for the scan to range it, and dropping it
@@ -16,6 +21,7 @@
 //! view, and the user walked into it (`wearnav course`, sign 1.2 m wide in the path,
 //! camera 10 deg down: 10 of 10 walks before, 0-1 after).
 
+use std::collections::HashMap;
 use std::f32::consts::PI;
 
 use super::config::MemoryConfig;
@@ -49,24 +55,29 @@ impl ViewCone {
     }
 }
 
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct Cell {
-    // exact position: cells only bin it, so motion of less than a cell per frame adds up
-    x_m: f32,
-    y_m: f32,
+    // where it is in the odometry frame: it stays put there, only the user moves
+    x_m: f64,
+    y_m: f64,
     seen_ns: u64,
-    // user motion since last seen: metres walked plus `turn_m_per_rad` per radian turned
-    moved_m: f32,
+    // where it lay in the user's frame when last seen
+    seen_x_m: f32,
+    seen_y_m: f32,
     height_m: f32,
-    occupied: bool,
 }
 
-/// The egocentric grid.
+/// The remembered obstacles, binned in cells of the odometry frame.
+///
+/// The cells stay where they were seen and the user's pose moves among them: moving
+/// the grid with the user instead re-binned every cell each frame, and under a cane's
+/// sweep two cells often rounded into one, so a 0.9 m sign seen at 3 m shrank to two
+/// cells at one end before the user reached it.
 #[derive(Debug, Default)]
 pub struct ObstacleMemory {
-    cells: Vec<Cell>,
-    spare: Vec<Cell>,
-    side: usize,
+    // user pose in the odometry frame: x, y, heading
+    pose: [f64; 3],
+    cells: HashMap<(i64, i64), Cell>,
     nearest_by_degree: Vec<f32>,
     /// Remembered obstacles out of view this frame, user `(x, y)`, one per degree of
     /// bearing (the nearest cell covering it), like the scan's own density.
@@ -74,26 +85,19 @@ pub struct ObstacleMemory {
 }
 
 impl ObstacleMemory {
-    fn ensure(&mut self, cfg: &MemoryConfig) {
-        let side = ((2.0 * cfg.radius_m / cfg.cell_m).ceil() as usize).clamp(3, 400) | 1;
-        if self.side != side {
-            self.side = side;
-            self.cells = vec![Cell::default(); side * side];
-            self.spare = vec![Cell::default(); side * side];
-        }
+    /// Number of remembered cells, in view or not.
+    pub fn len(&self) -> usize {
+        self.cells.len()
     }
 
-    fn index(&self, x: f32, y: f32, cfg: &MemoryConfig) -> Option<usize> {
-        let c = (self.side / 2) as f32;
-        let i = (x / cfg.cell_m + c).round();
-        let j = (y / cfg.cell_m + c).round();
-        let s = self.side as f32;
-        (i >= 0.0 && j >= 0.0 && i < s && j < s).then(|| i as usize * self.side + j as usize)
+    /// True when nothing is remembered.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
     }
 
-    /// Moves the grid by the user's motion since the last frame, forgets old cells,
-    /// hands out-of-view cells to `out_of_view`, drops in-view ones, and stores this
-    /// frame's scan obstacles `(x, y, height)`.
+    /// Moves the user by their motion since the last frame, forgets old cells, hands
+    /// out-of-view cells to `out_of_view`, drops in-view ones, and stores this frame's
+    /// scan obstacles `(x, y, height)`.
     pub fn update(
         &mut self,
         stamp_ns: u64,
@@ -102,45 +106,39 @@ impl ObstacleMemory {
         scan_obstacles: impl Iterator<Item = [f32; 3]>,
         cfg: &MemoryConfig,
     ) {
-        self.ensure(cfg);
         if let Some(m) = motion.filter(Motion::is_finite) {
-            self.spare.iter_mut().for_each(|c| *c = Cell::default());
-            let carry = m.to_current_frame();
-            let moved = m.forward_m.hypot(m.left_m) + cfg.turn_m_per_rad * m.yaw_rad.abs();
-            for idx in 0..self.cells.len() {
-                let cell = self.cells[idx];
-                if !cell.occupied {
-                    continue;
-                }
-                let [nx, ny] = carry([cell.x_m, cell.y_m]);
-                if let Some(j) = self.index(nx, ny, cfg) {
-                    self.spare[j] = Cell { x_m: nx, y_m: ny, moved_m: cell.moved_m + moved, ..cell };
-                }
-            }
-            std::mem::swap(&mut self.cells, &mut self.spare);
+            let [px, py, yaw] = self.pose;
+            let (s, c) = yaw.sin_cos();
+            let (f, l) = (f64::from(m.forward_m), f64::from(m.left_m));
+            self.pose = [px + c * f - s * l, py + s * f + c * l, yaw + f64::from(m.yaw_rad)];
         }
+        let [px, py, yaw] = self.pose;
+        let (s, c) = yaw.sin_cos();
+        let to_user = |x: f64, y: f64| {
+            let (dx, dy) = (x - px, y - py);
+            [(c * dx + s * dy) as f32, (-s * dx + c * dy) as f32]
+        };
         self.nearest_by_degree.clear();
         self.nearest_by_degree.resize(360, f32::INFINITY);
-        for idx in 0..self.cells.len() {
-            let cell = self.cells[idx];
-            if !cell.occupied {
-                continue;
-            }
-            let (x, y) = (cell.x_m, cell.y_m);
-            let expired = cell.moved_m > cfg.forget_after_m || stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns;
-            if expired || view.sees(x, y, cell.height_m, cfg.view_margin_deg.to_radians()) {
-                self.cells[idx] = Cell::default();
-                continue;
+        let nearest = &mut self.nearest_by_degree;
+        let margin_rad = cfg.view_margin_deg.to_radians();
+        self.cells.retain(|_, cell| {
+            let [x, y] = to_user(cell.x_m, cell.y_m);
+            let r = x.hypot(y);
+            let moved_m = (x - cell.seen_x_m).hypot(y - cell.seen_y_m);
+            let expired = moved_m > cfg.forget_after_m || stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns;
+            if expired || r > cfg.radius_m || view.sees(x, y, cell.height_m, margin_rad) {
+                return false;
             }
             // a cell stands for every degree of bearing it covers, as the scan would
-            let r = (x * x + y * y).sqrt();
             let centre = (y.atan2(x) + PI).to_degrees();
             let half = (0.5 * cfg.cell_m / r.max(cfg.cell_m)).to_degrees();
             for d in (centre - half).floor() as i32..=(centre + half).floor() as i32 {
                 let deg = d.rem_euclid(360) as usize;
-                self.nearest_by_degree[deg] = self.nearest_by_degree[deg].min(r);
+                nearest[deg] = nearest[deg].min(r);
             }
-        }
+            true
+        });
         self.out_of_view.clear();
         for (deg, &r) in self.nearest_by_degree.iter().enumerate() {
             if r.is_finite() {
@@ -148,10 +146,15 @@ impl ObstacleMemory {
                 self.out_of_view.push([r * b.cos(), r * b.sin()]);
             }
         }
+        let cell_m = f64::from(cfg.cell_m.max(0.01));
         for [x, y, h] in scan_obstacles {
-            if let Some(j) = self.index(x, y, cfg) {
-                self.cells[j] = Cell { x_m: x, y_m: y, seen_ns: stamp_ns, moved_m: 0.0, height_m: h, occupied: true };
+            if !(x.is_finite() && y.is_finite() && h.is_finite()) || x.hypot(y) > cfg.radius_m {
+                continue;
             }
+            let (xf, yf) = (f64::from(x), f64::from(y));
+            let (ox, oy) = (px + c * xf - s * yf, py + s * xf + c * yf);
+            let key = ((ox / cell_m).round() as i64, (oy / cell_m).round() as i64);
+            self.cells.insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: h });
         }
     }
 }
@@ -286,5 +289,32 @@ mod tests {
         m.update(0, None, &view(), [[2.0, 0.0, 0.5]].into_iter(), &cfg);
         m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
         assert!(m.out_of_view.is_empty());
+    }
+
+    #[test]
+    fn a_sign_beside_a_sweeping_cane_is_remembered_whole() {
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        // a 0.9 m sign 2.5 m ahead, above the view (23.5 deg above the axis), as the
+        // scan gave it: one point per degree of bearing
+        let sign: Vec<[f32; 3]> = (-9..=9).map(|k| [2.5, 0.05 * k as f32, 1.6]).collect();
+        assert!(sign.iter().all(|p| !view().sees(p[0], p[1], p[2], 0.0)));
+        m.update(0, None, &view(), sign.iter().copied(), &cfg);
+        let stored = m.len();
+        // the user stands and sweeps: the camera, 0.5 m out from the hand, swings
+        // +-17 deg at 0.75 Hz for four sweeps
+        let (arm_m, amplitude) = (0.5f32, 17f32.to_radians());
+        let angle = |k: u64| amplitude * (std::f32::consts::TAU * 0.75 * k as f32 / 30.0).sin();
+        for k in 1..=160u64 {
+            let d = angle(k) - angle(k - 1);
+            let motion = Motion { forward_m: arm_m * (d.cos() - 1.0), left_m: arm_m * d.sin(), yaw_rad: d };
+            m.update(k * FRAME_NS, Some(motion), &view(), std::iter::empty(), &cfg);
+        }
+        // back where it started: all of the sign is still there, where it was
+        let ys: Vec<f32> = m.out_of_view.iter().map(|p| p[1]).collect();
+        let (lo, hi) = ys.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &y| (a.min(y), b.max(y)));
+        assert!(lo < -0.4 && hi > 0.4, "the sign now spans {lo:.2}..{hi:.2} m, truly -0.45..0.45");
+        assert!(m.out_of_view.iter().all(|p| (p[0] - 2.5).abs() < 0.06), "{:?}", m.out_of_view);
+        assert_eq!(m.len(), stored, "cells merged");
     }
 }
