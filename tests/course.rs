@@ -2,7 +2,7 @@
 //! before a wall, counts a head-high contact as such, stops the user before a sign a
 //! 10-degree camera saw from afar, stays quiet in a clear corridor
 //! however the cane sweeps, gives a verdict on an unreachable goal, is deterministic per
-//! seed, and reacts later with a slower user.
+//! seed, reacts later with a slower user and swings further with a faster-turning one.
 //!
 //! The full 20-run table is a CLI run (`wearnav course`); the ignored test
 //! `course_cli` runs it from this harness too: `COURSE_ARGS="--world taylor-course
@@ -247,6 +247,36 @@ to = [5.0, 4.0]
     let (fast, medium, slow) = (clearance(0.2), clearance(0.8), clearance(1.6));
     assert!(fast > medium && medium > slow, "clearances {fast} > {medium} > {slow}");
     assert!(fast > 0.3, "a quick user stays well clear: {fast}");
+}
+
+#[test]
+fn faster_turning_user_swings_further_past_the_clear_heading() {
+    // a wall across the way, open to the north: the rumble turns the user left until
+    // the path is clear, and they stop turning only a reaction time after it stops
+    let w = world(
+        r#"
+name = "wall-open-north"
+start = { x_m = 0.0, y_m = 0.0 }
+goal = { x_m = 9.0, y_m = 0.0 }
+[[walls]]
+label = "wall"
+from = [4.0, -4.0]
+to = [4.0, 1.0]
+"#,
+    );
+    let swing = |turn_rate_deg_s: f64| {
+        let mut c = quick(6.0);
+        c.user.turn_rate_deg_s = turn_rate_deg_s;
+        c.reaction_jitter = 0.0;
+        c.start_jitter = (0.0, 0.0);
+        c.trace = true;
+        let out = walk(&w, &c, 1);
+        assert_eq!(out.count(Part::Body, None), 0, "{turn_rate_deg_s} deg/s: {:?}", out.contacts);
+        out.trace.iter().map(|r| r.yaw_deg.abs()).fold(0.0, f64::max)
+    };
+    let (slow, fast) = (swing(30.0), swing(90.0));
+    assert!(slow > 15.0, "the slow user turned away too: {slow:.0} deg");
+    assert!(fast > slow + 30.0, "90 deg/s swung {fast:.0} deg, 30 deg/s {slow:.0} deg");
 }
 
 /// The corridor with its floor one stair step (0.18 m) lower from x = 4 to 6, wall
