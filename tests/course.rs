@@ -224,24 +224,33 @@ fn user_standing_at_a_step_down_is_never_let_walk_off_it_unwarned() {
     assert!(unwarned(0.2) >= 2, "the thesis's guard lets the user off the edge unwarned");
 }
 
-#[test]
-fn slower_reaction_brings_the_user_closer_to_a_wall_ahead() {
-    let w = world(
+/// An open floor with a wall across the way at `x_m`, from `y_from_m` to `y_to_m`; the
+/// goal's sound comes from x = 9.
+fn wall_across(name: &str, x_m: f64, y_from_m: f64, y_to_m: f64) -> World {
+    world(&format!(
         r#"
-name = "wall"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 9.0, y_m = 0.0 }
+name = "{name}"
+start = {{ x_m = 0.0, y_m = 0.0 }}
+goal = {{ x_m = 9.0, y_m = 0.0 }}
 [[walls]]
 label = "wall"
-from = [5.0, -4.0]
-to = [5.0, 4.0]
-"#,
-    );
+from = [{x_m:.1}, {y_from_m:.1}]
+to = [{x_m:.1}, {y_to_m:.1}]
+"#
+    ))
+}
+
+/// [`quick`] for a user with no jitter: the start and the reaction time as given.
+fn exact(timeout_s: f64) -> WalkConfig {
+    WalkConfig { reaction_jitter: 0.0, start_jitter: (0.0, 0.0), ..quick(timeout_s) }
+}
+
+#[test]
+fn slower_reaction_brings_the_user_closer_to_a_wall_ahead() {
+    let w = wall_across("wall", 5.0, -4.0, 4.0);
     let clearance = |reaction_s: f64| {
-        let mut c = quick(5.5);
+        let mut c = exact(5.5);
         c.user.reaction_s = reaction_s;
-        c.reaction_jitter = 0.0;
-        c.start_jitter = (0.0, 0.0);
         walk(&w, &c, 1).min_clearance_m
     };
     let (fast, medium, slow) = (clearance(0.2), clearance(0.8), clearance(1.6));
@@ -253,22 +262,10 @@ to = [5.0, 4.0]
 fn faster_turning_user_swings_further_past_the_clear_heading() {
     // a wall across the way, open to the north: the rumble turns the user left until
     // the path is clear, and they stop turning only a reaction time after it stops
-    let w = world(
-        r#"
-name = "wall-open-north"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 9.0, y_m = 0.0 }
-[[walls]]
-label = "wall"
-from = [4.0, -4.0]
-to = [4.0, 1.0]
-"#,
-    );
+    let w = wall_across("wall-open-north", 4.0, -4.0, 1.0);
     let swing = |turn_rate_deg_s: f64| {
-        let mut c = quick(6.0);
+        let mut c = exact(6.0);
         c.user.turn_rate_deg_s = turn_rate_deg_s;
-        c.reaction_jitter = 0.0;
-        c.start_jitter = (0.0, 0.0);
         c.trace = true;
         let out = walk(&w, &c, 1);
         assert_eq!(out.count(Part::Body, None), 0, "{turn_rate_deg_s} deg/s: {:?}", out.contacts);
