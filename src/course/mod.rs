@@ -85,6 +85,10 @@ pub struct CourseArgs {
     /// Switch off drop-off detection.
     #[arg(long)]
     pub no_dropoff: bool,
+    /// Keep drop-off detection on the path ahead only: the edges of lower ground
+    /// elsewhere in view are neither steered round nor remembered.
+    #[arg(long)]
+    pub no_edges: bool,
     /// Switch off the time-to-collision warning.
     #[arg(long)]
     pub no_ttc: bool,
@@ -144,6 +148,7 @@ impl CourseArgs {
         c.perception.memory.enabled = !self.no_memory;
         c.perception.hysteresis.enabled = !self.no_hysteresis;
         c.perception.dropoff.enabled = !self.no_dropoff;
+        c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
         c.guide = self.guide;
         anyhow::ensure!(
@@ -194,6 +199,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "memory": !args.no_memory,
             "hysteresis": !args.no_hysteresis,
             "dropoff": !args.no_dropoff,
+            "edges": !args.no_dropoff && !args.no_edges,
             "ttc": !args.no_ttc,
             "guide": args.guide,
             "camera": config.camera.name,
@@ -211,13 +217,14 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | ttc {} | guide {:?} | {} runs from seed {}",
+        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {:?} | {} runs from seed {}",
         world.name(),
         config.camera.name,
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),
         on_off(!args.no_dropoff),
+        on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),
         args.guide,
         args.runs,

@@ -260,6 +260,7 @@ pub struct Pipeline {
     closing: ClosingSpeed,
     debounce: RumbleDebounce,
     cost_points: Vec<[f32; 2]>,
+    edge_points: Vec<[f32; 2]>,
     out: Perception,
 }
 
@@ -278,6 +279,7 @@ impl Pipeline {
             closing: ClosingSpeed::default(),
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
+            edge_points: Vec::new(),
             out: Perception::empty(),
         }
     }
@@ -343,6 +345,10 @@ impl Pipeline {
         timer.stop();
 
         timer.start("dropoff");
+        self.edge_points.clear();
+        if cfg.dropoff.enabled && cfg.dropoff.edges {
+            dropoff::edges(&self.cloud, &frame, gravity, &cfg.dropoff, &mut self.edge_points);
+        }
         out.path_ground = if cfg.dropoff.enabled {
             dropoff::survey(&self.cloud, &frame, &cfg.dropoff)
         } else {
@@ -367,11 +373,15 @@ impl Pipeline {
             let seen = self
                 .cost_points
                 .iter()
-                .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h));
-            self.memory.update(ctx.stamp_ns, ctx.motion, &cone, seen.map(|(p, h)| [p[0], p[1], h]), &cfg.memory);
+                .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h))
+                .map(|(p, h)| [p[0], p[1], h])
+                .chain(self.edge_points.iter().map(|p| [p[0], p[1], 0.0]));
+            self.memory.update(ctx.stamp_ns, ctx.motion, &cone, seen, &cfg.memory);
+            self.cost_points.extend_from_slice(&self.edge_points);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
         } else {
+            self.cost_points.extend_from_slice(&self.edge_points);
             out.remembered = 0;
         }
         timer.stop();
