@@ -211,31 +211,33 @@ fn user_standing_at_a_step_down_is_never_let_walk_off_it_unwarned() {
     // either way) took the floor 18 cm below for the ground once it filled the view,
     // the drop-off vanished and the user stepped off the edge with nothing felt.
     let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
-    // (the guard alone: the edges of lower ground, remembered, would warn of it too)
-    let unwarned = |max_offset_drop_m: f32, edges: bool| {
+    // The guard alone is compared with edges off (remembered, they would warn of the
+    // edge too) and hysteresis on (off, seed 2 also cuts the area's corner beside the
+    // path: `a_step_corner_beside_the_path_is_steered_round_and_remembered`).
+    let unwarned = |max_offset_drop_m: f32, guard_alone: bool| {
         let mut config = quick(40.0);
         config.perception.ground.max_offset_drop_m = max_offset_drop_m;
-        config.perception.dropoff.edges = edges;
+        config.perception.dropoff.edges = !guard_alone;
+        config.perception.hysteresis.enabled = guard_alone;
         (1..=2)
             .map(|seed| walk(&w, &config, seed))
             .flat_map(|out| out.contacts)
             .filter(|c| c.part == Part::Body && c.kind == "DropOff" && c.warned_ago_s.is_none())
             .count()
     };
-    assert_eq!(unwarned(0.08, true), 0);
-    assert_eq!(unwarned(0.08, false), 0);
-    assert!(unwarned(0.2, false) >= 2, "the thesis's guard lets the user off the edge unwarned");
+    assert_eq!(unwarned(0.08, false), 0, "the defaults");
+    assert_eq!(unwarned(0.08, true), 0, "our guard");
+    assert!(unwarned(0.2, true) >= 2, "the thesis's guard lets the user off the edge unwarned");
 }
 
 #[test]
 fn a_step_corner_beside_the_path_is_steered_round_and_remembered() {
-    // with the raw rumble (no hysteresis) the user of seed 2 turns back towards the
-    // sound past the sunken area's corner and grazes it 37.5 s in, the corner long out
-    // of the path ahead that the drop-off survey watches
+    // the user of seed 2 turns back towards the sound past the sunken area's corner and
+    // grazes it 37.5 s in, the corner long out of the path ahead that the drop-off
+    // survey watches
     let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
     let unwarned = |edges: bool| {
         let mut config = quick(40.0);
-        config.perception.hysteresis.enabled = false;
         config.perception.dropoff.edges = edges;
         let out = walk(&w, &config, 2);
         let drop: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body && c.kind == "DropOff").collect();

@@ -79,9 +79,10 @@ pub struct CourseArgs {
     /// Switch off the memory of obstacles beyond the field of view.
     #[arg(long)]
     pub no_memory: bool,
-    /// Switch off the debounce of the rumble state.
+    /// Switch on the debounce of the rumble state (off by default: it did not earn its
+    /// place in this study).
     #[arg(long)]
-    pub no_hysteresis: bool,
+    pub hysteresis: bool,
     /// Switch off drop-off detection.
     #[arg(long)]
     pub no_dropoff: bool,
@@ -146,7 +147,7 @@ impl CourseArgs {
             Cost::Cacf => CostFunction::Cacf,
         };
         c.perception.memory.enabled = !self.no_memory;
-        c.perception.hysteresis.enabled = !self.no_hysteresis;
+        c.perception.hysteresis.enabled = self.hysteresis;
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
@@ -197,7 +198,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "world": world.name(),
             "cost": format!("{:?}", args.cost).to_lowercase(),
             "memory": !args.no_memory,
-            "hysteresis": !args.no_hysteresis,
+            "hysteresis": args.hysteresis,
             "dropoff": !args.no_dropoff,
             "edges": !args.no_dropoff && !args.no_edges,
             "ttc": !args.no_ttc,
@@ -222,7 +223,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         config.camera.name,
         args.cost,
         on_off(!args.no_memory),
-        on_off(!args.no_hysteresis),
+        on_off(args.hysteresis),
         on_off(!args.no_dropoff),
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),

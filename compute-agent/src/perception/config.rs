@@ -272,7 +272,10 @@ impl Default for CostConfig {
     }
 }
 
-/// Debounce of the rumble state.
+/// Debounce of the rumble state. Off by default: in the virtual user study it saved no
+/// signals and, holding a calmer state 133 ms before showing it, turned the user that
+/// much further past the clear heading (FICF route, 20 walks: 15.2 signals, 2.70 cane
+/// and 0.35 body contacts per walk on, 9.5, 1.85 and 0 off; README, virtual user study).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default)]
 pub struct HysteresisConfig {
@@ -286,7 +289,7 @@ pub struct HysteresisConfig {
 
 impl Default for HysteresisConfig {
     fn default() -> Self {
-        Self { enabled: true, relax_frames: 4 }
+        Self { enabled: false, relax_frames: 4 }
     }
 }
 

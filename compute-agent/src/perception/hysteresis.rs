@@ -1,7 +1,7 @@
 //! Beyond the thesis: debounce of the rumble state. Taylor's users got 32-39 signals on
 //! a short course, many of them flicker between frames. Escalations (clear -> one side,
 //! anything -> both) pass at once; anything calmer, and a change of side, must persist
-//! for `relax_frames` frames first.
+//! for `relax_frames` frames first. Off by default (see `HysteresisConfig`).
 
 use schemas::Rumble;
 
@@ -59,9 +59,13 @@ impl RumbleDebounce {
 mod tests {
     use super::*;
 
+    fn on() -> HysteresisConfig {
+        HysteresisConfig { enabled: true, ..Default::default() }
+    }
+
     #[test]
     fn single_clear_frame_does_not_drop_a_warning() {
-        let cfg = HysteresisConfig::default();
+        let cfg = on();
         let mut d = RumbleDebounce::default();
         assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left, "warning passes at once");
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::Left);
@@ -74,7 +78,7 @@ mod tests {
 
     #[test]
     fn flapping_sides_hold_the_first_side_and_both_escalates_at_once() {
-        let cfg = HysteresisConfig::default();
+        let cfg = on();
         let mut d = RumbleDebounce::default();
         let shown: Vec<_> =
             [Rumble::Left, Rumble::Right, Rumble::Left, Rumble::Right].iter().map(|&r| d.update(r, &cfg)).collect();
@@ -83,8 +87,9 @@ mod tests {
     }
 
     #[test]
-    fn switched_off_passes_raw_states() {
-        let cfg = HysteresisConfig { enabled: false, ..Default::default() };
+    fn switched_off_by_default_passes_raw_states() {
+        let cfg = HysteresisConfig::default();
+        assert!(!cfg.enabled);
         let mut d = RumbleDebounce::default();
         assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left);
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::None);
