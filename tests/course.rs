@@ -212,13 +212,13 @@ fn user_standing_at_a_step_down_is_never_let_walk_off_it_unwarned() {
     // the drop-off vanished and the user stepped off the edge with nothing felt.
     let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
     // The guard alone is compared with edges off (remembered, they would warn of the
-    // edge too) and hysteresis on (off, seed 2 also cuts the area's corner beside the
-    // path: `a_step_corner_beside_the_path_is_steered_round_and_remembered`).
+    // edge too) and side cues debounced (not, seed 2 also cuts the area's corner beside
+    // the path: `a_step_corner_beside_the_path_is_steered_round_and_remembered`).
     let unwarned = |max_offset_drop_m: f32, guard_alone: bool| {
         let mut config = quick(40.0);
         config.perception.ground.max_offset_drop_m = max_offset_drop_m;
         config.perception.dropoff.edges = !guard_alone;
-        config.perception.hysteresis.enabled = guard_alone;
+        config.perception.hysteresis.hold_sides = guard_alone;
         (1..=2)
             .map(|seed| walk(&w, &config, seed))
             .flat_map(|out| out.contacts)
@@ -232,12 +232,13 @@ fn user_standing_at_a_step_down_is_never_let_walk_off_it_unwarned() {
 
 #[test]
 fn a_step_corner_beside_the_path_is_steered_round_and_remembered() {
-    // the user of seed 2 turns back towards the sound past the sunken area's corner and
-    // grazes it 37.5 s in, the corner long out of the path ahead that the drop-off
-    // survey watches
+    // with the raw rumble the user of seed 2 turns back towards the sound past the
+    // sunken area's corner and grazes it 37.5 s in, the corner long out of the path
+    // ahead that the drop-off survey watches
     let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
     let unwarned = |edges: bool| {
         let mut config = quick(40.0);
+        config.perception.hysteresis.enabled = false;
         config.perception.dropoff.edges = edges;
         let out = walk(&w, &config, 2);
         let drop: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body && c.kind == "DropOff").collect();

@@ -79,10 +79,13 @@ pub struct CourseArgs {
     /// Switch off the memory of obstacles beyond the field of view.
     #[arg(long)]
     pub no_memory: bool,
-    /// Switch on the debounce of the rumble state (off by default: it did not earn its
-    /// place in this study).
+    /// Switch off the debounce of the rumble state (a stop released only after 133 ms
+    /// of a calmer state).
     #[arg(long)]
-    pub hysteresis: bool,
+    pub no_hysteresis: bool,
+    /// Debounce side cues too (held 133 ms against clear and the other side).
+    #[arg(long)]
+    pub hold_sides: bool,
     /// Switch off drop-off detection.
     #[arg(long)]
     pub no_dropoff: bool,
@@ -147,7 +150,8 @@ impl CourseArgs {
             Cost::Cacf => CostFunction::Cacf,
         };
         c.perception.memory.enabled = !self.no_memory;
-        c.perception.hysteresis.enabled = self.hysteresis;
+        c.perception.hysteresis.enabled = !self.no_hysteresis;
+        c.perception.hysteresis.hold_sides = self.hold_sides;
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
@@ -198,7 +202,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "world": world.name(),
             "cost": format!("{:?}", args.cost).to_lowercase(),
             "memory": !args.no_memory,
-            "hysteresis": args.hysteresis,
+            "hysteresis": !args.no_hysteresis,
+            "hold_sides": !args.no_hysteresis && args.hold_sides,
             "dropoff": !args.no_dropoff,
             "edges": !args.no_dropoff && !args.no_edges,
             "ttc": !args.no_ttc,
@@ -223,7 +228,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         config.camera.name,
         args.cost,
         on_off(!args.no_memory),
-        on_off(args.hysteresis),
+        on_off(!args.no_hysteresis),
         on_off(!args.no_dropoff),
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),

@@ -272,24 +272,31 @@ impl Default for CostConfig {
     }
 }
 
-/// Debounce of the rumble state. Off by default: in the virtual user study it saved no
-/// signals and, holding a calmer state 133 ms before showing it, turned the user that
-/// much further past the clear heading (FICF route, 20 walks: 15.2 signals, 2.70 cane
-/// and 0.35 body contacts per walk on, 9.5, 1.85 and 0 off; README, virtual user study).
+/// Debounce of the rumble state: a stop (`Both`) is released only once a calmer state
+/// has held for `relax_frames`. While the user turns in place on `Both`, a clear of a
+/// few frames (felt once it outlasts a pulse gap) sent them walking on for a second,
+/// and the stop came back too late: 13 body contacts with a divider in view in 20
+/// sound-following CACF walks with no debounce, 7 with it. Side cues are not held by
+/// default: holding them turned the user 133 ms further past the clear heading and
+/// saved no signals (FICF route, 20 walks: 15.2 signals, 2.70 cane and 0.35 body
+/// contacts per walk holding sides, 9.7, 1.90 and 0.10 not; README, virtual user study).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default)]
 pub struct HysteresisConfig {
     /// Switch. Off: the rumble is the raw Table 2.1 state of every frame.
     pub enabled: bool,
-    /// Frames a calmer state (clear, or the other side) must persist before it replaces the
-    /// current one. Escalations (clear -> warn, warn -> both) act at once: a late warning
-    /// is worse than a long one. 4 frames = 133 ms at 30 Hz.
+    /// Frames a calmer state must persist before it replaces the one held. Escalations
+    /// (clear -> warn, warn -> both) act at once: a late warning is worse than a long
+    /// one. 4 frames = 133 ms at 30 Hz.
     pub relax_frames: u32,
+    /// Also hold a side cue against clear and against the other side (the debounce of
+    /// every state, as first built).
+    pub hold_sides: bool,
 }
 
 impl Default for HysteresisConfig {
     fn default() -> Self {
-        Self { enabled: false, relax_frames: 4 }
+        Self { enabled: true, relax_frames: 4, hold_sides: false }
     }
 }
 

@@ -1,7 +1,7 @@
-//! Beyond the thesis: debounce of the rumble state. Taylor's users got 32-39 signals on
-//! a short course, many of them flicker between frames. Escalations (clear -> one side,
-//! anything -> both) pass at once; anything calmer, and a change of side, must persist
-//! for `relax_frames` frames first. Off by default (see `HysteresisConfig`).
+//! Beyond the thesis: debounce of the rumble state. Escalations (clear -> one side,
+//! anything -> both) pass at once; a stop is released (to a side or to clear) only
+//! once the calmer state has persisted for `relax_frames` frames. With `hold_sides`,
+//! a side cue is held the same way against clear and against the other side. Off by default (see `HysteresisConfig`).
 
 use schemas::Rumble;
 
@@ -32,7 +32,8 @@ fn severity(r: Rumble) -> u8 {
 impl RumbleDebounce {
     /// Feeds this frame's raw state; returns the state to show.
     pub fn update(&mut self, raw: Rumble, cfg: &HysteresisConfig) -> Rumble {
-        if !cfg.enabled || severity(raw) > severity(self.current) {
+        let held = self.current == Rumble::Both || cfg.hold_sides;
+        if !cfg.enabled || !held || severity(raw) > severity(self.current) {
             self.current = raw;
             self.candidate_frames = 0;
             return raw;
@@ -59,39 +60,40 @@ impl RumbleDebounce {
 mod tests {
     use super::*;
 
-    fn on() -> HysteresisConfig {
-        HysteresisConfig { enabled: true, ..Default::default() }
+    fn holding_sides() -> HysteresisConfig {
+        HysteresisConfig { hold_sides: true, ..Default::default() }
     }
 
     #[test]
-    fn single_clear_frame_does_not_drop_a_warning() {
-        let cfg = on();
+    fn a_stop_is_released_only_after_relax_frames_of_clear() {
+        let cfg = HysteresisConfig::default();
         let mut d = RumbleDebounce::default();
-        assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left, "warning passes at once");
-        assert_eq!(d.update(Rumble::None, &cfg), Rumble::Left);
-        assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left);
+        assert_eq!(d.update(Rumble::Both, &cfg), Rumble::Both, "a stop passes at once");
+        assert_eq!(d.update(Rumble::None, &cfg), Rumble::Both);
+        assert_eq!(d.update(Rumble::Both, &cfg), Rumble::Both);
         for _ in 1..cfg.relax_frames {
-            assert_eq!(d.update(Rumble::None, &cfg), Rumble::Left);
+            assert_eq!(d.update(Rumble::None, &cfg), Rumble::Both);
         }
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::None, "clear after relax_frames in a row");
     }
 
     #[test]
-    fn flapping_sides_hold_the_first_side_and_both_escalates_at_once() {
-        let cfg = on();
+    fn side_cues_follow_the_raw_state_unless_held() {
+        let raw = [Rumble::Left, Rumble::None, Rumble::Right, Rumble::Left, Rumble::None];
         let mut d = RumbleDebounce::default();
-        let shown: Vec<_> =
-            [Rumble::Left, Rumble::Right, Rumble::Left, Rumble::Right].iter().map(|&r| d.update(r, &cfg)).collect();
-        assert_eq!(shown, vec![Rumble::Left; 4]);
-        assert_eq!(d.update(Rumble::Both, &cfg), Rumble::Both);
+        let shown: Vec<_> = raw.iter().map(|&r| d.update(r, &HysteresisConfig::default())).collect();
+        assert_eq!(shown, raw);
+        let mut d = RumbleDebounce::default();
+        let shown: Vec<_> = raw.iter().map(|&r| d.update(r, &holding_sides())).collect();
+        assert_eq!(shown, vec![Rumble::Left; 5], "held: the first side stays");
+        assert_eq!(d.update(Rumble::Both, &holding_sides()), Rumble::Both, "both escalates at once");
     }
 
     #[test]
-    fn switched_off_by_default_passes_raw_states() {
-        let cfg = HysteresisConfig::default();
-        assert!(!cfg.enabled);
+    fn switched_off_passes_raw_states() {
+        let cfg = HysteresisConfig { enabled: false, ..Default::default() };
         let mut d = RumbleDebounce::default();
-        assert_eq!(d.update(Rumble::Left, &cfg), Rumble::Left);
+        assert_eq!(d.update(Rumble::Both, &cfg), Rumble::Both);
         assert_eq!(d.update(Rumble::None, &cfg), Rumble::None);
     }
 }
