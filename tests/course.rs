@@ -11,6 +11,7 @@
 use clap::Parser;
 use sensor_agent::sim::World;
 use wearnav::course::contacts::Part;
+use wearnav::course::hands::Felt;
 use wearnav::course::study::{LeadTimes, Row};
 use wearnav::course::walk::{walk, WalkConfig};
 use wearnav::course::CourseArgs;
@@ -89,6 +90,36 @@ fn unreachable_goal_ends_with_a_timeout_verdict() {
     assert_eq!(out.verdict(), "goal not reached");
     assert_eq!(out.time_s, 8.0);
     assert_eq!(out.frames, 8 * 30 + 1, "frames at 30 Hz of simulated time, t = 0 to 8 s");
+}
+
+#[test]
+fn frames_refused_in_a_row_are_felt_as_blind_not_as_a_clear_path() {
+    // the user starts with a wall 0.3 m ahead of the camera, nearer than an Xtion can
+    // range: every frame is refused until the user has turned away. Perception must say it is blind (the compute
+    // agent's third refusal in a row) rather than let the hands go quiet, which the
+    // user would read as a clear path and walk into the wall.
+    let w = corridor(
+        "blind-start",
+        r#"
+[[walls]]
+label = "near wall"
+from = [0.69, -1.5]
+to = [0.69, 1.5]
+"#,
+    );
+    let mut config = exact(3.0);
+    config.user.reaction_s = 0.1;
+    config.trace = true;
+    let out = walk(&w, &config, 1);
+    let refused_first = out.trace.iter().take_while(|r| r.rumble.is_none()).count();
+    assert!(refused_first >= 30, "the first second of frames is refused: {refused_first}");
+    assert_eq!(out.count(Part::Body, None), 0, "{:?}", out.contacts);
+    assert!(out.end_xy_m[0] < 0.1, "the user stopped where they stood: {:?}", out.end_xy_m);
+    let offline_from = out.trace.iter().find(|r| r.felt == Felt::Offline).map(|r| r.t_s);
+    assert!(offline_from.is_some_and(|t| t < 0.15), "blind felt from {offline_from:?} s");
+    let blind_until = out.trace[refused_first - 1].t_s;
+    let quiet = out.trace.iter().filter(|r| r.t_s > 0.2 && r.t_s <= blind_until && r.felt == Felt::None).count();
+    assert_eq!(quiet, 0, "frames with nothing felt while blind");
 }
 
 #[test]

@@ -9,9 +9,10 @@ use anyhow::Context;
 use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
 use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Scan, StageLatency};
 
+use crate::perception::rejections::{self, REJECTIONS_BEFORE_BLIND};
 use crate::perception::{
-    cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, Perception, PerceptionConfig,
-    Pipeline, StageTimer,
+    cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline,
+    Rejections, StageTimer,
 };
 
 /// Agent name: liveliness token `health/compute-agent` and sender of its messages.
@@ -64,11 +65,6 @@ impl MotionSince {
     }
 }
 
-/// Frames in a row perception may reject before the user is told it is blind: one
-/// corrupt frame keeps the previous cue (its TTL covers ~10 frames); three in a row
-/// (100 ms at 30 Hz) mean the camera is not usable and silence would lie.
-const FAILURES_BEFORE_DEGRADED: u32 = 3;
-
 struct Outputs {
     scan: Publisher<Scan>,
     hazard: Publisher<Hazard>,
@@ -92,7 +88,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let mut pipeline = Pipeline::new(config.perception.clone());
     let mut motion = MotionSince::default();
     let mut depth = Vec::new();
-    let mut failures = 0u32;
+    let mut rejections = Rejections::default();
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
 
@@ -102,8 +98,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             Some(inc) = odom.recv() => motion.add(&inc.body),
             Some(frame) = frames.recv() => {
                 let ok = process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
-                failures = if ok { 0 } else { failures + 1 };
-                if failures == FAILURES_BEFORE_DEGRADED || (failures > FAILURES_BEFORE_DEGRADED && failures.is_multiple_of(30)) {
+                if rejections.record(ok) {
                     publish_blind(&frame, &config, &health, &mut out).await;
                 }
             }
@@ -181,11 +176,9 @@ async fn process(
 /// Frames keep coming but none can be used: say so with a degraded hazard (rumble
 /// `Both`: stop) and the distinct "unavailable" cue, rather than fall silent.
 async fn publish_blind(frame: &Received<DepthFrame>, config: &ComputeConfig, health: &Arc<Health>, out: &mut Outputs) {
-    let mut blind = Perception::empty();
-    blind.rumble = schemas::Rumble::Both;
-    let hazard = blind.hazard(frame.header.seq, config.perception.cost_function, Vec::new());
+    let hazard = rejections::blind().hazard(frame.header.seq, config.perception.cost_function, Vec::new());
     health.set_status(false, "depth frames unusable: obstacle detection degraded");
-    tracing::warn!("{FAILURES_BEFORE_DEGRADED}+ unusable depth frames in a row: reporting degraded");
+    tracing::warn!("{REJECTIONS_BEFORE_BLIND}+ unusable depth frames in a row: reporting degraded");
     let capture_ns = frame.header.capture_ns;
     for result in
         [out.haptic.put(capture_ns, &cue_unavailable(&config.cue)).await, out.hazard.put(capture_ns, &hazard).await]

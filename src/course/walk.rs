@@ -9,7 +9,8 @@
 //! visual odometry on the cane camera would measure it, with the sim's VO error model.
 
 use compute_agent::perception::{
-    cue, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline,
+    cue, cue_unavailable, rejections, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline,
+    Rejections,
 };
 use feedback_agent::{Feedback, StepSettings};
 use schemas::{DepthEncoding, HapticIntent, Hazard};
@@ -169,7 +170,8 @@ pub struct WalkOutcome {
     pub reorientations: u32,
     /// Times an experimenter led the user back on course ([`GuideKind::Assisted`]).
     pub assists: u32,
-    /// Frames the perception refused (no intent sent for them).
+    /// Frames the perception refused (no intent for them; the third in a row and every
+    /// 30th after send the blind state, as the compute agent does: [`Rejections`]).
     pub perception_errors: u32,
     /// Camera frames processed.
     pub frames: u32,
@@ -289,6 +291,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mut user = VirtualUser::new(params, start);
     let mut renderer = Renderer::new(config.camera.clone());
     let mut pipeline = Pipeline::new(config.perception.clone());
+    let mut rejections = Rejections::default();
     let mut feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
     let mut felt = FeltRumble::default();
     let n = world.obstacles().len();
@@ -388,12 +391,18 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             };
             let hazard = match pipeline.process(input, &ctx, &mut NoTimer) {
                 Ok(p) => {
+                    rejections.record(true);
                     let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
                     pending.push_back((t + latency_s, Some(hazard.clone()), Some((cue(p, &config.cue), now))));
                     Some(hazard)
                 }
                 Err(_) => {
                     out.perception_errors += 1;
+                    if rejections.record(false) {
+                        let blind =
+                            rejections::blind().hazard(out.frames as u64, config.perception.cost_function, Vec::new());
+                        pending.push_back((t + latency_s, Some(blind), Some((cue_unavailable(&config.cue), now))));
+                    }
                     None
                 }
             };

@@ -30,6 +30,7 @@ pub mod hysteresis;
 pub mod nearest_scan;
 pub mod obstacle_memory;
 pub mod organized_cloud;
+pub mod rejections;
 pub mod synthetic_scene;
 pub mod time_to_collision;
 pub mod timing;
@@ -38,6 +39,7 @@ use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
 pub use config::PerceptionConfig;
 pub use cue::{cue, cue_unavailable, CueConfig};
+pub use rejections::Rejections;
 pub use timing::{InstantTimer, NoTimer, StageMedians, StageTimer};
 
 use cost_function::{rumble, scan_points, side_costs};
