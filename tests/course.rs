@@ -53,17 +53,14 @@ to = [-1.0, {half:.2}]
     ))
 }
 
-/// The corridor closed by a wall across at x = 6: the goal is unreachable.
+/// The corridor closed by a wall across it at `end_x_m`: the goal is unreachable.
+fn closed_corridor(name: &str, end_x_m: f64) -> World {
+    corridor(name, &format!("[[walls]]\nlabel = \"end wall\"\nfrom = [{end_x_m:.2}, -1.5]\nto = [{end_x_m:.2}, 1.5]\n"))
+}
+
+/// The corridor closed 6 m ahead.
 fn dead_end() -> World {
-    corridor(
-        "dead-end",
-        r#"
-[[walls]]
-label = "end wall"
-from = [6.0, -1.5]
-to = [6.0, 1.5]
-"#,
-    )
+    closed_corridor("dead-end", 6.0)
 }
 
 fn quick(timeout_s: f64) -> WalkConfig {
@@ -95,18 +92,10 @@ fn unreachable_goal_ends_with_a_timeout_verdict() {
 #[test]
 fn frames_refused_in_a_row_are_felt_as_blind_not_as_a_clear_path() {
     // the user starts with a wall 0.3 m ahead of the camera, nearer than an Xtion can
-    // range: every frame is refused until the user has turned away. Perception must say it is blind (the compute
-    // agent's third refusal in a row) rather than let the hands go quiet, which the
-    // user would read as a clear path and walk into the wall.
-    let w = corridor(
-        "blind-start",
-        r#"
-[[walls]]
-label = "near wall"
-from = [0.69, -1.5]
-to = [0.69, 1.5]
-"#,
-    );
+    // range: every frame is refused until the user has turned away. Perception must
+    // say it is blind (the compute agent's third refusal in a row) rather than let the
+    // hands go quiet, which the user would read as a clear path into the wall.
+    let w = closed_corridor("blind-start", 0.69);
     let mut config = exact(3.0);
     config.user.reaction_s = 0.1;
     config.trace = true;
