@@ -42,6 +42,74 @@ struct Rect {
     v1: usize,
 }
 
+/// Most points of a solid's projection: 8 corners and 12 edges cut by the near plane.
+const MAX_OUTLINE: usize = 20;
+
+/// The convex outline of a solid's projection (pixel coordinates, counter-clockwise
+/// in `u`, `v`), so a row tests only the pixels between its edges.
+#[derive(Debug, Clone, Copy)]
+struct Outline {
+    points: [[f64; 2]; MAX_OUTLINE],
+    len: usize,
+}
+
+impl Outline {
+    /// Convex hull of `points` (Andrew's monotone chain).
+    fn hull(points: &mut [[f64; 2]]) -> Self {
+        points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+        let turn =
+            |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+        let mut out = Outline { points: [[0.0; 2]; MAX_OUTLINE], len: 0 };
+        if points.len() < 3 {
+            out.points[..points.len()].copy_from_slice(points);
+            out.len = points.len();
+            return out;
+        }
+        // Lower chain left to right, then upper chain right to left.
+        let mut hull = [[0.0; 2]; 2 * MAX_OUTLINE];
+        let mut n = 0;
+        for &p in points.iter() {
+            while n >= 2 && turn(hull[n - 2], hull[n - 1], p) <= 0.0 {
+                n -= 1;
+            }
+            hull[n] = p;
+            n += 1;
+        }
+        let lower = n + 1;
+        for &p in points.iter().rev().skip(1) {
+            while n >= lower && turn(hull[n - 2], hull[n - 1], p) <= 0.0 {
+                n -= 1;
+            }
+            hull[n] = p;
+            n += 1;
+        }
+        // The last point is the first again.
+        n -= 1;
+        let len = n.clamp(1, MAX_OUTLINE);
+        out.points[..len].copy_from_slice(&hull[..len]);
+        out.len = len;
+        out
+    }
+
+    /// The `u` span of the outline on the line `v` (clamped into the outline's rows).
+    fn span_at(&self, v: f64) -> (f64, f64) {
+        let pts = &self.points[..self.len];
+        let (v_min, v_max) = pts.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+        let v = v.clamp(v_min, v_max);
+        let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+        for (i, a) in pts.iter().enumerate() {
+            let b = pts[(i + 1) % pts.len()];
+            if (a[1] <= v && v <= b[1]) || (b[1] <= v && v <= a[1]) {
+                let u = if a[1] == b[1] { a[0] } else { a[0] + (v - a[1]) * (b[0] - a[0]) / (b[1] - a[1]) };
+                let other = if a[1] == b[1] { b[0] } else { u };
+                lo = lo.min(u).min(other);
+                hi = hi.max(u).max(other);
+            }
+        }
+        (lo, hi)
+    }
+}
+
 /// A box in its own frame for this frame: ray origin, camera-to-box rotation, size.
 #[derive(Debug, Clone, Copy)]
 struct FrameBox {
@@ -49,6 +117,7 @@ struct FrameBox {
     rot: [[f32; 3]; 3],
     half: [f32; 3],
     rect: Rect,
+    outline: Outline,
     id: u32,
 }
 
@@ -84,13 +153,22 @@ pub struct Renderer {
     height: usize,
     ray_x: Vec<f32>,
     ray_y: Vec<f32>,
-    normals: Vec<f32>,
+    normals: Box<[f32; NORMAL_TABLE_LEN]>,
+    /// The reading for each whole number of disparity steps, up to a little beyond
+    /// the nearest range (one division per pixel fewer; the same bits).
+    depth_of_step: Vec<u16>,
     depth_m: Vec<f32>,
     ids: Vec<u32>,
     boxes: Vec<FrameBox>,
     cylinders: Vec<FrameCylinder>,
     holes: Vec<FrameHole>,
     camera_to_map: [[f32; 3]; 3],
+}
+
+/// The u16 millimetres a disparity reads as.
+fn measured_mm(focal_baseline: f32, disparity_px: f32) -> u16 {
+    let mm = focal_baseline / disparity_px * DEPTH_UNITS_PER_M;
+    (mm + 0.5).clamp(1.0, u16::MAX as f32) as u16
 }
 
 fn to_f32_rows(m: &Matrix3<f64>) -> [[f32; 3]; 3] {
@@ -115,7 +193,15 @@ impl Renderer {
         // A fixed table: the per-frame seed picks from it, so frames stay reproducible
         // while the inner loop pays one table lookup instead of a Box–Muller transform.
         let mut table_rng = SimRng::seed_from(0x5eed_4e01);
-        let normals = (0..NORMAL_TABLE_LEN).map(|_| table_rng.gaussian() as f32).collect();
+        let normals = Box::new(std::array::from_fn(|_| table_rng.gaussian() as f32));
+        let focal_baseline = k.fx * profile.baseline_m as f32;
+        let step_px = profile.disparity_step_px as f32;
+        let depth_of_step = if step_px > 0.0 {
+            let nearest_steps = (focal_baseline / profile.min_depth_m as f32 / step_px) as usize;
+            (0..=nearest_steps * 2).map(|n| measured_mm(focal_baseline, n.max(1) as f32 * step_px)).collect()
+        } else {
+            Vec::new()
+        };
         Renderer {
             profile,
             intrinsics: k,
@@ -124,6 +210,7 @@ impl Renderer {
             ray_x,
             ray_y,
             normals,
+            depth_of_step,
             depth_m: vec![f32::INFINITY; width * height],
             ids: vec![EMPTY_PIXEL; width * height],
             boxes: Vec::with_capacity(256),
@@ -196,14 +283,28 @@ impl Renderer {
     /// x side, bit 1 = y side, bit 2 = top), or `None` when it is behind the camera,
     /// off screen or entirely beyond the camera's range.
     fn screen_rect(&self, corners: &[Vector3<f64>; 8], r: &Rotation3<f64>, c: &Vector3<f64>) -> Option<Rect> {
+        self.screen_outline(corners, r, c).map(|(rect, _)| rect)
+    }
+
+    /// [`Self::screen_rect`] and the outline of the projection inside it.
+    fn screen_outline(
+        &self,
+        corners: &[Vector3<f64>; 8],
+        r: &Rotation3<f64>,
+        c: &Vector3<f64>,
+    ) -> Option<(Rect, Outline)> {
         let k = &self.intrinsics;
         let cam: [Vector3<f64>; 8] = corners.map(|p| r.inverse() * (p - c));
         let (mut u_min, mut u_max, mut v_min, mut v_max) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         let mut z_min = f64::MAX;
         let mut any = false;
+        let mut projected = [[0.0; 2]; MAX_OUTLINE];
+        let mut count = 0;
         let mut add = |p: &Vector3<f64>| {
             let u = k.fx as f64 * p.x / p.z + k.cx as f64;
             let v = k.fy as f64 * p.y / p.z + k.cy as f64;
+            projected[count] = [u, v];
+            count += 1;
             u_min = u_min.min(u);
             u_max = u_max.max(u);
             v_min = v_min.min(v);
@@ -239,7 +340,8 @@ impl Renderer {
         if u0 > u1 || v0 > v1 {
             return None;
         }
-        Some(Rect { u0: u0 as usize, u1: u1 as usize, v0: v0 as usize, v1: v1 as usize })
+        let rect = Rect { u0: u0 as usize, u1: u1 as usize, v0: v0 as usize, v1: v1 as usize };
+        Some((rect, Outline::hull(&mut projected[..count])))
     }
 
     fn footprint_corners(center: [f64; 2], half: [f64; 2], yaw: f64, bottom: f64, top: f64) -> [Vector3<f64>; 8] {
@@ -254,7 +356,7 @@ impl Renderer {
 
     fn prepare_box(&mut self, b: &OrientedBox, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
         let corners = Self::footprint_corners(b.center_m, b.half_size_m, b.yaw_rad, b.bottom_m, b.top_m);
-        let Some(rect) = self.screen_rect(&corners, r, c) else { return };
+        let Some((rect, outline)) = self.screen_outline(&corners, r, c) else { return };
         let to_box = Rotation3::from_axis_angle(&Vector3::z_axis(), -b.yaw_rad);
         let mid = Vector3::new(b.center_m[0], b.center_m[1], (b.bottom_m + b.top_m) / 2.0);
         let o = to_box * (c - mid);
@@ -263,6 +365,7 @@ impl Renderer {
             rot: to_f32_rows((to_box * r).matrix()),
             half: [b.half_size_m[0] as f32, b.half_size_m[1] as f32, ((b.top_m - b.bottom_m) / 2.0) as f32],
             rect,
+            outline,
             id: id.0,
         });
     }
@@ -357,20 +460,29 @@ impl Renderer {
             let [ox, oy, oz] = b.origin;
             let [hx, hy, hz] = b.half;
             let [c0, c1, c2] = b.rot;
-            let inside = ox.abs() <= hx && oy.abs() <= hy && oz.abs() <= hz;
-            for v in b.rect.v0..=b.rect.v1 {
+            let Rect { u0, u1, v0, v1 } = b.rect;
+            if ox.abs() <= hx && oy.abs() <= hy && oz.abs() <= hz {
+                // A camera inside a solid sees nothing it could range.
+                for v in v0..=v1 {
+                    let row = v * self.width;
+                    self.depth_m[row + u0..=row + u1].fill(0.0);
+                    self.ids[row + u0..=row + u1].fill(b.id);
+                }
+                continue;
+            }
+            for v in v0..=v1 {
+                // Only the pixels within the outline's span, and one either side.
+                let (lo, hi) = b.outline.span_at(v as f64);
+                let first = ((lo.floor() - 1.0).max(u0 as f64) as usize).min(u1);
+                let last = ((hi.ceil() + 1.0).max(0.0) as usize).clamp(first, u1);
                 let ry = self.ray_y[v];
                 let base = [c1[0] * ry + c2[0], c1[1] * ry + c2[1], c1[2] * ry + c2[2]];
                 let row = v * self.width;
-                for u in b.rect.u0..=b.rect.u1 {
-                    let rx = self.ray_x[u];
-                    let i = row + u;
-                    if inside {
-                        // A camera inside a solid sees nothing it could range.
-                        self.depth_m[i] = 0.0;
-                        self.ids[i] = b.id;
-                        continue;
-                    }
+                let rays = &self.ray_x[first..=last];
+                let depth = &mut self.depth_m[row + first..=row + last];
+                let ids = &mut self.ids[row + first..=row + last];
+                // Branch-free so the row vectorises: every pixel is written back.
+                for ((z, id), &rx) in depth.iter_mut().zip(ids.iter_mut()).zip(rays) {
                     let ix = 1.0 / (c0[0] * rx + base[0]);
                     let iy = 1.0 / (c0[1] * rx + base[1]);
                     let iz = 1.0 / (c0[2] * rx + base[2]);
@@ -379,10 +491,9 @@ impl Renderer {
                     let (z1, z2) = ((-hz - oz) * iz, (hz - oz) * iz);
                     let t_in = x1.min(x2).max(y1.min(y2)).max(z1.min(z2));
                     let t_out = x1.max(x2).min(y1.max(y2)).min(z1.max(z2));
-                    if t_in <= t_out && t_in > 0.0 && t_in < self.depth_m[i] {
-                        self.depth_m[i] = t_in;
-                        self.ids[i] = b.id;
-                    }
+                    let hit = (t_in <= t_out) & (t_in > 0.0) & (t_in < *z);
+                    *z = if hit { t_in } else { *z };
+                    *id = if hit { b.id } else { *id };
                 }
             }
         }
@@ -447,40 +558,50 @@ impl Renderer {
     /// right), as wide as the disparity jump; other edges lose one mixed pixel.
     /// Marked pixels are negated so the comparisons that follow still see their depth.
     fn mark_shadow_edges(&mut self) {
-        let ratio = self.profile.edge_jump_ratio as f32;
+        let keep = 1.0 - self.profile.edge_jump_ratio as f32;
         let disparity_px = self.intrinsics.fx * self.profile.baseline_m as f32;
         let max_m = self.profile.max_depth_m as f32;
         let w = self.width;
-        let usable = |z: f32| z > 0.0 && z.is_finite() && z.abs() <= max_m;
+        // Marks only set sign bits and every test reads magnitudes, so the order of the
+        // marks does not matter and most of the work is a branch-free scan for edges.
+        let usable = |z: f32| (z > 0.0) & (z <= max_m);
+        let jump = |a: f32, b: f32| usable(a) & usable(b) & ((b < a * keep) | (a < b * keep));
+        const LANES: usize = 16;
         for v in 0..self.height {
             let row = &mut self.depth_m[v * w..(v + 1) * w];
-            for u in 0..w - 1 {
-                let (a, b) = (row[u].abs(), row[u + 1].abs());
-                if !(usable(a) && usable(b)) {
-                    continue;
-                }
-                if b < a * (1.0 - ratio) {
-                    let band = ((disparity_px * (1.0 / b - 1.0 / a)).ceil() as usize).clamp(1, MAX_SHADOW_PX);
-                    for z in &mut row[(u + 1).saturating_sub(band)..=u] {
-                        *z = -z.abs();
+            let mut u = 0;
+            while u < w - 1 {
+                if u + LANES < w {
+                    let any = (u..u + LANES).fold(false, |any, k| any | jump(row[k].abs(), row[k + 1].abs()));
+                    if !any {
+                        u += LANES;
+                        continue;
                     }
-                } else if a < b * (1.0 - ratio) {
-                    row[u + 1] = -b;
                 }
+                let (a, b) = (row[u].abs(), row[u + 1].abs());
+                if usable(a) & usable(b) {
+                    if b < a * keep {
+                        let band = ((disparity_px * (1.0 / b - 1.0 / a)).ceil() as usize).clamp(1, MAX_SHADOW_PX);
+                        for z in &mut row[(u + 1).saturating_sub(band)..=u] {
+                            *z = -z.abs();
+                        }
+                    } else if a < b * keep {
+                        row[u + 1] = -b;
+                    }
+                }
+                u += 1;
             }
         }
+        let sign = |z: f32, mark: bool| f32::from_bits(z.to_bits() | (u32::from(mark) << 31));
         for v in 0..self.height - 1 {
-            for u in 0..w {
-                let (i, j) = (v * w + u, (v + 1) * w + u);
-                let (a, b) = (self.depth_m[i].abs(), self.depth_m[j].abs());
-                if !(usable(a) && usable(b)) {
-                    continue;
-                }
-                if b < a * (1.0 - ratio) {
-                    self.depth_m[i] = -a;
-                } else if a < b * (1.0 - ratio) {
-                    self.depth_m[j] = -b;
-                }
+            let (upper, lower) = self.depth_m[v * w..(v + 2) * w].split_at_mut(w);
+            for (top, bottom) in upper.iter_mut().zip(lower.iter_mut()) {
+                let (a, b) = (top.abs(), bottom.abs());
+                let both = usable(a) & usable(b);
+                let mark_top = both & (b < a * keep);
+                let mark_bottom = both & !mark_top & (a < b * keep);
+                *top = sign(*top, mark_top);
+                *bottom = sign(*bottom, mark_bottom);
             }
         }
     }
@@ -498,36 +619,56 @@ impl Renderer {
         let focal_baseline = self.intrinsics.fx * p.baseline_m as f32;
         let disparity_sigma_px = p.noise_per_m2 as f32 * focal_baseline;
         let step_px = p.disparity_step_px as f32;
+        // Dividing by a power of two is multiplying by its inverse, bit for bit.
+        let per_step = 1.0 / step_px;
+        let step_is_power_of_two = step_px.is_normal() && step_px.to_bits() & 0x007f_ffff == 0;
         let mask = (NORMAL_TABLE_LEN - 1) as u64;
         out.clear();
         out.resize(self.depth_m.len(), 0);
-        for (o, &z) in out.iter_mut().zip(&self.depth_m) {
-            if !(z >= min_m && z <= max_m) {
-                continue;
+        // The division by depth first, a chunk at a time (it vectorises), then the
+        // draws, which must stay in pixel order.
+        const CHUNK: usize = 64;
+        let mut clean = [0f32; CHUNK];
+        // A local copy keeps the generator's state in registers.
+        let mut draws = rng.clone();
+        for (outs, zs) in out.chunks_mut(CHUNK).zip(self.depth_m.chunks(CHUNK)) {
+            for (d, &z) in clean.iter_mut().zip(zs) {
+                *d = focal_baseline / z;
             }
-            let bits = rng.next_u64();
-            let dropout = if z < near_m {
-                base + (near_m - z) * near_slope
-            } else if z > far_m {
-                base + (z - far_m) * far_slope
-            } else {
-                base
-            };
-            if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
-                continue;
+            for ((o, &z), &clean_px) in outs.iter_mut().zip(zs).zip(&clean) {
+                if !(z >= min_m && z <= max_m) {
+                    continue;
+                }
+                let bits = draws.next_u64();
+                let dropout = if z < near_m {
+                    base + (near_m - z) * near_slope
+                } else if z > far_m {
+                    base + (z - far_m) * far_slope
+                } else {
+                    base
+                };
+                if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
+                    continue;
+                }
+                let mut disparity_px = clean_px + disparity_sigma_px * self.normals[(bits & mask) as usize];
+                if disparity_px <= 0.0 {
+                    continue;
+                }
+                // Rounding of positive values by truncation: `f32::round` is a libm call
+                // on baseline x86-64 and cost 9 % of the frame.
+                if step_px > 0.0 {
+                    let in_steps = if step_is_power_of_two { disparity_px * per_step } else { disparity_px / step_px };
+                    let steps = ((in_steps + 0.5) as u32).max(1);
+                    if let Some(&mm) = self.depth_of_step.get(steps as usize) {
+                        *o = mm;
+                        continue;
+                    }
+                    disparity_px = steps as f32 * step_px;
+                }
+                *o = measured_mm(focal_baseline, disparity_px);
             }
-            let mut disparity_px = focal_baseline / z + disparity_sigma_px * self.normals[(bits & mask) as usize];
-            if disparity_px <= 0.0 {
-                continue;
-            }
-            // Rounding of positive values by truncation: `f32::round` is a libm call
-            // on baseline x86-64 and cost 9 % of the frame.
-            if step_px > 0.0 {
-                disparity_px = ((disparity_px / step_px + 0.5) as u32).max(1) as f32 * step_px;
-            }
-            let measured_mm = focal_baseline / disparity_px * DEPTH_UNITS_PER_M;
-            *o = (measured_mm + 0.5).clamp(1.0, u16::MAX as f32) as u16;
         }
+        *rng = draws;
     }
 }
 
@@ -789,5 +930,33 @@ mod tests {
         assert_eq!(ids[240 * 640 + 320], 0, "pole in front");
         assert_eq!(ids[240 * 640 + 320 - 30], 1, "person left of the pole");
         assert_ne!(ids[240 * 640 + person_u], 1, "0.26 m off-axis at 3 m is beside the person");
+    }
+
+    #[test]
+    fn outline_is_the_convex_hull_and_gives_each_row_its_span() {
+        let mut square = [[0.0, 0.0], [5.0, 0.0], [10.0, 0.0], [5.0, 5.0], [10.0, 10.0], [0.0, 10.0], [2.0, 7.0]];
+        let outline = Outline::hull(&mut square);
+        assert_eq!(outline.len, 4, "{:?}", &outline.points[..outline.len]);
+        assert_eq!(outline.span_at(5.0), (0.0, 10.0));
+        assert_eq!(outline.span_at(-3.0), (0.0, 10.0), "rows above clamp to the top edge");
+        let mut triangle = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]];
+        let outline = Outline::hull(&mut triangle);
+        assert_eq!(outline.len, 3);
+        assert_eq!(outline.span_at(5.0), (0.0, 5.0));
+        assert_eq!(outline.span_at(10.0), (0.0, 0.0));
+        let mut segment = [[3.0, 1.0], [7.0, 1.0]];
+        assert_eq!(Outline::hull(&mut segment).span_at(1.0), (3.0, 7.0));
+    }
+
+    #[test]
+    fn disparity_table_reads_as_the_division_it_replaces() {
+        let r = Renderer::new(CameraProfile::xtion());
+        let fb = r.intrinsics.fx * r.profile.baseline_m as f32;
+        let step = r.profile.disparity_step_px as f32;
+        assert!(r.depth_of_step.len() > (fb / 0.5 / step) as usize, "covers the nearest range");
+        for (n, &mm) in r.depth_of_step.iter().enumerate().skip(1) {
+            assert_eq!(mm, measured_mm(fb, n as f32 * step), "step {n}");
+        }
+        assert_eq!(r.depth_of_step[1], u16::MAX, "one step of disparity is beyond u16 millimetres");
     }
 }
