@@ -76,23 +76,32 @@ impl SampledCloud {
         let top = ((k.cy + 0.5) / k.fy).atan();
         let bottom = ((height as f32 - 0.5 - k.cy) / k.fy).atan();
         self.view = Some(ViewGeometry { half_hfov_rad: left.max(right), half_vfov_rad: top.max(bottom) });
+        let w = width as usize;
+        let stride = stride as usize;
+        // Points are appended a row at a time and every index is written, the count
+        // moving on only for valid pixels: no branch per pixel.
         self.points.clear();
         self.valid.clear();
-        let w = width as usize;
+        self.valid.resize(self.rows * self.cols, 0);
+        let mut valid = 0;
         for (r, &b) in self.row_ray.iter().enumerate() {
-            let row = &samples[r * stride as usize * w..][..w];
-            for (c, &a) in self.col_ray.iter().enumerate() {
-                let s = row[c * stride as usize];
+            let row = samples[r * stride * w..][..w].iter().step_by(stride);
+            let first = self.points.len();
+            self.points.extend(row.zip(&self.col_ray).map(|(&s, &a)| {
+                let z = s as f32 * depth_scale_m;
                 if s == 0 {
-                    self.points.push([f32::NAN; 3]);
+                    [f32::NAN; 3]
                 } else {
-                    let z = s as f32 * depth_scale_m;
-                    self.valid.push(self.points.len() as u32);
-                    self.points.push([a * z, b * z, z]);
+                    [a * z, b * z, z]
                 }
+            }));
+            for (c, p) in (first..).zip(&self.points[first..]) {
+                self.valid[valid] = c as u32;
+                valid += usize::from(p[2] > 0.0);
             }
         }
-        self.points_valid = estimate_full(self.valid.len(), stride as usize, samples.len());
+        self.valid.truncate(valid);
+        self.points_valid = estimate_full(self.valid.len(), stride, samples.len());
         Ok(())
     }
 
