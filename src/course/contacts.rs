@@ -65,7 +65,8 @@ pub struct Contact {
 #[derive(Debug, Clone, Default)]
 pub struct Touching {
     in_contact: Vec<bool>,
-    /// Distance per obstacle at the last query, metres (`INFINITY`: not on this floor).
+    /// Distance per obstacle at the last query, metres (`INFINITY`: not on this floor;
+    /// farther than [`RELEASE_M`] it may be a lower bound, as the caller's `distance` gave it).
     pub distance_m: Vec<f64>,
     /// Lowest bottom of the shapes within [`TOUCH_M`] per obstacle, metres.
     pub touch_bottom_m: Vec<f64>,

@@ -20,7 +20,7 @@ use sensor_agent::sim::shape::Shape;
 use sensor_agent::sim::walker::wrap_pi;
 use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, ObstacleId, Renderer, SimRng, UserPose, World};
 
-use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, TOUCH_M};
+use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
 use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteWaypoints, Touch, UserParams, VirtualUser};
 
@@ -524,9 +524,14 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let now_pose = user.pose();
         let sweep = mount.sweep_rad(t_next) * sweep_scale(user.speed_m_s(), &params);
         let (hand, tip) = mount.cane_segment(&now_pose, sweep);
+        // Only "touching or not" is read from the cane's distances, so a shape whose
+        // bounds are clear of the release distance keeps its lower bound.
         cane.measure(world, now_pose.floor, t_next, |s| match s {
             Shape::DropOff(_) => f64::INFINITY,
-            _ => s.segment_distance_m(hand, tip),
+            _ => match s.segment_distance_lower_bound_m(hand, tip) {
+                far if far > RELEASE_M => far,
+                _ => s.segment_distance_m(hand, tip),
+            },
         });
         for id in cane.entering() {
             user.touch(Touch { t_s: t_next, on_left: sweep >= 0.0 });

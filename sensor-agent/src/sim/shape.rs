@@ -152,6 +152,14 @@ impl Shape {
         best
     }
 
+    /// A lower bound of [`Self::segment_distance_m`], from the axis-aligned bounds of
+    /// the shape and of the segment: cheap enough to skip shapes that are far away.
+    pub fn segment_distance_lower_bound_m(&self, a: [f64; 3], b: [f64; 3]) -> f64 {
+        let (lo, hi) = self.bounds_m();
+        let gap = |k: usize| interval_gap(a[k].min(b[k]), a[k].max(b[k]), lo[k], hi[k]);
+        (gap(0).powi(2) + gap(1).powi(2) + gap(2).powi(2)).sqrt()
+    }
+
     /// Axis-aligned bounds `[min, max]` of the shape in map coordinates (x, y, z).
     pub fn bounds_m(&self) -> ([f64; 3], [f64; 3]) {
         let footprint = |center: [f64; 2], half: [f64; 2], yaw: f64| {
