@@ -959,4 +959,58 @@ mod tests {
         }
         assert_eq!(r.depth_of_step[1], u16::MAX, "one step of disparity is beyond u16 millimetres");
     }
+
+    #[test]
+    fn every_pixel_a_box_covers_lies_within_its_outline_span() {
+        // The slab test over each box's whole screen rectangle, against the span each
+        // row tests: a hit outside it would be a piece of wall the renderer leaves out.
+        let w = match World::load("taylor-course") {
+            Ok(w) => w,
+            Err(e) => panic!("{e}"),
+        };
+        let mut rng = SimRng::seed_from(11);
+        let mut r = Renderer::new(CameraProfile::xtion());
+        let mut out = Vec::new();
+        let mut hits = 0usize;
+        for _ in 0..150 {
+            // anywhere in the room, walls within a few centimetres included
+            let (x, y) = (0.05 + 9.9 * rng.uniform(), 0.05 + 9.9 * rng.uniform());
+            let yaw = std::f64::consts::TAU * rng.uniform();
+            let pitch = (-20.0 + 70.0 * rng.uniform()).to_radians();
+            let pose = CameraPose::from_yaw_pitch(x, y, 0.5 + 1.2 * rng.uniform(), yaw, pitch, 0);
+            r.render(&w, &pose, 0.0, &mut rng, &mut out);
+            for b in &r.boxes {
+                let [ox, oy, oz] = b.origin;
+                let [hx, hy, hz] = b.half;
+                let [c0, c1, c2] = b.rot;
+                if ox.abs() <= hx && oy.abs() <= hy && oz.abs() <= hz {
+                    continue;
+                }
+                for v in b.rect.v0..=b.rect.v1 {
+                    let (lo, hi) = b.outline.span_at(v as f64);
+                    let ry = r.ray_y[v];
+                    for u in b.rect.u0..=b.rect.u1 {
+                        let rx = r.ray_x[u];
+                        let d = [0, 1, 2].map(|k| c0[k] * rx + c1[k] * ry + c2[k]);
+                        let (o, h) = ([ox, oy, oz], [hx, hy, hz]);
+                        let slab = |k: usize| {
+                            let (t1, t2) = ((-h[k] - o[k]) / d[k], (h[k] - o[k]) / d[k]);
+                            (t1.min(t2), t1.max(t2))
+                        };
+                        let (t_in, t_out) =
+                            (0..3).map(slab).fold((f32::MIN, f32::MAX), |(a, b), (lo, hi)| (a.max(lo), b.min(hi)));
+                        if t_in <= t_out && t_in > 0.0 {
+                            hits += 1;
+                            assert!(
+                                (u as f64) >= lo.floor() - 1.0 && (u as f64) <= hi.ceil() + 1.0,
+                                "box {} at pixel ({u}, {v}) outside its span {lo:.1}..{hi:.1} from {pose:?}",
+                                b.id
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 1_000_000, "only {hits} box pixels tried");
+    }
 }
