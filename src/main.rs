@@ -30,13 +30,22 @@ enum Command {
     /// Replay Taylor's obstacle-course study with a virtual user who follows the cues,
     /// and print the thesis's table (time, rumble signals, cane and body contacts), then
     /// how many contacts came with no cue felt, with one felt too late to act on (less
-    /// than the user's reaction time before), or with one felt in time.
+    /// than the user's reaction time before), or with one felt in time. A line per walk
+    /// goes to stderr as it ends.
     Course(wearnav::course::CourseArgs),
 }
 
+/// Log filter of `wearnav course` when `RUST_LOG` is unset: a line per walk. The
+/// simulated user's devices (detection offline and back, speech) are the walks' own
+/// business, counted in their table; `RUST_LOG=info` shows them too.
+const COURSE_LOG: &str = "info,zenoh=warn,feedback_agent=error";
+
 fn main() -> anyhow::Result<()> {
-    bus::logging::init();
     let cli = Cli::parse();
+    match cli.command {
+        Command::Course(_) => bus::logging::init_with(COURSE_LOG),
+        _ => bus::logging::init(),
+    }
     let runtime = tokio::runtime::Runtime::new()?;
     match cli.command {
         Command::Demo(args) => runtime.block_on(demo::run(args)),

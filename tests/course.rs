@@ -125,11 +125,18 @@ fn same_seed_gives_the_same_row_and_another_seed_differs() {
 #[test]
 fn study_spread_over_threads_gives_the_walks_in_seed_order_as_walked_alone() {
     let w = dead_end();
-    let s = wearnav::course::study::study(&w, &quick(3.0), 3, 5);
+    let ended = std::sync::Mutex::new(Vec::new());
+    let s = wearnav::course::study::study_with_progress(&w, &quick(3.0), 3, 5, |o| {
+        ended.lock().unwrap_or_else(|e| e.into_inner()).push((o.seed, o.time_s))
+    });
     let seeds: Vec<u64> = s.walks.iter().map(|o| o.seed).collect();
     assert_eq!(seeds, [5, 6, 7]);
     assert_eq!(s.walks[1], walk(&w, &quick(3.0), 6));
     assert_eq!(s.rows.len(), 3);
+    // each walk was reported once as it ended, whatever the order the threads ended in
+    let mut ended = ended.into_inner().unwrap_or_else(|e| e.into_inner());
+    ended.sort_by_key(|&(seed, _)| seed);
+    assert_eq!(ended, s.walks.iter().map(|o| (o.seed, o.time_s)).collect::<Vec<_>>());
 }
 
 /// Open room with a sign (0.3 x 1.2 m, 1.55-1.85 m high) hanging at head height

@@ -6,6 +6,11 @@ use tracing_subscriber::EnvFilter;
 
 /// Install the global subscriber; a second call is a no-op.
 pub fn init() {
-    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,zenoh=warn"));
+    init_with("info,zenoh=warn");
+}
+
+/// [`init`] with another filter when `RUST_LOG` is unset.
+pub fn init_with(default_filter: &str) {
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_filter));
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
 }

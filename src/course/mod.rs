@@ -23,7 +23,7 @@ use schemas::CostFunction;
 use sensor_agent::sim::{CameraProfile, World};
 
 use contacts::Part;
-use study::{study, table, LeadTimes};
+use study::{study_with_progress, table, LeadTimes};
 use walk::{GuideKind, WalkConfig};
 
 /// Cost function on the command line.
@@ -192,7 +192,20 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
     let config = args.walk_config()?;
     let started = std::time::Instant::now();
-    let result = study(&world, &config, args.runs, args.seed);
+    let ended = std::sync::atomic::AtomicU32::new(0);
+    let result = study_with_progress(&world, &config, args.runs, args.seed, |w| {
+        let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        tracing::info!(
+            "{n} of {} walks done; seed {}: {} in {:.1} s, {} cane and {} body contacts ({:.0} s elapsed)",
+            args.runs,
+            w.seed,
+            if w.completed { "goal reached" } else { "goal not reached" },
+            w.time_s,
+            w.count(Part::Cane, None),
+            w.count(Part::Body, None),
+            started.elapsed().as_secs_f64()
+        );
+    });
     let elapsed_s = started.elapsed().as_secs_f64();
     if let Some(path) = &args.trace {
         write_trace(path, &result.walks).with_context(|| format!("writing the trace {}", path.display()))?;

@@ -135,6 +135,18 @@ pub fn run_seed(seed: u64, i: u32) -> u64 {
 /// machine's cores. Each walk depends only on its seed, so the result is the same
 /// whatever the number of threads.
 pub fn study(world: &World, config: &WalkConfig, runs: u32, seed: u64) -> Study {
+    study_with_progress(world, config, runs, seed, |_| ())
+}
+
+/// [`study`], calling `finished` with each walk as it ends (from the worker threads, in
+/// the order they end).
+pub fn study_with_progress(
+    world: &World,
+    config: &WalkConfig,
+    runs: u32,
+    seed: u64,
+    finished: impl Fn(&WalkOutcome) + Sync,
+) -> Study {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(runs.max(1) as usize);
     let next = std::sync::atomic::AtomicU32::new(0);
     let mut walks: Vec<(u32, WalkOutcome)> = std::thread::scope(|scope| {
@@ -147,7 +159,9 @@ pub fn study(world: &World, config: &WalkConfig, runs: u32, seed: u64) -> Study 
                         if i >= runs {
                             return done;
                         }
-                        done.push((i, walk(world, config, run_seed(seed, i))));
+                        let outcome = walk(world, config, run_seed(seed, i));
+                        finished(&outcome);
+                        done.push((i, outcome));
                     }
                 })
             })
