@@ -51,6 +51,8 @@ const MAX_OUTLINE: usize = 20;
 struct Outline {
     points: [[f64; 2]; MAX_OUTLINE],
     len: usize,
+    /// Smallest and largest `v` of the points.
+    rows: (f64, f64),
 }
 
 impl Outline {
@@ -59,7 +61,8 @@ impl Outline {
         points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
         let turn =
             |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
-        let mut out = Outline { points: [[0.0; 2]; MAX_OUTLINE], len: 0 };
+        let rows = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+        let mut out = Outline { points: [[0.0; 2]; MAX_OUTLINE], len: 0, rows };
         if points.len() < 3 {
             out.points[..points.len()].copy_from_slice(points);
             out.len = points.len();
@@ -94,8 +97,7 @@ impl Outline {
     /// The `u` span of the outline on the line `v` (clamped into the outline's rows).
     fn span_at(&self, v: f64) -> (f64, f64) {
         let pts = &self.points[..self.len];
-        let (v_min, v_max) = pts.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
-        let v = v.clamp(v_min, v_max);
+        let v = v.clamp(self.rows.0, self.rows.1);
         let (mut lo, mut hi) = (f64::MAX, f64::MIN);
         for (i, a) in pts.iter().enumerate() {
             let b = pts[(i + 1) % pts.len()];
@@ -283,16 +285,16 @@ impl Renderer {
     /// x side, bit 1 = y side, bit 2 = top), or `None` when it is behind the camera,
     /// off screen or entirely beyond the camera's range.
     fn screen_rect(&self, corners: &[Vector3<f64>; 8], r: &Rotation3<f64>, c: &Vector3<f64>) -> Option<Rect> {
-        self.screen_outline(corners, r, c).map(|(rect, _)| rect)
+        self.screen_projection(corners, r, c).map(|(rect, _, _)| rect)
     }
 
-    /// [`Self::screen_rect`] and the outline of the projection inside it.
-    fn screen_outline(
+    /// [`Self::screen_rect`] and the projected points it bounds (`count` of them).
+    fn screen_projection(
         &self,
         corners: &[Vector3<f64>; 8],
         r: &Rotation3<f64>,
         c: &Vector3<f64>,
-    ) -> Option<(Rect, Outline)> {
+    ) -> Option<(Rect, [[f64; 2]; MAX_OUTLINE], usize)> {
         let k = &self.intrinsics;
         let cam: [Vector3<f64>; 8] = corners.map(|p| r.inverse() * (p - c));
         let (mut u_min, mut u_max, mut v_min, mut v_max) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -341,7 +343,7 @@ impl Renderer {
             return None;
         }
         let rect = Rect { u0: u0 as usize, u1: u1 as usize, v0: v0 as usize, v1: v1 as usize };
-        Some((rect, Outline::hull(&mut projected[..count])))
+        Some((rect, projected, count))
     }
 
     fn footprint_corners(center: [f64; 2], half: [f64; 2], yaw: f64, bottom: f64, top: f64) -> [Vector3<f64>; 8] {
@@ -356,7 +358,8 @@ impl Renderer {
 
     fn prepare_box(&mut self, b: &OrientedBox, id: ObstacleId, r: &Rotation3<f64>, c: &Vector3<f64>) {
         let corners = Self::footprint_corners(b.center_m, b.half_size_m, b.yaw_rad, b.bottom_m, b.top_m);
-        let Some((rect, outline)) = self.screen_outline(&corners, r, c) else { return };
+        let Some((rect, mut projected, count)) = self.screen_projection(&corners, r, c) else { return };
+        let outline = Outline::hull(&mut projected[..count]);
         let to_box = Rotation3::from_axis_angle(&Vector3::z_axis(), -b.yaw_rad);
         let mid = Vector3::new(b.center_m[0], b.center_m[1], (b.bottom_m + b.top_m) / 2.0);
         let o = to_box * (c - mid);
@@ -625,48 +628,39 @@ impl Renderer {
         let mask = (NORMAL_TABLE_LEN - 1) as u64;
         out.clear();
         out.resize(self.depth_m.len(), 0);
-        // The division by depth first, a chunk at a time (it vectorises), then the
-        // draws, which must stay in pixel order.
-        const CHUNK: usize = 64;
-        let mut clean = [0f32; CHUNK];
         // A local copy keeps the generator's state in registers.
         let mut draws = rng.clone();
-        for (outs, zs) in out.chunks_mut(CHUNK).zip(self.depth_m.chunks(CHUNK)) {
-            for (d, &z) in clean.iter_mut().zip(zs) {
-                *d = focal_baseline / z;
+        for (o, &z) in out.iter_mut().zip(&self.depth_m) {
+            if !(z >= min_m && z <= max_m) {
+                continue;
             }
-            for ((o, &z), &clean_px) in outs.iter_mut().zip(zs).zip(&clean) {
-                if !(z >= min_m && z <= max_m) {
-                    continue;
-                }
-                let bits = draws.next_u64();
-                let dropout = if z < near_m {
-                    base + (near_m - z) * near_slope
-                } else if z > far_m {
-                    base + (z - far_m) * far_slope
-                } else {
-                    base
-                };
-                if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
-                    continue;
-                }
-                let mut disparity_px = clean_px + disparity_sigma_px * self.normals[(bits & mask) as usize];
-                if disparity_px <= 0.0 {
-                    continue;
-                }
-                // Rounding of positive values by truncation: `f32::round` is a libm call
-                // on baseline x86-64 and cost 9 % of the frame.
-                if step_px > 0.0 {
-                    let in_steps = if step_is_power_of_two { disparity_px * per_step } else { disparity_px / step_px };
-                    let steps = ((in_steps + 0.5) as u32).max(1);
-                    if let Some(&mm) = self.depth_of_step.get(steps as usize) {
-                        *o = mm;
-                        continue;
-                    }
-                    disparity_px = steps as f32 * step_px;
-                }
-                *o = measured_mm(focal_baseline, disparity_px);
+            let bits = draws.next_u64();
+            let dropout = if z < near_m {
+                base + (near_m - z) * near_slope
+            } else if z > far_m {
+                base + (z - far_m) * far_slope
+            } else {
+                base
+            };
+            if ((bits >> 40) as f32) * (1.0 / (1u64 << 24) as f32) < dropout {
+                continue;
             }
+            let mut disparity_px = focal_baseline / z + disparity_sigma_px * self.normals[(bits & mask) as usize];
+            if disparity_px <= 0.0 {
+                continue;
+            }
+            // Rounding of positive values by truncation: `f32::round` is a libm call
+            // on baseline x86-64 and cost 9 % of the frame.
+            if step_px > 0.0 {
+                let in_steps = if step_is_power_of_two { disparity_px * per_step } else { disparity_px / step_px };
+                let steps = ((in_steps + 0.5) as u32).max(1);
+                if let Some(&mm) = self.depth_of_step.get(steps as usize) {
+                    *o = mm;
+                    continue;
+                }
+                disparity_px = steps as f32 * step_px;
+            }
+            *o = measured_mm(focal_baseline, disparity_px);
         }
         *rng = draws;
     }
