@@ -2,12 +2,15 @@
 //! a row as in the README's table. What is asserted is what the study shows today, so a
 //! change that makes the loop less safe fails here:
 //!
-//! - a user walking at half the default pace (0.5 m/s) guided along the route with CACF
-//!   meets every target of the issue: cane <= 0.3 and body <= 0.1 contacts per walk,
-//!   none with an obstacle in view, <= 20 signals, every walk completed;
-//! - with the default user (1 m/s, 60°/s) and either cost function, route guidance
-//!   completes every walk with no body contact in view and <= 20 signals (cane contacts
-//!   stay above target there; README, "Known gaps").
+//! - the default user (1 m/s, turning 60°/s, 0.5 s reaction) guided along the route,
+//!   turns called 1.5 m ahead, meets every target of the issue with either cost
+//!   function: cane <= 0.3 and body <= 0.1 contacts per walk, none with an obstacle in
+//!   view, <= 20 signals, every walk completed;
+//! - so does a user turning at half that rate, with the turns called for their wider
+//!   turn (1.5 turning radii, 2.9 m ahead).
+//!
+//! Following the goal's sound alone (the thesis's protocol) stays above the targets
+//! (README, "Known gaps").
 
 use clap::Parser;
 use sensor_agent::sim::World;
@@ -42,22 +45,27 @@ fn replay(flags: &str) -> Row {
     }
 }
 
-#[test]
-fn user_walking_half_pace_on_the_route_with_cacf_meets_every_target_of_the_study() {
-    let a = replay("--cost cacf --guide route --walk-speed-m-s 0.5 --timeout-s 150");
-    assert_eq!(a.completed, 1.0, "{a:?}");
-    assert_eq!(a.body_in_fov, 0.0, "{a:?}");
-    assert!(a.body_in_fov + a.body_out_fov <= 0.1, "body contacts per walk: {a:?}");
-    assert!(a.cane <= 0.3, "cane contacts per walk: {a:?}");
-    assert!(a.signals <= 20.0, "signals per walk: {a:?}");
+/// Every target of the issue for one row.
+fn assert_meets_every_target(flags: &str, a: &Row) {
+    assert_eq!(a.completed, 1.0, "{flags}: {a:?}");
+    assert_eq!(a.body_in_fov, 0.0, "{flags}: {a:?}");
+    assert!(a.body_in_fov + a.body_out_fov <= 0.1, "{flags}: body contacts per walk: {a:?}");
+    assert!(a.cane <= 0.3, "{flags}: cane contacts per walk: {a:?}");
+    assert!(a.signals <= 20.0, "{flags}: signals per walk: {a:?}");
 }
 
 #[test]
-fn default_user_on_the_route_completes_every_walk_without_a_body_contact_in_view() {
+fn default_user_on_the_route_meets_every_target_of_the_study_with_either_cost_function() {
     for cost in ["ficf", "cacf"] {
-        let a = replay(&format!("--cost {cost} --guide route --timeout-s 150"));
-        assert_eq!(a.completed, 1.0, "{cost}: {a:?}");
-        assert_eq!(a.body_in_fov, 0.0, "{cost}: {a:?}");
-        assert!(a.signals <= 20.0, "{cost}: signals per walk: {a:?}");
+        let flags = format!("--cost {cost} --guide route --timeout-s 150");
+        assert_meets_every_target(&flags, &replay(&flags));
+    }
+}
+
+#[test]
+fn user_turning_at_half_the_rate_meets_every_target_with_turns_called_for_their_turn() {
+    for cost in ["ficf", "cacf"] {
+        let flags = format!("--cost {cost} --guide route --turn-rate-deg-s 30 --timeout-s 150");
+        assert_meets_every_target(&flags, &replay(&flags));
     }
 }

@@ -24,7 +24,7 @@ use sensor_agent::sim::{CameraProfile, World};
 
 use contacts::Part;
 use study::{study_with_progress, table, LeadTimes};
-use walk::{GuideKind, WalkConfig};
+use walk::{route_lookahead_m, GuideKind, WalkConfig};
 
 /// Cost function on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -99,6 +99,13 @@ pub struct CourseArgs {
     /// What the user heads for: the goal's sound (thesis) or the world's route.
     #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
     pub guide: GuideKind,
+    /// With `--guide route`: how far along the route the user is pointed, metres; turns
+    /// begin this far before a corner [default: 1.5 m, or 1.5 turning radii (walking
+    /// speed / turning rate) for a user who turns wider: 2.9 m at 1 m/s and 30°/s].
+    /// 0: the farthest waypoint in sight, corner to corner (the user reaches each
+    /// corner facing what lies past it).
+    #[arg(long)]
+    pub route_lookahead_m: Option<f64>,
     /// Give up a walk after this many seconds of simulated time.
     #[arg(long, default_value_t = 300.0)]
     pub timeout_s: f64,
@@ -157,6 +164,11 @@ impl CourseArgs {
         c.perception.ttc.enabled = !self.no_ttc;
         c.guide = self.guide;
         anyhow::ensure!(
+            self.route_lookahead_m.is_none_or(|m| (0.0..=20.0).contains(&m)),
+            "--route-lookahead-m must be between 0 (corner to corner) and 20 m"
+        );
+        c.route_lookahead_m = self.route_lookahead_m;
+        anyhow::ensure!(
             self.timeout_s.is_finite() && self.timeout_s > 0.0,
             "--timeout-s must be a positive number of seconds"
         );
@@ -207,6 +219,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         );
     });
     let elapsed_s = started.elapsed().as_secs_f64();
+    let lookahead_m = config.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&config.user));
     if let Some(path) = &args.trace {
         write_trace(path, &result.walks).with_context(|| format!("writing the trace {}", path.display()))?;
     }
@@ -221,6 +234,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "edges": !args.no_dropoff && !args.no_edges,
             "ttc": !args.no_ttc,
             "guide": args.guide,
+            "route_lookahead_m": lookahead_m,
             "camera": config.camera.name,
             "user": config.user,
             "runs": result.walks,
@@ -235,8 +249,13 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
     }
+    let guide = match args.guide {
+        GuideKind::Route if lookahead_m > 0.0 => format!("Route, {lookahead_m:.1} m ahead"),
+        GuideKind::Route => "Route, corner to corner".to_string(),
+        g => format!("{g:?}"),
+    };
     println!(
-        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {:?} | {} runs from seed {}",
+        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}",
         world.name(),
         config.camera.name,
         args.cost,
@@ -245,7 +264,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         on_off(!args.no_dropoff),
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),
-        args.guide,
+        guide,
         args.runs,
         args.seed
     );

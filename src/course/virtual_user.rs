@@ -78,6 +78,118 @@ impl Guide for RouteWaypoints<'_> {
     }
 }
 
+/// Route guidance stand-in that keeps the user on the route and announces turns ahead
+/// of the corner, as turn-by-turn guidance does ("turn right in one metre"): the route
+/// is a line from the start through the waypoints to the goal; the user's progress is
+/// the nearest point of it at most [`PROGRESS_WINDOW_M`] past the last (never back),
+/// and the user heads for the point `lookahead_m` further along, or the farthest point
+/// short of it in sight. With a lookahead of 0, or where no point of the route ahead is
+/// in sight (the user pushed off it), the user heads for the farthest waypoint in sight
+/// ([`RouteWaypoints`]): that walks the user right up to each corner, facing whatever
+/// lies past it.
+pub struct RouteFollow<'a> {
+    points: Vec<[f64; 2]>,
+    /// Distance along the route of each point, metres.
+    along_m: Vec<f64>,
+    in_sight: InSight<'a>,
+    lookahead_m: f64,
+    progress_m: f64,
+    /// Where the route cannot be seen from (the user pushed off it): the farthest
+    /// waypoint in sight.
+    recover: RouteWaypoints<'a>,
+}
+
+/// How far past the last progress the nearest route point is looked for, metres (a
+/// few steps: the user never jumps to a later leg seen through a gap).
+pub const PROGRESS_WINDOW_M: f64 = 3.0;
+/// Spacing of the route points tested for line of sight, metres.
+const ROUTE_STEP_M: f64 = 0.1;
+
+impl<'a> RouteFollow<'a> {
+    /// A route from `start` through `waypoints` (map metres, the goal last); the user
+    /// heads `lookahead_m` along it; `in_sight` says whether the user can walk straight
+    /// from where they are to a point.
+    pub fn new(
+        start: [f64; 2],
+        waypoints: Vec<[f64; 2]>,
+        lookahead_m: f64,
+        in_sight: impl Fn(&UserPose, [f64; 2]) -> bool + Clone + 'a,
+    ) -> Self {
+        let mut points = vec![start];
+        points.extend_from_slice(&waypoints);
+        let mut along_m = vec![0.0];
+        for w in points.windows(2) {
+            let last = along_m[along_m.len() - 1];
+            along_m.push(last + (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]));
+        }
+        Self {
+            points,
+            along_m,
+            in_sight: Box::new(in_sight.clone()),
+            lookahead_m,
+            progress_m: 0.0,
+            recover: RouteWaypoints::new(waypoints, in_sight),
+        }
+    }
+
+    /// Length of the route, metres.
+    pub fn length_m(&self) -> f64 {
+        self.along_m[self.along_m.len() - 1]
+    }
+
+    /// The route's point `s_m` along it (clamped to the route).
+    pub fn point_at(&self, s_m: f64) -> [f64; 2] {
+        let s = s_m.clamp(0.0, self.length_m());
+        let k = self.along_m.partition_point(|&a| a <= s).clamp(1, self.points.len() - 1);
+        let (a, b) = (self.points[k - 1], self.points[k]);
+        let len = self.along_m[k] - self.along_m[k - 1];
+        let f = if len > 0.0 { (s - self.along_m[k - 1]) / len } else { 0.0 };
+        [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]
+    }
+
+    /// Distance along the route of the point nearest `(x, y)` between `from_m` and
+    /// `to_m` along it.
+    fn nearest_along_m(&self, x: f64, y: f64, from_m: f64, to_m: f64) -> f64 {
+        let mut best = (f64::INFINITY, from_m);
+        for k in 1..self.points.len() {
+            let (s0, s1) = (self.along_m[k - 1], self.along_m[k]);
+            if s1 < from_m || s0 > to_m || s1 <= s0 {
+                continue;
+            }
+            let (a, b) = (self.points[k - 1], self.points[k]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len = s1 - s0;
+            let f = (((x - a[0]) * dx + (y - a[1]) * dy) / (len * len)).clamp(0.0, 1.0);
+            let s = (s0 + f * len).clamp(from_m, to_m);
+            let p = self.point_at(s);
+            let d = (p[0] - x).hypot(p[1] - y);
+            if d < best.0 {
+                best = (d, s);
+            }
+        }
+        best.1
+    }
+}
+
+impl Guide for RouteFollow<'_> {
+    fn heading_target_rad(&mut self, pose: &UserPose, t_s: f64) -> Option<f64> {
+        if self.lookahead_m <= 0.0 {
+            return self.recover.heading_target_rad(pose, t_s);
+        }
+        let (x, y) = (pose.x_m, pose.y_m);
+        self.progress_m = self.nearest_along_m(x, y, self.progress_m, self.progress_m + PROGRESS_WINDOW_M);
+        let far = (self.progress_m + self.lookahead_m).min(self.length_m());
+        let steps = ((far - self.progress_m) / ROUTE_STEP_M).ceil() as usize;
+        let ahead = (0..=steps)
+            .map(|i| self.point_at(far - i as f64 * ROUTE_STEP_M))
+            .find(|&p| (p[0] - x).hypot(p[1] - y) > ROUTE_STEP_M && (self.in_sight)(pose, p));
+        match ahead {
+            Some(p) => Some((p[1] - y).atan2(p[0] - x)),
+            None => self.recover.heading_target_rad(pose, t_s),
+        }
+    }
+}
+
 /// The goal's sound, with an experimenter standing by as in Taylor's study (2017, sec.
 /// 3.2: users who lost their way were reoriented): when the user has come no nearer the
 /// goal for `stuck_after_s`, the experimenter leads them along the course (the route's
@@ -495,6 +607,57 @@ mod tests {
         let h = g.heading_target_rad(&at(3.0, 3.0), 14.0).unwrap();
         assert!((h - (-3f64).atan2(2.0)).abs() < 1e-9, "{h}");
         assert_eq!(g.assists(), 1);
+    }
+
+    fn at(x: f64, y: f64) -> UserPose {
+        UserPose { x_m: x, y_m: y, yaw_rad: 0.0, floor: 0 }
+    }
+
+    #[test]
+    fn route_follower_turns_a_lookahead_before_the_corner() {
+        // (0, 0) east to (5, 0), then north to (5, 5); everything in sight
+        let route = |lookahead_m| {
+            RouteFollow::new([0.0, 0.0], vec![[5.0, 0.0], [5.0, 5.0]], lookahead_m, |_: &UserPose, _| true)
+        };
+        let mut g = route(1.5);
+        // 2 m before the corner: straight on
+        assert!(g.heading_target_rad(&at(1.0, 0.0), 0.0).unwrap().abs() < 1e-9);
+        assert!(g.heading_target_rad(&at(3.0, 0.0), 1.0).unwrap().abs() < 1e-9);
+        // 1 m before it: already turning, towards (5, 0.5)
+        let h = g.heading_target_rad(&at(4.0, 0.0), 2.0).unwrap();
+        assert!((h - 0.5f64.atan2(1.0)).abs() < 1e-9, "{h}");
+        // on the second leg, 1.5 m up it
+        let h = g.heading_target_rad(&at(5.0, 1.0), 3.0).unwrap();
+        assert!((h - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{h}");
+        // lookahead 0: the farthest waypoint in sight, the goal at once
+        let h = route(0.0).heading_target_rad(&at(4.0, 0.0), 0.0).unwrap();
+        assert!((h - 5f64.atan2(1.0)).abs() < 1e-9, "{h}");
+    }
+
+    #[test]
+    fn route_follower_keeps_to_its_leg_where_a_later_leg_is_nearer() {
+        // a hairpin: east along y = 0, back west along y = 1
+        let mut g = RouteFollow::new([0.0, 0.0], vec![[5.0, 0.0], [5.0, 1.0], [0.0, 1.0]], 1.5, |_: &UserPose, _| true);
+        // pushed 0.6 m to the left of the first leg: 0.4 m from the last leg, yet led on
+        // along the first, back towards it
+        let h = g.heading_target_rad(&at(1.0, 0.6), 0.0).unwrap();
+        assert!((h - (-0.6f64).atan2(1.5)).abs() < 1e-9, "{h}");
+        // round the hairpin the progress moves on, and never back
+        g.heading_target_rad(&at(3.0, 0.0), 1.0);
+        g.heading_target_rad(&at(4.5, 0.2), 2.0);
+        g.heading_target_rad(&at(5.0, 0.8), 3.0);
+        let h = g.heading_target_rad(&at(4.0, 0.6), 4.0).unwrap();
+        assert!(wrap_pi(h - std::f64::consts::PI).abs() < 0.5, "heading west: {h}");
+    }
+
+    #[test]
+    fn route_follower_pushed_out_of_sight_of_the_route_heads_for_the_farthest_waypoint_in_sight() {
+        // route east along y = 0; the user stands behind a wall (y > 1 sees only y > 1
+        // and the final waypoint)
+        let sight = |p: &UserPose, w: [f64; 2]| p.y_m <= 1.0 || w[1] > 1.0 || w == [8.0, 0.0];
+        let mut g = RouteFollow::new([0.0, 0.0], vec![[4.0, 0.0], [8.0, 0.0]], 1.5, sight);
+        let h = g.heading_target_rad(&at(2.0, 2.0), 0.0).unwrap();
+        assert!((h - (-2f64).atan2(6.0)).abs() < 1e-9, "{h}");
     }
 
     #[test]

@@ -22,7 +22,9 @@ use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, ObstacleId, Render
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
-use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteWaypoints, Touch, UserParams, VirtualUser};
+use super::virtual_user::{
+    ExperimenterAssist, GoalSound, Guide, RouteFollow, RouteWaypoints, Touch, UserParams, VirtualUser,
+};
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
 pub const PHYSICS_HZ: u32 = 120;
@@ -42,13 +44,28 @@ const T0_NS: u64 = 1_000_000_000;
 pub enum GuideKind {
     /// The goal's sound: bearing only (Taylor's music source).
     Sound,
-    /// The world's scripted route: the farthest waypoint in line of sight (stand-in
-    /// for route guidance; the goal's sound in worlds without a route).
+    /// The world's route (stand-in for turn-by-turn guidance; the goal's sound in
+    /// worlds without a route): the user is kept on it and pointed a lookahead along
+    /// it ([`route_lookahead_m`]), so turns begin before the corner.
     Route,
     /// The goal's sound, and an experimenter who leads a user stuck for 20 s along the
     /// route until the goal is in sight (Taylor's reorienting; the goal's sound alone
     /// in worlds without a route).
     Assisted,
+}
+
+/// How far along the route a route-guided user is pointed at least, metres: turns
+/// begin this far before a corner, about where turn-by-turn guidance says "turn right".
+pub const ROUTE_LOOKAHEAD_M: f64 = 1.5;
+/// A user who turns wider is pointed this many turning radii along the route.
+pub const ROUTE_LOOKAHEAD_TURN_RADII: f64 = 1.5;
+
+/// How far along the route guidance points `user` (see [`GuideKind::Route`]):
+/// [`ROUTE_LOOKAHEAD_M`], or [`ROUTE_LOOKAHEAD_TURN_RADII`] turning radii (walking
+/// speed over turning rate) for a user who could not make the turn in that.
+pub fn route_lookahead_m(user: &UserParams) -> f64 {
+    let radius_m = user.walk_speed_m_s / user.turn_rate_deg_s.to_radians().max(1e-6);
+    ROUTE_LOOKAHEAD_M.max(ROUTE_LOOKAHEAD_TURN_RADII * radius_m)
 }
 
 /// No nearer the goal for this long, an assisted user is led back on course, seconds
@@ -72,6 +89,10 @@ pub struct WalkConfig {
     pub camera: CameraProfile,
     /// What the user heads for.
     pub guide: GuideKind,
+    /// With [`GuideKind::Route`], how far along the route the user is pointed, metres
+    /// (0: the farthest waypoint in sight, corner to corner; `None`: fitted to the
+    /// user, [`route_lookahead_m`]).
+    pub route_lookahead_m: Option<f64>,
     /// Walk ends unfinished after this, seconds.
     pub timeout_s: f64,
     /// Goal reached within this distance of it, metres.
@@ -140,6 +161,7 @@ impl Default for WalkConfig {
             mount: CaneMount::default(),
             camera: xtion_qvga(),
             guide: GuideKind::Sound,
+            route_lookahead_m: None,
             timeout_s: 300.0,
             goal_radius_m: 0.5,
             latency_ms: 50.0,
@@ -229,13 +251,16 @@ fn walkable(world: &World, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool
 }
 
 /// A guide for `kind` in `world`.
-fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64) -> Box<dyn Guide + 'a> {
+fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64, lookahead_m: f64) -> Box<dyn Guide + 'a> {
     let goal = world.goal();
     match (kind, world.walker()) {
         (GuideKind::Route, Some(w)) => {
             let mut points = w.waypoints.clone();
             points.push([goal.x_m, goal.y_m]);
-            Box::new(RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, p, to, radius_m)))
+            let start = world.start();
+            Box::new(RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
+                walkable(world, p, to, radius_m)
+            }))
         }
         (GuideKind::Assisted, Some(w)) => {
             let mut points = w.waypoints.clone();
@@ -303,7 +328,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mut unpacked = Vec::new();
     let goal = world.goal().clone();
     let radius_m = params.shoulder_width_m / 2.0;
-    let mut guide = guide_for(config.guide, world, radius_m);
+    let lookahead_m = config.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&params));
+    let mut guide = guide_for(config.guide, world, radius_m, lookahead_m);
     let mut target = None;
 
     let dt = 1.0 / PHYSICS_HZ as f64;
@@ -579,5 +605,22 @@ fn contact(
         seen_ago_s: seen.ago_s(id, t_s),
         warned_ago_s: felt_since_s.map(|since| t_s - since),
         head_high: touch_bottom_m > mount.handle_height_m,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn route_guidance_calls_turns_earlier_for_a_user_who_turns_wider() {
+        let user = UserParams::default();
+        assert_eq!(route_lookahead_m(&user), ROUTE_LOOKAHEAD_M);
+        // 1 m/s at 30°/s: a turning radius of 1.91 m
+        let wide = UserParams { turn_rate_deg_s: 30.0, ..user };
+        assert!((route_lookahead_m(&wide) - 1.5 / 30f64.to_radians()).abs() < 1e-12);
+        // slower walking turns tighter again
+        let careful = UserParams { walk_speed_m_s: 0.5, ..wide };
+        assert_eq!(route_lookahead_m(&careful), ROUTE_LOOKAHEAD_M);
     }
 }
