@@ -367,6 +367,18 @@ struct Cli {
 }
 
 #[test]
+fn route_options_a_world_cannot_serve_are_refused_before_walking() {
+    let run = |line: &str| {
+        let argv = std::iter::once("course").chain(line.split_whitespace());
+        wearnav::course::run(&Cli::parse_from(argv).args).map_err(|e| format!("{e:#}"))
+    };
+    let err = run("--world corridor --guide route --route-map floor-plan --runs 1").unwrap_err();
+    assert!(err.contains("world `corridor` has no floor-plan route") && err.contains("[floor_plan_route]"), "{err}");
+    let err = run("--guide route --route-lookahead-m=25 --runs 1").unwrap_err();
+    assert!(err.contains("--route-lookahead-m must be between 0"), "{err}");
+}
+
+#[test]
 #[ignore = "the full study: run with --release, arguments in COURSE_ARGS"]
 fn course_cli() {
     let line = std::env::var("COURSE_ARGS").unwrap_or_default();

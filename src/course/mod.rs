@@ -24,7 +24,7 @@ use sensor_agent::sim::{CameraProfile, World};
 
 use contacts::Part;
 use study::{study_with_progress, table, LeadTimes};
-use walk::{route_lookahead_m, GuideKind, WalkConfig};
+use walk::{route_lookahead_m, GuideKind, RouteMap, WalkConfig};
 
 /// Cost function on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -106,6 +106,12 @@ pub struct CourseArgs {
     /// corner facing what lies past it).
     #[arg(long)]
     pub route_lookahead_m: Option<f64>,
+    /// What the map behind `--guide route` (and the experimenter of `assisted`) holds:
+    /// `full`, every obstacle (the world's route, laid round them all); `floor-plan`,
+    /// the walls alone (the world's floor-plan route down the middle of each lane,
+    /// past furniture and under hanging obstacles the rumble must find).
+    #[arg(long, value_enum, default_value_t = RouteMap::Full)]
+    pub route_map: RouteMap,
     /// Give up a walk after this many seconds of simulated time.
     #[arg(long, default_value_t = 300.0)]
     pub timeout_s: f64,
@@ -168,6 +174,7 @@ impl CourseArgs {
             "--route-lookahead-m must be between 0 (corner to corner) and 20 m"
         );
         c.route_lookahead_m = self.route_lookahead_m;
+        c.route_map = self.route_map;
         anyhow::ensure!(
             self.timeout_s.is_finite() && self.timeout_s > 0.0,
             "--timeout-s must be a positive number of seconds"
@@ -203,6 +210,13 @@ impl CourseArgs {
 pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
     let config = args.walk_config()?;
+    if config.route_map == RouteMap::FloorPlan && config.guide != GuideKind::Sound {
+        anyhow::ensure!(
+            world.floor_plan_route().is_some(),
+            "world `{}` has no floor-plan route (`[floor_plan_route]` in its scene); --route-map floor-plan needs one",
+            world.name()
+        );
+    }
     let started = std::time::Instant::now();
     let ended = std::sync::atomic::AtomicU32::new(0);
     let result = study_with_progress(&world, &config, args.runs, args.seed, |w| {
@@ -235,6 +249,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "ttc": !args.no_ttc,
             "guide": args.guide,
             "route_lookahead_m": lookahead_m,
+            "route_map": args.route_map,
             "camera": config.camera.name,
             "user": config.user,
             "runs": result.walks,
@@ -250,8 +265,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let guide = match args.guide {
-        GuideKind::Route if lookahead_m > 0.0 => format!("Route, {lookahead_m:.1} m ahead"),
-        GuideKind::Route => "Route, corner to corner".to_string(),
+        GuideKind::Route if lookahead_m > 0.0 => format!("Route ({:?} map), {lookahead_m:.1} m ahead", args.route_map),
+        GuideKind::Route => format!("Route ({:?} map), corner to corner", args.route_map),
         g => format!("{g:?}"),
     };
     println!(

@@ -18,7 +18,9 @@ use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
 use sensor_agent::sim::walker::wrap_pi;
-use sensor_agent::sim::{CameraPose, CameraProfile, CaneMount, ObstacleId, Renderer, SimRng, UserPose, World};
+use sensor_agent::sim::{
+    CameraPose, CameraProfile, CaneMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
+};
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
@@ -52,6 +54,17 @@ pub enum GuideKind {
     /// route until the goal is in sight (Taylor's reorienting; the goal's sound alone
     /// in worlds without a route).
     Assisted,
+}
+
+/// What the map behind the route (and the experimenter's leading) holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RouteMap {
+    /// Every obstacle: the world's route, laid round them all; line of sight past them.
+    Full,
+    /// The floor plan alone (walls and drop-offs, no furniture or hanging obstacles):
+    /// the world's floor-plan route, line of sight past walls only.
+    FloorPlan,
 }
 
 /// How far along the route a route-guided user is pointed at least, metres: turns
@@ -93,6 +106,8 @@ pub struct WalkConfig {
     /// (0: the farthest waypoint in sight, corner to corner; `None`: fitted to the
     /// user, [`route_lookahead_m`]).
     pub route_lookahead_m: Option<f64>,
+    /// What the route's map holds.
+    pub route_map: RouteMap,
     /// Walk ends unfinished after this, seconds.
     pub timeout_s: f64,
     /// Goal reached within this distance of it, metres.
@@ -162,6 +177,7 @@ impl Default for WalkConfig {
             camera: xtion_qvga(),
             guide: GuideKind::Sound,
             route_lookahead_m: None,
+            route_map: RouteMap::Full,
             timeout_s: 300.0,
             goal_radius_m: 0.5,
             latency_ms: 50.0,
@@ -235,42 +251,58 @@ fn camera_floor(camera: &CameraPose) -> UserPose {
 const SIGHT_STEP_M: f64 = 0.1;
 
 /// True when a body of `radius_m` can walk straight from `pose` to `to` past every
-/// static shape of the floor that reaches below head height, and never over a drop-off
-/// (what a floor map holds).
-fn walkable(world: &World, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool {
+/// static shape of the floor that reaches below head height and that `map` holds, and
+/// never over a drop-off.
+fn walkable(world: &World, map: RouteMap, pose: &UserPose, to: [f64; 2], radius_m: f64) -> bool {
     let (dx, dy) = (to[0] - pose.x_m, to[1] - pose.y_m);
     let n = ((dx.hypot(dy) / SIGHT_STEP_M).ceil() as usize).max(1);
     let g = world.geometry(pose.floor);
+    let on_map =
+        |id: &ObstacleId| map == RouteMap::Full || world.obstacle(*id).is_some_and(|o| o.kind == ObstacleKind::Wall);
     (0..=n).all(|i| {
         let f = i as f64 / n as f64;
         let (x, y) = (pose.x_m + f * dx, pose.y_m + f * dy);
-        g.boxes.iter().all(|(b, _)| Shape::Box(*b).body_distance_m(x, y, radius_m, 1.8) > 0.0)
-            && g.cylinders.iter().all(|(c, _)| Shape::Cylinder(*c).body_distance_m(x, y, radius_m, 1.8) > 0.0)
+        g.boxes
+            .iter()
+            .filter(|(_, id)| on_map(id))
+            .all(|(b, _)| Shape::Box(*b).body_distance_m(x, y, radius_m, 1.8) > 0.0)
+            && g.cylinders
+                .iter()
+                .filter(|(_, id)| on_map(id))
+                .all(|(c, _)| Shape::Cylinder(*c).body_distance_m(x, y, radius_m, 1.8) > 0.0)
             && g.drop_offs.iter().all(|(d, _)| Shape::DropOff(*d).body_distance_m(x, y, radius_m, 1.8) > radius_m)
     })
 }
 
 /// A guide for `kind` in `world`.
-fn guide_for<'a>(kind: GuideKind, world: &'a World, radius_m: f64, lookahead_m: f64) -> Box<dyn Guide + 'a> {
+fn guide_for<'a>(
+    kind: GuideKind,
+    world: &'a World,
+    map: RouteMap,
+    radius_m: f64,
+    lookahead_m: f64,
+) -> Box<dyn Guide + 'a> {
     let goal = world.goal();
-    match (kind, world.walker()) {
-        (GuideKind::Route, Some(w)) => {
-            let mut points = w.waypoints.clone();
+    let route = match map {
+        RouteMap::Full => world.walker().map(|w| w.waypoints.clone()),
+        RouteMap::FloorPlan => world.floor_plan_route().map(<[_]>::to_vec),
+    };
+    match (kind, route) {
+        (GuideKind::Route, Some(mut points)) => {
             points.push([goal.x_m, goal.y_m]);
             let start = world.start();
             Box::new(RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
-                walkable(world, p, to, radius_m)
+                walkable(world, map, p, to, radius_m)
             }))
         }
-        (GuideKind::Assisted, Some(w)) => {
-            let mut points = w.waypoints.clone();
+        (GuideKind::Assisted, Some(mut points)) => {
             points.push([goal.x_m, goal.y_m]);
-            let route = RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, p, to, radius_m));
+            let route = RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, map, p, to, radius_m));
             let to = [goal.x_m, goal.y_m];
             Box::new(ExperimenterAssist::new(
                 GoalSound { x_m: goal.x_m, y_m: goal.y_m },
                 route,
-                move |p: &UserPose| walkable(world, p, to, radius_m),
+                move |p: &UserPose| walkable(world, map, p, to, radius_m),
                 STUCK_AFTER_S,
             ))
         }
@@ -329,7 +361,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let goal = world.goal().clone();
     let radius_m = params.shoulder_width_m / 2.0;
     let lookahead_m = config.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&params));
-    let mut guide = guide_for(config.guide, world, radius_m, lookahead_m);
+    let mut guide = guide_for(config.guide, world, config.route_map, radius_m, lookahead_m);
     let mut target = None;
 
     let dt = 1.0 / PHYSICS_HZ as f64;

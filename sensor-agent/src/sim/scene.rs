@@ -28,6 +28,9 @@
 //! [walker]                      # optional scripted walk from `start`
 //! waypoints = [[2.0, 5.0], [2.0, 8.5]]
 //! at_end = "stop"               # or "back_up": retrace the path walking backwards, forever
+//!
+//! [floor_plan_route]            # optional: the route laid on the walls alone
+//! waypoints = [[1.75, 8.5], [5.0, 8.5]]   # from `start`, the goal not repeated
 //! ```
 //!
 //! Item tables: `walls`, `boxes`, `cylinders`, `poles`, `tables`, `chairs`, `hanging`,
@@ -193,6 +196,18 @@ pub struct SceneFile {
     pub stairs: Vec<Spanned<StairsSpec>>,
     /// Scripted walk from `start` (optional).
     pub walker: Option<Spanned<WalkerSpec>>,
+    /// The route a planner would lay on the floor plan alone (optional).
+    pub floor_plan_route: Option<Spanned<FloorPlanRouteSpec>>,
+}
+
+/// A route laid on the floor plan alone: walls and dividers, no furniture, no hanging
+/// obstacles (what a planner given only the building's plan would give), from `start`
+/// to the goal.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FloorPlanRouteSpec {
+    /// Points between `start` and the goal, in order, map metres (on the start floor).
+    pub waypoints: Vec<[f64; 2]>,
 }
 
 /// The user's start pose.
@@ -848,6 +863,12 @@ fn validate(scene: &SceneFile, text: &str, origin: &str) -> Result<(), SceneErro
         c.positive("speed_m_s", v.speed_m_s)?;
         c.positive("turn_rate_deg_s", v.turn_rate_deg_s)?;
     }
+    if let Some(r) = &scene.floor_plan_route {
+        let c = check(r.span(), "floor_plan_route".into());
+        for p in &r.get_ref().waypoints {
+            c.finite("waypoints", p)?;
+        }
+    }
     Ok(())
 }
 
@@ -929,6 +950,15 @@ mod tests {
             .unwrap_or_else(|| panic!("README has no toml example"));
         let scene = parse_scene(example, "README.md").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((scene.walls.len(), scene.hanging.len(), scene.floor_regions.len()), (1, 1, 1));
+    }
+
+    #[test]
+    fn floor_plan_route_loads_and_a_point_that_is_not_a_number_is_refused() {
+        let scene = parse_scene(&format!("{HEAD}[floor_plan_route]\nwaypoints = [[0.5, 1.0], [1.0, 1.0]]\n"), "x")
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.floor_plan_route.map(|r| r.into_inner().waypoints), Some(vec![[0.5, 1.0], [1.0, 1.0]]));
+        let err = parse_scene(&format!("{HEAD}[floor_plan_route]\nwaypoints = [[0.5, nan]]\n"), "x").unwrap_err();
+        assert!(err.to_string().starts_with("x:4: floor_plan_route"), "{err}");
     }
 
     #[test]

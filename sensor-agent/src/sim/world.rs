@@ -177,6 +177,7 @@ pub struct World {
     elevators: Vec<ElevatorSpec>,
     stairs: Vec<StairsSpec>,
     walker: Option<WalkerSpec>,
+    floor_plan_route: Option<Vec<[f64; 2]>>,
 }
 
 static NO_GEOMETRY: FloorGeometry = FloorGeometry {
@@ -407,6 +408,7 @@ impl World {
             elevators: scene.elevators.iter().map(|d| d.get_ref().clone()).collect(),
             stairs: scene.stairs.iter().map(|d| d.get_ref().clone()).collect(),
             walker: scene.walker.as_ref().map(|w| w.get_ref().clone()),
+            floor_plan_route: scene.floor_plan_route.as_ref().map(|r| r.get_ref().waypoints.clone()),
         }
     }
 
@@ -433,6 +435,12 @@ impl World {
     /// The scripted walk of the scene, if it has one.
     pub fn walker(&self) -> Option<&WalkerSpec> {
         self.walker.as_ref()
+    }
+
+    /// The route laid on the floor plan alone (walls, no furniture or hanging
+    /// obstacles): its points between the start and the goal, when the scene has one.
+    pub fn floor_plan_route(&self) -> Option<&[[f64; 2]]> {
+        self.floor_plan_route.as_deref()
     }
 
     /// Every floor, by ascending index.
@@ -725,6 +733,38 @@ mod tests {
         assert!(walk > 1.5 * straight, "the course must turn: {walk:.1} m vs {straight:.1} m straight");
         let start = w.start();
         assert!((start.x_m < 1.0) && (start.y_m - 5.0).abs() < 0.5 && start.yaw_rad == 0.0, "middle-left facing right");
+    }
+
+    #[test]
+    fn taylor_course_floor_plan_route_clears_the_walls_but_not_the_furniture() {
+        let w = builtin("taylor-course");
+        let (start, goal) = (w.start(), w.goal());
+        let mut route = vec![[start.x_m, start.y_m]];
+        route.extend_from_slice(w.floor_plan_route().unwrap_or_else(|| panic!("no floor-plan route")));
+        route.push([goal.x_m, goal.y_m]);
+        let mut in_the_way = std::collections::BTreeSet::new();
+        let mut nearest_wall_m = f64::INFINITY;
+        for leg in route.windows(2) {
+            let steps = ((leg[1][0] - leg[0][0]).hypot(leg[1][1] - leg[0][1]) / 0.05).ceil() as usize;
+            for i in 0..=steps {
+                let f = i as f64 / steps as f64;
+                let (x, y) = (leg[0][0] + f * (leg[1][0] - leg[0][0]), leg[0][1] + f * (leg[1][1] - leg[0][1]));
+                // a body 0.45 m wide and 1.8 m tall walking the route
+                for (id, shape) in w.obstacles_at(0, 0.0) {
+                    let d = shape.body_distance_m(x, y, 0.225, 1.8);
+                    let Some(o) = w.obstacle(id) else { continue };
+                    if o.kind == ObstacleKind::Wall {
+                        nearest_wall_m = nearest_wall_m.min(d);
+                    } else if d == 0.0 {
+                        in_the_way.insert(o.label.clone());
+                    }
+                }
+            }
+        }
+        // laid on the walls alone: clear of every wall and divider (the nearest, 0.42 m,
+        // is the west wall at the start), and through what the floor plan does not show
+        assert!(nearest_wall_m >= 0.4, "{nearest_wall_m}");
+        assert_eq!(in_the_way.into_iter().collect::<Vec<_>>(), ["chair 1", "head-high sign"]);
     }
 
     #[test]
