@@ -96,6 +96,10 @@ pub struct CourseArgs {
     /// Switch off the time-to-collision warning.
     #[arg(long)]
     pub no_ttc: bool,
+    /// Switch the device off: the hands feel no rumble, and the user walks by the
+    /// guide and the cane's touches alone (the baseline the device is measured against).
+    #[arg(long)]
+    pub no_rumble: bool,
     /// What the user heads for: the goal's sound (thesis) or the world's route.
     #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
     pub guide: GuideKind,
@@ -168,6 +172,7 @@ impl CourseArgs {
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
+        c.rumble = !self.no_rumble;
         c.guide = self.guide;
         anyhow::ensure!(
             self.route_lookahead_m.is_none_or(|m| (0.0..=20.0).contains(&m)),
@@ -247,6 +252,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             "dropoff": !args.no_dropoff,
             "edges": !args.no_dropoff && !args.no_edges,
             "ttc": !args.no_ttc,
+            "rumble": !args.no_rumble,
             "guide": args.guide,
             "route_lookahead_m": lookahead_m,
             "route_map": args.route_map,
@@ -270,9 +276,10 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         g => format!("{g:?}"),
     };
     println!(
-        "world {} | camera {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}",
+        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}",
         world.name(),
         config.camera.name,
+        on_off(!args.no_rumble),
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),

@@ -108,6 +108,8 @@ pub struct WalkConfig {
     pub route_lookahead_m: Option<f64>,
     /// What the route's map holds.
     pub route_map: RouteMap,
+    /// The rumble reaches the hands (false: the device off, the cane alone).
+    pub rumble: bool,
     /// Walk ends unfinished after this, seconds.
     pub timeout_s: f64,
     /// Goal reached within this distance of it, metres.
@@ -178,6 +180,7 @@ impl Default for WalkConfig {
             guide: GuideKind::Sound,
             route_lookahead_m: None,
             route_map: RouteMap::Full,
+            rumble: true,
             timeout_s: 300.0,
             goal_radius_m: 0.5,
             latency_ms: 50.0,
@@ -499,7 +502,9 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         }
         feedback.tick(now);
         for a in feedback.drain_applied() {
-            felt.apply(&a);
+            if config.rumble {
+                felt.apply(&a);
+            }
         }
         let state = felt.felt(now);
         if state != shown {
