@@ -103,8 +103,8 @@ pub struct CourseArgs {
     /// What the user heads for: the goal's sound (thesis) or the world's route.
     #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
     pub guide: GuideKind,
-    /// With `--guide route`: how far along the route the user is pointed, metres; turns
-    /// begin this far before a corner [default: 1.5 m, or 1.5 turning radii (walking
+    /// With `--guide route` (and the experimenter leading in `assisted`): how far along
+    /// the route the user is pointed, metres; turns begin this far before a corner [default: 1.5 m, or 1.5 turning radii (walking
     /// speed / turning rate) for a user who turns wider: 2.9 m at 1 m/s and 30°/s].
     /// 0: the farthest waypoint in sight, corner to corner (the user reaches each
     /// corner facing what lies past it).

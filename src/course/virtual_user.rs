@@ -147,6 +147,23 @@ impl<'a> RouteFollow<'a> {
         [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]
     }
 
+    /// Takes up the route again from wherever the user is: progress moves (back or on)
+    /// to the nearest route point in sight, or the nearest at all when none is.
+    pub fn rejoin(&mut self, pose: &UserPose) {
+        let (x, y) = (pose.x_m, pose.y_m);
+        let mut best = (f64::INFINITY, f64::INFINITY, 0.0);
+        for k in 1..self.points.len() {
+            let s = self.nearest_along_m(x, y, self.along_m[k - 1], self.along_m[k]);
+            let p = self.point_at(s);
+            let d = (p[0] - x).hypot(p[1] - y);
+            let key = if (self.in_sight)(pose, p) { d } else { f64::INFINITY };
+            if (key, d) < (best.0, best.1) {
+                best = (key, d, s);
+            }
+        }
+        self.progress_m = best.2;
+    }
+
     /// Distance along the route of the point nearest `(x, y)` between `from_m` and
     /// `to_m` along it.
     fn nearest_along_m(&self, x: f64, y: f64, from_m: f64, to_m: f64) -> f64 {
@@ -192,13 +209,13 @@ impl Guide for RouteFollow<'_> {
 
 /// The goal's sound, with an experimenter standing by as in Taylor's study (2017, sec.
 /// 3.2: users who lost their way were reoriented): when the user has come no nearer the
-/// goal for `stuck_after_s`, the experimenter leads them along the course (the route's
-/// farthest waypoint in sight) until the goal is in a straight line of walking, then
-/// leaves them to the sound again. The rumble still decides every step; only what the
+/// goal for `stuck_after_s`, the experimenter leads them along the course (taking up the
+/// route from the nearest point of it in sight, as [`RouteFollow`]) until the goal is in
+/// a straight line of walking, then leaves them to the sound again. The rumble still decides every step; only what the
 /// user heads for changes.
 pub struct ExperimenterAssist<'a> {
     sound: GoalSound,
-    route: RouteWaypoints<'a>,
+    route: RouteFollow<'a>,
     goal_in_sight: Box<dyn Fn(&UserPose) -> bool + 'a>,
     stuck_after_s: f64,
     best_m: f64,
@@ -214,7 +231,7 @@ impl<'a> ExperimenterAssist<'a> {
     /// Sound at `sound`, the course's `route` for leading, `goal_in_sight` from the map.
     pub fn new(
         sound: GoalSound,
-        route: RouteWaypoints<'a>,
+        route: RouteFollow<'a>,
         goal_in_sight: impl Fn(&UserPose) -> bool + 'a,
         stuck_after_s: f64,
     ) -> Self {
@@ -244,6 +261,7 @@ impl Guide for ExperimenterAssist<'_> {
         } else if !self.leading && t_s - self.best_t_s > self.stuck_after_s {
             self.leading = true;
             self.assists += 1;
+            self.route.rejoin(pose);
         }
         if self.leading {
             self.route.heading_target_rad(pose, t_s)
@@ -590,9 +608,12 @@ mod tests {
     fn experimenter_leads_a_stuck_user_until_the_goal_is_in_sight() {
         // goal at (5, 0) behind a wall at x = 2.5 for |y| < 2; the route goes round by y = 3
         let blocked = |p: &UserPose| p.y_m.abs() < 2.0 && p.x_m < 2.5;
-        let route = RouteWaypoints::new(vec![[1.0, 3.0], [5.0, 3.0], [5.0, 0.0]], move |p: &UserPose, w: [f64; 2]| {
-            !(blocked(p) && w[0] > 2.5)
-        });
+        let route = RouteFollow::new(
+            [0.0, 0.0],
+            vec![[1.0, 3.0], [5.0, 3.0], [5.0, 0.0]],
+            0.0,
+            move |p: &UserPose, w: [f64; 2]| !(blocked(p) && w[0] > 2.5),
+        );
         let mut g = ExperimenterAssist::new(GoalSound { x_m: 5.0, y_m: 0.0 }, route, move |p| !blocked(p), 10.0);
         let at = |x, y| UserPose { x_m: x, y_m: y, yaw_rad: 0.0, floor: 0 };
         // pressed against the wall, heading for the sound, for 10 s: no help yet
@@ -648,6 +669,20 @@ mod tests {
         g.heading_target_rad(&at(5.0, 0.8), 3.0);
         let h = g.heading_target_rad(&at(4.0, 0.6), 4.0).unwrap();
         assert!(wrap_pi(h - std::f64::consts::PI).abs() < 0.5, "heading west: {h}");
+    }
+
+    #[test]
+    fn route_follower_rejoins_the_route_from_wherever_the_user_is_led_from() {
+        // a straight route east; the user turns up 6 m along it before the guide has
+        // heard of them (an experimenter taking over)
+        let mut g = RouteFollow::new([0.0, 0.0], vec![[10.0, 0.0]], 1.5, |_: &UserPose, _| true);
+        g.rejoin(&at(6.0, 0.5));
+        let h = g.heading_target_rad(&at(6.0, 0.5), 0.0).unwrap();
+        assert!((h - (-0.5f64).atan2(1.5)).abs() < 1e-9, "{h}");
+        // back before the last progress: taken up from there, not pulled on
+        g.rejoin(&at(2.0, -0.5));
+        let h = g.heading_target_rad(&at(2.0, -0.5), 1.0).unwrap();
+        assert!((h - 0.5f64.atan2(1.5)).abs() < 1e-9, "{h}");
     }
 
     #[test]

@@ -24,9 +24,7 @@ use sensor_agent::sim::{
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
-use super::virtual_user::{
-    ExperimenterAssist, GoalSound, Guide, RouteFollow, RouteWaypoints, Touch, UserParams, VirtualUser,
-};
+use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Touch, UserParams, VirtualUser};
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
 pub const PHYSICS_HZ: u32 = 120;
@@ -102,7 +100,8 @@ pub struct WalkConfig {
     pub camera: CameraProfile,
     /// What the user heads for.
     pub guide: GuideKind,
-    /// With [`GuideKind::Route`], how far along the route the user is pointed, metres
+    /// With [`GuideKind::Route`] (and the experimenter of [`GuideKind::Assisted`]), how
+    /// far along the route the user is pointed, metres
     /// (0: the farthest waypoint in sight, corner to corner; `None`: fitted to the
     /// user, [`route_lookahead_m`]).
     pub route_lookahead_m: Option<f64>,
@@ -300,7 +299,10 @@ fn guide_for<'a>(
         }
         (GuideKind::Assisted, Some(mut points)) => {
             points.push([goal.x_m, goal.y_m]);
-            let route = RouteWaypoints::new(points, move |p: &UserPose, to| walkable(world, map, p, to, radius_m));
+            let start = world.start();
+            let route = RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
+                walkable(world, map, p, to, radius_m)
+            });
             let to = [goal.x_m, goal.y_m];
             Box::new(ExperimenterAssist::new(
                 GoalSound { x_m: goal.x_m, y_m: goal.y_m },
