@@ -104,10 +104,10 @@ pub struct CourseArgs {
     #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
     pub guide: GuideKind,
     /// With `--guide route` (and the experimenter leading in `assisted`): how far along
-    /// the route the user is pointed, metres; turns begin this far before a corner [default: 1.5 m, or 1.5 turning radii (walking
-    /// speed / turning rate) for a user who turns wider: 2.9 m at 1 m/s and 30°/s].
-    /// 0: the farthest waypoint in sight, corner to corner (the user reaches each
-    /// corner facing what lies past it).
+    /// the route the user is pointed, metres; turns begin this far before a corner
+    /// [default: 1.5 m, or 1.5 turning radii (walking speed / turning rate) for a user
+    /// who turns wider: 2.9 m at 1 m/s and 30°/s]. 0: the farthest waypoint in sight,
+    /// corner to corner (the user reaches each corner facing what lies past it).
     #[arg(long)]
     pub route_lookahead_m: Option<f64>,
     /// What the map behind `--guide route` (and the experimenter of `assisted`) holds:
@@ -273,6 +273,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let guide = match args.guide {
         GuideKind::Route if lookahead_m > 0.0 => format!("Route ({:?} map), {lookahead_m:.1} m ahead", args.route_map),
         GuideKind::Route => format!("Route ({:?} map), corner to corner", args.route_map),
+        GuideKind::Assisted => format!("Assisted (led on the {:?} map)", args.route_map),
         g => format!("{g:?}"),
     };
     println!(

@@ -133,12 +133,12 @@ impl<'a> RouteFollow<'a> {
     }
 
     /// Length of the route, metres.
-    pub fn length_m(&self) -> f64 {
+    fn length_m(&self) -> f64 {
         self.along_m[self.along_m.len() - 1]
     }
 
     /// The route's point `s_m` along it (clamped to the route).
-    pub fn point_at(&self, s_m: f64) -> [f64; 2] {
+    fn point_at(&self, s_m: f64) -> [f64; 2] {
         let s = s_m.clamp(0.0, self.length_m());
         let k = self.along_m.partition_point(|&a| a <= s).clamp(1, self.points.len() - 1);
         let (a, b) = (self.points[k - 1], self.points[k]);
@@ -211,8 +211,8 @@ impl Guide for RouteFollow<'_> {
 /// 3.2: users who lost their way were reoriented): when the user has come no nearer the
 /// goal for `stuck_after_s`, the experimenter leads them along the course (taking up the
 /// route from the nearest point of it in sight, as [`RouteFollow`]) until the goal is in
-/// a straight line of walking, then leaves them to the sound again. The rumble still decides every step; only what the
-/// user heads for changes.
+/// a straight line of walking, then leaves them to the sound again. The rumble still
+/// decides every step; only what the user heads for changes.
 pub struct ExperimenterAssist<'a> {
     sound: GoalSound,
     route: RouteFollow<'a>,
