@@ -24,7 +24,7 @@ use sensor_agent::sim::{CameraProfile, World};
 
 use contacts::Part;
 use study::{study_with_progress, table, LeadTimes};
-use walk::{route_lookahead_m, GuideKind, RouteMap, WalkConfig};
+use walk::{GuideKind, RouteMap, WalkConfig};
 
 /// Cost function on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -238,7 +238,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         );
     });
     let elapsed_s = started.elapsed().as_secs_f64();
-    let lookahead_m = config.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&config.user));
+    let lookahead_m = config.lookahead_m();
     if let Some(path) = &args.trace {
         write_trace(path, &result.walks).with_context(|| format!("writing the trace {}", path.display()))?;
     }

@@ -165,6 +165,14 @@ pub fn xtion_qvga() -> CameraProfile {
     CameraProfile { name: "xtion-qvga".into(), width: vga.width / 2, height: vga.height / 2, ..vga }
 }
 
+impl WalkConfig {
+    /// How far along the route the user is pointed, metres: as set, or fitted to the
+    /// user ([`route_lookahead_m`]).
+    pub fn lookahead_m(&self) -> f64 {
+        self.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&self.user))
+    }
+}
+
 impl Default for WalkConfig {
     /// Xtion at 320x240 with stride 1 (see [`xtion_qvga`]), default perception, cue,
     /// feedback, user and cane; 300 s timeout, 0.5 m goal radius, 50 ms latency.
@@ -289,20 +297,16 @@ fn guide_for<'a>(
         RouteMap::Full => world.walker().map(|w| w.waypoints.clone()),
         RouteMap::FloorPlan => world.floor_plan_route().map(<[_]>::to_vec),
     };
+    let start = world.start();
+    let route = route.map(|mut points| {
+        points.push([goal.x_m, goal.y_m]);
+        RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
+            walkable(world, map, p, to, radius_m)
+        })
+    });
     match (kind, route) {
-        (GuideKind::Route, Some(mut points)) => {
-            points.push([goal.x_m, goal.y_m]);
-            let start = world.start();
-            Box::new(RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
-                walkable(world, map, p, to, radius_m)
-            }))
-        }
-        (GuideKind::Assisted, Some(mut points)) => {
-            points.push([goal.x_m, goal.y_m]);
-            let start = world.start();
-            let route = RouteFollow::new([start.x_m, start.y_m], points, lookahead_m, move |p: &UserPose, to| {
-                walkable(world, map, p, to, radius_m)
-            });
+        (GuideKind::Route, Some(route)) => Box::new(route),
+        (GuideKind::Assisted, Some(route)) => {
             let to = [goal.x_m, goal.y_m];
             Box::new(ExperimenterAssist::new(
                 GoalSound { x_m: goal.x_m, y_m: goal.y_m },
@@ -365,8 +369,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mut unpacked = Vec::new();
     let goal = world.goal().clone();
     let radius_m = params.shoulder_width_m / 2.0;
-    let lookahead_m = config.route_lookahead_m.unwrap_or_else(|| route_lookahead_m(&params));
-    let mut guide = guide_for(config.guide, world, config.route_map, radius_m, lookahead_m);
+    let mut guide = guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m());
     let mut target = None;
 
     let dt = 1.0 / PHYSICS_HZ as f64;
