@@ -100,8 +100,11 @@ pub struct CourseArgs {
     /// guide and the cane's touches alone (the baseline the device is measured against).
     #[arg(long)]
     pub no_rumble: bool,
-    /// What the user heads for: the goal's sound (thesis) or the world's route.
-    #[arg(long, value_enum, default_value_t = GuideKind::Sound)]
+    /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
+    /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
+    /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
+    /// the world's route (stand-in for turn-by-turn guidance).
+    #[arg(long, value_enum, default_value_t = GuideKind::Assisted)]
     pub guide: GuideKind,
     /// With `--guide route` (and the experimenter leading in `assisted`): how far along
     /// the route the user is pointed, metres; turns begin this far before a corner

@@ -46,7 +46,7 @@ pub enum GuideKind {
     Sound,
     /// The world's route (stand-in for turn-by-turn guidance; the goal's sound in
     /// worlds without a route): the user is kept on it and pointed a lookahead along
-    /// it ([`route_lookahead_m`]), so turns begin before the corner.
+    /// it (`--route-lookahead-m`), so turns begin before the corner.
     Route,
     /// The goal's sound, and an experimenter who leads a user stuck for 20 s along the
     /// route until the goal is in sight (Taylor's reorienting; the goal's sound alone
