@@ -10,9 +10,10 @@
 
 use clap::Parser;
 use sensor_agent::sim::World;
+use wearnav::course::compare::compare;
 use wearnav::course::contacts::Part;
 use wearnav::course::hands::Felt;
-use wearnav::course::study::{LeadTimes, Row};
+use wearnav::course::study::{study, LeadTimes, Row};
 use wearnav::course::walk::{walk, WalkConfig};
 use wearnav::course::CourseArgs;
 
@@ -387,4 +388,38 @@ fn course_cli() {
     if let Err(e) = wearnav::course::run(&cli.args) {
         panic!("{e:#}");
     }
+}
+
+#[test]
+fn versus_walks_the_same_seeds_and_tells_a_switch_that_matters_from_the_spread() {
+    let parsed = |line: &str| Cli::parse_from(std::iter::once("course").chain(line.split_whitespace())).args;
+    let base = parsed("--runs 4 --cost cacf");
+    let v = base.with_flags("--no-rumble --timeout-s 20").unwrap();
+    assert!(v.no_rumble && !base.no_rumble);
+    assert_eq!((v.runs, v.seed, v.cost, v.timeout_s), (4, 1, base.cost, 20.0), "the rest is kept");
+    let refused = |flags: &str| match base.with_flags(flags) {
+        Ok(a) => panic!("{flags}: accepted as {a:?}"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(refused("--seed 5").contains("must stay the same"));
+    assert!(refused("--world corridor").contains("must stay the same"));
+    assert!(refused("--versus=--no-ttc").contains("cannot be given inside"));
+    assert!(refused("--json").contains("cannot be given inside"));
+    let e = refused("--no-such-switch");
+    assert!(e.contains("--versus \"--no-such-switch\"") && e.contains("--no-such-switch'"), "{e}");
+
+    // the device on and off, seed by seed, in a dead end: with it off no rumble, and the
+    // body walks into the wall in every walk
+    let w = dead_end();
+    let on = study(&w, &quick(10.0), 4, 1);
+    let off = study(&w, &WalkConfig { rumble: false, ..quick(10.0) }, 4, 1);
+    let diffs = compare(&on.rows, &off.rows).expect("same seeds");
+    let get = |name: &str| diffs.iter().find(|(n, _)| *n == name).map(|d| d.1).unwrap();
+    let signals = get("signals");
+    assert!(signals.is_clear() && signals.high < 0.0 && signals.lower == 4, "{signals:?}");
+    let body = |r: &Row| r.body_in_fov + r.body_out_fov;
+    assert!(on.rows.iter().all(|r| body(r) == 0.0), "{:?}", on.rows);
+    assert!(off.rows.iter().all(|r| body(r) >= 1.0), "{:?}", off.rows);
+    assert_eq!(get("body_in_fov").higher + get("body_out_fov").higher, 4, "{diffs:?}");
+    assert_eq!((get("completed_pct").low, get("completed_pct").high), (0.0, 0.0), "neither reaches the goal");
 }

@@ -11,7 +11,9 @@
 //! | cane and body contacts, field-of-view test | [`contacts`] |
 //! | one closed-loop walk | [`walk`] |
 //! | N walks and the table | [`study`] |
+//! | two configurations on the same seeds, walk by walk | [`compare`] |
 
+pub mod compare;
 pub mod contacts;
 pub mod hands;
 pub mod study;
@@ -159,9 +161,93 @@ pub struct CourseArgs {
     /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance).
     #[arg(long, value_name = "FILE")]
     pub trace: Option<std::path::PathBuf>,
+    /// Walk the same seeds again with these flags added (for example
+    /// `--versus=--no-memory`, or `--versus "--cost cacf --no-ttc"`) and print, per
+    /// column, both means and the difference walk by walk (versus minus this) with its
+    /// 95 % confidence interval: whether the change moves the walks beyond the spread of
+    /// the seeds. The world, seeds and number of walks stay the same.
+    #[arg(long, value_name = "FLAGS", allow_hyphen_values = true)]
+    pub versus: Option<String>,
+}
+
+/// The flags of `wearnav course`, for applying `--versus` on top of parsed arguments.
+#[derive(clap::Parser)]
+#[command(name = "course")]
+struct Flags {
+    #[command(flatten)]
+    args: CourseArgs,
 }
 
 impl CourseArgs {
+    /// These arguments with `flags` (as typed after `--versus`) applied on top: only
+    /// the flags typed there change, every other argument stays as it is here.
+    pub fn with_flags(&self, flags: &str) -> anyhow::Result<CourseArgs> {
+        use clap::{CommandFactory, FromArgMatches};
+        let err = |e: clap::Error| {
+            let text = e.render().to_string();
+            let what = text.split("\n\nUsage:").next().unwrap_or_default();
+            let first = what.split_whitespace().collect::<Vec<_>>().join(" ");
+            anyhow::anyhow!("--versus \"{flags}\": {first}")
+        };
+        let argv = std::iter::once("course").chain(flags.split_whitespace());
+        let matches = Flags::command().try_get_matches_from(argv).map_err(err)?;
+        let given = CourseArgs::from_arg_matches(&matches).map_err(err)?;
+        let typed = |id: &str| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine);
+        let mut v = self.clone();
+        // clap's own update would also reset every argument not typed to its default
+        macro_rules! take {
+            ($($field:ident),* $(,)?) => {{
+                $(if typed(stringify!($field)) {
+                    v.$field = given.$field.clone();
+                })*
+                [$(stringify!($field)),*]
+            }};
+        }
+        let taken = take!(
+            world,
+            cost,
+            runs,
+            seed,
+            json,
+            no_memory,
+            no_hysteresis,
+            hold_sides,
+            no_dropoff,
+            no_edges,
+            no_ttc,
+            no_rumble,
+            guide,
+            route_lookahead_m,
+            route_map,
+            timeout_s,
+            reaction_s,
+            turn_rate_deg_s,
+            walk_speed_m_s,
+            fast_pulse_ms,
+            pitch_deg,
+            sweep_deg,
+            camera,
+            bounded_mm,
+            contacts,
+            trace,
+            versus,
+        );
+        let command = Flags::command();
+        let mut ids = command.get_arguments().map(|a| a.get_id().as_str());
+        if let Some(id) = ids.find(|id| typed(id) && !taken.contains(id)) {
+            anyhow::bail!("--versus \"{flags}\": `{id}` cannot be changed there");
+        }
+        anyhow::ensure!(
+            (v.world.as_str(), v.seed, v.runs) == (self.world.as_str(), self.seed, self.runs),
+            "--versus \"{flags}\": the world, --seed and --runs must stay the same (walks are compared seed by seed)"
+        );
+        anyhow::ensure!(
+            !typed("versus") && !typed("trace") && !typed("json"),
+            "--versus \"{flags}\": --versus, --trace and --json cannot be given inside --versus"
+        );
+        Ok(v)
+    }
+
     /// The walk configuration these arguments describe.
     pub fn walk_config(&self) -> anyhow::Result<WalkConfig> {
         let mut c = WalkConfig::default();
@@ -218,20 +304,30 @@ impl CourseArgs {
 pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
     let config = args.walk_config()?;
-    if config.route_map == RouteMap::FloorPlan && config.guide != GuideKind::Sound {
-        anyhow::ensure!(
-            world.floor_plan_route().is_some(),
-            "world `{}` has no floor-plan route (`[floor_plan_route]` in its scene); --route-map floor-plan needs one",
-            world.name()
-        );
+    let versus = match &args.versus {
+        Some(flags) => {
+            let v = args.with_flags(flags)?;
+            let c = v.walk_config().with_context(|| format!("--versus \"{flags}\""))?;
+            Some((flags.as_str(), v, c))
+        }
+        None => None,
+    };
+    for c in std::iter::once(&config).chain(versus.as_ref().map(|v| &v.2)) {
+        if c.route_map == RouteMap::FloorPlan && c.guide != GuideKind::Sound {
+            anyhow::ensure!(
+                world.floor_plan_route().is_some(),
+                "world `{}` has no floor-plan route (`[floor_plan_route]` in its scene); --route-map floor-plan needs one",
+                world.name()
+            );
+        }
     }
     let started = std::time::Instant::now();
     let ended = std::sync::atomic::AtomicU32::new(0);
-    let result = study_with_progress(&world, &config, args.runs, args.seed, |w| {
+    let total = args.runs * if versus.is_some() { 2 } else { 1 };
+    let progress = |w: &walk::WalkOutcome| {
         let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         tracing::info!(
-            "{n} of {} walks done; seed {}: {} in {:.1} s, {} cane and {} body contacts ({:.0} s elapsed)",
-            args.runs,
+            "{n} of {total} walks done; seed {}: {} in {:.1} s, {} cane and {} body contacts ({:.0} s elapsed)",
             w.seed,
             if w.completed { "goal reached" } else { "goal not reached" },
             w.time_s,
@@ -239,48 +335,86 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             w.count(Part::Body, None),
             started.elapsed().as_secs_f64()
         );
-    });
+    };
+    let result = study_with_progress(&world, &config, args.runs, args.seed, progress);
+    let other = versus.as_ref().map(|(_, _, c)| study_with_progress(&world, c, args.runs, args.seed, progress));
     let elapsed_s = started.elapsed().as_secs_f64();
-    let lookahead_m = config.lookahead_m();
+    let diffs = other.as_ref().and_then(|o| compare::compare(&result.rows, &o.rows));
     if let Some(path) = &args.trace {
         write_trace(path, &result.walks).with_context(|| format!("writing the trace {}", path.display()))?;
     }
     if args.json {
-        let doc = serde_json::json!({
-            "world": world.name(),
-            "cost": format!("{:?}", args.cost).to_lowercase(),
-            "memory": !args.no_memory,
-            "hysteresis": !args.no_hysteresis,
-            "hold_sides": !args.no_hysteresis && args.hold_sides,
-            "dropoff": !args.no_dropoff,
-            "edges": !args.no_dropoff && !args.no_edges,
-            "ttc": !args.no_ttc,
-            "rumble": !args.no_rumble,
-            "guide": args.guide,
-            "route_lookahead_m": lookahead_m,
-            "route_map": args.route_map,
-            "camera": config.camera.name,
-            "user": config.user,
-            "runs": result.walks,
-            "rows": result.rows,
-            "average": result.average,
-            "lead_times": {
-                "cane": LeadTimes::of(&result.walks, Part::Cane),
-                "body": LeadTimes::of(&result.walks, Part::Body),
-            },
-            "wall_time_s": elapsed_s,
-        });
+        let mut doc = summary_json(args, &config, &world, &result);
+        if let (Some((flags, v, c)), Some(o)) = (&versus, &other) {
+            let mut vs = summary_json(v, c, &world, o);
+            vs["flags"] = serde_json::json!(flags);
+            vs["difference"] = serde_json::json!(diffs
+                .iter()
+                .flatten()
+                .map(|(name, d)| (name.to_string(), serde_json::json!(d)))
+                .collect::<serde_json::Map<_, _>>());
+            doc["versus"] = vs;
+        }
+        doc["wall_time_s"] = serde_json::json!(elapsed_s);
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
     }
+    print!("{}", summary_text(args, &config, &world, &result));
+    if let (Some((flags, v, c)), Some(o)) = (&versus, &other) {
+        println!();
+        println!("versus `{flags}`, the same seeds:");
+        print!("{}", summary_text(v, c, &world, o));
+        println!();
+        println!("difference walk by walk (versus minus this), {} walks:", args.runs);
+        match (&result.average, &o.average, &diffs) {
+            (Some(a), Some(b), Some(d)) => print!("{}", compare::lines(a, b, d)),
+            _ => println!("too few walks to compare (at least 2)"),
+        }
+    }
+    println!("{} walks in {:.1} s wall time", total, elapsed_s);
+    Ok(())
+}
+
+/// A study as JSON: the configuration, every walk, the rows and the averages.
+fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &study::Study) -> serde_json::Value {
+    serde_json::json!({
+        "world": world.name(),
+        "cost": format!("{:?}", args.cost).to_lowercase(),
+        "memory": !args.no_memory,
+        "hysteresis": !args.no_hysteresis,
+        "hold_sides": !args.no_hysteresis && args.hold_sides,
+        "dropoff": !args.no_dropoff,
+        "edges": !args.no_dropoff && !args.no_edges,
+        "ttc": !args.no_ttc,
+        "rumble": !args.no_rumble,
+        "guide": args.guide,
+        "route_lookahead_m": config.lookahead_m(),
+        "route_map": args.route_map,
+        "camera": config.camera.name,
+        "user": config.user,
+        "runs": result.walks,
+        "rows": result.rows,
+        "average": result.average,
+        "lead_times": {
+            "cane": LeadTimes::of(&result.walks, Part::Cane),
+            "body": LeadTimes::of(&result.walks, Part::Body),
+        },
+    })
+}
+
+/// A study as text: the configuration line, the table, the contacts by warning, the
+/// walks that did not reach the goal, and every contact with `--contacts`.
+fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &study::Study) -> String {
+    use std::fmt::Write;
+    let lookahead_m = config.lookahead_m();
     let guide = match args.guide {
         GuideKind::Route if lookahead_m > 0.0 => format!("Route ({:?} map), {lookahead_m:.1} m ahead", args.route_map),
         GuideKind::Route => format!("Route ({:?} map), corner to corner", args.route_map),
         GuideKind::Assisted => format!("Assisted (led on the {:?} map)", args.route_map),
         g => format!("{g:?}"),
     };
-    println!(
-        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}",
+    let mut s = format!(
+        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}\n",
         world.name(),
         config.camera.name,
         on_off(!args.no_rumble),
@@ -294,11 +428,14 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         args.runs,
         args.seed
     );
-    print!("{}", table(&result));
-    println!("{}", LeadTimes::of(&result.walks, Part::Cane).line("cane"));
-    println!("{}", LeadTimes::of(&result.walks, Part::Body).line("body"));
+    s.push_str(&table(result));
+    s.push_str(&LeadTimes::of(&result.walks, Part::Cane).line("cane"));
+    s.push('\n');
+    s.push_str(&LeadTimes::of(&result.walks, Part::Body).line("body"));
+    s.push('\n');
     for w in result.walks.iter().filter(|w| !w.completed) {
-        println!(
+        let _ = writeln!(
+            s,
             "seed {}: goal not reached within {:.0} s (ended at {:.2}, {:.2}, {:.1} m from the goal)",
             w.seed,
             w.time_s,
@@ -310,7 +447,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     if args.contacts {
         for w in &result.walks {
             for c in &w.contacts {
-                println!(
+                let _ = writeln!(
+                    s,
                     "seed {} t {:6.1} s {:?} {:<18} {:<8} in_fov {:<5} head_high {:<5} seen {:<11} felt {}",
                     w.seed,
                     c.t_s,
@@ -325,8 +463,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             }
         }
     }
-    println!("{} walks in {:.1} s wall time", args.runs, elapsed_s);
-    Ok(())
+    s
 }
 
 fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::Result<()> {
