@@ -17,8 +17,8 @@ pub struct DemoArgs {
     /// User name: the key prefix `wearnav/<user>`.
     #[arg(long, default_value = "demo")]
     pub user: String,
-    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor, building, step-down),
-    /// `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
+    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor,
+    /// building, step-down, sign-ahead), `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
     #[arg(long, default_value = "sim:approach")]
     pub source: String,
     /// Extra endpoint the demo listens on, so a Python monitor or another machine can

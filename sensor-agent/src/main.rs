@@ -27,8 +27,9 @@ enum Codec {
 struct Cli {
     #[command(flatten)]
     bus: bus::BusOptions,
-    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor, building, step-down, or a
-    /// scene TOML file), `pcd:<file-or-dir>`, `tum:<dir>` (TUM RGB-D layout),
+    /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor,
+    /// building, step-down, sign-ahead, or a scene TOML file), `pcd:<file-or-dir>`,
+    /// `tum:<dir>` (TUM RGB-D layout),
     /// `png:<dir>` (16-bit depth PNGs; give --depth-scale and --intrinsics) or
     /// `openni2:[device-uri]` (a real camera; builds with the `openni2` feature only).
     #[arg(long, default_value = "sim:approach")]

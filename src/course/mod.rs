@@ -63,7 +63,8 @@ impl Camera {
 /// table (completion time, rumble signals, cane and body contacts, reorientations).
 #[derive(Debug, Clone, clap::Args)]
 pub struct CourseArgs {
-    /// Built-in world (`taylor-course`, `open-course`, `corridor`, `building`, `step-down`, `approach`) or a scene file.
+    /// Built-in world (`taylor-course`, `open-course`, `corridor`, `building`, `step-down`,
+    /// `sign-ahead`, `approach`) or a scene file.
     #[arg(long, default_value = "taylor-course")]
     pub world: String,
     /// Cost function driving the rumble.

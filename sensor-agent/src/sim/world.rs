@@ -11,13 +11,14 @@ use super::scene::{
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
 /// The built-in worlds, by name, embedded in the binary.
-pub const BUILTIN_WORLDS: [(&str, &str); 6] = [
+pub const BUILTIN_WORLDS: [(&str, &str); 7] = [
     ("taylor-course", include_str!("../../worlds/taylor-course.toml")),
     ("open-course", include_str!("../../worlds/open-course.toml")),
     ("corridor", include_str!("../../worlds/corridor.toml")),
     ("building", include_str!("../../worlds/building.toml")),
     ("approach", include_str!("../../worlds/approach.toml")),
     ("step-down", include_str!("../../worlds/step-down.toml")),
+    ("sign-ahead", include_str!("../../worlds/sign-ahead.toml")),
 ];
 
 /// What an obstacle is, for contact reports.
@@ -649,6 +650,11 @@ mod tests {
 
         let a = builtin("approach");
         assert_eq!(count(&a, ObstacleKind::Wall), 1);
+
+        let s = builtin("sign-ahead");
+        assert_eq!((s.obstacles().len(), count(&s, ObstacleKind::Hanging)), (1, 1));
+        let (sign, _) = s.geometry(0).boxes[0];
+        assert!(sign.bottom_m > 1.5 && sign.top_m < 1.9, "head height: {sign:?}");
     }
 
     #[test]
