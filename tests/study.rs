@@ -78,12 +78,19 @@ fn user_turning_at_half_the_rate_meets_every_target_with_turns_called_for_their_
     }
 }
 
+/// The walks of `flags` with the device on and off (`--no-rumble`); with it on, every
+/// walk completes and no body contact is with an obstacle in view.
+fn device_on_and_off(flags: &str) -> (Row, Row) {
+    let on = replay(flags);
+    let off = replay(&format!("{flags} --no-rumble"));
+    assert_eq!(on.completed, 1.0, "{flags}: {on:?}");
+    assert_eq!(on.body_in_fov, 0.0, "{flags}, device on: {on:?}");
+    (on, off)
+}
+
 #[test]
 fn on_the_floor_plan_route_the_rumble_keeps_the_body_off_what_the_camera_sees() {
-    let on = replay("--guide route --route-map floor-plan --timeout-s 150");
-    let off = replay("--guide route --route-map floor-plan --timeout-s 150 --no-rumble");
-    assert_eq!(on.completed, 1.0, "{on:?}");
-    assert_eq!(on.body_in_fov, 0.0, "device on: {on:?}");
+    let (on, off) = device_on_and_off("--guide route --route-map floor-plan --timeout-s 150");
     assert!(off.body_in_fov >= 0.2, "device off: {off:?}");
     // the head-high sign past the corner is hit either way (never in view); the rest is
     // what the rumble saves
@@ -92,10 +99,7 @@ fn on_the_floor_plan_route_the_rumble_keeps_the_body_off_what_the_camera_sees() 
 
 #[test]
 fn with_the_default_protocol_the_rumble_keeps_the_body_off_what_the_camera_sees() {
-    let on = replay("");
-    let off = replay("--no-rumble");
-    assert_eq!(on.completed, 1.0, "{on:?}");
-    assert_eq!(on.body_in_fov, 0.0, "device on: {on:?}");
+    let (on, off) = device_on_and_off("");
     // fewer body contacts than Taylor's volunteers had with this cost function (0.73)
     assert!(on.body_in_fov + on.body_out_fov < 0.73, "device on: {on:?}");
     assert!(off.body_in_fov >= 1.0, "device off: {off:?}");
