@@ -275,7 +275,7 @@ impl Feedback {
             self.out.applied(&name, action, now_ns, 0);
         }
         let mut actions = std::mem::take(&mut self.actions);
-        self.queue.offer_own(text, Priority::Important, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+        self.queue.offer_status(text, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
         self.actions = actions;
         self.perform_speech(now_ns);
         self.drive_haptics(now_ns, false);
@@ -508,6 +508,45 @@ mod tests {
             said.extend(spoken(&mut f));
         }
         assert_eq!(said, ["start obstacle detection back"]);
+    }
+
+    #[test]
+    fn flickering_ground_does_not_push_a_warning_out_of_the_queue() {
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        f.tick(T0);
+        // the ground comes and goes at 30 Hz for 5 s: found, lost five times, degraded
+        use GroundState::{Degraded, Found, Lost};
+        let cycle = [Found, Lost, Lost, Lost, Lost, Lost, Degraded];
+        let mut said = Vec::new();
+        let mut now = T0;
+        for &ground in cycle.iter().cycle().take(150) {
+            now += 33 * MS;
+            f.on_hazard(&hazard(ground), now);
+            f.tick(now);
+            said.extend(spoken(&mut f));
+        }
+        let warning = SpeechIntent {
+            text: "stop, wall ahead".into(),
+            priority: Priority::Important,
+            interrupt: false,
+            ttl_ms: 3000,
+            dedup_key: String::new(),
+        };
+        f.on_speech(&warning, now, now).unwrap();
+        let warned_at = now;
+        said.extend(spoken(&mut f));
+        let before = said.len();
+        while now < warned_at + 3000 * MS {
+            now += 33 * MS;
+            fresh(&mut f, now);
+            f.tick(now);
+            said.extend(spoken(&mut f));
+        }
+        let at = said.iter().position(|s| s == "start stop, wall ahead");
+        assert!(at.is_some(), "the warning was never spoken: {said:?}");
+        // only the newest status, waiting when the warning came, was started before it
+        assert!(at.unwrap() - before <= 1, "{said:?}");
     }
 
     #[test]

@@ -77,6 +77,8 @@ pub struct Utterance {
     pub expires_ns: u64,
     /// Dedup key ("" = never deduplicated).
     pub dedup_key: String,
+    /// The agent's own detection status ("offline", "back"): only the newest waits.
+    pub status: bool,
 }
 
 /// What the driver must do, in order.
@@ -158,6 +160,7 @@ impl SpeechQueue {
             capture_ns,
             expires_ns: capture_ns.saturating_add(intent.ttl_ms as u64 * 1_000_000),
             dedup_key: intent.dedup_key.clone(),
+            status: false,
         };
         self.next_id += 1;
         if self.muted && utterance.priority != Priority::Important {
@@ -171,16 +174,39 @@ impl SpeechQueue {
     /// Offer the agent's own utterance (offline warnings, device news): never
     /// deduplicated, reported with cause stamp 0, dropped if not started within `ttl_ms`.
     pub fn offer_own(&mut self, text: &str, priority: Priority, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
-        let utterance = Utterance {
-            id: self.next_id,
+        let utterance = self.own(text, priority, ttl_ms, now_ns, false);
+        self.enqueue(utterance, false, now_ns, out);
+    }
+
+    /// Offer the detection status ("obstacle detection offline", "... back") as an
+    /// `Important` utterance of the agent's own. A status still waiting is out of date
+    /// and is dropped (reason `replaced by newer status`): when detection flickers, the
+    /// user hears where it stands now, and the warnings queued behind are not pushed
+    /// back or out of the queue by a backlog of old news. One speaking plays to its end.
+    pub fn offer_status(&mut self, text: &str, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
+        let mut k = 0;
+        while k < self.pending.len() {
+            if self.pending[k].status {
+                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "replaced by newer status" });
+            } else {
+                k += 1;
+            }
+        }
+        let utterance = self.own(text, Priority::Important, ttl_ms, now_ns, true);
+        self.enqueue(utterance, false, now_ns, out);
+    }
+
+    fn own(&mut self, text: &str, priority: Priority, ttl_ms: u32, now_ns: u64, status: bool) -> Utterance {
+        self.next_id += 1;
+        Utterance {
+            id: self.next_id - 1,
             text: text.to_string(),
             priority,
             capture_ns: 0,
             expires_ns: now_ns.saturating_add(ttl_ms as u64 * 1_000_000),
             dedup_key: String::new(),
-        };
-        self.next_id += 1;
-        self.enqueue(utterance, false, now_ns, out);
+            status,
+        }
     }
 
     fn enqueue(&mut self, utterance: Utterance, interrupt: bool, now_ns: u64, out: &mut Vec<SpeechAction>) {
@@ -234,8 +260,11 @@ impl SpeechQueue {
         let at = self.pending.iter().position(|p| rank(p.priority) < new_rank).unwrap_or(self.pending.len());
         self.pending.insert(at, utterance);
         if self.pending.len() > self.config.max_pending {
-            if let Some(last) = self.pending.pop() {
-                out.push(SpeechAction::Drop { utterance: last, reason: "queue full" });
+            // the oldest of the lowest priority waiting: a new warning behind a queue of
+            // warnings is the one that is current, never the one dropped
+            let lowest = self.pending.iter().map(|p| rank(p.priority)).min().unwrap_or(new_rank);
+            if let Some(k) = self.pending.iter().position(|p| rank(p.priority) == lowest) {
+                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "queue full" });
             }
         }
         self.start_next(now_ns, out);
@@ -525,7 +554,47 @@ mod tests {
         offer(&mut q, &say("m1", Priority::Message), T0);
         offer(&mut q, &say("m2", Priority::Message), T0);
         let a = offer(&mut q, &say("warning", Priority::Important), T0);
-        assert_eq!(texts(&a), ["drop m2 (queue full)"]);
-        assert_eq!(q.pending()[0].text, "warning");
+        assert_eq!(texts(&a), ["drop m1 (queue full)"], "the oldest of the lowest priority");
+        assert_eq!(q.pending().iter().map(|u| u.text.as_str()).collect::<Vec<_>>(), ["warning", "m2"]);
+        let b = offer(&mut q, &say("m3", Priority::Message), T0);
+        assert_eq!(texts(&b), ["drop m2 (queue full)"]);
+    }
+
+    #[test]
+    fn only_the_newest_detection_status_waits() {
+        let mut q = SpeechQueue::new(QueueConfig { dedup_window_ms: 0, max_pending: 4 });
+        let mut out = Vec::new();
+        q.offer_status("obstacle detection offline", 10_000, T0, &mut out);
+        assert_eq!(texts(&out), ["start obstacle detection offline"]);
+        // detection flickers while the first status speaks: ten changes, one warning
+        for k in 0..10u64 {
+            out.clear();
+            let text = if k % 2 == 0 { "obstacle detection back" } else { "obstacle detection offline" };
+            q.offer_status(text, 10_000, T0 + (k + 1) * 100 * MS, &mut out);
+            if k > 0 {
+                assert_eq!(out.len(), 1, "{out:?}");
+                assert!(matches!(&out[0], SpeechAction::Drop { reason: "replaced by newer status", .. }));
+            }
+        }
+        let warning = offer(&mut q, &say("stop, wall ahead", Priority::Important), T0 + 1100 * MS);
+        assert!(warning.is_empty(), "queued, not dropped: {warning:?}");
+        let waiting: Vec<_> = q.pending().iter().map(|u| u.text.as_str()).collect();
+        assert_eq!(waiting, ["obstacle detection offline", "stop, wall ahead"], "the last status, then the warning");
+        out.clear();
+        q.finished(T0 + 1200 * MS, &mut out);
+        assert_eq!(texts(&out), ["start obstacle detection offline"]);
+    }
+
+    #[test]
+    fn a_queue_full_of_warnings_keeps_the_newest_warning() {
+        let mut q = SpeechQueue::new(QueueConfig { dedup_window_ms: 0, max_pending: 2 });
+        offer(&mut q, &say("speaking", Priority::Important), T0);
+        offer(&mut q, &say("wall ahead", Priority::Important), T0);
+        offer(&mut q, &say("pole left", Priority::Important), T0);
+        let a = offer(&mut q, &say("stop, stairs down", Priority::Important), T0 + MS);
+        assert_eq!(texts(&a), ["drop wall ahead (queue full)"]);
+        assert_eq!(q.pending().iter().map(|u| u.text.as_str()).collect::<Vec<_>>(), ["pole left", "stop, stairs down"]);
+        let m = offer(&mut q, &say("turn left", Priority::Message), T0 + MS);
+        assert_eq!(texts(&m), ["drop turn left (queue full)"], "a message never evicts a warning");
     }
 }
