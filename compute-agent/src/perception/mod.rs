@@ -96,6 +96,17 @@ impl Motion {
         self.forward_m.is_finite() && self.left_m.is_finite() && self.yaw_rad.is_finite()
     }
 
+    /// This motion and then `next` (given in the frame this one ends in), as one motion
+    /// in this one's starting frame.
+    pub fn then(self, next: Motion) -> Motion {
+        let (s, c) = self.yaw_rad.sin_cos();
+        Motion {
+            forward_m: self.forward_m + c * next.forward_m - s * next.left_m,
+            left_m: self.left_m + s * next.forward_m + c * next.left_m,
+            yaw_rad: self.yaw_rad + next.yaw_rad,
+        }
+    }
+
     /// The map from a point `(x forward, y left)` of the previous frame's user frame to
     /// where a static point lies in the current one.
     pub fn to_current_frame(self) -> impl Fn([f32; 2]) -> [f32; 2] {
@@ -263,6 +274,9 @@ pub struct Pipeline {
     debounce: RumbleDebounce,
     cost_points: Vec<[f32; 2]>,
     edge_points: Vec<[f32; 2]>,
+    /// Motion since the last frame that got as far as the memory: a frame refused
+    /// earlier passes its motion on, so what is remembered stays where it is.
+    unapplied: Option<Motion>,
     out: Perception,
 }
 
@@ -282,6 +296,7 @@ impl Pipeline {
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
             edge_points: Vec::new(),
+            unapplied: None,
             out: Perception::empty(),
         }
     }
@@ -298,6 +313,9 @@ impl Pipeline {
         ctx: &FrameContext,
         timer: &mut dyn StageTimer,
     ) -> Result<&Perception, PerceptionError> {
+        if let Some(m) = ctx.motion.filter(Motion::is_finite) {
+            self.unapplied = Some(self.unapplied.map_or(m, |before| before.then(m)));
+        }
         let cfg = &self.config;
         timer.start("sample");
         let sampled = match input {
@@ -360,6 +378,7 @@ impl Pipeline {
         timer.stop();
 
         timer.start("memory");
+        let motion = self.unapplied.take();
         self.cost_points.clear();
         self.cost_points.extend(scan_points(&out.scan));
         let seen_points = self.cost_points.len();
@@ -378,7 +397,7 @@ impl Pipeline {
                 .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h))
                 .map(|(p, h)| [p[0], p[1], h])
                 .chain(self.edge_points.iter().map(|p| [p[0], p[1], 0.0]));
-            self.memory.update(ctx.stamp_ns, ctx.motion, &cone, seen, &cfg.memory);
+            self.memory.update(ctx.stamp_ns, motion, &cone, seen, &cfg.memory);
             self.cost_points.extend_from_slice(&self.edge_points);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
@@ -399,7 +418,7 @@ impl Pipeline {
             None => (f32::INFINITY, 0.0),
         };
         let approach = if cfg.ttc.enabled {
-            self.closing.update(ctx.stamp_ns, ctx.motion, &self.cost_points[..seen_points], &cfg.ttc)
+            self.closing.update(ctx.stamp_ns, motion, &self.cost_points[..seen_points], &cfg.ttc)
         } else {
             None
         };

@@ -499,3 +499,54 @@ fn cane_tilted_at_the_wall_does_not_trust_the_predicted_ground() {
         tilted.iter().map(|(_, r, _)| r.as_ref().map(|o| o.ground)).collect::<Vec<_>>()
     );
 }
+
+#[test]
+fn motion_during_refused_frames_still_moves_what_is_remembered() {
+    let frame_ns = 33_333_333u64;
+    let step = 0.04;
+    let walk = |refuse: std::ops::RangeInclusive<u64>| {
+        let mut cfg = PerceptionConfig::default();
+        cfg.ttc.enabled = false;
+        let mut p = Pipeline::new(cfg);
+        let mut out = None;
+        // the low bar of the test above; it leaves the bottom of the view at ~0.55 m
+        for k in 0..29u64 {
+            let x = 1.6 - step * k as f32;
+            let mut scene = Scene::kinect(1.0, 30.0);
+            scene.blocks.push(Block { min: [x, -0.2, 0.0], max: [x + 0.05, 0.2, 0.15] });
+            let motion = (k > 0).then_some(Motion { forward_m: step, left_m: 0.0, yaw_rad: 0.0 });
+            let ctx = FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion };
+            if refuse.contains(&k) {
+                // the camera covered: nothing ranged, the frame refused, the user walking on
+                let blank = vec![0u16; (scene.width * scene.height) as usize];
+                let input = DepthInput::Depth {
+                    samples: &blank,
+                    width: scene.width,
+                    height: scene.height,
+                    depth_scale_m: MM,
+                    intrinsics: scene.intrinsics,
+                };
+                assert_eq!(p.process(input, &ctx, &mut NoTimer).err(), Some(PerceptionError::NoValidPoints));
+                continue;
+            }
+            out = Some((x, run(&mut p, &scene, &ctx).unwrap()));
+        }
+        out.unwrap()
+    };
+    // last seen at 0.76 m, then six frames refused over 0.24 m of walking, then 0.48 m
+    let (x, p) = walk(22..=27);
+    assert!(p.remembered > 0, "box at {x} m forgotten");
+    assert!((p.nearest_m - x).abs() < 0.1, "remembered at {} m, truly {x} m", p.nearest_m);
+    assert_eq!(p.rumble, Rumble::Both);
+}
+
+#[test]
+fn motions_compose_in_the_first_ones_frame() {
+    let quarter = std::f32::consts::FRAC_PI_2;
+    let m = Motion { forward_m: 1.0, left_m: 0.0, yaw_rad: quarter }.then(Motion {
+        forward_m: 2.0,
+        left_m: 0.5,
+        yaw_rad: -quarter,
+    });
+    assert!((m.forward_m - 0.5).abs() < 1e-6 && (m.left_m - 2.0).abs() < 1e-6 && m.yaw_rad.abs() < 1e-6, "{m:?}");
+}
