@@ -204,7 +204,8 @@ impl GroundSearch {
         self.rng ^= self.rng << 25;
         self.rng ^= self.rng >> 27;
         let r = self.rng.wrapping_mul(0x2545_f491_4f6c_dd1d);
-        ((r >> 32) as usize * n) >> 32
+        // in u64: on a 32-bit target (an armv7 board) a usize product would overflow
+        (((r >> 32) * n as u64) >> 32) as usize
     }
 }
 

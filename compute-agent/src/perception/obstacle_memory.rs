@@ -126,7 +126,7 @@ impl ObstacleMemory {
             let [x, y] = to_user(cell.x_m, cell.y_m);
             let r = x.hypot(y);
             let moved_m = (x - cell.seen_x_m).hypot(y - cell.seen_y_m);
-            let expired = moved_m > cfg.forget_after_m || stamp_ns.saturating_sub(cell.seen_ns) > cfg.ttl_ns;
+            let expired = moved_m > cfg.forget_after_m || stamp_ns.abs_diff(cell.seen_ns) > cfg.ttl_ns;
             if expired || r > cfg.radius_m || view.sees(x, y, cell.height_m, margin_rad) {
                 return false;
             }

@@ -62,6 +62,12 @@ impl ClosingSpeed {
         cfg: &TtcConfig,
     ) -> Option<Approach> {
         let motion = motion.filter(Motion::is_finite);
+        if self.history.back().is_some_and(|(t, _)| *t >= stamp_ns) {
+            // the clock went back (a clock step, or frames out of order): nothing held
+            // is older than this frame, so nothing can be compared with it
+            self.history.clear();
+            self.speed_m_s = None;
+        }
         let frame_s = self.last_ns.replace(stamp_ns).map_or(0.0, |t| stamp_ns.saturating_sub(t) as f32 * 1e-9);
         if let Some(m) = motion {
             let carry = m.to_current_frame();
@@ -69,7 +75,7 @@ impl ClosingSpeed {
                 *p = carry(*p);
             }
         }
-        while self.history.front().is_some_and(|(t, _)| stamp_ns.saturating_sub(*t) > MAX_GAP_NS || *t > stamp_ns) {
+        while self.history.front().is_some_and(|(t, _)| stamp_ns - t > MAX_GAP_NS) {
             self.history.pop_front();
         }
         let baseline_ns = (cfg.baseline_s.max(0.0) * 1e9) as u64;
@@ -200,6 +206,24 @@ mod tests {
         let a = last.expect("approaching");
         assert!((a.ttc_s - 2.0).abs() < 0.05, "{a:?}");
         assert!((a.point[0] - 3.0).abs() < 1e-3 && a.point[1].abs() <= 0.3, "on the person: {a:?}");
+    }
+
+    #[test]
+    fn a_clock_going_back_starts_the_history_again_instead_of_panicking() {
+        let cfg = TtcConfig::default();
+        let mut c = ClosingSpeed::default();
+        let still = Some(Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 });
+        c.update(0, still, &person(3.0), &cfg);
+        c.update(100_000_000, still, &person(2.85), &cfg);
+        // stamped between the two: the newest held frame is not older than this one
+        assert_eq!(c.update(50_000_000, still, &person(2.8), &cfg), None);
+        assert_eq!(c.history.len(), 1, "only this frame is held");
+        // and an approach is measured again from there
+        let mut last = None;
+        for k in 1..10u64 {
+            last = c.update(50_000_000 + k * FRAME_NS, still, &person(2.8 - 0.05 * k as f32), &cfg);
+        }
+        assert!(last.is_some_and(|a| (a.ttc_s - 2.35 / 1.5).abs() < 0.05), "{last:?}");
     }
 
     #[test]
