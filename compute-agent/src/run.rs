@@ -43,25 +43,64 @@ impl ComputeConfig {
     }
 }
 
-/// Planar motion reported by odometry since the last processed frame.
+/// Largest step one odometry increment may report, metres and radians: far beyond
+/// anything a walking user does between two frames (30 Hz), far below what would wreck
+/// the memory's map (a finite but absurd step moves every remembered cell for good).
+const MAX_STEP_M: f32 = 2.0;
+const MAX_STEP_RAD: f32 = std::f32::consts::PI;
+/// Increments held for frames not yet arrived; beyond this the oldest two are merged.
+const MAX_PENDING_STEPS: usize = 64;
+/// A step ending this far after a frame's capture is on another clock: it is taken in
+/// the order it arrived, as if it had no stamp.
+const OTHER_CLOCK_NS: u64 = 1_000_000_000;
+
+/// An odometry increment that cannot be a walking user's motion.
+#[derive(Debug, thiserror::Error)]
+#[error("odometry step of {forward_m} m forward, {left_m} m left, {yaw_rad} rad over {from_ns}..{to_ns} ns is not a walking user's")]
+struct ImplausibleStep {
+    from_ns: u64,
+    to_ns: u64,
+    forward_m: f32,
+    left_m: f32,
+    yaw_rad: f32,
+}
+
+/// Planar motion reported by odometry, held until the frame it leads up to: each frame
+/// takes the steps that end at or before its capture stamp, so a frame never gets a
+/// later frame's motion nor loses its own to the order the two arrive in.
 #[derive(Debug, Default)]
 struct MotionSince {
-    motion: Option<Motion>,
+    /// (end stamp, motion), in arrival order.
+    pending: Vec<(u64, Motion)>,
 }
 
 impl MotionSince {
-    fn add(&mut self, inc: &OdomIncrement) {
-        let m = self.motion.get_or_insert(Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 });
-        // Compose in the frame of the first increment: rotate the new translation by
-        // the heading accumulated so far.
-        let (s, c) = m.yaw_rad.sin_cos();
-        m.forward_m += c * inc.forward_m - s * inc.left_m;
-        m.left_m += s * inc.forward_m + c * inc.left_m;
-        m.yaw_rad += inc.yaw_rad;
+    fn add(&mut self, inc: &OdomIncrement) -> Result<(), ImplausibleStep> {
+        let m = Motion { forward_m: inc.forward_m, left_m: inc.left_m, yaw_rad: inc.yaw_rad };
+        if !(m.is_finite() && m.forward_m.hypot(m.left_m) <= MAX_STEP_M && m.yaw_rad.abs() <= MAX_STEP_RAD) {
+            let &OdomIncrement { from_ns, to_ns, forward_m, left_m, yaw_rad } = inc;
+            return Err(ImplausibleStep { from_ns, to_ns, forward_m, left_m, yaw_rad });
+        }
+        if self.pending.len() >= MAX_PENDING_STEPS {
+            // no frame for a while: keep the motion, in fewer pieces
+            let (_, first) = self.pending.remove(0);
+            self.pending[0].1 = first.then(self.pending[0].1);
+        }
+        self.pending.push((inc.to_ns, m));
+        Ok(())
     }
 
-    fn take(&mut self) -> Option<Motion> {
-        self.motion.take()
+    /// The motion of every step ending at or before `capture_ns`, composed in order.
+    fn take_until(&mut self, capture_ns: u64) -> Option<Motion> {
+        let mut total: Option<Motion> = None;
+        self.pending.retain(|&(to_ns, m)| {
+            let due = to_ns <= capture_ns || to_ns - capture_ns > OTHER_CLOCK_NS;
+            if due {
+                total = Some(total.map_or(m, |t| t.then(m)));
+            }
+            !due
+        });
+        total
     }
 }
 
@@ -94,9 +133,14 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
 
     loop {
         tokio::select! {
+            // odometry first: a frame waiting with its own step behind it takes the step
+            biased;
             _ = shutdown.triggered() => break,
-            Some(inc) = odom.recv() => motion.add(&inc.body),
+            Some(inc) = odom.recv() => add_step(&mut motion, &inc, &health),
             Some(frame) = frames.recv() => {
+                while let Some(inc) = odom.try_recv() {
+                    add_step(&mut motion, &inc, &health);
+                }
                 let ok = process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
                 if rejections.record(ok) {
                     publish_blind(&frame, &config, &health, &mut out).await;
@@ -107,6 +151,12 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     tracing::info!("compute agent stopping");
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
+}
+
+fn add_step(motion: &mut MotionSince, inc: &Received<OdomIncrement>, health: &Health) {
+    if let Err(e) = motion.add(&inc.body) {
+        health.reject(&inc.key, "odom_implausible", &e);
+    }
 }
 
 /// Process one frame; `false` when it was rejected (and counted).
@@ -141,8 +191,9 @@ async fn process(
         depth_scale_m: f.depth_scale_m,
         intrinsics: f.intrinsics,
     };
+    let capture_ns = frame.header.capture_ns;
     let ctx =
-        FrameContext { stamp_ns: frame.header.capture_ns, gravity_camera: f.gravity_camera, motion: motion.take() };
+        FrameContext { stamp_ns: capture_ns, gravity_camera: f.gravity_camera, motion: motion.take_until(capture_ns) };
     let perception = match pipeline.process(input, &ctx, &mut clock) {
         Ok(p) => p.clone(),
         Err(e) => {
@@ -150,7 +201,6 @@ async fn process(
             return false;
         }
     };
-    let capture_ns = frame.header.capture_ns;
     let intent = cue(&perception, &config.cue);
     let latency = clock
         .stages
@@ -197,12 +247,52 @@ mod tests {
     fn odometry_increments_compose_in_the_first_frame() {
         let mut m = MotionSince::default();
         let quarter = std::f32::consts::FRAC_PI_2;
-        m.add(&OdomIncrement { from_ns: 0, to_ns: 1, forward_m: 1.0, left_m: 0.0, yaw_rad: quarter });
-        m.add(&OdomIncrement { from_ns: 1, to_ns: 2, forward_m: 1.0, left_m: 0.0, yaw_rad: 0.0 });
-        let total = m.take().unwrap();
+        m.add(&OdomIncrement { from_ns: 0, to_ns: 1, forward_m: 1.0, left_m: 0.0, yaw_rad: quarter }).unwrap();
+        m.add(&OdomIncrement { from_ns: 1, to_ns: 2, forward_m: 1.0, left_m: 0.0, yaw_rad: 0.0 }).unwrap();
+        let total = m.take_until(2).unwrap();
         assert!((total.forward_m - 1.0).abs() < 1e-5, "{total:?}");
         assert!((total.left_m - 1.0).abs() < 1e-5, "{total:?}");
         assert!((total.yaw_rad - quarter).abs() < 1e-6);
-        assert!(m.take().is_none(), "taking resets the accumulator");
+        assert!(m.take_until(2).is_none(), "taking resets the accumulator");
+    }
+
+    #[test]
+    fn a_frame_takes_only_the_steps_that_end_by_its_capture() {
+        let mut m = MotionSince::default();
+        let step =
+            |to_ns, forward_m| OdomIncrement { from_ns: to_ns - 33, to_ns, forward_m, left_m: 0.0, yaw_rad: 0.0 };
+        // the step ending at frame 2 arrived before frame 1 was processed
+        m.add(&step(33, 0.03)).unwrap();
+        m.add(&step(66, 0.04)).unwrap();
+        assert_eq!(m.take_until(33).map(|t| t.forward_m), Some(0.03));
+        assert_eq!(m.take_until(66).map(|t| t.forward_m), Some(0.04));
+        assert_eq!(m.take_until(99), None);
+        // odometry on a clock seconds ahead of the camera's: taken as it comes
+        m.add(&step(5_000_000_099, 0.05)).unwrap();
+        assert_eq!(m.take_until(99).map(|t| t.forward_m), Some(0.05));
+    }
+
+    #[test]
+    fn absurd_odometry_is_refused_and_leaves_the_motion_alone() {
+        let mut m = MotionSince::default();
+        let inc = |forward_m, yaw_rad| OdomIncrement { from_ns: 0, to_ns: 33, forward_m, left_m: 0.0, yaw_rad };
+        m.add(&inc(0.03, 0.1)).unwrap();
+        let e = m.add(&inc(1e17, 0.0)).unwrap_err();
+        assert!(e.to_string().contains("not a walking user's"), "{e}");
+        assert!(m.add(&inc(0.0, 7.0)).is_err());
+        assert!(m.add(&inc(f32::NAN, 0.0)).is_err());
+        let total = m.take_until(33).unwrap();
+        assert_eq!((total.forward_m, total.yaw_rad), (0.03, 0.1));
+    }
+
+    #[test]
+    fn steps_held_without_frames_are_merged_not_lost() {
+        let mut m = MotionSince::default();
+        for k in 1..=200u64 {
+            m.add(&OdomIncrement { from_ns: k - 1, to_ns: k, forward_m: 0.01, left_m: 0.0, yaw_rad: 0.0 }).unwrap();
+        }
+        assert!(m.pending.len() <= MAX_PENDING_STEPS);
+        let total = m.take_until(200).unwrap();
+        assert!((total.forward_m - 2.0).abs() < 1e-4, "{total:?}");
     }
 }

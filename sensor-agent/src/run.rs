@@ -224,13 +224,15 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
 
 async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
     let stamp = frame.stamp_ns;
-    let mut results = vec![out.depth.put(stamp, &depth).await];
-    if !frame.imu.is_empty() {
-        results.push(out.imu.put(stamp, &ImuBatch { samples: frame.imu }).await);
-    }
+    let mut results = Vec::with_capacity(4);
+    // the motion leading up to the frame first, so it is there when the frame is processed
     if let Some(odom) = frame.odom {
         results.push(out.odom.put(stamp, &odom).await);
     }
+    if !frame.imu.is_empty() {
+        results.push(out.imu.put(stamp, &ImuBatch { samples: frame.imu }).await);
+    }
+    results.push(out.depth.put(stamp, &depth).await);
     if let Some(truth) = frame.truth {
         results.push(out.truth.put(stamp, &truth).await);
     }
