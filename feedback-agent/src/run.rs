@@ -102,11 +102,26 @@ pub async fn run(config: FeedbackConfig, shutdown: Shutdown) -> anyhow::Result<(
     run_with(config, devices, shutdown).await
 }
 
-async fn publish(publisher: &mut Publisher<Applied>, applied: Vec<Applied>) {
+/// `applied` records waiting for the bus; beyond it new ones are counted and dropped.
+const APPLIED_BACKLOG: usize = 4096;
+
+/// Hands what was applied to the publishing task. The device loop never waits for the
+/// network: a congested link to a monitor must not hold a rumble past its time to live.
+fn publish(tx: &mpsc::Sender<Applied>, applied: impl IntoIterator<Item = Applied>, health: &Health, key: &str) {
     for a in applied {
         if let AppliedAction::DeviceStatus { text } = &a.action {
             tracing::info!(device = %a.device, "{text}");
         }
+        if let Err(mpsc::error::TrySendError::Full(a)) = tx.try_send(a) {
+            let why = format!("{APPLIED_BACKLOG} records already wait for the bus; {:?} not published", a.action);
+            health.reject(key, "applied_backlog", &why);
+        }
+    }
+}
+
+/// Publishes `applied` records until the loop drops its sender.
+async fn publish_applied(mut publisher: Publisher<Applied>, mut rx: mpsc::Receiver<Applied>) {
+    while let Some(a) = rx.recv().await {
         // The envelope's capture stamp is the cause's, so a monitor reads the age of an
         // applied record as the end-to-end latency of the intent behind it.
         let stamp = if a.cause_capture_ns != 0 { a.cause_capture_ns } else { a.applied_ns };
@@ -152,8 +167,11 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         .history(true)
         .await
         .map_err(|e| anyhow!("cannot watch the liveliness of {alive_key}: {e}"))?;
-    let mut applied_pub =
-        Publisher::<Applied>::declare(&session, keys.applied(), AGENT, Lane::Events, Some(&health)).await?;
+    let applied_key = keys.applied();
+    let applied_pub =
+        Publisher::<Applied>::declare(&session, applied_key.clone(), AGENT, Lane::Events, Some(&health)).await?;
+    let (applied_tx, applied_rx) = mpsc::channel(APPLIED_BACKLOG);
+    let applied_task = tokio::spawn(publish_applied(applied_pub, applied_rx));
 
     let phone_task = devices
         .phone
@@ -161,17 +179,13 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
 
     let started = now_ns();
     let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
-    let notes = devices
-        .notes
-        .into_iter()
-        .map(|(device, text)| Applied {
-            device,
-            action: AppliedAction::DeviceStatus { text },
-            applied_ns: started,
-            cause_capture_ns: 0,
-        })
-        .collect();
-    publish(&mut applied_pub, notes).await;
+    let notes = devices.notes.into_iter().map(|(device, text)| Applied {
+        device,
+        action: AppliedAction::DeviceStatus { text },
+        applied_ns: started,
+        cause_capture_ns: 0,
+    });
+    publish(&applied_tx, notes, &health, &applied_key);
     tracing::info!(user = %config.bus.user, "feedback agent running (haptic {:?}, speech {:?})", config.haptic, config.speech);
 
     let mut shown = status_of(feedback.detection());
@@ -216,7 +230,7 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
                 _ = tokio::time::sleep(sleep) => feedback.tick(now_ns()),
             }
         }
-        publish(&mut applied_pub, feedback.drain_applied().collect()).await;
+        publish(&applied_tx, feedback.drain_applied(), &health, &applied_key);
         let status = status_of(feedback.detection());
         if status != shown {
             health.set_status(status.0, status.1.clone());
@@ -224,7 +238,11 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         }
     }
     feedback.shutdown(now_ns());
-    publish(&mut applied_pub, feedback.drain_applied().collect()).await;
+    publish(&applied_tx, feedback.drain_applied(), &health, &applied_key);
+    drop(applied_tx);
+    if let Err(e) = applied_task.await {
+        tracing::warn!("applied publishing task ended abnormally: {e}");
+    }
     drop(feedback);
     shutdown.trigger();
     if let Some(task) = phone_task {
@@ -239,4 +257,26 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     }
     session.close().await.map_err(|e| anyhow!("closing the session: {e}"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_backlog_of_applied_records_is_counted_not_waited_for() {
+        let health = Health::new(AGENT);
+        let (tx, mut rx) = mpsc::channel(2);
+        let record = |k: u64| Applied {
+            device: "console".into(),
+            action: AppliedAction::DeviceStatus { text: format!("note {k}") },
+            applied_ns: k,
+            cause_capture_ns: 0,
+        };
+        // nobody is draining the channel (the bus is congested): the call returns at once
+        publish(&tx, (0..5).map(record), &health, "wearnav/u/feedback/applied");
+        assert_eq!(health.rejects_of("applied_backlog"), 3);
+        let kept: Vec<u64> = std::iter::from_fn(|| rx.try_recv().ok()).map(|a| a.applied_ns).collect();
+        assert_eq!(kept, [0, 1], "the oldest records go out first");
+    }
 }
