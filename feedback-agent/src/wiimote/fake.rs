@@ -49,12 +49,16 @@ impl FakeHid {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Attach (or re-attach) a remote at `path` with `serial`.
+    /// Attach (or re-attach) a remote at `path` with `serial` (a node freed by one remote
+    /// can come back with another).
     pub fn attach(&self, path: &str, serial: &str) {
         let mut s = self.lock();
         let id = RemoteId { path: path.into(), serial: serial.into() };
         match s.remotes.iter_mut().find(|r| r.id.as_ref().is_some_and(|i| i.path == path)) {
-            Some(r) => r.attached = true,
+            Some(r) => {
+                r.attached = true;
+                r.id = Some(id);
+            }
             None => s.remotes.push(FakeRemote { id: Some(id), attached: true, ..Default::default() }),
         }
     }

@@ -95,6 +95,9 @@ pub struct WiimoteBackend {
     bus: Box<dyn HidBus>,
     config: WiimoteConfig,
     remotes: [Option<Remote>; 2],
+    /// Serial of the remote each hand last had: a hand lost and found again takes
+    /// only its own remote back, never the other hand's (the user cannot see LEDs).
+    serials: [Option<String>; 2],
     /// "not found" / "disconnected" already said for this hand since it was last seen.
     absence_said: [bool; 2],
     next_scan_ns: u64,
@@ -112,6 +115,7 @@ impl WiimoteBackend {
             bus,
             config,
             remotes: [None, None],
+            serials: [None, None],
             absence_said: [false, false],
             next_scan_ns: 0,
             next_battery_ns: None,
@@ -170,13 +174,18 @@ impl WiimoteBackend {
                 Hand::Left => Hand::Right,
                 Hand::Right => Hand::Left,
             };
+            let serial_of = |h: Hand, id: &RemoteId| {
+                !id.serial.is_empty() && self.serials[h as usize].as_ref().is_some_and(|s| s == &id.serial)
+            };
             let in_use = |id: &RemoteId| {
                 self.remotes.iter().flatten().any(|r| r.id.path == id.path)
                     || self.selector(other).is_some_and(|s| Self::matches(s, id))
+                    || serial_of(other, id)
             };
             let pick = match self.selector(hand) {
                 Some(sel) => ids.iter().find(|id| Self::matches(sel, id)),
-                None => ids.iter().find(|id| !in_use(id)),
+                // its own remote first, else any the other hand has never had
+                None => ids.iter().find(|id| serial_of(hand, id)).or_else(|| ids.iter().find(|id| !in_use(id))),
             };
             let Some(id) = pick.cloned() else {
                 self.note_absent(hand, now_ns, out);
@@ -198,6 +207,9 @@ impl WiimoteBackend {
             match hello {
                 Ok(()) => {
                     tracing::info!(path = %remote.id.path, serial = %remote.id.serial, "{} remote connected", hand.word());
+                    if !remote.id.serial.is_empty() {
+                        self.serials[hand as usize] = Some(remote.id.serial.clone());
+                    }
                     self.remotes[hand as usize] = Some(remote);
                     let text = format!("{} controller connected", hand.word());
                     // Spoken only when its absence was: no chatter at a normal start.
@@ -438,6 +450,28 @@ mod tests {
         assert!(b.is_connected(Hand::Left));
         assert_eq!(out.say.last().unwrap(), "left controller connected");
         assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x10], "LED 1 lit again on the left");
+    }
+
+    #[test]
+    fn a_hand_lost_and_found_takes_back_only_its_own_remote() {
+        let (hid, mut b, mut out) = pair(WiimoteConfig::default());
+        // both remotes out of range; the right one comes back first, on the left's old node
+        hid.detach(LEFT);
+        hid.detach(RIGHT);
+        b.set_levels(left_on(), HapticPattern::Steady, T0, T0 + MS, true, &mut out);
+        assert!(!b.is_connected(Hand::Left) && !b.is_connected(Hand::Right));
+        hid.attach(LEFT, "00:19:1d:00:00:02");
+        hid.clear_written();
+        out.say.clear();
+        b.poll(T0 + 4_000 * MS, &mut out);
+        assert!(b.is_connected(Hand::Right) && !b.is_connected(Hand::Left));
+        assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x20], "LED 2: it is the right hand's remote");
+        assert_eq!(out.say, ["right controller connected"]);
+        hid.attach(RIGHT, "00:19:1d:00:00:01");
+        b.poll(T0 + 8_000 * MS, &mut out);
+        assert!(b.is_connected(Hand::Left));
+        assert_eq!(hid.written_to(RIGHT)[0], [0x11, 0x10]);
+        assert_eq!(out.say, ["right controller connected", "left controller connected"]);
     }
 
     #[test]
