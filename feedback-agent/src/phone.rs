@@ -11,6 +11,7 @@
 //! A new utterance is sent with `interrupt` set: the phone cuts what it says for it,
 //! which is what the agent's queue just did on every other engine.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use bus::{Health, Lane, Publisher};
@@ -113,28 +114,32 @@ impl HapticDevice for PhoneHaptic {
 pub struct PhoneSpeech {
     link: PhoneLink,
     rate_wpm: u32,
+    /// The agent's queue cut the last utterance off: the next one cuts it on the phone.
+    cut_pending: Arc<AtomicBool>,
 }
 
 impl PhoneSpeech {
     /// Send through `link`.
     pub fn new(link: PhoneLink, rate_wpm: u32) -> Self {
-        Self { link, rate_wpm }
+        Self { link, rate_wpm, cut_pending: Arc::default() }
     }
 }
 
 struct PhoneUtterance {
     ends_ns: u64,
-    cut: bool,
+    cut: Arc<AtomicBool>,
+    was_cut: bool,
 }
 
 impl SpeakingHandle for PhoneUtterance {
     fn is_finished(&mut self, now_ns: u64) -> bool {
-        self.cut || now_ns >= self.ends_ns
+        self.was_cut || now_ns >= self.ends_ns
     }
 
     fn cut(&mut self) {
         // The phone cuts when the next utterance arrives with `interrupt` set.
-        self.cut = true;
+        self.was_cut = true;
+        self.cut.store(true, Ordering::Relaxed);
     }
 }
 
@@ -143,19 +148,23 @@ impl SpeechEngine for PhoneSpeech {
         "phone"
     }
 
-    fn start(&mut self, text: &str, _priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
-        // The agent's queue has already ordered and cut; the phone must say it now.
+    fn start(&mut self, text: &str, priority: Priority, now_ns: u64) -> Result<Box<dyn SpeakingHandle>, SpeechError> {
+        // The agent's queue has already ordered and cut. The phone interrupts only what
+        // the queue cut: the end of an utterance is an estimate, and a warning the phone
+        // is still saying must not be cut off by the guidance queued after it.
+        let interrupt = self.cut_pending.swap(false, Ordering::Relaxed);
         let intent = SpeechIntent {
             text: text.to_string(),
-            priority: Priority::Important,
-            interrupt: true,
+            priority,
+            interrupt,
             ttl_ms: PHONE_SPEECH_TTL_MS,
             dedup_key: String::new(),
         };
         if !self.link.send(PhoneMessage::Speech(now_ns, intent)) {
             return Err(SpeechError::Unavailable("phone link closed".into()));
         }
-        Ok(Box::new(PhoneUtterance { ends_ns: now_ns + spoken_duration_ns(text, self.rate_wpm), cut: false }))
+        let ends_ns = now_ns + spoken_duration_ns(text, self.rate_wpm);
+        Ok(Box::new(PhoneUtterance { ends_ns, cut: self.cut_pending.clone(), was_cut: false }))
     }
 }
 
@@ -220,15 +229,22 @@ mod tests {
     }
 
     #[test]
-    fn phone_speech_interrupts_and_is_timed_like_a_voice() {
+    fn phone_speech_interrupts_only_what_the_queue_cut_and_is_timed_like_a_voice() {
         let (link, mut rx) = phone_channel();
         let mut s = PhoneSpeech::new(link, 120);
-        let mut h = s.start("stop now", Priority::Important, 0).unwrap();
-        assert!(!h.is_finished(999_999_999) && h.is_finished(1_000_000_000));
-        match rx.try_recv().unwrap() {
-            PhoneMessage::Speech(_, i) => assert!(i.interrupt && i.text == "stop now"),
+        let mut said = || match rx.try_recv().unwrap() {
+            PhoneMessage::Speech(_, i) => (i.text, i.priority, i.interrupt),
             other => panic!("{other:?}"),
-        }
+        };
+        let mut h = s.start("in ten metres turn left", Priority::Message, 0).unwrap();
+        assert_eq!(said(), ("in ten metres turn left".into(), Priority::Message, false));
+        h.cut();
+        let mut h = s.start("stop now", Priority::Important, 1).unwrap();
+        assert!(!h.is_finished(1_000_000_000) && h.is_finished(1_000_000_001));
+        assert_eq!(said(), ("stop now".into(), Priority::Important, true), "cuts the guidance on the phone");
+        // played to its estimated end: what follows waits for the phone, never cuts it
+        s.start("turn left", Priority::Message, 1_000_000_001).unwrap();
+        assert_eq!(said(), ("turn left".into(), Priority::Message, false));
         drop(rx);
         assert!(s.start("x", Priority::Text, 0).is_err(), "a closed link is reported");
     }
