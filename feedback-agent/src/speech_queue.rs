@@ -184,14 +184,7 @@ impl SpeechQueue {
     /// user hears where it stands now, and the warnings queued behind are not pushed
     /// back or out of the queue by a backlog of old news. One speaking plays to its end.
     pub fn offer_status(&mut self, text: &str, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
-        let mut k = 0;
-        while k < self.pending.len() {
-            if self.pending[k].status {
-                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "replaced by newer status" });
-            } else {
-                k += 1;
-            }
-        }
+        self.drop_waiting(out, |u| u.status.then_some("replaced by newer status"));
         let utterance = self.own(text, Priority::Important, ttl_ms, now_ns, true);
         self.enqueue(utterance, false, now_ns, out);
     }
@@ -244,19 +237,12 @@ impl SpeechQueue {
             return;
         }
         // Anything higher drops waiting notifications; newer text replaces waiting text.
-        let mut k = 0;
-        while k < self.pending.len() {
-            let p = &self.pending[k];
-            let replaced = (rank(p.priority) == 1 && new_rank > 1).then_some("dropped by a higher priority").or((p
-                .priority
-                == Priority::Text
-                && utterance.priority == Priority::Text)
-                .then_some("replaced by newer text"));
-            match replaced {
-                Some(reason) => out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason }),
-                None => k += 1,
-            }
-        }
+        let new_is_text = utterance.priority == Priority::Text;
+        self.drop_waiting(out, |p| {
+            (rank(p.priority) == 1 && new_rank > 1)
+                .then_some("dropped by a higher priority")
+                .or((p.priority == Priority::Text && new_is_text).then_some("replaced by newer text"))
+        });
         let at = self.pending.iter().position(|p| rank(p.priority) < new_rank).unwrap_or(self.pending.len());
         self.pending.insert(at, utterance);
         if self.pending.len() > self.config.max_pending {
@@ -306,12 +292,16 @@ impl SpeechQueue {
 
     /// Drop waiting utterances whose TTL has passed.
     pub fn expire(&mut self, now_ns: u64, out: &mut Vec<SpeechAction>) {
+        self.drop_waiting(out, |u| (now_ns >= u.expires_ns).then_some("stale"));
+    }
+
+    /// Drops, in order, every waiting utterance `why` gives a reason for.
+    fn drop_waiting(&mut self, out: &mut Vec<SpeechAction>, mut why: impl FnMut(&Utterance) -> Option<&'static str>) {
         let mut k = 0;
         while k < self.pending.len() {
-            if now_ns >= self.pending[k].expires_ns {
-                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "stale" });
-            } else {
-                k += 1;
+            match why(&self.pending[k]) {
+                Some(reason) => out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason }),
+                None => k += 1,
             }
         }
     }
@@ -347,14 +337,7 @@ impl SpeechQueue {
                 out.push(SpeechAction::Cut(cur));
             }
         }
-        let mut k = 0;
-        while k < self.pending.len() {
-            if self.pending[k].priority == Priority::Important {
-                k += 1;
-            } else {
-                out.push(SpeechAction::Drop { utterance: self.pending.remove(k), reason: "muted" });
-            }
-        }
+        self.drop_waiting(out, |u| (u.priority != Priority::Important).then_some("muted"));
         self.start_next(now_ns, out);
     }
 
