@@ -96,7 +96,7 @@ impl MotionSince {
         self.pending.retain(|&(to_ns, m)| {
             let due = to_ns <= capture_ns || to_ns - capture_ns > OTHER_CLOCK_NS;
             if due {
-                total = Some(total.map_or(m, |t| t.then(m)));
+                total = Some(m.after(total));
             }
             !due
         });

@@ -107,6 +107,11 @@ impl Motion {
         }
     }
 
+    /// `before` (if any) and then this motion, as one.
+    pub fn after(self, before: Option<Motion>) -> Motion {
+        before.map_or(self, |b| b.then(self))
+    }
+
     /// The map from a point `(x forward, y left)` of the previous frame's user frame to
     /// where a static point lies in the current one.
     pub fn to_current_frame(self) -> impl Fn([f32; 2]) -> [f32; 2] {
@@ -314,7 +319,7 @@ impl Pipeline {
         timer: &mut dyn StageTimer,
     ) -> Result<&Perception, PerceptionError> {
         if let Some(m) = ctx.motion.filter(Motion::is_finite) {
-            self.unapplied = Some(self.unapplied.map_or(m, |before| before.then(m)));
+            self.unapplied = Some(m.after(self.unapplied));
         }
         let cfg = &self.config;
         timer.start("sample");
