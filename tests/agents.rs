@@ -256,3 +256,31 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
     assert!(cue.body.left > 0.0 && cue.body.right > 0.0, "unavailable cue must rumble: {:?}", cue.body);
     assert!(matches!(cue.body.pattern, HapticPattern::Pulses { .. }), "{:?}", cue.body);
 }
+
+#[test]
+fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() {
+    let dir = std::env::temp_dir().join(format!("wearnav-config-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let out = Command::new(agent_bin("compute-agent"))
+            .args(["--perception-config", path.to_str().unwrap(), "--no-multicast"])
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .output()
+            .expect("cannot start compute-agent");
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    // refused before the session opens: exit 1 at once, the file and the field named
+    let (code, err) = run("typo.toml", "[ttc]\nwarn_seconds = 3.0\n");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("bad perception config") && err.contains("typo.toml") && err.contains("warn_seconds"),
+        "{err}"
+    );
+    let (code, err) = run("negative.toml", "[ttc]\nmin_closing_speed_m_s = -1.0\n");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("ttc.min_closing_speed_m_s = -1: must be a positive finite number"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

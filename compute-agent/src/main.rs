@@ -15,7 +15,8 @@ struct Cli {
     #[command(flatten)]
     bus: bus::BusOptions,
     /// Perception parameters as TOML (fields of `PerceptionConfig`; missing ones keep
-    /// their documented defaults).
+    /// their documented defaults). A field the pipeline does not have, or a value out
+    /// of its range, is refused with the field's name before the agent starts.
     #[arg(long, value_name = "FILE")]
     perception_config: Option<PathBuf>,
     /// Cost function driving the rumble: `ficf` (Fully-Integrated) or `cacf`
@@ -39,8 +40,8 @@ async fn main() -> anyhow::Result<()> {
     let mut config = compute_agent::run::ComputeConfig::new(cli.bus);
     if let Some(path) = &cli.perception_config {
         let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-        config.perception = toml::from_str::<PerceptionConfig>(&text)
-            .with_context(|| format!("bad perception config {}", path.display()))?;
+        config.perception =
+            PerceptionConfig::from_toml(&text).with_context(|| format!("bad perception config {}", path.display()))?;
     }
     if let Some(cost) = cli.cost {
         config.perception.cost_function = cost;

@@ -9,7 +9,7 @@ use schemas::CostFunction;
 
 /// Configuration of the whole pipeline (serde, every field defaulted).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct PerceptionConfig {
     /// Cost function that drives [`super::Perception::rumble`]. Default FICF: the thesis's
     /// primary function.
@@ -39,6 +39,147 @@ pub struct PerceptionConfig {
     pub ttc: TtcConfig,
 }
 
+/// A perception configuration that cannot be used: the TOML does not parse, names a
+/// field that does not exist (a typo would otherwise leave the default in force
+/// without a word), or gives a value outside what the pipeline can work with.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ConfigError {
+    /// Not TOML, an unknown field, or a value of the wrong type.
+    #[error("{0}")]
+    Syntax(String),
+    /// A field whose value is out of range.
+    #[error("{field} = {value}: {rule}")]
+    OutOfRange {
+        /// Dotted path of the field (`ttc.min_closing_speed_m_s`).
+        field: String,
+        /// The value given.
+        value: String,
+        /// What the value must be.
+        rule: String,
+    },
+}
+
+impl PerceptionConfig {
+    /// Parses a TOML configuration (every field optional, defaults as documented) and
+    /// checks it with [`PerceptionConfig::validate`].
+    pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
+        let cfg: Self = toml::from_str(text).map_err(|e| ConfigError::Syntax(e.to_string().trim().to_string()))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Checks every field against the range the pipeline works in: every length, time
+    /// and threshold finite and positive where zero or less would silence a warning or
+    /// make every frame warn (a negative closing speed would make time to collision warn
+    /// on everything; a zero cost scale would never warn), fractions within 0..1.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let mut c = Checker::default();
+        c.within("stride_px", self.stride_px as f32, 1.0, 16.0);
+        let g = &self.ground;
+        c.above_within("ground.up_cone_deg", g.up_cone_deg, 0.0, 90.0);
+        c.within("ground.ransac_iterations", g.ransac_iterations as f32, 1.0, 100_000.0);
+        c.within("ground.sample_points", g.sample_points as f32, 3.0, 1_000_000.0);
+        c.positive("ground.ransac_band_m", g.ransac_band_m);
+        c.positive("ground.refine_band_m", g.refine_band_m);
+        c.above_within("ground.min_inlier_fraction", g.min_inlier_fraction, 0.0, 1.0);
+        c.within("ground.min_spread_m", g.min_spread_m, 0.0, 10.0);
+        c.within("ground.min_camera_height_m", g.min_camera_height_m, 0.0, 10.0);
+        c.positive("ground.max_offset_jump_m", g.max_offset_jump_m);
+        c.above_within("ground.average_weight", g.average_weight, 0.0, 1.0);
+        c.at_least("ground.reseed_after_frames", g.reseed_after_frames as f32, 1.0);
+        c.positive("ground.max_offset_drop_m", g.max_offset_drop_m);
+        c.within("ground.max_step_down_m", g.max_step_down_m, g.max_offset_drop_m, 10.0);
+        c.at_least("ground.reseed_lower_after_frames", g.reseed_lower_after_frames as f32, 1.0);
+        let p = &self.ground_prediction;
+        c.above_within("ground_prediction.max_tilt_deg", p.max_tilt_deg, 0.0, 90.0);
+        c.within("ground_prediction.min_obstacle_fraction", p.min_obstacle_fraction, 0.0, 1.0);
+        let s = &self.scan;
+        c.within("scan.min_obstacle_height_m", s.min_obstacle_height_m, 0.0, 1.0);
+        c.within("scan.noise_per_depth_sq", s.noise_per_depth_sq, 0.0, 1.0);
+        c.within("scan.max_obstacle_height_m", s.max_obstacle_height_m, s.min_obstacle_height_m, 10.0);
+        c.above_within("scan.range_max_m", s.range_max_m, 0.0, 100.0);
+        c.above_within("scan.bin_deg", s.bin_deg, 0.0, 45.0);
+        if let Some(fov) = s.xyz_horizontal_fov_deg {
+            c.above_within("scan.xyz_horizontal_fov_deg", fov, 0.0, 179.0);
+        }
+        c.at_least("scan.min_points_per_bin", s.min_points_per_bin as f32, 1.0);
+        c.within("scan.fallback_band_scale", s.fallback_band_scale, 1.0, 10.0);
+        for (name, f) in [("ficf", &self.ficf), ("cacf", &self.cacf)] {
+            c.positive(&format!("{name}.forward_width_m"), f.forward_width_m);
+            c.positive(&format!("{name}.forward_depth_m"), f.forward_depth_m);
+            c.positive(&format!("{name}.side_width_m"), f.side_width_m);
+            c.positive(&format!("{name}.side_depth_m"), f.side_depth_m);
+            c.positive(&format!("{name}.forward_threshold"), f.forward_threshold);
+            c.positive(&format!("{name}.side_threshold"), f.side_threshold);
+            c.positive(&format!("{name}.scale"), f.scale);
+        }
+        let m = &self.memory;
+        c.within("memory.cell_m", m.cell_m, 0.01, 1.0);
+        c.positive("memory.radius_m", m.radius_m);
+        c.above_within("memory.xyz_vertical_fov_deg", m.xyz_vertical_fov_deg, 0.0, 179.0);
+        c.within("memory.view_margin_deg", m.view_margin_deg, 0.0, 45.0);
+        c.positive("memory.forget_after_m", m.forget_after_m);
+        let d = &self.dropoff;
+        c.positive("dropoff.min_drop_m", d.min_drop_m);
+        c.positive("dropoff.lookahead_m", d.lookahead_m);
+        c.positive("dropoff.path_width_m", d.path_width_m);
+        c.above_within("dropoff.min_fraction", d.min_fraction, 0.0, 1.0);
+        c.at_least("dropoff.min_samples", d.min_samples as f32, 1.0);
+        c.within("dropoff.edge_max_tilt_deg", d.edge_max_tilt_deg, 0.0, 90.0);
+        let t = &self.ttc;
+        c.positive("ttc.path_width_m", t.path_width_m);
+        c.positive("ttc.min_closing_speed_m_s", t.min_closing_speed_m_s);
+        c.above_within("ttc.smoothing", t.smoothing, 0.0, 1.0);
+        c.positive("ttc.warn_s", t.warn_s);
+        c.positive("ttc.baseline_s", t.baseline_s);
+        c.positive("ttc.max_step_m", t.max_step_m);
+        c.first.map_or(Ok(()), Err)
+    }
+}
+
+/// Collects the first out-of-range field of [`PerceptionConfig::validate`].
+#[derive(Default)]
+struct Checker {
+    first: Option<ConfigError>,
+}
+
+impl Checker {
+    fn fail(&mut self, field: &str, value: f32, rule: impl FnOnce() -> String) {
+        if self.first.is_none() {
+            self.first =
+                Some(ConfigError::OutOfRange { field: field.to_string(), value: value.to_string(), rule: rule() });
+        }
+    }
+
+    /// `lo <= v <= hi`.
+    fn within(&mut self, field: &str, v: f32, lo: f32, hi: f32) {
+        if !(v.is_finite() && lo <= v && v <= hi) {
+            self.fail(field, v, || format!("must be from {lo} to {hi}"));
+        }
+    }
+
+    /// `lo < v <= hi`.
+    fn above_within(&mut self, field: &str, v: f32, lo: f32, hi: f32) {
+        if !(v.is_finite() && lo < v && v <= hi) {
+            self.fail(field, v, || format!("must be above {lo} and at most {hi}"));
+        }
+    }
+
+    /// `lo <= v`.
+    fn at_least(&mut self, field: &str, v: f32, lo: f32) {
+        if v < lo {
+            self.fail(field, v, || format!("must be at least {lo}"));
+        }
+    }
+
+    /// `0 < v`, finite.
+    fn positive(&mut self, field: &str, v: f32) {
+        if !(v.is_finite() && v > 0.0) {
+            self.fail(field, v, || "must be a positive finite number".to_string());
+        }
+    }
+}
+
 impl Default for PerceptionConfig {
     fn default() -> Self {
         Self {
@@ -59,7 +200,7 @@ impl Default for PerceptionConfig {
 
 /// RANSAC ground plane with a prior on the up direction.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct GroundConfig {
     /// Largest angle between the plane normal and the prior up axis. Thesis: 20 deg around
     /// camera -y. With an IMU gravity prior the same cone holds at any cane pitch.
@@ -150,7 +291,7 @@ impl Default for GroundConfig {
 /// of these hold; otherwise the frame-count rule of `GroundConfig::max_lost_frames` is
 /// kept unchanged.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct GroundPredictionConfig {
     /// Switch. Off (or no gravity in the frame): the thesis's rule only.
     pub enabled: bool,
@@ -175,7 +316,7 @@ impl Default for GroundPredictionConfig {
 
 /// Which points are obstacles, and the scan they make.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ScanConfig {
     /// A point is an obstacle when it is more than this above the plane, plus the depth
     /// noise term below. The thesis removed everything within 0.1 m of the plane, which
@@ -218,7 +359,7 @@ impl Default for ScanConfig {
 /// One of Taylor's cost functions: a forward region and a side region in front of the
 /// user, and two thresholds (see `cost_function` for the formula).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct CostConfig {
     /// Width of the forward region, metres.
     pub forward_width_m: f32,
@@ -281,7 +422,7 @@ impl Default for CostConfig {
 /// saved no signals (FICF route, 20 walks: 15.2 signals, 2.70 cane and 0.35 body
 /// contacts per walk holding sides, 9.7, 1.90 and 0.10 not; README, virtual user study).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct HysteresisConfig {
     /// Switch. Off: the rumble is the raw Table 2.1 state of every frame.
     pub enabled: bool,
@@ -302,7 +443,7 @@ impl Default for HysteresisConfig {
 
 /// Egocentric memory of obstacles that left the view.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct MemoryConfig {
     /// Switch.
     pub enabled: bool,
@@ -342,7 +483,7 @@ impl Default for MemoryConfig {
 
 /// Drop-off (step down, stairwell, platform edge) detection.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DropoffConfig {
     /// Switch.
     pub enabled: bool,
@@ -388,7 +529,7 @@ impl Default for DropoffConfig {
 /// Time to collision with an obstacle moving towards the user, from the frame-to-frame
 /// change of its range with the user's own motion taken out (see `time_to_collision`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct TtcConfig {
     /// Switch.
     pub enabled: bool,
@@ -420,5 +561,66 @@ impl Default for TtcConfig {
             baseline_s: 0.25,
             max_step_m: 1.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_pass_and_an_empty_file_is_the_defaults() {
+        assert_eq!(PerceptionConfig::default().validate(), Ok(()));
+        assert_eq!(PerceptionConfig::from_toml(""), Ok(PerceptionConfig::default()));
+    }
+
+    #[test]
+    fn a_partial_file_changes_only_what_it_names() {
+        let cfg = PerceptionConfig::from_toml("cost_function = \"Cacf\"\n[ttc]\nwarn_s = 3.0\n").unwrap();
+        let mut want = PerceptionConfig { cost_function: CostFunction::Cacf, ..PerceptionConfig::default() };
+        want.ttc.warn_s = 3.0;
+        assert_eq!(cfg, want);
+    }
+
+    #[test]
+    fn a_misspelt_field_is_refused_by_name_not_left_at_its_default() {
+        let err = PerceptionConfig::from_toml("[ttc]\nwarn_seconds = 3.0\n").unwrap_err().to_string();
+        assert!(err.contains("unknown field `warn_seconds`") && err.contains("warn_s"), "{err}");
+        let err = PerceptionConfig::from_toml("[ficf]\nforward_treshold = 1.0\n").unwrap_err().to_string();
+        assert!(err.contains("forward_treshold"), "{err}");
+    }
+
+    #[test]
+    fn values_that_would_silence_or_flood_the_warnings_are_refused() {
+        let err = |text: &str| PerceptionConfig::from_toml(text).unwrap_err();
+        // a negative closing speed would make time to collision warn on everything
+        assert_eq!(
+            err("[ttc]\nmin_closing_speed_m_s = -1.0\n"),
+            ConfigError::OutOfRange {
+                field: "ttc.min_closing_speed_m_s".into(),
+                value: "-1".into(),
+                rule: "must be a positive finite number".into()
+            }
+        );
+        // a zero scale would never warn; NaN compares false everywhere
+        assert!(matches!(err("[cacf]\nscale = 0.0\n"), ConfigError::OutOfRange { field, .. } if field == "cacf.scale"));
+        assert!(
+            matches!(err("[ficf]\nforward_threshold = nan\n"), ConfigError::OutOfRange { field, .. } if field == "ficf.forward_threshold")
+        );
+        assert_eq!(
+            err("[ground]\naverage_weight = 1.5\n").to_string(),
+            "ground.average_weight = 1.5: must be above 0 and at most 1"
+        );
+        assert_eq!(err("stride_px = 0\n").to_string(), "stride_px = 0: must be from 1 to 16");
+        assert_eq!(
+            err("[scan]\nmin_points_per_bin = 0\n").to_string(),
+            "scan.min_points_per_bin = 0: must be at least 1"
+        );
+        // a step down larger than what counts as one
+        assert!(matches!(
+            err("[ground]\nmax_offset_drop_m = 0.4\n"),
+            ConfigError::OutOfRange { field, .. } if field == "ground.max_step_down_m"
+        ));
+        assert!(matches!(err("stride_px = \"two\"\n"), ConfigError::Syntax(_)));
     }
 }
