@@ -6,9 +6,12 @@
 //! A pulsed cue switches the motor off between pulses; nobody reads the gap as "path
 //! clear". A side is felt as rumbling while its motor runs and for one gap of the
 //! pattern it last ran with (plus [`GAP_MARGIN_NS`]): the user notices the end of a
-//! pulse train when the next pulse fails to come. The feedback agent's offline alert
-//! and the degraded pattern (half level) are felt as "detection offline", distinct
-//! from the four obstacle states, as the safety rules intend.
+//! pulse train when the next pulse fails to come, or when a pulse comes on the other
+//! side alone (a cue moving from left to right is felt as right at its first pulse,
+//! not as both for a gap). The feedback agent's offline alert and the degraded pattern
+//! (half level) are felt as "detection offline", distinct from the four obstacle
+//! states, as the safety rules intend; each hand is judged on its own, so the tail of
+//! either (the pulse gap after detection came back) is never felt as an obstacle.
 
 use feedback_agent::device::{DeviceOutput, HapticDevice};
 use feedback_agent::haptic_cue::Levels;
@@ -83,16 +86,22 @@ struct Side {
     gap_ns: u64,
     /// When the last two pulses began (the motor going from off to on).
     onsets_ns: [Option<u64>; 2],
+    /// The motor last ran for the offline alert (detection offline), not an obstacle.
+    alert: bool,
 }
 
 impl Side {
-    fn set(&mut self, level: f32, pattern: HapticPattern, now_ns: u64) {
-        if level > 0.0 && self.level <= 0.0 {
+    /// The motor set to `level` at `now_ns`; `alert`: while detection is offline.
+    /// Returns whether a pulse begins.
+    fn set(&mut self, level: f32, pattern: HapticPattern, now_ns: u64, alert: bool) -> bool {
+        let onset = level > 0.0 && self.level <= 0.0;
+        if onset {
             self.onsets_ns = [self.onsets_ns[1], Some(now_ns)];
         }
         if level > 0.0 {
             self.last_on_ns = Some(now_ns);
             self.last_level = level;
+            self.alert = alert;
             self.gap_ns = match pattern {
                 HapticPattern::Steady => 0,
                 HapticPattern::Pulses { period_ms, duty } => {
@@ -104,6 +113,21 @@ impl Side {
             self.last_on_ns = Some(now_ns);
         }
         self.level = level;
+        onset
+    }
+
+    /// The train has ended (a pulse came on the other side alone): the gap left of
+    /// it is no longer felt.
+    fn end_train(&mut self) {
+        if self.level <= 0.0 {
+            self.last_on_ns = None;
+        }
+    }
+
+    /// Felt at `now_ns` as an obstacle cue: a full-level pulse train of the obstacle
+    /// cues, not the offline alert or the degraded pattern.
+    fn obstacle(&self, now_ns: u64) -> bool {
+        self.felt(now_ns) >= OBSTACLE_LEVEL && !self.alert
     }
 
     /// The time between the last two pulses while the side is felt rumbling, ns: what
@@ -141,8 +165,14 @@ impl FeltRumble {
     pub fn apply(&mut self, a: &Applied) {
         match &a.action {
             AppliedAction::Rumble { left, right, pattern } if a.device == HANDS => {
-                self.left.set(*left, *pattern, a.applied_ns);
-                self.right.set(*right, *pattern, a.applied_ns);
+                let left_onset = self.left.set(*left, *pattern, a.applied_ns, self.offline);
+                let right_onset = self.right.set(*right, *pattern, a.applied_ns, self.offline);
+                if left_onset && !right_onset {
+                    self.right.end_train();
+                }
+                if right_onset && !left_onset {
+                    self.left.end_train();
+                }
             }
             AppliedAction::OfflineWarning { offline, .. } => self.offline = *offline,
             _ => {}
@@ -154,13 +184,13 @@ impl FeltRumble {
         if self.offline {
             return Felt::Offline;
         }
-        let (l, r) = (self.left.felt(now_ns), self.right.felt(now_ns));
-        match (l > 0.0, r > 0.0) {
-            (false, false) => Felt::None,
-            _ if l.max(r) < OBSTACLE_LEVEL => Felt::Offline,
+        match (self.left.obstacle(now_ns), self.right.obstacle(now_ns)) {
             (true, true) => Felt::Both,
             (true, false) => Felt::Left,
             (false, true) => Felt::Right,
+            // the degraded pattern, or the tail of the offline alert
+            (false, false) if self.left.felt(now_ns) > 0.0 || self.right.felt(now_ns) > 0.0 => Felt::Offline,
+            (false, false) => Felt::None,
         }
     }
 
@@ -230,6 +260,100 @@ mod tests {
             cause_capture_ns: 0,
         });
         assert_eq!(g.felt(0), Felt::Offline);
+    }
+
+    use feedback_agent::{Feedback, StepSettings};
+    use schemas::{GroundState, HapticIntent, Hazard};
+
+    const RT0: u64 = 1_000_000_000;
+
+    fn clear() -> HapticIntent {
+        HapticIntent { left: 0.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 }
+    }
+
+    fn degraded() -> HapticIntent {
+        HapticIntent {
+            left: 0.5,
+            right: 0.5,
+            pattern: HapticPattern::Pulses { period_ms: 1000, duty: 0.15 },
+            ttl_ms: 300,
+        }
+    }
+
+    /// The feedback agent's own step driving the hands: clear until 100 ms, ground
+    /// degraded (detection offline, the degraded cue every frame) until `back_ms`, then
+    /// fresh hazards with `intent`. The state felt every 8 ms for 400 ms after `back_ms`.
+    fn offline_then_back(back_ms: u64, intent: HapticIntent) -> Vec<(u64, Felt)> {
+        let mut fb = Feedback::new(StepSettings::default(), vec![Box::new(Hands::default())], Vec::new(), RT0);
+        let mut f = FeltRumble::default();
+        let mut out = Vec::new();
+        let mut ms = 0;
+        while ms < back_ms + 400 {
+            let now = RT0 + ms * MS;
+            if ms % 32 == 0 {
+                let (ground, i) = match ms {
+                    _ if ms < 100 => (GroundState::Found, clear()),
+                    _ if ms < back_ms => (GroundState::Degraded, degraded()),
+                    _ => (GroundState::Found, intent),
+                };
+                fb.on_hazard(&Hazard::nothing_ahead(ms, ground), now);
+                let _ = fb.on_haptic(&i, now, now);
+            }
+            fb.tick(now);
+            for a in fb.drain_applied() {
+                f.apply(&a);
+            }
+            if ms > 150 && ms < back_ms {
+                assert_eq!(f.felt(now), Felt::Offline, "offline at {ms} ms");
+            }
+            if ms >= back_ms {
+                out.push((ms - back_ms, f.felt(now)));
+            }
+            ms += 8;
+        }
+        out
+    }
+
+    #[test]
+    fn the_tail_of_the_offline_alert_is_never_felt_as_an_obstacle() {
+        // back after 0.4 s offline, while the alert (alternating hands at full level)
+        // still plays, and nothing ahead: its last gap is felt as offline, then nothing
+        let after = offline_then_back(512, clear());
+        let phantom: Vec<_> =
+            after.iter().filter(|(_, s)| matches!(s, Felt::Left | Felt::Right | Felt::Both)).collect();
+        assert!(phantom.is_empty(), "nothing ahead, yet felt: {phantom:?}");
+        assert_eq!(after.last().map(|&(_, s)| s), Some(Felt::None));
+    }
+
+    #[test]
+    fn a_side_cue_after_the_degraded_pattern_is_felt_on_its_side_alone() {
+        // back after 2 s offline (the degraded half-level pulses playing) with an
+        // obstacle on the right: the left cue, not both
+        let p = HapticPattern::Pulses { period_ms: 400, duty: 0.5 };
+        let after = offline_then_back(2016, HapticIntent { left: 1.0, right: 0.0, pattern: p, ttl_ms: 300 });
+        let wrong: Vec<_> = after.iter().filter(|(_, s)| *s != Felt::Left).collect();
+        assert!(wrong.is_empty(), "a left cue felt as: {wrong:?}");
+    }
+
+    #[test]
+    fn a_cue_moving_to_the_other_side_is_felt_there_at_its_first_pulse() {
+        let p = HapticPattern::Pulses { period_ms: 700, duty: 0.5 };
+        let mut f = FeltRumble::default();
+        f.apply(&rumble(1.0, 0.0, p, 0));
+        f.apply(&rumble(0.0, 0.0, p, 350));
+        assert_eq!(f.felt(390 * MS), Felt::Left, "in the gap");
+        f.apply(&rumble(0.0, 1.0, p, 400));
+        for ms in [400, 600, 719, 721] {
+            assert_eq!(f.felt(ms * MS), Felt::Right, "at {ms} ms");
+        }
+        // both pulsing together, then the right stops: felt both through the gap,
+        // then left at the left's next pulse alone
+        let mut g = FeltRumble::default();
+        g.apply(&rumble(1.0, 1.0, p, 0));
+        g.apply(&rumble(0.0, 0.0, p, 350));
+        assert_eq!(g.felt(500 * MS), Felt::Both);
+        g.apply(&rumble(1.0, 0.0, p, 700));
+        assert_eq!(g.felt(701 * MS), Felt::Left);
     }
 
     #[test]
