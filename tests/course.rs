@@ -87,7 +87,8 @@ fn unreachable_goal_ends_with_a_timeout_verdict() {
     assert!(!out.completed);
     assert_eq!(out.verdict(), "goal not reached");
     assert_eq!(out.time_s, 8.0);
-    assert_eq!(out.frames, 8 * 30 + 1, "frames at 30 Hz of simulated time, t = 0 to 8 s");
+    assert_eq!(out.frames, 8 * 30, "frames at 30 Hz of simulated time, from t = 0 to the last before 8 s");
+    assert!(out.contacts.iter().all(|c| c.t_s <= 8.0), "nothing counted past the limit: {:?}", out.contacts);
 }
 
 #[test]
@@ -329,6 +330,31 @@ fn faster_turning_user_swings_further_past_the_clear_heading() {
     assert!(fast > slow + 30.0, "90 deg/s swung {fast:.0} deg, 30 deg/s {slow:.0} deg");
 }
 
+#[test]
+fn a_shorter_cane_keeps_its_tip_off_a_wall_the_long_cane_touches() {
+    // the cane alone (no rumble) straight at a wall: the user walks until the tip
+    // touches, then turns away; the body is then a tip's reach from the wall
+    let w = wall_across("wall", 5.0, -4.0, 4.0);
+    let first_touch = |cane_length_m: f64| {
+        let mut c = exact(8.0);
+        c.rumble = false;
+        c.mount.cane_length_m = cane_length_m;
+        c.trace = true;
+        let out = walk(&w, &c, 1);
+        let touch = out.contacts.iter().find(|k| k.part == Part::Cane).map(|k| k.t_s);
+        let t = touch.unwrap_or_else(|| panic!("{cane_length_m} m cane never touched: {:?}", out.contacts));
+        let at = out.trace.iter().take_while(|r| r.t_s <= t).last().map(|r| r.x_m).unwrap_or(f64::NAN);
+        // the wall's face is 5 cm short of its centre line
+        4.95 - at
+    };
+    let (thesis, long) = (first_touch(1.1), first_touch(1.3));
+    println!("first cane touch with the body {thesis:.3} m (1.1 m cane) and {long:.3} m (1.3 m) from the wall");
+    // tip ahead of the body: 0.25 m to the hand, then sqrt(L^2 - 1) along the floor
+    // (swept +-17 degrees, the tip reaches a little less far straight ahead)
+    assert!((0.60..=0.75).contains(&thesis), "1.1 m cane touched with the body {thesis:.2} m from the wall");
+    assert!((0.97..=1.10).contains(&long), "1.3 m cane touched with the body {long:.2} m from the wall");
+}
+
 /// The corridor with its floor one stair step (0.18 m) lower from x = 4 to 6, wall
 /// to wall; the goal's sound comes from beyond it.
 fn step_down_ahead() -> World {
@@ -368,7 +394,7 @@ struct Cli {
 }
 
 #[test]
-fn route_options_a_world_cannot_serve_are_refused_before_walking() {
+fn options_and_worlds_the_course_cannot_serve_are_refused_before_walking() {
     let run = |line: &str| {
         let argv = std::iter::once("course").chain(line.split_whitespace());
         wearnav::course::run(&Cli::parse_from(argv).args).map_err(|e| format!("{e:#}"))
@@ -377,6 +403,10 @@ fn route_options_a_world_cannot_serve_are_refused_before_walking() {
     assert!(err.contains("world `corridor` has no floor-plan route") && err.contains("[floor_plan_route]"), "{err}");
     let err = run("--guide route --route-lookahead-m=25 --runs 1").unwrap_err();
     assert!(err.contains("--route-lookahead-m must be between 0"), "{err}");
+    let err = run("--world building --runs 1").unwrap_err();
+    assert!(err.contains("goal on floor 1 and its start on floor 0") && err.contains("no stairs or lifts"), "{err}");
+    let err = run("--cane-length-m 2 --runs 1").unwrap_err();
+    assert!(err.contains("--cane-length-m must be between 1.05 and 1.6 m"), "{err}");
 }
 
 #[test]

@@ -60,6 +60,8 @@ fn assert_meets_every_target(flags: &str, a: &Row) {
     assert!(a.body_in_fov + a.body_out_fov <= 0.1, "{flags}: body contacts per walk: {a:?}");
     assert!(a.cane <= 0.3, "{flags}: cane contacts per walk: {a:?}");
     assert!(a.signals <= 20.0, "{flags}: signals per walk: {a:?}");
+    // kept on the route, the user never heads away from where it points
+    assert_eq!(a.reorientations, 0.0, "{flags}: {a:?}");
 }
 
 #[test]

@@ -63,8 +63,9 @@ impl Camera {
 /// table (completion time, rumble signals, cane and body contacts, reorientations).
 #[derive(Debug, Clone, clap::Args)]
 pub struct CourseArgs {
-    /// Built-in world (`taylor-course`, `open-course`, `corridor`, `building`, `step-down`,
-    /// `sign-ahead`, `approach`) or a scene file.
+    /// Built-in world (`taylor-course`, `open-course`, `corridor`, `step-down`,
+    /// `sign-ahead`, `approach`) or a scene file with its start and goal on one floor
+    /// (the virtual user takes no stairs or lifts: `building` is refused).
     #[arg(long, default_value = "taylor-course")]
     pub world: String,
     /// Cost function driving the rumble.
@@ -147,19 +148,26 @@ pub struct CourseArgs {
     /// held still, pointing ahead).
     #[arg(long, default_value_t = 17.0)]
     pub sweep_deg: f64,
+    /// Cane length from the handle (held 1 m above the floor, 25 cm ahead of the body)
+    /// to the tip, metres: 1.3 reaches the sternum, as long-cane practice teaches (the
+    /// tip 1.08 m ahead of the body); Taylor's prototype was 1.1 (0.71 m ahead).
+    #[arg(long, default_value_t = 1.3)]
+    pub cane_length_m: f64,
     /// Depth camera: `xtion-qvga` renders 320x240 and perceives every pixel, the same
     /// rays the agent samples from the Xtion's 640x480 at its stride of 2, at a quarter of
     /// the rendering cost; `xtion` renders 640x480 exactly as deployed; `d435`.
     #[arg(long, value_enum, default_value_t = Camera::XtionQvga)]
     pub camera: Camera,
-    /// Send frames through the wire codec's bounded-error mode with this step, mm.
+    /// Send frames through the wire codec's bounded-error mode with this step, mm (0:
+    /// lossless, as without the flag).
     #[arg(long)]
     pub bounded_mm: Option<u16>,
     /// List every contact after the table.
     #[arg(long)]
     pub contacts: bool,
     /// Write one CSV row per camera frame of every walk to this file (pose, sweep,
-    /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance).
+    /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance);
+    /// with `--versus`, of the walks without its flags.
     #[arg(long, value_name = "FILE")]
     pub trace: Option<std::path::PathBuf>,
     /// Walk the same seeds again with these flags added (for example
@@ -227,6 +235,7 @@ impl CourseArgs {
             fast_pulse_ms,
             pitch_deg,
             sweep_deg,
+            cane_length_m,
             camera,
             bounded_mm,
             contacts,
@@ -294,6 +303,11 @@ impl CourseArgs {
         c.mount.pitch_deg = self.pitch_deg;
         anyhow::ensure!((0.0..=60.0).contains(&self.sweep_deg), "--sweep-deg must be between 0 and 60");
         c.mount.sweep_amplitude_deg = self.sweep_deg;
+        anyhow::ensure!(
+            (1.05..=1.6).contains(&self.cane_length_m),
+            "--cane-length-m must be between 1.05 and 1.6 m (the handle is held 1 m above the floor)"
+        );
+        c.mount.cane_length_m = self.cane_length_m;
         (c.camera, c.perception.stride_px) = self.camera.profile_and_stride();
         c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
         c.trace = self.trace.is_some();
@@ -305,10 +319,21 @@ impl CourseArgs {
 pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
     let config = args.walk_config()?;
+    let (start, goal) = (world.start(), world.goal());
+    anyhow::ensure!(
+        start.floor == goal.floor,
+        "world `{}` has its goal on floor {} and its start on floor {}: the virtual user walks one floor \
+         (it takes no stairs or lifts), so no walk could reach the goal",
+        world.name(),
+        goal.floor,
+        start.floor
+    );
     let versus = match &args.versus {
         Some(flags) => {
             let v = args.with_flags(flags)?;
-            let c = v.walk_config().with_context(|| format!("--versus \"{flags}\""))?;
+            let mut c = v.walk_config().with_context(|| format!("--versus \"{flags}\""))?;
+            // only the walks without the --versus flags are traced
+            c.trace = false;
             Some((flags.as_str(), v, c))
         }
         None => None,
@@ -324,7 +349,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     }
     let started = std::time::Instant::now();
     let ended = std::sync::atomic::AtomicU32::new(0);
-    let total = args.runs * if versus.is_some() { 2 } else { 1 };
+    let total = args.runs.saturating_mul(if versus.is_some() { 2 } else { 1 });
     let progress = |w: &walk::WalkOutcome| {
         let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         tracing::info!(
@@ -392,8 +417,16 @@ fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         "route_lookahead_m": config.lookahead_m(),
         "route_map": args.route_map,
         "camera": config.camera.name,
+        "bounded_mm": config.bounded_mm,
+        "cane": {
+            "length_m": config.mount.cane_length_m,
+            "pitch_deg": config.mount.pitch_deg,
+            "sweep_deg": config.mount.sweep_amplitude_deg,
+        },
         "user": config.user,
-        "runs": result.walks,
+        "timeout_s": config.timeout_s,
+        "first_seed": args.seed,
+        "walks": result.walks,
         "rows": result.rows,
         "average": result.average,
         "lead_times": {
@@ -415,19 +448,34 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         g => format!("{g:?}"),
     };
     let mut s = format!(
-        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}\n",
+        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}\n\
+         user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
         world.name(),
         config.camera.name,
         on_off(!args.no_rumble),
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),
+        if !args.no_hysteresis && args.hold_sides { " (holding sides)" } else { "" },
         on_off(!args.no_dropoff),
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),
         guide,
         args.runs,
-        args.seed
+        args.seed,
+        config.user.walk_speed_m_s,
+        config.user.turn_rate_deg_s,
+        config.user.reaction_s,
+        if config.user.fast_pulse_ms > 0.0 {
+            format!(", stops on pulses every {:.0} ms or faster", config.user.fast_pulse_ms)
+        } else {
+            String::new()
+        },
+        config.mount.cane_length_m,
+        config.mount.pitch_deg,
+        config.mount.sweep_amplitude_deg,
+        config.bounded_mm.map_or_else(|| "lossless".to_string(), |mm| format!("bounded {mm} mm")),
+        config.timeout_s,
     );
     s.push_str(&table(result));
     s.push_str(&LeadTimes::of(&result.walks, Part::Cane).line("cane"));

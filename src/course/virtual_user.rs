@@ -117,6 +117,10 @@ impl<'a> RouteFollow<'a> {
     ) -> Self {
         let mut points = vec![start];
         points.extend_from_slice(&waypoints);
+        if points.len() == 1 {
+            // no waypoints: a route of no length, the user heads for where it starts
+            points.push(start);
+        }
         let mut along_m = vec![0.0];
         for w in points.windows(2) {
             let last = along_m[along_m.len() - 1];
@@ -258,7 +262,8 @@ impl Guide for ExperimenterAssist<'_> {
         if self.leading && (self.goal_in_sight)(pose) {
             self.leading = false;
             (self.best_m, self.best_t_s) = (d, t_s);
-        } else if !self.leading && t_s - self.best_t_s > self.stuck_after_s {
+        } else if !self.leading && t_s - self.best_t_s > self.stuck_after_s && !(self.goal_in_sight)(pose) {
+            // (a user held up with the goal in sight is not lost: nobody leads them)
             self.leading = true;
             self.assists += 1;
             self.route.rejoin(pose);
@@ -328,6 +333,8 @@ pub struct Touch {
     pub t_s: f64,
     /// True when the touched thing is on the user's left.
     pub on_left: bool,
+    /// The user stood (turning in place) when it came.
+    pub standing: bool,
 }
 
 /// The walking person: pose, speed, and what they felt recently.
@@ -343,6 +350,8 @@ pub struct VirtualUser {
     in_place_left: bool,
     bump_until_s: f64,
     bump_left: bool,
+    /// A touch has already turned this stand round once.
+    turned_back: bool,
     commit_until_s: f64,
 }
 
@@ -359,6 +368,7 @@ impl VirtualUser {
             in_place_left: true,
             bump_until_s: f64::NEG_INFINITY,
             bump_left: true,
+            turned_back: false,
             commit_until_s: f64::NEG_INFINITY,
         }
     }
@@ -397,7 +407,7 @@ impl VirtualUser {
     pub fn stopped_by(&mut self, t_s: f64, on_left: bool) {
         self.speed_m_s = 0.0;
         if self.touches.is_empty() && t_s >= self.bump_until_s {
-            self.touches.push_back(Touch { t_s, on_left });
+            self.touches.push_back(Touch { t_s, on_left, standing: false });
         }
     }
 
@@ -422,10 +432,17 @@ impl VirtualUser {
         while self.touches.front().is_some_and(|touch| touch.t_s <= t_s - p.reaction_s) {
             if let Some(touch) = self.touches.pop_front() {
                 // turn away, then walk on in the new direction before heading back; a
-                // turn in place that bumped keeps going the other way (in a corner,
-                // turning back and forth between the two walls finds no way out)
+                // turn in place that bumped keeps going the other way. Standing, only
+                // the first touch turns the user round: between two obstacles within
+                // the cane's reach, turning back and forth between them finds no way
+                // out, so a second touch is passed with the cane, turning on
                 self.bump_until_s = t_s + p.bump_turn_s;
-                self.bump_left = !touch.on_left;
+                if touch.standing && self.turned_back {
+                    self.bump_left = self.in_place_left;
+                } else {
+                    self.bump_left = !touch.on_left;
+                    self.turned_back = touch.standing;
+                }
                 self.in_place_left = self.bump_left;
                 self.commit_until_s = self.bump_until_s + p.commit_s;
             }
@@ -435,11 +452,12 @@ impl VirtualUser {
         let side_speed = if fast { 0.0 } else { p.turn_walk_speed_m_s };
         if felt != self.acting {
             let in_place = |f: Felt| f == Felt::Both || f == Felt::Offline;
-            if in_place(felt) && !in_place(self.acting) {
+            if in_place(felt) && !in_place(self.acting) && t_s >= self.bump_until_s + p.commit_s {
                 // turn towards the side the guide points to, and stay with that side
                 // (from Both to Offline and back the user is still turning in place:
                 // turning back towards the guide there undoes a turn away from a bump,
-                // and between two obstacles the user swings between them for ever)
+                // and between two obstacles the user swings between them for ever);
+                // just after a touch, keep turning away from what was touched
                 let err = target_rad.map_or(0.0, |h| wrap_pi(h - self.pose.yaw_rad));
                 self.in_place_left = err >= 0.0;
             }
@@ -486,6 +504,9 @@ impl VirtualUser {
     pub fn commit(&mut self, pose: UserPose, speed_m_s: f64) {
         self.pose = pose;
         self.speed_m_s = speed_m_s;
+        if speed_m_s > 0.0 {
+            self.turned_back = false;
+        }
     }
 }
 
@@ -584,7 +605,7 @@ mod tests {
         }
         assert!(u.pose().yaw_rad > 0.0);
         // the cane hits something on the left: turns right, away from it
-        u.touch(Touch { t_s: t, on_left: true });
+        u.touch(Touch { t_s: t, on_left: true, standing: false });
         while t < 2.0 {
             u.feel(t, Felt::Both, None);
             let (p, v) = u.propose(t, dt, Some(1.5));
@@ -602,6 +623,79 @@ mod tests {
         }
         assert!(u.pose().yaw_rad < after_bump - 0.3, "{} then {}", after_bump, u.pose().yaw_rad);
         assert_eq!(u.speed_m_s(), 0.0);
+    }
+
+    /// Steps `u` from `*t` to `to_s` feeling `felt`, the guide at `target`.
+    fn stand(u: &mut VirtualUser, t: &mut f64, to_s: f64, felt: Felt, target: f64) {
+        let dt = 0.01;
+        while *t < to_s {
+            u.feel(*t, felt, None);
+            let (p, v) = u.propose(*t, dt, Some(target));
+            u.commit(p, v);
+            *t += dt;
+        }
+    }
+
+    #[test]
+    fn standing_the_first_touch_turns_the_user_away_and_a_second_is_turned_past() {
+        let mut u = user(0.2);
+        let mut t = 0.0;
+        // stopped by Both, the goal to the right: turns right in place
+        stand(&mut u, &mut t, 0.5, Felt::Both, -1.5);
+        let yaw = u.pose().yaw_rad;
+        assert!(yaw < 0.0 && u.speed_m_s() == 0.0);
+        // the still cane swings into something on the right: turns left, away from it
+        u.touch(Touch { t_s: t, on_left: false, standing: true });
+        stand(&mut u, &mut t, 1.5, Felt::Both, -1.5);
+        let away = u.pose().yaw_rad;
+        assert!(away > yaw + 0.3, "turned left: {yaw} then {away}");
+        // and on the left something else: standing between two obstacles, the user
+        // does not swing back into the first, but turns on past the second
+        u.touch(Touch { t_s: t, on_left: true, standing: true });
+        stand(&mut u, &mut t, 2.5, Felt::Both, -1.5);
+        assert!(u.pose().yaw_rad > away + 0.3, "still turning left: {away} then {}", u.pose().yaw_rad);
+        // once walking again, a touch turns the user away again
+        let heading = u.pose().yaw_rad;
+        stand(&mut u, &mut t, 4.0, Felt::None, heading);
+        assert!(u.speed_m_s() > 0.0);
+        let walking = u.pose().yaw_rad;
+        u.touch(Touch { t_s: t, on_left: true, standing: false });
+        stand(&mut u, &mut t, 5.0, Felt::None, walking);
+        assert!(u.pose().yaw_rad < walking - 0.3, "turned right, away: {walking} then {}", u.pose().yaw_rad);
+    }
+
+    #[test]
+    fn a_stop_right_after_a_touch_keeps_turning_away_from_it() {
+        let mut u = user(0.2);
+        let mut t = 0.0;
+        stand(&mut u, &mut t, 1.0, Felt::None, 0.0);
+        // the cane hits something on the right while walking: turn left, away...
+        u.touch(Touch { t_s: t, on_left: false, standing: false });
+        stand(&mut u, &mut t, 1.5, Felt::None, 0.0);
+        let turning = u.pose().yaw_rad;
+        assert!(turning > 0.0);
+        // ...and the rumble says stop, with the goal to the right: the user goes on
+        // turning left rather than back into what the cane hit
+        stand(&mut u, &mut t, 2.5, Felt::Both, -1.0);
+        assert!(u.pose().yaw_rad > turning + 0.3, "{turning} then {}", u.pose().yaw_rad);
+    }
+
+    #[test]
+    fn nobody_leads_a_user_held_up_with_the_goal_in_sight() {
+        let route = RouteFollow::new([0.0, 0.0], vec![[5.0, 0.0]], 0.0, |_: &UserPose, _: [f64; 2]| true);
+        let mut g = ExperimenterAssist::new(GoalSound { x_m: 5.0, y_m: 0.0 }, route, |_: &UserPose| true, 10.0);
+        let here = UserPose { x_m: 1.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
+        for i in 0..200 {
+            assert!(g.heading_target_rad(&here, i as f64 * 0.25).is_some_and(|h| h.abs() < 1e-9));
+        }
+        assert_eq!(g.assists(), 0, "50 s held up in sight of the goal is no assist");
+    }
+
+    #[test]
+    fn a_route_with_no_waypoints_heads_for_where_it_starts() {
+        let mut r = RouteFollow::new([2.0, 0.0], Vec::new(), 1.5, |_: &UserPose, _: [f64; 2]| true);
+        let h = r.heading_target_rad(&UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 }, 0.0);
+        assert!(h.is_some_and(|h| h.abs() < 1e-9), "{h:?}");
     }
 
     #[test]

@@ -30,10 +30,14 @@ use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Tou
 pub const PHYSICS_HZ: u32 = 120;
 /// The guide is asked every this many physics steps (4 Hz: instructions, not servoing).
 const GUIDE_EVERY: u64 = 30;
-/// Heading more than this off the goal's bearing counts as walking away, radians.
+/// How far the still cane is turned each way to tell which side a touched obstacle is on, radians.
+const CANE_PROBE_RAD: f64 = 0.05;
+/// Heading more than this off where the guide points counts as walking away, radians.
 const AWAY_RAD: f64 = std::f64::consts::FRAC_PI_2;
 /// Walking away for longer than this is one reorientation, seconds (the thesis's
-/// experimenters turned such users back).
+/// experimenters turned such users back). Away from where the guide points: the goal's
+/// sound, the route, or the experimenter leading round a divider, which is no more a
+/// reorientation than following the route is.
 pub const REORIENT_AFTER_S: f64 = 5.0;
 /// Capture stamp of t = 0, ns (stamps of 0 mean "self-initiated" downstream).
 const T0_NS: u64 = 1_000_000_000;
@@ -214,7 +218,8 @@ pub struct WalkOutcome {
     pub offline_signals: u32,
     /// Every contact, in time order.
     pub contacts: Vec<Contact>,
-    /// Episodes of walking away from the goal for more than [`REORIENT_AFTER_S`].
+    /// Episodes of heading away from where the guide points (the goal's sound, the
+    /// route, the experimenter leading) for more than [`REORIENT_AFTER_S`].
     pub reorientations: u32,
     /// Times an experimenter led the user back on course ([`GuideKind::Assisted`]).
     pub assists: u32,
@@ -411,6 +416,10 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             out.time_s = t;
             break;
         }
+        if step == steps {
+            // the limit: nothing more happens in this walk (arriving right at it counts)
+            break;
+        }
         if step % frame_every == 0 {
             let sweep = mount.sweep_rad(t) * sweep_scale(user.speed_m_s(), &params);
             let camera = mount.camera_pose(&pose, sweep);
@@ -527,9 +536,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         }
         user.feel(t, state, felt.pulse_period_ms(now));
 
-        // reorientations: heading far off the goal's bearing for too long
-        let to_goal = (goal.y_m - pose.y_m).atan2(goal.x_m - pose.x_m);
-        if wrap_pi(to_goal - pose.yaw_rad).abs() > AWAY_RAD {
+        // reorientations: heading far off where the guide points for too long
+        if target.is_some_and(|to| wrap_pi(to - pose.yaw_rad).abs() > AWAY_RAD) {
             let since = *away_since.get_or_insert(t);
             if !away_counted && t - since > REORIENT_AFTER_S {
                 out.reorientations += 1;
@@ -583,6 +591,9 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         }
         out.min_clearance_m = out.min_clearance_m.min(body.nearest_m());
         if let Some(i) = blocking {
+            // the body stays where it was, but the turn goes on (a cylinder turning
+            // in place never goes deeper into anything)
+            user.commit(UserPose { yaw_rad: proposed.yaw_rad, ..pose }, 0.0);
             user.stopped_by(t_next, on_left(ObstacleId(i as u32)));
         } else {
             out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
@@ -602,7 +613,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             },
         });
         for id in cane.entering() {
-            user.touch(Touch { t_s: t_next, on_left: sweep >= 0.0 });
+            let on_left = cane_touch_on_left(world, &mount, &now_pose, sweep, id, t_next);
+            user.touch(Touch { t_s: t_next, on_left, standing: user.speed_m_s() == 0.0 });
             let camera = mount.camera_pose(&now_pose, sweep);
             out.contacts.push(contact(
                 world,
@@ -621,6 +633,24 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     }
     out.assists = guide.assists();
     out
+}
+
+/// Whether obstacle `id`, touched by the cane, is on the user's left: where the swept
+/// tip is; with the cane held still (standing, turning in place), the side the cane
+/// reaches deeper into it when turned a little.
+fn cane_touch_on_left(world: &World, mount: &CaneMount, pose: &UserPose, sweep: f64, id: ObstacleId, t_s: f64) -> bool {
+    if sweep != 0.0 {
+        return sweep > 0.0;
+    }
+    let distance = |turn: f64| {
+        let (hand, tip) = mount.cane_segment(pose, turn);
+        world
+            .obstacles_at(pose.floor, t_s)
+            .filter(|(i, _)| *i == id)
+            .map(|(_, sh)| sh.segment_distance_m(hand, tip))
+            .fold(f64::INFINITY, f64::min)
+    };
+    distance(CANE_PROBE_RAD) <= distance(-CANE_PROBE_RAD)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -653,6 +683,33 @@ fn contact(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_still_cane_tells_the_side_of_what_it_touched() {
+        // a wall along the user's right, its face where the still cane's tip is
+        let w = World::from_toml(
+            "name = \"t\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 5.0, y_m = 0.0 }\n\
+             [[walls]]\nlabel = \"right\"\nfrom = [0.5, -0.05]\nto = [0.5, -2.0]\n",
+            "t",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let mount = CaneMount::default();
+        // facing +x, the tip 1.08 m ahead: the wall's end at x 0.45-0.55 runs from the
+        // cane's line to the right
+        let pose = UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: -0.05, floor: 0 };
+        let id = ObstacleId(0);
+        assert!(!cane_touch_on_left(&w, &mount, &pose, 0.0, id, 0.0), "the wall is on the right");
+        let mirrored = World::from_toml(
+            "name = \"t\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 5.0, y_m = 0.0 }\n\
+             [[walls]]\nlabel = \"left\"\nfrom = [0.5, 0.05]\nto = [0.5, 2.0]\n",
+            "t",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(cane_touch_on_left(&mirrored, &mount, &UserPose { yaw_rad: 0.05, ..pose }, 0.0, id, 0.0));
+        // swept, the tip's side says it
+        assert!(cane_touch_on_left(&w, &mount, &pose, 0.1, id, 0.0));
+        assert!(!cane_touch_on_left(&mirrored, &mount, &pose, -0.1, id, 0.0));
+    }
 
     #[test]
     fn route_guidance_calls_turns_earlier_for_a_user_who_turns_wider() {
