@@ -7,7 +7,8 @@
 //!
 //! The user acts on what they felt `reaction_s` earlier, turns at most at
 //! `turn_rate_deg_s`, speeds up and slows down at most at `accel_m_s2` (about 0.5 s from
-//! standing to 1 m/s, as the sim's scripted walker), and sweeps the cane all along. A
+//! standing to 1 m/s, as the sim's scripted walker), and sweeps the cane while walking
+//! (holding it still, pointing ahead, while standing and turning in place). A
 //! cane or body touch is felt at once and, after the reaction time, makes the user stop
 //! and turn away from it for `bump_turn_s`, as any cane user does.
 
@@ -333,8 +334,6 @@ pub struct Touch {
     pub t_s: f64,
     /// True when the touched thing is on the user's left.
     pub on_left: bool,
-    /// The user stood (turning in place) when it came.
-    pub standing: bool,
 }
 
 /// The walking person: pose, speed, and what they felt recently.
@@ -350,8 +349,8 @@ pub struct VirtualUser {
     in_place_left: bool,
     bump_until_s: f64,
     bump_left: bool,
-    /// A touch has already turned this stand round once.
-    turned_back: bool,
+    /// When the last touch was acted on, and which way it turned the user (left).
+    last_turn: Option<(f64, bool)>,
     commit_until_s: f64,
 }
 
@@ -368,7 +367,7 @@ impl VirtualUser {
             in_place_left: true,
             bump_until_s: f64::NEG_INFINITY,
             bump_left: true,
-            turned_back: false,
+            last_turn: None,
             commit_until_s: f64::NEG_INFINITY,
         }
     }
@@ -407,7 +406,7 @@ impl VirtualUser {
     pub fn stopped_by(&mut self, t_s: f64, on_left: bool) {
         self.speed_m_s = 0.0;
         if self.touches.is_empty() && t_s >= self.bump_until_s {
-            self.touches.push_back(Touch { t_s, on_left, standing: false });
+            self.touches.push_back(Touch { t_s, on_left });
         }
     }
 
@@ -432,17 +431,17 @@ impl VirtualUser {
         while self.touches.front().is_some_and(|touch| touch.t_s <= t_s - p.reaction_s) {
             if let Some(touch) = self.touches.pop_front() {
                 // turn away, then walk on in the new direction before heading back; a
-                // turn in place that bumped keeps going the other way. Standing, only
-                // the first touch turns the user round: between two obstacles within
-                // the cane's reach, turning back and forth between them finds no way
-                // out, so a second touch is passed with the cane, turning on
+                // turn in place that bumped keeps going the other way. A touch on the
+                // other side while still turning away from the last one, or walking on
+                // from it, means a corner: turning back and forth between its two sides
+                // finds no way out, so the user keeps turning the same way
+                let away_left = !touch.on_left;
+                self.bump_left = match self.last_turn {
+                    Some((t0, left)) if t_s - t0 < p.bump_turn_s + p.commit_s => left,
+                    _ => away_left,
+                };
+                self.last_turn = Some((t_s, self.bump_left));
                 self.bump_until_s = t_s + p.bump_turn_s;
-                if touch.standing && self.turned_back {
-                    self.bump_left = self.in_place_left;
-                } else {
-                    self.bump_left = !touch.on_left;
-                    self.turned_back = touch.standing;
-                }
                 self.in_place_left = self.bump_left;
                 self.commit_until_s = self.bump_until_s + p.commit_s;
             }
@@ -504,9 +503,6 @@ impl VirtualUser {
     pub fn commit(&mut self, pose: UserPose, speed_m_s: f64) {
         self.pose = pose;
         self.speed_m_s = speed_m_s;
-        if speed_m_s > 0.0 {
-            self.turned_back = false;
-        }
     }
 }
 
@@ -605,7 +601,7 @@ mod tests {
         }
         assert!(u.pose().yaw_rad > 0.0);
         // the cane hits something on the left: turns right, away from it
-        u.touch(Touch { t_s: t, on_left: true, standing: false });
+        u.touch(Touch { t_s: t, on_left: true });
         while t < 2.0 {
             u.feel(t, Felt::Both, None);
             let (p, v) = u.propose(t, dt, Some(1.5));
@@ -637,7 +633,7 @@ mod tests {
     }
 
     #[test]
-    fn standing_the_first_touch_turns_the_user_away_and_a_second_is_turned_past() {
+    fn a_touch_turns_the_user_away_and_one_on_the_other_side_soon_after_is_turned_past() {
         let mut u = user(0.2);
         let mut t = 0.0;
         // stopped by Both, the goal to the right: turns right in place
@@ -645,21 +641,21 @@ mod tests {
         let yaw = u.pose().yaw_rad;
         assert!(yaw < 0.0 && u.speed_m_s() == 0.0);
         // the still cane swings into something on the right: turns left, away from it
-        u.touch(Touch { t_s: t, on_left: false, standing: true });
+        u.touch(Touch { t_s: t, on_left: false });
         stand(&mut u, &mut t, 1.5, Felt::Both, -1.5);
         let away = u.pose().yaw_rad;
         assert!(away > yaw + 0.3, "turned left: {yaw} then {away}");
-        // and on the left something else: standing between two obstacles, the user
-        // does not swing back into the first, but turns on past the second
-        u.touch(Touch { t_s: t, on_left: true, standing: true });
+        // and within a second something else on the left: in a corner, the user does
+        // not swing back into the first, but turns on past the second
+        u.touch(Touch { t_s: t, on_left: true });
         stand(&mut u, &mut t, 2.5, Felt::Both, -1.5);
         assert!(u.pose().yaw_rad > away + 0.3, "still turning left: {away} then {}", u.pose().yaw_rad);
-        // once walking again, a touch turns the user away again
+        // a touch well after (walking again) turns the user away again
         let heading = u.pose().yaw_rad;
         stand(&mut u, &mut t, 4.0, Felt::None, heading);
         assert!(u.speed_m_s() > 0.0);
         let walking = u.pose().yaw_rad;
-        u.touch(Touch { t_s: t, on_left: true, standing: false });
+        u.touch(Touch { t_s: t, on_left: true });
         stand(&mut u, &mut t, 5.0, Felt::None, walking);
         assert!(u.pose().yaw_rad < walking - 0.3, "turned right, away: {walking} then {}", u.pose().yaw_rad);
     }
@@ -670,7 +666,7 @@ mod tests {
         let mut t = 0.0;
         stand(&mut u, &mut t, 1.0, Felt::None, 0.0);
         // the cane hits something on the right while walking: turn left, away...
-        u.touch(Touch { t_s: t, on_left: false, standing: false });
+        u.touch(Touch { t_s: t, on_left: false });
         stand(&mut u, &mut t, 1.5, Felt::None, 0.0);
         let turning = u.pose().yaw_rad;
         assert!(turning > 0.0);

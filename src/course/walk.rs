@@ -614,7 +614,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         });
         for id in cane.entering() {
             let on_left = cane_touch_on_left(world, &mount, &now_pose, sweep, id, t_next);
-            user.touch(Touch { t_s: t_next, on_left, standing: user.speed_m_s() == 0.0 });
+            user.touch(Touch { t_s: t_next, on_left });
             let camera = mount.camera_pose(&now_pose, sweep);
             out.contacts.push(contact(
                 world,
