@@ -565,13 +565,9 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let on_left = |id: ObstacleId| {
             let (s, c) = proposed.yaw_rad.sin_cos();
             let probe = |side: f64| {
-                world
-                    .obstacles_at(proposed.floor, t_next)
-                    .filter(|(i, _)| *i == id)
-                    .map(|(_, sh)| {
-                        sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m)
-                    })
-                    .fold(f64::INFINITY, f64::min)
+                obstacle_distance_m(world, id, proposed.floor, t_next, |sh| {
+                    sh.body_distance_m(proposed.x_m - s * side, proposed.y_m + c * side, radius_m, height_m)
+                })
             };
             probe(0.05) <= probe(-0.05)
         };
@@ -644,13 +640,14 @@ fn cane_touch_on_left(world: &World, mount: &CaneMount, pose: &UserPose, sweep: 
     }
     let distance = |turn: f64| {
         let (hand, tip) = mount.cane_segment(pose, turn);
-        world
-            .obstacles_at(pose.floor, t_s)
-            .filter(|(i, _)| *i == id)
-            .map(|(_, sh)| sh.segment_distance_m(hand, tip))
-            .fold(f64::INFINITY, f64::min)
+        obstacle_distance_m(world, id, pose.floor, t_s, |sh| sh.segment_distance_m(hand, tip))
     };
     distance(CANE_PROBE_RAD) <= distance(-CANE_PROBE_RAD)
+}
+
+/// Smallest `distance` to any shape of obstacle `id` on `floor` at `t_s`, metres.
+fn obstacle_distance_m(world: &World, id: ObstacleId, floor: i32, t_s: f64, distance: impl Fn(&Shape) -> f64) -> f64 {
+    world.obstacles_at(floor, t_s).filter(|(i, _)| *i == id).map(|(_, sh)| distance(&sh)).fold(f64::INFINITY, f64::min)
 }
 
 #[allow(clippy::too_many_arguments)]
