@@ -278,6 +278,18 @@ fn a_step_corner_beside_the_path_is_steered_round_and_remembered() {
     assert_eq!(unwarned(true), (0, 0), "edges in the costs and the memory: never touched");
 }
 
+#[test]
+fn a_user_turning_at_a_step_edge_is_never_told_clear_along_it() {
+    // seed 4 follows the sound to the sunken area's north edge, is stopped there with
+    // the feet 1 cm from it and turns in place. The edge under the feet was never in
+    // view (the view begins 0.72 m ahead) and only the far floor of the area was seen:
+    // facing along the edge it was "clear", and 60.3 s in the user stepped off it.
+    let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
+    let out = walk(&w, &quick(64.0), 4);
+    let drop: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body && c.kind == "DropOff").collect();
+    assert!(drop.is_empty(), "{drop:?}");
+}
+
 /// An open floor with a wall across the way at `x_m`, from `y_from_m` to `y_to_m`; the
 /// goal's sound comes from x = 9.
 fn wall_across(name: &str, x_m: f64, y_from_m: f64, y_to_m: f64) -> World {

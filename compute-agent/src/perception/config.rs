@@ -121,11 +121,12 @@ impl PerceptionConfig {
         c.positive("memory.forget_after_m", m.forget_after_m);
         let d = &self.dropoff;
         c.positive("dropoff.min_drop_m", d.min_drop_m);
-        c.positive("dropoff.lookahead_m", d.lookahead_m);
+        c.above_within("dropoff.lookahead_m", d.lookahead_m, 0.0, 10.0);
         c.positive("dropoff.path_width_m", d.path_width_m);
         c.above_within("dropoff.min_fraction", d.min_fraction, 0.0, 1.0);
         c.at_least("dropoff.min_samples", d.min_samples as f32, 1.0);
         c.within("dropoff.edge_max_tilt_deg", d.edge_max_tilt_deg, 0.0, 90.0);
+        c.within("dropoff.feet_behind_camera_m", d.feet_behind_camera_m, 0.0, 1.0);
         let t = &self.ttc;
         c.positive("ttc.path_width_m", t.path_width_m);
         c.positive("ttc.min_closing_speed_m_s", t.min_closing_speed_m_s);
@@ -503,12 +504,17 @@ pub struct DropoffConfig {
     /// Also hand the edge of lower ground anywhere in view (up to `lookahead_m`) to the
     /// cost functions and the memory, as obstacle points on the floor (see
     /// `dropoff::edges`): a step's corner beside the path is steered round and kept
-    /// once out of view.
+    /// once out of view. With it, the floor below the view before lower ground that
+    /// begins at the view's bottom counts as lower unless it was seen as floor.
     pub edges: bool,
     /// Edges only on a ground plane within this of gravity's up, degrees (the sim's IMU
     /// has 0.5 degrees of noise per axis; 99.9 % of the planes found on `taylor-course`
     /// are within 2 degrees).
     pub edge_max_tilt_deg: f32,
+    /// How far behind the camera the user's feet stand, metres (a cane camera: the
+    /// hand 0.25 m ahead of the body, the camera 0.15 m down the cane). The unseen
+    /// floor that may be lower reaches back to them.
+    pub feet_behind_camera_m: f32,
 }
 
 impl Default for DropoffConfig {
@@ -522,6 +528,7 @@ impl Default for DropoffConfig {
             min_samples: 80,
             edges: true,
             edge_max_tilt_deg: 3.0,
+            feet_behind_camera_m: 0.35,
         }
     }
 }
@@ -622,5 +629,14 @@ mod tests {
             ConfigError::OutOfRange { field, .. } if field == "ground.max_step_down_m"
         ));
         assert!(matches!(err("stride_px = \"two\"\n"), ConfigError::Syntax(_)));
+        // the drop-off's floor grid is sized by its look-ahead: 1 km would take gigabytes
+        assert_eq!(
+            err("[dropoff]\nlookahead_m = 1000.0\n").to_string(),
+            "dropoff.lookahead_m = 1000: must be above 0 and at most 10"
+        );
+        assert!(matches!(
+            err("[dropoff]\nfeet_behind_camera_m = -0.3\n"),
+            ConfigError::OutOfRange { field, .. } if field == "dropoff.feet_behind_camera_m"
+        ));
     }
 }

@@ -278,7 +278,9 @@ pub struct Pipeline {
     closing: ClosingSpeed,
     debounce: RumbleDebounce,
     cost_points: Vec<[f32; 2]>,
-    edge_points: Vec<[f32; 2]>,
+    // this frame's edges of lower ground; the memory adds the unseen floor that may be
+    // lower to `lower.edge`
+    lower: dropoff::LowerGround,
     /// Motion since the last frame that got as far as the memory: a frame refused
     /// earlier passes its motion on, so what is remembered stays where it is.
     unapplied: Option<Motion>,
@@ -300,7 +302,7 @@ impl Pipeline {
             closing: ClosingSpeed::default(),
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
-            edge_points: Vec::new(),
+            lower: dropoff::LowerGround::default(),
             unapplied: None,
             out: Perception::empty(),
         }
@@ -370,9 +372,16 @@ impl Pipeline {
         timer.stop();
 
         timer.start("dropoff");
-        self.edge_points.clear();
+        self.lower.clear();
         if cfg.dropoff.enabled && cfg.dropoff.edges {
-            dropoff::edges(&self.cloud, &frame, gravity, &cfg.dropoff, &mut self.edge_points);
+            dropoff::edges(&self.cloud, &frame, gravity, &cfg.dropoff, &mut self.lower);
+            if decision.state != GroundState::Found {
+                // a plane kept from an earlier frame is a few centimetres off as the
+                // cane moves: the whole floor reads as lower, and guessing the unseen
+                // floor from it walled a user in at a wall (`step-down`, assisted, seed 39)
+                self.lower.unseen.clear();
+                self.lower.floor.clear();
+            }
         }
         out.path_ground = if cfg.dropoff.enabled {
             dropoff::survey(&self.cloud, &frame, &cfg.dropoff)
@@ -401,13 +410,17 @@ impl Pipeline {
                 .iter()
                 .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h))
                 .map(|(p, h)| [p[0], p[1], h])
-                .chain(self.edge_points.iter().map(|p| [p[0], p[1], 0.0]));
+                .chain(self.lower.edge.iter().map(|p| [p[0], p[1], 0.0]));
             self.memory.update(ctx.stamp_ns, motion, &cone, seen, &cfg.memory);
-            self.cost_points.extend_from_slice(&self.edge_points);
+            let lower = &mut self.lower;
+            self.memory.unseen_lower(ctx.stamp_ns, &lower.floor, &lower.unseen, &cfg.memory, &mut lower.edge);
+            self.cost_points.extend_from_slice(&lower.edge);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
         } else {
-            self.cost_points.extend_from_slice(&self.edge_points);
+            // nothing tells the floor walked towards from floor never seen: all of it
+            self.cost_points.extend_from_slice(&self.lower.edge);
+            self.cost_points.extend_from_slice(&self.lower.unseen);
             out.remembered = 0;
         }
         timer.stop();

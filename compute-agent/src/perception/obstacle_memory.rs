@@ -27,6 +27,15 @@ use std::f32::consts::PI;
 use super::config::MemoryConfig;
 use super::Motion;
 
+/// Floor seen stays floor (unlike a person, it does not move off): it is kept this long,
+/// nanoseconds, while within the memory's radius. A user stopped before a drop, turning
+/// in place for more than the obstacles' 10 s, still knows the floor walked over.
+const FLOOR_TTL_NS: u64 = 60_000_000_000;
+
+/// The floor seen is pruned (by age and distance) this often, nanoseconds: a walk of a
+/// minute holds thousands of cells, too many to visit every frame.
+const FLOOR_PRUNE_NS: u64 = 1_000_000_000;
+
 /// Where the camera can see this frame, in user terms.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewCone {
@@ -78,6 +87,9 @@ pub struct ObstacleMemory {
     // user pose in the odometry frame: x, y, heading
     pose: [f64; 3],
     cells: HashMap<(i64, i64), Cell>,
+    // cells of the odometry frame where the floor plane was seen, and when
+    floor_seen: HashMap<(i64, i64), u64>,
+    floor_pruned_ns: u64,
     nearest_by_degree: Vec<f32>,
     /// Remembered obstacles out of view this frame, user `(x, y)`, one per degree of
     /// bearing (the nearest cell covering it), like the scan's own density.
@@ -146,15 +158,73 @@ impl ObstacleMemory {
                 self.out_of_view.push([r * b.cos(), r * b.sin()]);
             }
         }
-        let cell_m = f64::from(cfg.cell_m.max(0.01));
         for [x, y, h] in scan_obstacles {
             if !(x.is_finite() && y.is_finite() && h.is_finite()) || x.hypot(y) > cfg.radius_m {
                 continue;
             }
-            let (xf, yf) = (f64::from(x), f64::from(y));
-            let (ox, oy) = (px + c * xf - s * yf, py + s * xf + c * yf);
-            let key = ((ox / cell_m).round() as i64, (oy / cell_m).round() as i64);
+            let (key, [ox, oy]) = self.cell_of(x, y, cfg);
             self.cells.insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: h });
+        }
+    }
+
+    /// The cell of the odometry frame holding user point `(x, y)`, and the point there.
+    fn cell_of(&self, x: f32, y: f32, cfg: &MemoryConfig) -> ((i64, i64), [f64; 2]) {
+        let [px, py, yaw] = self.pose;
+        let (s, c) = yaw.sin_cos();
+        let (xf, yf) = (f64::from(x), f64::from(y));
+        let (ox, oy) = (px + c * xf - s * yf, py + s * xf + c * yf);
+        let cell_m = f64::from(cfg.cell_m.max(0.01));
+        (((ox / cell_m).round() as i64, (oy / cell_m).round() as i64), [ox, oy])
+    }
+
+    /// After [`Self::update`] of this frame: of the `unseen` floor that may be lower
+    /// (see [`super::dropoff::LowerGround::unseen`]), appends to `out` and remembers
+    /// (at floor height) the points the floor was not seen at (within `FLOOR_TTL_NS`
+    /// and the memory's radius); then
+    /// notes this frame's `floor` returns. A user walking up to a sunken area saw the
+    /// floor before its edge as it came: that floor is no drop; floor never seen beside
+    /// it may be.
+    pub fn unseen_lower(
+        &mut self,
+        stamp_ns: u64,
+        floor: &[[f32; 2]],
+        unseen: &[[f32; 2]],
+        cfg: &MemoryConfig,
+        out: &mut Vec<[f32; 2]>,
+    ) {
+        if stamp_ns.abs_diff(self.floor_pruned_ns) >= FLOOR_PRUNE_NS {
+            let [px, py, _] = self.pose;
+            let cell_m = f64::from(cfg.cell_m.max(0.01));
+            let radius_m = f64::from(cfg.radius_m);
+            self.floor_seen.retain(|&(i, j), seen_ns| {
+                let near = (i as f64 * cell_m - px).hypot(j as f64 * cell_m - py) <= radius_m;
+                near && stamp_ns.abs_diff(*seen_ns) <= FLOOR_TTL_NS
+            });
+            self.floor_pruned_ns = stamp_ns;
+        }
+        for &[x, y] in unseen {
+            if !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
+            let (key, [ox, oy]) = self.cell_of(x, y, cfg);
+            if self.floor_seen.contains_key(&key) {
+                continue;
+            }
+            out.push([x, y]);
+            self.cells
+                .insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: 0.0 });
+        }
+        let mut last = None;
+        for &[x, y] in floor {
+            if !(x.is_finite() && y.is_finite()) || x.hypot(y) > cfg.radius_m {
+                continue;
+            }
+            let (key, _) = self.cell_of(x, y, cfg);
+            // neighbouring returns mostly share a cell: hash each run once
+            if last != Some(key) {
+                self.floor_seen.insert(key, stamp_ns);
+                last = Some(key);
+            }
         }
     }
 }
@@ -280,6 +350,40 @@ mod tests {
             w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty(), &cfg);
         }
         assert!(w.out_of_view.is_empty());
+    }
+
+    #[test]
+    fn unseen_floor_that_may_be_lower_is_kept_unless_the_floor_was_seen_there() {
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        let mut out = Vec::new();
+        // walking up, the floor 1 m ahead was seen (the strip x 0.95..1.05, y -0.3..0.3)
+        let floor: Vec<[f32; 2]> = (-6..=6).map(|k| [1.0, 0.05 * k as f32]).collect();
+        m.update(0, None, &view(), std::iter::empty(), &cfg);
+        m.unseen_lower(0, &floor, &[], &cfg, &mut out);
+        assert!(out.is_empty());
+        // 0.6 m on, lower ground fills the bottom of the view: the floor under it may
+        // be lower, except where it was seen (now 0.4 m ahead)
+        let on = Motion { forward_m: 0.6, left_m: 0.0, yaw_rad: 0.0 };
+        m.update(FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        let unseen = [[0.4, 0.0], [0.4, 0.2], [0.3, 0.0], [0.4, -0.6]];
+        m.unseen_lower(FRAME_NS, &[], &unseen, &cfg, &mut out);
+        assert_eq!(out, vec![[0.3, 0.0], [0.4, -0.6]]);
+        // and both are remembered once the user turns away
+        let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 90f32.to_radians() };
+        m.update(2 * FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
+        let near = |p: [f32; 2]| m.out_of_view.iter().any(|q| (q[0] - p[0]).hypot(q[1] - p[1]) < 0.05);
+        assert!(near([0.0, -0.3]) && near([-0.6, -0.4]), "{:?}", m.out_of_view);
+        // the floor seen (now on the right) outlasts the obstacles' time to live, and is
+        // forgotten after its own
+        let seen_floor = [[0.0, -0.4]];
+        out.clear();
+        m.update(cfg.ttl_ns + 1, None, &view(), std::iter::empty(), &cfg);
+        m.unseen_lower(cfg.ttl_ns + 1, &[], &seen_floor, &cfg, &mut out);
+        assert!(out.is_empty(), "{out:?}");
+        m.update(FLOOR_TTL_NS + 1, None, &view(), std::iter::empty(), &cfg);
+        m.unseen_lower(FLOOR_TTL_NS + 1, &[], &seen_floor, &cfg, &mut out);
+        assert_eq!(out, seen_floor);
     }
 
     #[test]
