@@ -61,7 +61,9 @@ async fn camera_that_stops_delivering_is_reported_stalled_within_500_ms() {
     let release = Arc::new(AtomicBool::new(false));
     let camera = HangingCamera {
         inner: source::open("sim:approach", &SourceOptions::default()).expect("built-in world"),
-        frames: 45,
+        // 3 s of frames: the watcher, connecting while they flow, missed the first
+        // 30 of 45 (1 s) on a machine loaded with other work
+        frames: 90,
         release: release.clone(),
     };
     let shutdown = Shutdown::new();
