@@ -103,13 +103,16 @@ const VIEW_EDGE_MARGIN_M: f32 = 0.05;
 /// on a false ground (a seat; at 10 degrees pitch the tracker now and then holds a
 /// plane 0.3 m under the camera), and guessing from it filled the path to the toes on
 /// a flat course (`wearnav course --pitch-deg 10`, FICF, 20 walks: 5.15 -> 5.60 cane
-/// contacts a walk).
-/// A deeper drop is still an edge, and the survey's stop.
+/// contacts a walk). A deeper drop is still an edge, and the survey's stop.
 const UNSEEN_MAX_DROP_M: f32 = 0.3;
 
 /// Spacing of the points that fill the unseen floor between the user and lower ground
 /// starting at the bottom of the view, metres (the memory's cell).
 const UNSEEN_STEP_M: f32 = 0.1;
+
+/// Nearest of those points along the degree, metres; from there they head for the
+/// toes.
+const UNSEEN_MIN_M: f32 = 0.2;
 
 /// How far ahead of the feet the toes reach, metres: the feet stand on the floor, so
 /// the unseen floor that may be lower stops there.
@@ -118,10 +121,6 @@ const TOES_M: f32 = 0.15;
 /// Side of the squares the floor returns are thinned to, metres (half the memory's
 /// 10 cm cell, so every cell the floor was seen in gets one).
 const FLOOR_GRID_M: f32 = 0.05;
-
-/// Nearest of those points, metres: the feet stand on the floor, so the edge is no
-/// nearer than this.
-const UNSEEN_MIN_M: f32 = 0.2;
 
 /// What [`edges`] found, user frame `(x forward, y left)`, metres.
 #[derive(Debug, Default, Clone, PartialEq)]

@@ -158,32 +158,35 @@ impl ObstacleMemory {
                 self.out_of_view.push([r * b.cos(), r * b.sin()]);
             }
         }
+        let cell_of = self.cells_at_pose(cfg);
         for [x, y, h] in scan_obstacles {
             if !(x.is_finite() && y.is_finite() && h.is_finite()) || x.hypot(y) > cfg.radius_m {
                 continue;
             }
-            let (key, [ox, oy]) = self.cell_of(x, y, cfg);
+            let (key, [ox, oy]) = cell_of(x, y);
             self.cells.insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: h });
         }
     }
 
-    /// The cell of the odometry frame holding user point `(x, y)`, and the point there.
-    fn cell_of(&self, x: f32, y: f32, cfg: &MemoryConfig) -> ((i64, i64), [f64; 2]) {
+    /// For this frame's pose: the cell of the odometry frame holding user point
+    /// `(x, y)`, and the point there (the pose's turn worked out once, not per point).
+    fn cells_at_pose(&self, cfg: &MemoryConfig) -> impl Fn(f32, f32) -> ((i64, i64), [f64; 2]) {
         let [px, py, yaw] = self.pose;
         let (s, c) = yaw.sin_cos();
-        let (xf, yf) = (f64::from(x), f64::from(y));
-        let (ox, oy) = (px + c * xf - s * yf, py + s * xf + c * yf);
         let cell_m = f64::from(cfg.cell_m.max(0.01));
-        (((ox / cell_m).round() as i64, (oy / cell_m).round() as i64), [ox, oy])
+        move |x, y| {
+            let (xf, yf) = (f64::from(x), f64::from(y));
+            let (ox, oy) = (px + c * xf - s * yf, py + s * xf + c * yf);
+            (((ox / cell_m).round() as i64, (oy / cell_m).round() as i64), [ox, oy])
+        }
     }
 
     /// After [`Self::update`] of this frame: of the `unseen` floor that may be lower
     /// (see [`super::dropoff::LowerGround::unseen`]), appends to `out` and remembers
     /// (at floor height) the points the floor was not seen at (within `FLOOR_TTL_NS`
-    /// and the memory's radius); then
-    /// notes this frame's `floor` returns. A user walking up to a sunken area saw the
-    /// floor before its edge as it came: that floor is no drop; floor never seen beside
-    /// it may be.
+    /// and the memory's radius); then notes this frame's `floor` returns. A user
+    /// walking up to a sunken area saw the floor before its edge as it came: that floor
+    /// is no drop; floor never seen beside it may be.
     pub fn unseen_lower(
         &mut self,
         stamp_ns: u64,
@@ -202,11 +205,12 @@ impl ObstacleMemory {
             });
             self.floor_pruned_ns = stamp_ns;
         }
+        let cell_of = self.cells_at_pose(cfg);
         for &[x, y] in unseen {
             if !(x.is_finite() && y.is_finite()) {
                 continue;
             }
-            let (key, [ox, oy]) = self.cell_of(x, y, cfg);
+            let (key, [ox, oy]) = cell_of(x, y);
             if self.floor_seen.contains_key(&key) {
                 continue;
             }
@@ -219,7 +223,7 @@ impl ObstacleMemory {
             if !(x.is_finite() && y.is_finite()) || x.hypot(y) > cfg.radius_m {
                 continue;
             }
-            let (key, _) = self.cell_of(x, y, cfg);
+            let (key, _) = cell_of(x, y);
             // neighbouring returns mostly share a cell: hash each run once
             if last != Some(key) {
                 self.floor_seen.insert(key, stamp_ns);
