@@ -284,10 +284,16 @@ fn a_user_turning_at_a_step_edge_is_never_told_clear_along_it() {
     // the feet 1 cm from it and turns in place. The edge under the feet was never in
     // view (the view begins 0.72 m ahead) and only the far floor of the area was seen:
     // facing along the edge it was "clear", and 60.3 s in the user stepped off it.
+    // Seed 18 is stopped with the feet 4 cm from the area's north-west corner, turns in
+    // place and faces south-west, off the corner: the corner lies between the feet and
+    // the camera, where the cost functions do not look (they take what lies ahead of
+    // the camera), and 55.7 s in the user stepped off it with nothing felt.
     let w = World::builtin("step-down").and_then(Result::ok).unwrap_or_else(|| panic!("step-down"));
-    let out = walk(&w, &quick(64.0), 4);
-    let drop: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body && c.kind == "DropOff").collect();
-    assert!(drop.is_empty(), "{drop:?}");
+    for (seed, timeout_s) in [(4, 64.0), (18, 58.0)] {
+        let out = walk(&w, &quick(timeout_s), seed);
+        let drop: Vec<_> = out.contacts.iter().filter(|c| c.part == Part::Body && c.kind == "DropOff").collect();
+        assert!(drop.is_empty(), "seed {seed}: {drop:?}");
+    }
 }
 
 /// An open floor with a wall across the way at `x_m`, from `y_from_m` to `y_to_m`; the

@@ -118,6 +118,29 @@ const UNSEEN_MIN_M: f32 = 0.2;
 /// the unseen floor that may be lower stops there.
 const TOES_M: f32 = 0.15;
 
+/// The floor the next step lands on begins this far ahead of the feet, metres (the
+/// feet's own floor is stood on): from there to the camera, where the cost functions'
+/// view begins, nothing but this check watches it.
+const STEP_FROM_M: f32 = 0.1;
+
+/// Half the width of that floor, metres (the feet, a shoulder width apart at most).
+const STEP_HALF_WIDTH_M: f32 = 0.2;
+
+/// The floor between the feet and the camera that the next step lands on, user frame:
+/// `x` from `.0` to `.1` (at most 0: the camera), `|y|` up to `.2`, metres. The cost
+/// functions take only what lies ahead of the camera, so lower ground here (a user
+/// who turned in place at a step's edge and faces along it, or off its corner) would
+/// otherwise be walked onto unwarned.
+pub fn step_zone(cfg: &DropoffConfig) -> (f32, f32, f32) {
+    ((STEP_FROM_M - cfg.feet_behind_camera_m).min(0.0), 0.0, STEP_HALF_WIDTH_M)
+}
+
+/// Whether any of `points` (user frame) lies in [`step_zone`].
+pub fn in_step_zone<'a>(points: impl IntoIterator<Item = &'a [f32; 2]>, cfg: &DropoffConfig) -> bool {
+    let (from, to, half) = step_zone(cfg);
+    points.into_iter().any(|p| (from..=to).contains(&p[0]) && p[1].abs() <= half)
+}
+
 /// Side of the squares the floor returns are thinned to, metres (half the memory's
 /// 10 cm cell, so every cell the floor was seen in gets one).
 const FLOOR_GRID_M: f32 = 0.05;

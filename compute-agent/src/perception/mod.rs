@@ -211,7 +211,8 @@ pub struct Perception {
     /// Time to collision with the nearest obstacle in the path when it moves towards the
     /// user (its own motion, odometry taken out), seconds.
     pub ttc_s: Option<f32>,
-    /// Ground ahead missing or lower than the plane.
+    /// Ground ahead missing or lower than the plane, or lower ground (seen or guessed,
+    /// see `dropoff::step_zone`) on the floor between the feet and the camera.
     pub dropoff_ahead: bool,
     /// What the rays into the path ahead found (drop-off evidence).
     pub path_ground: PathGround,
@@ -417,11 +418,16 @@ impl Pipeline {
             self.cost_points.extend_from_slice(&lower.edge);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
+            if cfg.dropoff.enabled && cfg.dropoff.edges {
+                let (from, to, half) = dropoff::step_zone(&cfg.dropoff);
+                out.dropoff_ahead |= self.memory.lower_ground_in(from, to, half);
+            }
         } else {
             // nothing tells the floor walked towards from floor never seen: all of it
             self.cost_points.extend_from_slice(&self.lower.edge);
             self.cost_points.extend_from_slice(&self.lower.unseen);
             out.remembered = 0;
+            out.dropoff_ahead |= dropoff::in_step_zone(self.lower.edge.iter().chain(&self.lower.unseen), &cfg.dropoff);
         }
         timer.stop();
 

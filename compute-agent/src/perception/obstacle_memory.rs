@@ -181,6 +181,19 @@ impl ObstacleMemory {
         }
     }
 
+    /// Whether remembered lower ground lies in the user-frame box `x` in `from_m..=to_m`,
+    /// `|y| <= half_width_m`: drop edges and floor that may be lower, the cells kept at
+    /// floor height (obstacles are kept at their height above the floor, always above 0).
+    pub fn lower_ground_in(&self, from_m: f32, to_m: f32, half_width_m: f32) -> bool {
+        let [px, py, yaw] = self.pose;
+        let (s, c) = yaw.sin_cos();
+        self.cells.values().filter(|cell| cell.height_m <= 0.0).any(|cell| {
+            let (dx, dy) = (cell.x_m - px, cell.y_m - py);
+            let (x, y) = ((c * dx + s * dy) as f32, (-s * dx + c * dy) as f32);
+            (from_m..=to_m).contains(&x) && y.abs() <= half_width_m
+        })
+    }
+
     /// After [`Self::update`] of this frame: of the `unseen` floor that may be lower
     /// (see [`super::dropoff::LowerGround::unseen`]), appends to `out` and remembers
     /// (at floor height) the points the floor was not seen at (within `FLOOR_TTL_NS`
@@ -388,6 +401,30 @@ mod tests {
         m.update(FLOOR_TTL_NS + 1, None, &view(), std::iter::empty(), &cfg);
         m.unseen_lower(FLOOR_TTL_NS + 1, &[], &seen_floor, &cfg, &mut out);
         assert_eq!(out, seen_floor);
+    }
+
+    #[test]
+    fn lower_ground_before_the_camera_is_told_until_the_user_turns_away_from_it() {
+        let cfg = MemoryConfig::default();
+        // the box between the feet (0.35 m behind the camera) and the camera
+        let (from, to, half) = (-0.25, 0.0, 0.2);
+        let mut m = ObstacleMemory::default();
+        m.update(0, None, &view(), std::iter::empty(), &cfg);
+        let mut out = Vec::new();
+        // the floor 0.25 m ahead of the feet may be lower
+        m.unseen_lower(0, &[], &[[-0.1, 0.05]], &cfg, &mut out);
+        assert!(m.lower_ground_in(from, to, half));
+        assert!(!m.lower_ground_in(from, to, 0.01), "0.05 m to the left");
+        // turned round in place (the camera swings 0.7 m back round the feet): behind
+        let turn = Motion { forward_m: -0.7, left_m: 0.0, yaw_rad: PI };
+        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
+        assert!(!m.lower_ground_in(from, to, half));
+        assert!(m.lower_ground_in(-0.65, -0.55, half), "still remembered, 0.25 m behind the feet");
+        // an obstacle there is no lower ground: the costs and the body see to it
+        let mut bag = ObstacleMemory::default();
+        bag.update(0, None, &view(), [[-0.1, 0.05, 0.3]].into_iter(), &cfg);
+        assert_eq!(bag.len(), 1);
+        assert!(!bag.lower_ground_in(from, to, half));
     }
 
     #[test]
