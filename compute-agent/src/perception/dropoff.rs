@@ -398,4 +398,20 @@ mod tests {
         edges(&cloud, &frame, gravity, &DropoffConfig::default(), &mut out);
         assert!(out.edge.is_empty() && out.unseen.is_empty(), "tilted plane: {} edge points", out.edge.len());
     }
+
+    #[test]
+    fn the_step_zone_runs_from_just_ahead_of_the_feet_to_the_camera() {
+        let cfg = DropoffConfig::default();
+        assert_eq!(step_zone(&cfg), (0.1 - cfg.feet_behind_camera_m, 0.0, 0.2));
+        // the toes' guess (0.15 m ahead of the feet) is in it, the feet's own floor and
+        // what lies ahead of the camera (the costs' own) are not, nor floor beside the feet
+        let toes = [0.15 - cfg.feet_behind_camera_m, 0.0];
+        assert!(in_step_zone(&[toes], &cfg));
+        assert!(!in_step_zone(&[[0.05 - cfg.feet_behind_camera_m, 0.0]], &cfg));
+        assert!(!in_step_zone(&[[0.05, 0.0], [-0.1, 0.25], [-0.1, -0.25]], &cfg));
+        // a camera 5 cm ahead of the feet: no floor the next step lands on lies before it
+        let near = DropoffConfig { feet_behind_camera_m: 0.05, ..cfg };
+        assert_eq!(step_zone(&near).0, 0.0);
+        assert!(!in_step_zone(&[toes, [-0.01, 0.0]], &near));
+    }
 }
