@@ -8,7 +8,8 @@
 use std::path::Path;
 use std::time::Instant;
 
-use compute_agent::perception::config::MemoryConfig;
+use compute_agent::perception::config::{DropoffConfig, MemoryConfig};
+use compute_agent::perception::dropoff::StepZone;
 use compute_agent::perception::obstacle_memory::{ObstacleMemory, ViewCone};
 use compute_agent::perception::synthetic_scene::{Block, Scene};
 use compute_agent::perception::{
@@ -189,6 +190,7 @@ fn memory_bench(runs: usize) {
         range_max_m: 4.0,
     };
     let mut memory = ObstacleMemory::default();
+    let zone = StepZone::new(&DropoffConfig::default());
     let frames = 300 + runs;
     let mut times = Vec::with_capacity(runs);
     let sweep = |k: usize| 17f32.to_radians() * (std::f32::consts::TAU * 0.7 * k as f32 / 30.0).sin();
@@ -204,7 +206,7 @@ fn memory_bench(runs: usize) {
         memory.update(k as u64 * 33_333_333, Some(motion), &view, scan, &cfg);
         let t1 = Instant::now();
         // every cell is looked at: none is lower ground here
-        std::hint::black_box(memory.lower_ground_in(-0.25, 0.0, 0.2));
+        std::hint::black_box(memory.lower_ground_where(|p| zone.contains(p)));
         if k > 300 {
             times.push(((t1 - t0).as_secs_f64() * 1e3, t1.elapsed().as_secs_f64() * 1e3));
         }

@@ -126,19 +126,30 @@ const STEP_FROM_M: f32 = 0.1;
 /// Half the width of that floor, metres (the feet, a shoulder width apart at most).
 const STEP_HALF_WIDTH_M: f32 = 0.2;
 
-/// The floor between the feet and the camera that the next step lands on, user frame:
-/// `x` from `.0` to `.1` (at most 0: the camera), `|y|` up to `.2`, metres. The cost
-/// functions take only what lies ahead of the camera, so lower ground here (a user
-/// who turned in place at a step's edge and faces along it, or off its corner) would
-/// otherwise be walked onto unwarned.
-pub fn step_zone(cfg: &DropoffConfig) -> (f32, f32, f32) {
-    ((STEP_FROM_M - cfg.feet_behind_camera_m).min(0.0), 0.0, STEP_HALF_WIDTH_M)
+/// The floor between the feet and the camera that the next step lands on, user frame.
+/// The cost functions take only what lies ahead of the camera, so lower ground here (a
+/// user who turned in place at a step's edge and faces along it, or off its corner)
+/// would otherwise be walked onto unwarned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepZone {
+    /// Where it begins, `x` metres (behind the camera: negative).
+    pub from_m: f32,
+    /// Where it ends, `x` metres (at most 0: the camera).
+    pub to_m: f32,
+    /// Half its width, metres.
+    pub half_width_m: f32,
 }
 
-/// Whether any of `points` (user frame) lies in [`step_zone`].
-pub fn in_step_zone<'a>(points: impl IntoIterator<Item = &'a [f32; 2]>, cfg: &DropoffConfig) -> bool {
-    let (from, to, half) = step_zone(cfg);
-    points.into_iter().any(|p| (from..=to).contains(&p[0]) && p[1].abs() <= half)
+impl StepZone {
+    /// The zone for feet `cfg.feet_behind_camera_m` behind the camera.
+    pub fn new(cfg: &DropoffConfig) -> Self {
+        Self { from_m: (STEP_FROM_M - cfg.feet_behind_camera_m).min(0.0), to_m: 0.0, half_width_m: STEP_HALF_WIDTH_M }
+    }
+
+    /// Whether user point `p` lies in it.
+    pub fn contains(&self, p: [f32; 2]) -> bool {
+        (self.from_m..=self.to_m).contains(&p[0]) && p[1].abs() <= self.half_width_m
+    }
 }
 
 /// Side of the squares the floor returns are thinned to, metres (half the memory's
@@ -402,16 +413,17 @@ mod tests {
     #[test]
     fn the_step_zone_runs_from_just_ahead_of_the_feet_to_the_camera() {
         let cfg = DropoffConfig::default();
-        assert_eq!(step_zone(&cfg), (0.1 - cfg.feet_behind_camera_m, 0.0, 0.2));
+        let zone = StepZone::new(&cfg);
+        assert_eq!((zone.from_m, zone.to_m, zone.half_width_m), (0.1 - cfg.feet_behind_camera_m, 0.0, 0.2));
         // the toes' guess (0.15 m ahead of the feet) is in it, the feet's own floor and
         // what lies ahead of the camera (the costs' own) are not, nor floor beside the feet
         let toes = [0.15 - cfg.feet_behind_camera_m, 0.0];
-        assert!(in_step_zone(&[toes], &cfg));
-        assert!(!in_step_zone(&[[0.05 - cfg.feet_behind_camera_m, 0.0]], &cfg));
-        assert!(!in_step_zone(&[[0.05, 0.0], [-0.1, 0.25], [-0.1, -0.25]], &cfg));
+        assert!(zone.contains(toes));
+        assert!(!zone.contains([0.05 - cfg.feet_behind_camera_m, 0.0]));
+        assert!(![[0.05, 0.0], [-0.1, 0.25], [-0.1, -0.25]].into_iter().any(|p| zone.contains(p)));
         // a camera 5 cm ahead of the feet: no floor the next step lands on lies before it
-        let near = DropoffConfig { feet_behind_camera_m: 0.05, ..cfg };
-        assert_eq!(step_zone(&near).0, 0.0);
-        assert!(!in_step_zone(&[toes, [-0.01, 0.0]], &near));
+        let near = StepZone::new(&DropoffConfig { feet_behind_camera_m: 0.05, ..cfg });
+        assert_eq!(near.from_m, 0.0);
+        assert!(!near.contains(toes) && !near.contains([-0.01, 0.0]));
     }
 }

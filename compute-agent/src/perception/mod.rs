@@ -212,7 +212,7 @@ pub struct Perception {
     /// user (its own motion, odometry taken out), seconds.
     pub ttc_s: Option<f32>,
     /// Ground ahead missing or lower than the plane, or lower ground (seen or guessed,
-    /// see `dropoff::step_zone`) on the floor between the feet and the camera.
+    /// see `dropoff::StepZone`) on the floor between the feet and the camera.
     pub dropoff_ahead: bool,
     /// What the rays into the path ahead found (drop-off evidence).
     pub path_ground: PathGround,
@@ -419,15 +419,16 @@ impl Pipeline {
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
             out.remembered = self.memory.out_of_view.len();
             if cfg.dropoff.enabled && cfg.dropoff.edges {
-                let (from, to, half) = dropoff::step_zone(&cfg.dropoff);
-                out.dropoff_ahead |= self.memory.lower_ground_in(from, to, half);
+                let zone = dropoff::StepZone::new(&cfg.dropoff);
+                out.dropoff_ahead |= self.memory.lower_ground_where(|p| zone.contains(p));
             }
         } else {
             // nothing tells the floor walked towards from floor never seen: all of it
             self.cost_points.extend_from_slice(&self.lower.edge);
             self.cost_points.extend_from_slice(&self.lower.unseen);
             out.remembered = 0;
-            out.dropoff_ahead |= dropoff::in_step_zone(self.lower.edge.iter().chain(&self.lower.unseen), &cfg.dropoff);
+            let zone = dropoff::StepZone::new(&cfg.dropoff);
+            out.dropoff_ahead |= self.lower.edge.iter().chain(&self.lower.unseen).any(|&p| zone.contains(p));
         }
         timer.stop();
 

@@ -124,12 +124,7 @@ impl ObstacleMemory {
             let (f, l) = (f64::from(m.forward_m), f64::from(m.left_m));
             self.pose = [px + c * f - s * l, py + s * f + c * l, yaw + f64::from(m.yaw_rad)];
         }
-        let [px, py, yaw] = self.pose;
-        let (s, c) = yaw.sin_cos();
-        let to_user = |x: f64, y: f64| {
-            let (dx, dy) = (x - px, y - py);
-            [(c * dx + s * dy) as f32, (-s * dx + c * dy) as f32]
-        };
+        let to_user = self.user_at_pose();
         self.nearest_by_degree.clear();
         self.nearest_by_degree.resize(360, f32::INFINITY);
         let nearest = &mut self.nearest_by_degree;
@@ -168,6 +163,16 @@ impl ObstacleMemory {
         }
     }
 
+    /// For this frame's pose: odometry point `(x, y)` in the user frame.
+    fn user_at_pose(&self) -> impl Fn(f64, f64) -> [f32; 2] {
+        let [px, py, yaw] = self.pose;
+        let (s, c) = yaw.sin_cos();
+        move |x, y| {
+            let (dx, dy) = (x - px, y - py);
+            [(c * dx + s * dy) as f32, (-s * dx + c * dy) as f32]
+        }
+    }
+
     /// For this frame's pose: the cell of the odometry frame holding user point
     /// `(x, y)`, and the point there (the pose's turn worked out once, not per point).
     fn cells_at_pose(&self, cfg: &MemoryConfig) -> impl Fn(f32, f32) -> ((i64, i64), [f64; 2]) {
@@ -181,17 +186,12 @@ impl ObstacleMemory {
         }
     }
 
-    /// Whether remembered lower ground lies in the user-frame box `x` in `from_m..=to_m`,
-    /// `|y| <= half_width_m`: drop edges and floor that may be lower, the cells kept at
-    /// floor height (obstacles are kept at their height above the floor, always above 0).
-    pub fn lower_ground_in(&self, from_m: f32, to_m: f32, half_width_m: f32) -> bool {
-        let [px, py, yaw] = self.pose;
-        let (s, c) = yaw.sin_cos();
-        self.cells.values().filter(|cell| cell.height_m <= 0.0).any(|cell| {
-            let (dx, dy) = (cell.x_m - px, cell.y_m - py);
-            let (x, y) = ((c * dx + s * dy) as f32, (-s * dx + c * dy) as f32);
-            (from_m..=to_m).contains(&x) && y.abs() <= half_width_m
-        })
+    /// Whether remembered lower ground lies where `inside` says (user frame): drop edges
+    /// and floor that may be lower, the cells kept at floor height (obstacles are kept
+    /// at their height above the floor, always above 0).
+    pub fn lower_ground_where(&self, inside: impl Fn([f32; 2]) -> bool) -> bool {
+        let to_user = self.user_at_pose();
+        self.cells.values().filter(|cell| cell.height_m <= 0.0).any(|cell| inside(to_user(cell.x_m, cell.y_m)))
     }
 
     /// After [`Self::update`] of this frame: of the `unseen` floor that may be lower
@@ -407,24 +407,25 @@ mod tests {
     fn lower_ground_before_the_camera_is_told_until_the_user_turns_away_from_it() {
         let cfg = MemoryConfig::default();
         // the box between the feet (0.35 m behind the camera) and the camera
+        let zone = |from: f32, to: f32, half: f32| move |p: [f32; 2]| (from..=to).contains(&p[0]) && p[1].abs() <= half;
         let (from, to, half) = (-0.25, 0.0, 0.2);
         let mut m = ObstacleMemory::default();
         m.update(0, None, &view(), std::iter::empty(), &cfg);
         let mut out = Vec::new();
         // the floor 0.25 m ahead of the feet may be lower
         m.unseen_lower(0, &[], &[[-0.1, 0.05]], &cfg, &mut out);
-        assert!(m.lower_ground_in(from, to, half));
-        assert!(!m.lower_ground_in(from, to, 0.01), "0.05 m to the left");
+        assert!(m.lower_ground_where(zone(from, to, half)));
+        assert!(!m.lower_ground_where(zone(from, to, 0.01)), "0.05 m to the left");
         // turned round in place (the camera swings 0.7 m back round the feet): behind
         let turn = Motion { forward_m: -0.7, left_m: 0.0, yaw_rad: PI };
         m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
-        assert!(!m.lower_ground_in(from, to, half));
-        assert!(m.lower_ground_in(-0.65, -0.55, half), "still remembered, 0.25 m behind the feet");
+        assert!(!m.lower_ground_where(zone(from, to, half)));
+        assert!(m.lower_ground_where(zone(-0.65, -0.55, half)), "still remembered, 0.25 m behind the feet");
         // an obstacle there is no lower ground: the costs and the body see to it
         let mut bag = ObstacleMemory::default();
         bag.update(0, None, &view(), [[-0.1, 0.05, 0.3]].into_iter(), &cfg);
         assert_eq!(bag.len(), 1);
-        assert!(!bag.lower_ground_in(from, to, half));
+        assert!(!bag.lower_ground_where(zone(from, to, half)));
     }
 
     #[test]
