@@ -119,6 +119,7 @@ impl PerceptionConfig {
         c.above_within("memory.xyz_vertical_fov_deg", m.xyz_vertical_fov_deg, 0.0, 179.0);
         c.within("memory.view_margin_deg", m.view_margin_deg, 0.0, 45.0);
         c.positive("memory.forget_after_m", m.forget_after_m);
+        c.positive("memory.overhead_from_m", m.overhead_from_m);
         let d = &self.dropoff;
         c.positive("dropoff.min_drop_m", d.min_drop_m);
         c.above_within("dropoff.lookahead_m", d.lookahead_m, 0.0, 10.0);
@@ -466,6 +467,19 @@ pub struct MemoryConfig {
     /// since it was last seen (walking on, turning away), metres: odometry error grows
     /// with motion, not with time.
     pub forget_after_m: f32,
+    /// Obstacles higher than this above the floor are overhead: out of the cane's reach
+    /// (its handle is about 1 m up), and seen only from afar by a camera that looks
+    /// down (one 10° down sees a sign 1.55 m up from 1.9 m on, never nearer; one 30°
+    /// down never sees above its own height, so with that mount this changes nothing).
+    /// An overhead obstacle is not forgotten for moving `forget_after_m` in the user's
+    /// frame (turning away from a sign 3.5 m ahead moves it 7 m), only after
+    /// `overhead_ttl_ns` or beyond `radius_m`: a user who turned away from a sign and
+    /// comes back under it has nothing else to warn them. Metres.
+    pub overhead_from_m: f32,
+    /// Time to live of an overhead obstacle, nanoseconds (a minute: within the memory's
+    /// 5 m the simulated VO's errors over a minute, 1 % scale, 2 % noise and about a
+    /// degree of heading, come to about 0.2 m, less than a sign).
+    pub overhead_ttl_ns: u64,
 }
 
 impl Default for MemoryConfig {
@@ -478,6 +492,8 @@ impl Default for MemoryConfig {
             xyz_vertical_fov_deg: 45.0,
             view_margin_deg: 3.0,
             forget_after_m: 5.0,
+            overhead_from_m: 1.2,
+            overhead_ttl_ns: 60_000_000_000,
         }
     }
 }

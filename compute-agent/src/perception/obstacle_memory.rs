@@ -4,7 +4,9 @@
 //! the scan's obstacles in a small egocentric grid, move it by the user's own motion
 //! (odometry / IMU yaw) and forget a cell once it has moved `forget_after_m` in the
 //! user's frame since it was seen (odometry error grows with motion: a user standing
-//! before a sign keeps it) or after `ttl_ns`. The cell's own displacement is the
+//! before a sign keeps it) or after `ttl_ns`; an overhead one (higher than
+//! `overhead_from_m`, where only the camera can find it, and only from afar) only after
+//! `overhead_ttl_ns`. Every cell goes beyond `radius_m`. The cell's own displacement is the
 //! measure, not the path the camera travelled: a camera on a sweeping cane swings
 //! +-17 deg and sideways about once a second, which adds up to metres of path and
 //! radians of turn without taking the user anywhere, and summing it forgot a head-high
@@ -133,7 +135,12 @@ impl ObstacleMemory {
             let [x, y] = to_user(cell.x_m, cell.y_m);
             let r = x.hypot(y);
             let moved_m = (x - cell.seen_x_m).hypot(y - cell.seen_y_m);
-            let expired = moved_m > cfg.forget_after_m || stamp_ns.abs_diff(cell.seen_ns) > cfg.ttl_ns;
+            let (forget_m, ttl_ns) = if cell.height_m > cfg.overhead_from_m {
+                (f32::INFINITY, cfg.overhead_ttl_ns)
+            } else {
+                (cfg.forget_after_m, cfg.ttl_ns)
+            };
+            let expired = moved_m > forget_m || stamp_ns.abs_diff(cell.seen_ns) > ttl_ns;
             if expired || r > cfg.radius_m || view.sees(x, y, cell.height_m, margin_rad) {
                 return false;
             }
@@ -426,6 +433,40 @@ mod tests {
         bag.update(0, None, &view(), [[-0.1, 0.05, 0.3]].into_iter(), &cfg);
         assert_eq!(bag.len(), 1);
         assert!(!bag.lower_ground_where(zone(from, to, half)));
+    }
+
+    #[test]
+    fn an_overhead_obstacle_is_kept_through_a_turn_away_that_forgets_a_low_one() {
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        // a sign 1.55 m up and a chair back 0.8 m up, both 3.5 m to the left
+        m.update(0, None, &view(), [[0.3, 3.5, 1.55], [-0.3, 3.5, 0.8]].into_iter(), &cfg);
+        // the user turns round to the right (both move 7 m in the user's frame, behind
+        // the user, never in view) and stands 30 s
+        let half_turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: -PI / 30.0 };
+        for k in 1..=30u64 {
+            m.update(k * FRAME_NS, Some(half_turn), &view(), std::iter::empty(), &cfg);
+        }
+        let still = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 };
+        m.update(30_000_000_000, Some(still), &view(), std::iter::empty(), &cfg);
+        // the sign alone, now on the right (the chair back, 0.6 m behind it, is gone)
+        let sign = |p: &[f32; 2]| (p[0] + 0.3).abs() < 0.1 && (p[1] + 3.5).abs() < 0.1;
+        assert!(!m.out_of_view.is_empty() && m.out_of_view.iter().all(sign), "{:?}", m.out_of_view);
+        // past a minute it goes too
+        m.update(cfg.overhead_ttl_ns + 1, Some(still), &view(), std::iter::empty(), &cfg);
+        assert!(m.out_of_view.is_empty());
+        // beyond the memory's radius it goes at once
+        let mut w = ObstacleMemory::default();
+        w.update(0, None, &view(), [[-0.5, 0.0, 1.55]].into_iter(), &cfg);
+        let on = Motion { forward_m: 0.5, left_m: 0.0, yaw_rad: 0.0 };
+        let steps = ((cfg.radius_m - 0.5) / 0.5).round() as u64;
+        for k in 1..steps {
+            w.update(k * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        }
+        assert!(!w.out_of_view.is_empty(), "kept within {} m", cfg.radius_m);
+        w.update(steps * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        w.update((steps + 1) * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        assert!(w.out_of_view.is_empty());
     }
 
     #[test]
