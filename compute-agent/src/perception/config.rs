@@ -474,10 +474,10 @@ pub struct MemoryConfig {
     /// An overhead obstacle is not forgotten for moving `forget_after_m` in the user's
     /// frame (turning away from a sign 3.5 m ahead moves it 7 m), only after
     /// `overhead_ttl_ns` or beyond `radius_m`: a user who turned away from a sign and
-    /// comes back under it has nothing else to warn them. A person's head and shoulders
-    /// are overhead too, and out of view are kept as long (`corridor`, camera 10° down,
-    /// 40 walks: body contacts out of view fell by 0.68 a walk, signals unchanged).
-    /// Metres.
+    /// comes back under it has nothing else to warn them. A cell's height is that of
+    /// the point the scan ranged there, so a wall or a person whose nearest point in a
+    /// bin was above this is kept as long out of view (`corridor`, camera 10° down, 40
+    /// walks: body contacts out of view fell by 0.68 a walk, signals unchanged). Metres.
     pub overhead_from_m: f32,
     /// Time to live of an overhead obstacle, nanoseconds (a minute: within the memory's
     /// 5 m the simulated VO's errors over a minute, 1 % scale, 2 % noise and about a
