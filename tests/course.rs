@@ -142,21 +142,20 @@ fn study_spread_over_threads_gives_the_walks_in_seed_order_as_walked_alone() {
     assert_eq!(ended, s.walks.iter().map(|o| (o.seed, o.time_s)).collect::<Vec<_>>());
 }
 
-/// Open room with a sign (0.3 x 1.2 m, 1.55-1.85 m high) hanging at head height
-/// `sign_x_m` straight ahead of the start, on the way to the goal at `goal_x_m`.
+/// A sign (0.3 x 1.2 m, 1.55-1.85 m high) hanging at head height at `(x_m, 0)`, across
+/// the x axis (a TOML table).
+fn head_high_sign(x_m: f64) -> String {
+    format!(
+        "[[hanging]]\nlabel = \"sign\"\ncenter = [{x_m:.1}, 0.0]\nsize_m = [0.3, 1.2]\nbottom_m = 1.55\ntop_m = 1.85\n"
+    )
+}
+
+/// Open room with [`head_high_sign`] `sign_x_m` straight ahead of the start, on the way
+/// to the goal at `goal_x_m`.
 fn sign_ahead(name: &str, sign_x_m: f64, goal_x_m: f64) -> World {
     world(&format!(
-        r#"
-name = "{name}"
-start = {{ x_m = 0.0, y_m = 0.0 }}
-goal = {{ x_m = {goal_x_m:.1}, y_m = 0.0 }}
-[[hanging]]
-label = "sign"
-center = [{sign_x_m:.1}, 0.0]
-size_m = [0.3, 1.2]
-bottom_m = 1.55
-top_m = 1.85
-"#
+        "name = \"{name}\"\nstart = {{ x_m = 0.0, y_m = 0.0 }}\ngoal = {{ x_m = {goal_x_m:.1}, y_m = 0.0 }}\n{}",
+        head_high_sign(sign_x_m)
     ))
 }
 
@@ -202,22 +201,17 @@ fn a_sign_left_behind_and_come_back_to_from_the_side_is_still_told() {
     // Forgotten after 5 m as a low obstacle is, the user walked under it with nothing
     // felt in each of these walks (13.5-15.5 s in); overhead, it is kept, and every
     // touch of it comes with a cue felt.
-    let w = world(
+    let w = world(&format!(
         r#"
 name = "sign-return"
-start = { x_m = 0.0, y_m = 0.0 }
-goal = { x_m = 4.0, y_m = 3.0 }
-[[hanging]]
-label = "sign"
-center = [4.0, 0.0]
-size_m = [0.3, 1.2]
-bottom_m = 1.55
-top_m = 1.85
+start = {{ x_m = 0.0, y_m = 0.0 }}
+goal = {{ x_m = 4.0, y_m = 3.0 }}
 [walker]
 waypoints = [[1.0, 0.0], [1.0, -2.5], [4.0, -2.5], [4.0, 3.0]]
 at_end = "stop"
-"#,
-    );
+{}"#,
+        head_high_sign(4.0)
+    ));
     let mut config = quick(20.0);
     config.mount.pitch_deg = 10.0;
     config.guide = GuideKind::Route;
