@@ -108,7 +108,12 @@ pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> 
             },
             Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
         };
-        let ctx = FrameContext { stamp_ns: k as u64 * 33_333_333, gravity_camera: args.gravity, motion: None };
+        let ctx = FrameContext {
+            stamp_ns: k as u64 * 33_333_333,
+            gravity_camera: args.gravity,
+            motion: None,
+            body_yaw_rate_rad_s: None,
+        };
         timer.clear();
         let t0 = Instant::now();
         let result = pipeline.process(input, &ctx, &mut timer);

@@ -158,7 +158,12 @@ fn main() {
                 },
                 Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
             };
-            let ctx = FrameContext { stamp_ns: k as u64 * 33_333_333, gravity_camera: case.gravity, motion: None };
+            let ctx = FrameContext {
+                stamp_ns: k as u64 * 33_333_333,
+                gravity_camera: case.gravity,
+                motion: None,
+                body_yaw_rate_rad_s: None,
+            };
             timer.clear();
             let t0 = Instant::now();
             let result = pipeline.process(input, &ctx, &mut timer).map(|p| (p.ground, p.plane_camera));

@@ -192,8 +192,14 @@ async fn process(
         intrinsics: f.intrinsics,
     };
     let capture_ns = frame.header.capture_ns;
-    let ctx =
-        FrameContext { stamp_ns: capture_ns, gravity_camera: f.gravity_camera, motion: motion.take_until(capture_ns) };
+    // no body-worn gyro reaches the agents yet (the cane's IMU carries the sweep): the
+    // costs look along the camera's heading only (`turn_ahead`)
+    let ctx = FrameContext {
+        stamp_ns: capture_ns,
+        gravity_camera: f.gravity_camera,
+        motion: motion.take_until(capture_ns),
+        body_yaw_rate_rad_s: None,
+    };
     let perception = match pipeline.process(input, &ctx, &mut clock) {
         Ok(p) => p.clone(),
         Err(e) => {

@@ -100,6 +100,13 @@ pub struct CourseArgs {
     /// Switch off the time-to-collision warning.
     #[arg(long)]
     pub no_ttc: bool,
+    /// Give perception the body's turn rate from a simulated body-worn gyro (the user's
+    /// own turn, with the sway of each step, noise and bias): the costs are also taken
+    /// along the heading the user is turning to, 0.3 s on (`turn_ahead`). Off by
+    /// default: no body-worn gyro reaches the agents yet (the cane's own IMU carries the
+    /// sweep).
+    #[arg(long)]
+    pub body_gyro: bool,
     /// Switch the device off: the hands feel no rumble, and the user walks by the
     /// guide and the cane's touches alone (the baseline the device is measured against).
     #[arg(long)]
@@ -224,6 +231,7 @@ impl CourseArgs {
             no_dropoff,
             no_edges,
             no_ttc,
+            body_gyro,
             no_rumble,
             guide,
             route_lookahead_m,
@@ -271,6 +279,7 @@ impl CourseArgs {
         c.perception.dropoff.enabled = !self.no_dropoff;
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
+        c.body_gyro = self.body_gyro;
         c.rumble = !self.no_rumble;
         c.guide = self.guide;
         anyhow::ensure!(
@@ -412,6 +421,7 @@ fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         "dropoff": !args.no_dropoff,
         "edges": !args.no_dropoff && !args.no_edges,
         "ttc": !args.no_ttc,
+        "body_gyro": args.body_gyro,
         "rumble": !args.no_rumble,
         "guide": args.guide,
         "route_lookahead_m": config.lookahead_m(),
@@ -448,7 +458,7 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         g => format!("{g:?}"),
     };
     let mut s = format!(
-        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | guide {} | {} runs from seed {}\n\
+        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
          user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
         world.name(),
         config.camera.name,
@@ -460,6 +470,7 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         on_off(!args.no_dropoff),
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),
+        on_off(args.body_gyro),
         guide,
         args.runs,
         args.seed,
@@ -520,13 +531,13 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
     let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(
         f,
-        "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m"
+        "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m,turn_ahead"
     )?;
     for w in walks {
         for r in &w.trace {
             writeln!(
                 f,
-                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3}",
+                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3},{}",
                 w.seed,
                 r.t_s,
                 r.x_m,
@@ -540,7 +551,8 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
                 r.bearing_deg,
                 r.ttc_s.map_or(String::new(), |t| format!("{t:.2}")),
                 r.forward_cost,
-                r.clearance_m
+                r.clearance_m,
+                u8::from(r.turn_ahead)
             )?;
         }
     }

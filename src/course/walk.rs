@@ -128,6 +128,10 @@ pub struct WalkConfig {
     pub reaction_jitter: f64,
     /// Record a [`TraceRow`] per camera frame in [`WalkOutcome::trace`].
     pub trace: bool,
+    /// Give perception the body's turn rate from a simulated body-worn gyro
+    /// ([`BodyGyro`]), so the costs are also taken along the heading the user is turning
+    /// to (`turn_ahead`). Off: as the agents run today, with no such sensor.
+    pub body_gyro: bool,
 }
 
 /// One camera frame of a walk, for finding out why a contact happened.
@@ -159,6 +163,9 @@ pub struct TraceRow {
     pub forward_cost: f32,
     /// Closest the body is to any obstacle, metres.
     pub clearance_m: f64,
+    /// The cue of this frame came from the heading the body is turning to (`turn_ahead`,
+    /// with [`WalkConfig::body_gyro`]).
+    pub turn_ahead: bool,
 }
 
 /// The Asus Xtion in its 320x240 mode: with a perception stride of 1 these are the
@@ -199,7 +206,50 @@ impl Default for WalkConfig {
             start_jitter: (0.15, 10.0),
             reaction_jitter: 0.25,
             trace: false,
+            body_gyro: false,
         }
+    }
+}
+
+/// A gyro worn on the body (a phone on a lanyard, a belt clip): the user's turn rate
+/// about gravity, with the torso's sway at each step (3 degrees each way at 0.9 Hz,
+/// in proportion to the walking speed), white noise of 1 degree/s per sample and a
+/// constant bias of up to 0.5 degree/s drawn per walk.
+pub struct BodyGyro {
+    rng: SimRng,
+    phase_rad: f64,
+    bias_rad_s: f64,
+    last: Option<(f64, f64)>,
+}
+
+impl BodyGyro {
+    /// Sway each way, degrees.
+    pub const SWAY_DEG: f64 = 3.0;
+    /// Sway frequency (one stride), Hz.
+    pub const SWAY_HZ: f64 = 0.9;
+    /// White noise per sample, degrees per second.
+    pub const NOISE_DEG_S: f64 = 1.0;
+    /// Largest bias, degrees per second.
+    pub const BIAS_DEG_S: f64 = 0.5;
+
+    /// A gyro whose phase and bias come from `rng`.
+    pub fn new(mut rng: SimRng) -> Self {
+        let phase_rad = rng.uniform() * std::f64::consts::TAU;
+        let bias_rad_s = (2.0 * rng.uniform() - 1.0) * Self::BIAS_DEG_S.to_radians();
+        Self { rng, phase_rad, bias_rad_s, last: None }
+    }
+
+    /// The rate read at `t_s` by a user facing `yaw_rad` and walking at `speed_fraction`
+    /// of their pace: the turn since the last reading, sway, noise and bias. `None` on
+    /// the first reading.
+    pub fn read(&mut self, t_s: f64, yaw_rad: f64, speed_fraction: f64) -> Option<f32> {
+        let last = self.last.replace((t_s, yaw_rad));
+        let (t0, yaw0) = last.filter(|(t0, _)| t_s > *t0)?;
+        let turn = wrap_pi(yaw_rad - yaw0) / (t_s - t0);
+        let w = std::f64::consts::TAU * Self::SWAY_HZ;
+        let sway = Self::SWAY_DEG.to_radians() * speed_fraction.clamp(0.0, 1.0) * w * (w * t_s + self.phase_rad).cos();
+        let noise = self.rng.gaussian() * Self::NOISE_DEG_S.to_radians();
+        Some((turn + sway + noise + self.bias_rad_s) as f32)
     }
 }
 
@@ -358,6 +408,8 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mount = CaneMount { sweep_phase_rad: jitter(std::f64::consts::PI), ..config.mount };
     let params =
         UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
+    // drawn after everything else, so a walk without it is the walk it always was
+    let mut body_gyro = config.body_gyro.then(|| BodyGyro::new(rng.fork()));
 
     let mut user = VirtualUser::new(params, start);
     let mut renderer = Renderer::new(config.camera.clone());
@@ -455,8 +507,15 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 g.z + gravity_rng.gaussian() * s,
             )
             .normalize();
-            let ctx =
-                FrameContext { stamp_ns: now, gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]), motion };
+            let body_yaw_rate_rad_s = body_gyro
+                .as_mut()
+                .and_then(|gyro| gyro.read(t, pose.yaw_rad, user.speed_m_s() / params.walk_speed_m_s.max(1e-6)));
+            let ctx = FrameContext {
+                stamp_ns: now,
+                gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]),
+                motion,
+                body_yaw_rate_rad_s,
+            };
             let input = DepthInput::Depth {
                 samples,
                 width: config.camera.width,
@@ -464,8 +523,10 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
                 intrinsics: k,
             };
+            let mut turn_ahead = false;
             let hazard = match pipeline.process(input, &ctx, &mut NoTimer) {
                 Ok(p) => {
+                    turn_ahead = p.turn_ahead;
                     rejections.record(true);
                     let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
                     pending.push_back((t + latency_s, Some(hazard.clone()), Some((cue(p, &config.cue), now))));
@@ -500,6 +561,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                     ttc_s: hazard.as_ref().and_then(|h| h.ttc_s),
                     forward_cost,
                     clearance_m: body_now.iter().copied().fold(f64::INFINITY, f64::min),
+                    turn_ahead,
                 });
             }
         }

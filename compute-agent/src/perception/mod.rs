@@ -34,6 +34,7 @@ pub mod rejections;
 pub mod synthetic_scene;
 pub mod time_to_collision;
 pub mod timing;
+pub mod turn_ahead;
 
 use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
@@ -132,6 +133,10 @@ pub struct FrameContext {
     pub gravity_camera: Option<[f32; 3]>,
     /// User motion since the previous frame (odometry / IMU).
     pub motion: Option<Motion>,
+    /// The body's turn rate about gravity at capture, rad/s, positive left, from a
+    /// body-worn gyro (not the cane's: that one carries the sweep). `None`: no such
+    /// sensor; the costs are taken along the camera's heading only, as in the thesis.
+    pub body_yaw_rate_rad_s: Option<f32>,
 }
 
 /// Why a frame gave no perception. Each is counted by [`PerceptionError::kind`].
@@ -220,6 +225,9 @@ pub struct Perception {
     pub remembered: usize,
     /// Obstacle points (above the band, below head height) in the sample.
     pub obstacle_points: usize,
+    /// The path ahead was clear and the cue comes from the heading the body is turning
+    /// to (`turn_ahead`).
+    pub turn_ahead: bool,
 }
 
 impl Perception {
@@ -260,6 +268,7 @@ impl Perception {
             path_ground: PathGround::default(),
             remembered: 0,
             obstacle_points: 0,
+            turn_ahead: false,
         }
     }
 }
@@ -452,6 +461,17 @@ impl Pipeline {
             CostFunction::Ficf => out.rumble_ficf,
             CostFunction::Cacf => out.rumble_cacf,
         };
+        if raw == Rumble::None {
+            let costs = match cfg.cost_function {
+                CostFunction::Ficf => &cfg.ficf,
+                CostFunction::Cacf => &cfg.cacf,
+            };
+            let ahead = turn_ahead::rumble_ahead(&self.cost_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs);
+            out.turn_ahead = ahead.is_some_and(|r| r != Rumble::None);
+            raw = ahead.unwrap_or(raw);
+        } else {
+            out.turn_ahead = false;
+        }
         if let Some(a) = approach.filter(|a| raw == Rumble::None && a.ttc_s < cfg.ttc.warn_s) {
             // turn away from the side of the path the approaching obstacle is on
             raw = if a.point[1] > 0.0 { Rumble::Right } else { Rumble::Left };

@@ -283,7 +283,8 @@ fn obstacle_below_the_view_is_remembered_while_walking_towards_it() {
             let mut scene = Scene::kinect(1.0, 30.0);
             scene.blocks.push(Block { min: [x, -0.2, 0.0], max: [x + 0.05, 0.2, 0.15] });
             let motion = (k > 0).then_some(Motion { forward_m: step, left_m: 0.0, yaw_rad: 0.0 });
-            let ctx = FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion };
+            let ctx =
+                FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion, ..Default::default() };
             out = Some((x, run(&mut p, &scene, &ctx).unwrap()));
         }
         out.unwrap()
@@ -426,6 +427,7 @@ fn walk_to_wall(
             stamp_ns: (k + 1) * frame_ns,
             gravity_camera: if with_gravity { gravity(&scene) } else { None },
             motion: None,
+            body_yaw_rate_rad_s: None,
         };
         out.push((ctx.stamp_ns, run(&mut p, &scene, &ctx), wall_m));
     }
@@ -515,7 +517,8 @@ fn motion_during_refused_frames_still_moves_what_is_remembered() {
             let mut scene = Scene::kinect(1.0, 30.0);
             scene.blocks.push(Block { min: [x, -0.2, 0.0], max: [x + 0.05, 0.2, 0.15] });
             let motion = (k > 0).then_some(Motion { forward_m: step, left_m: 0.0, yaw_rad: 0.0 });
-            let ctx = FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion };
+            let ctx =
+                FrameContext { stamp_ns: k * frame_ns, gravity_camera: gravity(&scene), motion, ..Default::default() };
             if refuse.contains(&k) {
                 // the camera covered: nothing ranged, the frame refused, the user walking on
                 let blank = vec![0u16; (scene.width * scene.height) as usize];
