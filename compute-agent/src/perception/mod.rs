@@ -457,21 +457,15 @@ impl Pipeline {
             None
         };
         out.ttc_s = approach.map(|a| a.ttc_s);
-        let mut raw = match cfg.cost_function {
-            CostFunction::Ficf => out.rumble_ficf,
-            CostFunction::Cacf => out.rumble_cacf,
+        let (mut raw, costs) = match cfg.cost_function {
+            CostFunction::Ficf => (out.rumble_ficf, &cfg.ficf),
+            CostFunction::Cacf => (out.rumble_cacf, &cfg.cacf),
         };
-        if raw == Rumble::None {
-            let costs = match cfg.cost_function {
-                CostFunction::Ficf => &cfg.ficf,
-                CostFunction::Cacf => &cfg.cacf,
-            };
-            let ahead = turn_ahead::rumble_ahead(&self.cost_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs);
-            out.turn_ahead = ahead.is_some_and(|r| r != Rumble::None);
-            raw = ahead.unwrap_or(raw);
-        } else {
-            out.turn_ahead = false;
-        }
+        let ahead = (raw == Rumble::None)
+            .then(|| turn_ahead::rumble_ahead(&self.cost_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs))
+            .flatten();
+        out.turn_ahead = ahead.is_some_and(|r| r != Rumble::None);
+        raw = ahead.unwrap_or(raw);
         if let Some(a) = approach.filter(|a| raw == Rumble::None && a.ttc_s < cfg.ttc.warn_s) {
             // turn away from the side of the path the approaching obstacle is on
             raw = if a.point[1] > 0.0 { Rumble::Right } else { Rumble::Left };

@@ -16,6 +16,7 @@ use schemas::Rumble;
 
 use super::config::{CostConfig, TurnAheadConfig};
 use super::cost_function::{rumble, side_costs};
+use super::Motion;
 
 /// The rumble for the heading the body faces `cfg.ahead_s` on, turning at
 /// `body_yaw_rate_rad_s` (positive left), over user-frame points `(x forward, y left)`;
@@ -30,11 +31,9 @@ pub fn rumble_ahead(
     if rate.abs() < cfg.min_rate_deg_s.to_radians() {
         return None;
     }
-    // the heading turns by `turn`: a point at bearing b is then at b - turn
     let turn = (rate * cfg.ahead_s).clamp(-cfg.max_turn_deg.to_radians(), cfg.max_turn_deg.to_radians());
-    let (s, c) = (-turn).sin_cos();
-    let turned = points.iter().map(|&[x, y]| [c * x - s * y, s * x + c * y]);
-    Some(rumble(&side_costs(turned, costs), costs))
+    let to_turned = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: turn }.to_current_frame();
+    Some(rumble(&side_costs(points.iter().map(|&p| to_turned(p)), costs), costs))
 }
 
 #[cfg(test)]
@@ -90,7 +89,7 @@ mod tests {
 
     /// The points as seen after the user turned `by` radians to the left.
     fn rotate(points: &[[f32; 2]], by: f32) -> Vec<[f32; 2]> {
-        let (s, c) = (-by).sin_cos();
-        points.iter().map(|&[x, y]| [c * x - s * y, s * x + c * y]).collect()
+        let to_turned = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: by }.to_current_frame();
+        points.iter().map(|&p| to_turned(p)).collect()
     }
 }
