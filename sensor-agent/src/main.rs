@@ -37,6 +37,11 @@ struct Cli {
     /// Device name in the keys: `wearnav/<user>/sensor/<device>/depth`.
     #[arg(long, default_value = "cane")]
     device: String,
+    /// Device name of the simulated IMU worn on the body (a phone at the chest; `sim:`
+    /// sources only): `wearnav/<user>/sensor/<body-device>/imu`, what the compute agent
+    /// reads the body's turn rate from (its --body-imu-device).
+    #[arg(long, default_value = "body")]
+    body_device: String,
     /// Depth packing on the wire.
     #[arg(long, value_enum, default_value_t = Codec::Lossless)]
     codec: Codec,
@@ -95,6 +100,7 @@ async fn main() -> anyhow::Result<()> {
         .with_context(|| format!("cannot open frame source {:?}", cli.source))?;
     let mut config = sensor_agent::run::SensorConfig::new(cli.bus);
     config.device = cli.device;
+    config.body_device = cli.body_device;
     config.stall_after = Duration::from_millis(cli.stall_after_ms);
     config.codec = match cli.codec {
         Codec::Lossless => WireCodec::Lossless,

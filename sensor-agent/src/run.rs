@@ -21,6 +21,9 @@ pub struct SensorConfig {
     pub bus: BusOptions,
     /// Device name in the keys (`sensor/<device>/...`).
     pub device: String,
+    /// Device name of the IMU worn on the body, when the source has one (the
+    /// simulator's): `sensor/<body_device>/imu`.
+    pub body_device: String,
     /// How depth is packed on the wire.
     pub codec: WireCodec,
     /// Health says "stalled" when no frame came for this long (safety rule 1).
@@ -30,11 +33,12 @@ pub struct SensorConfig {
 }
 
 impl SensorConfig {
-    /// Defaults for `bus`: device `cane`, lossless frames, 500 ms stall deadline.
+    /// Defaults for `bus`: device `cane` (and `body` worn), lossless frames, 500 ms stall deadline.
     pub fn new(bus: BusOptions) -> Self {
         Self {
             bus,
             device: "cane".to_string(),
+            body_device: "body".to_string(),
             codec: WireCodec::Lossless,
             stall_after: Duration::from_millis(500),
             health_period: Duration::from_secs(1),
@@ -145,6 +149,7 @@ fn sleep_until_ns(stamp_ns: u64) {
 struct Outputs {
     depth: Publisher<DepthFrame>,
     imu: Publisher<ImuBatch>,
+    body_imu: Publisher<ImuBatch>,
     odom: Publisher<OdomIncrement>,
     truth: Publisher<GroundTruth>,
 }
@@ -153,6 +158,13 @@ struct Outputs {
 pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: Shutdown) -> anyhow::Result<()> {
     let keys = config.bus.keys()?;
     schemas::keys::check_chunk("device", &config.device).context("bad --device")?;
+    schemas::keys::check_chunk("device", &config.body_device).context("bad --body-device")?;
+    if config.body_device == config.device {
+        anyhow::bail!(
+            "--body-device {0:?} is the camera's --device: the body-worn IMU needs a device name of its own",
+            config.device
+        );
+    }
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
     tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
@@ -160,6 +172,8 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     let mut out = Outputs {
         depth: Publisher::declare(&session, keys.depth(dev), AGENT, Lane::Bulk, Some(&health)).await?,
         imu: Publisher::declare(&session, keys.imu(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
+        body_imu: Publisher::declare(&session, keys.imu(&config.body_device), AGENT, Lane::Telemetry, Some(&health))
+            .await?,
         odom: Publisher::declare(&session, keys.odom(dev), AGENT, Lane::Events, Some(&health)).await?,
         truth: Publisher::declare(&session, keys.truth(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
     };
@@ -224,13 +238,16 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
 
 async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
     let stamp = frame.stamp_ns;
-    let mut results = Vec::with_capacity(4);
+    let mut results = Vec::with_capacity(5);
     // the motion leading up to the frame first, so it is there when the frame is processed
     if let Some(odom) = frame.odom {
         results.push(out.odom.put(stamp, &odom).await);
     }
     if !frame.imu.is_empty() {
         results.push(out.imu.put(stamp, &ImuBatch { samples: frame.imu }).await);
+    }
+    if !frame.body_imu.is_empty() {
+        results.push(out.body_imu.put(stamp, &ImuBatch { samples: frame.body_imu }).await);
     }
     results.push(out.depth.put(stamp, &depth).await);
     if let Some(truth) = frame.truth {

@@ -24,6 +24,9 @@ pub struct SourceFrame {
     pub mount: Option<MountGuess>,
     /// IMU samples since the previous frame.
     pub imu: Vec<ImuSample>,
+    /// Samples of an IMU worn on the body since the previous frame (the simulator's
+    /// stand-in for a phone; real body-worn devices publish their own).
+    pub body_imu: Vec<ImuSample>,
     /// Odometry since the previous frame.
     pub odom: Option<OdomIncrement>,
     /// Ground truth (simulated sources only).

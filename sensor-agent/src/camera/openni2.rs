@@ -351,6 +351,7 @@ fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> R
         gravity_camera: None,
         mount: None,
         imu: Vec::new(),
+        body_imu: Vec::new(),
         odom: None,
         truth: None,
     })

@@ -258,6 +258,7 @@ impl ReplaySource {
             gravity_camera: entry.gravity_camera,
             mount: None,
             imu: Vec::new(),
+            body_imu: Vec::new(),
             odom: None,
             truth: None,
         })

@@ -12,6 +12,7 @@
 //! Camera model from Taylor (2017, sec. 2.1) and Khoshelham & Elberink (2012); see
 //! each module.
 
+pub mod body;
 pub mod camera;
 pub mod cane;
 pub mod imu;

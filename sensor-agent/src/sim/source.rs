@@ -5,6 +5,7 @@
 use nalgebra::Vector3;
 use schemas::{GroundTruth, ImuSample, MountGuess};
 
+use super::body::BodyMount;
 use super::camera::CameraProfile;
 use super::cane::CaneMount;
 use super::imu::{ImuModel, ImuNoise};
@@ -33,6 +34,10 @@ pub struct SimConfig {
     pub imu_rate_hz: f64,
     /// IMU errors.
     pub imu_noise: ImuNoise,
+    /// Sample rate of the IMU worn on the body, Hz (0: none worn).
+    pub body_imu_rate_hz: f64,
+    /// How the body-worn IMU is worn (its errors are `imu_noise`'s).
+    pub body_mount: BodyMount,
     /// Odometry errors.
     pub odometry_noise: OdometryNoise,
     /// Error of the gravity direction sent with each frame, degrees (1 sigma per axis),
@@ -41,7 +46,8 @@ pub struct SimConfig {
 }
 
 impl Default for SimConfig {
-    /// The taylor-course with the Xtion, default cane, 200 Hz IMU, seed 1.
+    /// The taylor-course with the Xtion, default cane, 200 Hz IMU, a 100 Hz IMU on the
+    /// body, seed 1.
     fn default() -> Self {
         SimConfig {
             world: "taylor-course".into(),
@@ -51,10 +57,22 @@ impl Default for SimConfig {
             walker: None,
             imu_rate_hz: 200.0,
             imu_noise: ImuNoise::default(),
+            body_imu_rate_hz: 100.0,
+            body_mount: BodyMount::default(),
             odometry_noise: OdometryNoise::default(),
             gravity_noise_deg: 0.5,
         }
     }
+}
+
+/// The IMU worn on the body.
+#[derive(Debug)]
+struct BodyImu {
+    imu: ImuModel,
+    mount: BodyMount,
+    rate_hz: f64,
+    /// Index of the next sample.
+    next: u64,
 }
 
 /// What the last frame was taken at.
@@ -76,6 +94,7 @@ pub struct SimSource {
     imu: ImuModel,
     odometry: OdometryModel,
     imu_rate_hz: f64,
+    body: BodyImu,
     gravity_noise_rad: f64,
     start_ns: Option<u64>,
     next_imu: u64,
@@ -101,6 +120,13 @@ impl SimSource {
             imu: ImuModel::new(config.imu_noise, rng.fork()),
             odometry: OdometryModel::new(config.odometry_noise, rng.fork()),
             imu_rate_hz: config.imu_rate_hz,
+            // forked after every other stream, so they draw what they always drew
+            body: BodyImu {
+                imu: ImuModel::new(config.imu_noise, rng.fork()),
+                mount: config.body_mount,
+                rate_hz: config.body_imu_rate_hz,
+                next: 0,
+            },
             gravity_noise_rad: config.gravity_noise_deg.to_radians(),
             start_ns: None,
             next_imu: 0,
@@ -175,6 +201,22 @@ impl FrameSource for SimSource {
             });
             self.next_imu += 1;
         }
+        let mut body_imu = Vec::new();
+        let body = &mut self.body;
+        while body.rate_hz > 0.0 {
+            let t_k = body.next as f64 / body.rate_hz;
+            if t_k > t_s {
+                break;
+            }
+            let mount = body.mount;
+            let (gyro, accel) = body.imu.sample(t_k, |t| mount.pose_at(walker, t));
+            body_imu.push(ImuSample {
+                stamp_ns: start_ns + (t_k * 1e9).round() as u64,
+                gyro_rad_s: gyro,
+                accel_m_s2: accel,
+            });
+            body.next += 1;
+        }
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
         self.last = Some(LastFrame { stamp_ns, user });
@@ -193,6 +235,7 @@ impl FrameSource for SimSource {
                 pitch_deg: self.mount.pitch_deg as f32,
             }),
             imu,
+            body_imu,
             odom,
             truth: Some(GroundTruth {
                 x_m: user.x_m as f32,
@@ -250,6 +293,7 @@ mod tests {
         assert!((mount.height_m - 0.885).abs() < 0.01 && mount.pitch_deg == 30.0);
 
         let mut imu_count = first.imu.len();
+        let mut body_count = first.body_imu.len();
         let mut last = first;
         for k in 1..=30u64 {
             let now = t0 + k * s.period_ns();
@@ -263,11 +307,14 @@ mod tests {
             // frame; the attitude estimate is within a few degrees of it.
             let cos_err = g[1] * 30f32.to_radians().cos() + g[2] * 30f32.to_radians().sin();
             assert!(cos_err > 3f32.to_radians().cos(), "gravity {g:?}");
+            assert!(f.body_imu.iter().all(|i| i.stamp_ns > last.stamp_ns && i.stamp_ns <= f.stamp_ns));
             imu_count += f.imu.len();
+            body_count += f.body_imu.len();
             last = f;
         }
-        // 30 frames span 0.99999999 s: 200 Hz samples at 0, 5, ..., 995 ms, each once.
-        assert_eq!(imu_count, 200);
+        // 30 frames span 0.99999999 s: 200 Hz samples at 0, 5, ..., 995 ms, each once;
+        // the body's 100 Hz at 0, 10, ..., 990 ms.
+        assert_eq!((imu_count, body_count), (200, 100));
         // The walker set off towards +x at up to 1 m/s.
         let moved = last.truth.map_or(0.0, |t| t.x_m - 0.7);
         assert!((0.4..1.0).contains(&moved), "moved {moved} m in 1 s");
