@@ -284,3 +284,114 @@ fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() 
     assert!(err.contains("ttc.min_closing_speed_m_s = -1: must be a positive finite number"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// What a phone worn at the chest, tilted 20 degrees down, reads while the body turns at
+/// `rate_deg_s` (positive left): `n` samples at 100 Hz up to `now_ns`.
+fn body_imu(now_ns: u64, rate_deg_s: f32, n: u64) -> schemas::ImuBatch {
+    let tilt = 20f32.to_radians();
+    // device frame x right, y down, z ahead: up is -y tipped towards -z
+    let up = [0.0, -tilt.cos(), -tilt.sin()];
+    let rate = rate_deg_s.to_radians();
+    let samples = (0..n)
+        .map(|k| schemas::ImuSample {
+            stamp_ns: now_ns - (n - 1 - k) * 10_000_000,
+            gyro_rad_s: up.map(|u| u * rate),
+            accel_m_s2: up.map(|u| u * 9.81),
+        })
+        .collect();
+    schemas::ImuBatch { samples }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
+    use compute_agent::perception::synthetic_scene::{Block, Scene};
+    let user = "body-imu-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+
+    // A cabinet 0.3 m right of the camera's line from 0.9 m ahead: clear to walk past,
+    // in the way of a user turning right.
+    let mut scene = Scene::kinect(0.9, 30.0);
+    scene.blocks.push(Block { min: [0.9, -0.6, 0.0], max: [2.4, -0.3, 1.0] });
+    let mut data = Vec::new();
+    let depth = scene.render_depth(0.001);
+    schemas::depth_codec::encode(&depth, scene.width, scene.height, schemas::DepthEncoding::Lossless, &mut data)
+        .unwrap();
+    let [a, b, c, _] = scene.floor_plane_camera();
+    let frame = schemas::DepthFrame {
+        width: scene.width,
+        height: scene.height,
+        depth_scale_m: 0.001,
+        intrinsics: scene.intrinsics,
+        gravity_camera: Some([-a, -b, -c]),
+        mount: None,
+        encoding: schemas::DepthEncoding::Lossless,
+        data,
+    };
+    let declare =
+        |key: String| Publisher::<schemas::ImuBatch>::declare(&hub.session, key, "test", Lane::Telemetry, None);
+    let mut frames =
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
+            .await
+            .unwrap();
+    let mut body = declare(keys.imu("body")).await.unwrap();
+    let mut cane = declare(keys.imu("cane")).await.unwrap();
+
+    // 30 frames at 30 Hz, each after 4 samples of `imu` (if any): the rumble of the last half
+    let mut phase = async |imu: Option<(&mut Publisher<schemas::ImuBatch>, f32)>| {
+        let mut imu = imu;
+        while wait_for(&hazards, Duration::from_millis(1), |_| true).await.is_some() {}
+        for _ in 0..30 {
+            let now = bus::now_ns();
+            if let Some((publisher, rate)) = imu.as_mut() {
+                publisher.put(now, &body_imu(now, *rate, 4)).await.unwrap();
+            }
+            frames.put(now, &frame).await.unwrap();
+            tokio::time::sleep(Duration::from_millis(33)).await;
+        }
+        let mut felt = std::collections::BTreeSet::new();
+        let mut n = 0;
+        while let Some(h) = wait_for(&hazards, Duration::from_millis(300), |_| true).await {
+            n += 1;
+            if n > 15 {
+                felt.insert(format!("{:?}", h.body.rumble));
+            }
+        }
+        felt.into_iter().collect::<Vec<_>>()
+    };
+    assert_eq!(phase(Some((&mut body, -60.0))).await, ["Left"], "turning right into the cabinet");
+    assert_eq!(phase(Some((&mut body, 0.0))).await, ["None"], "walking straight past it");
+    assert_eq!(phase(Some((&mut body, 60.0))).await, ["None"], "turning left, away from it");
+    assert_eq!(phase(Some((&mut cane, -60.0))).await, ["None"], "the cane's IMU is the sweep, not the body");
+    assert_eq!(phase(None).await, ["None"], "the body's IMU silent: the camera's heading only");
+
+    // a broken body IMU: every sample refused and counted, the look along the camera
+    let mut broken = body_imu(bus::now_ns(), -60.0, 4);
+    for s in &mut broken.samples {
+        s.gyro_rad_s = [100.0, 0.0, 0.0];
+    }
+    body.put(bus::now_ns(), &broken).await.unwrap();
+    let counted = wait_for(&health, Duration::from_secs(5), |h| {
+        h.body.agent == "compute-agent"
+            && h.body.rejects.iter().any(|r| r.kind == "body_imu_gyro_range" && r.count == 4)
+    })
+    .await;
+    assert!(counted.is_some(), "the compute agent did not count 4 out-of-range body IMU samples");
+}
+
+#[test]
+fn sensor_agent_refuses_a_body_worn_imu_named_as_the_camera() {
+    let out = Command::new(agent_bin("sensor-agent"))
+        .args(["--source", "sim:approach", "--device", "cane", "--body-device", "cane", "--no-multicast"])
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .output()
+        .expect("cannot start sensor-agent");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("--body-device \"cane\" is the camera's --device"), "{err}");
+}

@@ -23,6 +23,16 @@ struct Cli {
     /// (Cushioned Avoidance).
     #[arg(long, value_parser = parse_cost)]
     cost: Option<CostFunction>,
+    /// Device of the IMU worn on the body (a phone on a lanyard, a belt clip), read on
+    /// `sensor/<device>/imu`: its turn rate about gravity lets the costs look the way
+    /// the user is turning, not only along the camera. The simulator publishes one as
+    /// `body`. Never the cane's own device: its IMU carries the sweep (refused).
+    #[arg(long, value_name = "DEVICE", default_value = compute_agent::run::DEFAULT_BODY_IMU_DEVICE)]
+    body_imu_device: String,
+    /// Do not read a body-worn IMU: the costs look along the camera's heading only, as
+    /// in the thesis.
+    #[arg(long)]
+    no_body_imu: bool,
 }
 
 fn parse_cost(s: &str) -> Result<CostFunction, String> {
@@ -46,6 +56,7 @@ async fn main() -> anyhow::Result<()> {
     if let Some(cost) = cli.cost {
         config.perception.cost_function = cost;
     }
+    config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     compute_agent::run::run(config, shutdown).await

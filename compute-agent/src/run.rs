@@ -7,8 +7,9 @@ use std::time::Duration;
 
 use anyhow::Context;
 use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
-use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Scan, StageLatency};
+use schemas::{DepthFrame, HapticIntent, Hazard, ImuBatch, OdomIncrement, Scan, StageLatency};
 
+use crate::body_rate::{BodyRate, MAX_AGE_NS};
 use crate::perception::rejections::{self, REJECTIONS_BEFORE_BLIND};
 use crate::perception::{
     cue, cue_unavailable, CueConfig, DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline,
@@ -29,7 +30,15 @@ pub struct ComputeConfig {
     pub cue: CueConfig,
     /// Period of health stats.
     pub health_period: Duration,
+    /// Device whose IMU is worn on the body (`sensor/<device>/imu`): its turn rate lets
+    /// the costs look the way the user turns (`perception::turn_ahead`). `None`: the
+    /// costs look along the camera's heading only, as in the thesis.
+    pub body_imu_device: Option<String>,
 }
+
+/// Default body-worn IMU device: the simulator's (`sensor-agent --source sim:...`
+/// publishes one); a phone or belt IMU publishing under this name is used the same way.
+pub const DEFAULT_BODY_IMU_DEVICE: &str = "body";
 
 impl ComputeConfig {
     /// Defaults for `bus`.
@@ -39,6 +48,7 @@ impl ComputeConfig {
             perception: PerceptionConfig::default(),
             cue: CueConfig::default(),
             health_period: Duration::from_secs(1),
+            body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
         }
     }
 }
@@ -110,6 +120,62 @@ struct Outputs {
     haptic: Publisher<HapticIntent>,
 }
 
+/// The body-worn IMU as the loop sees it.
+struct Body {
+    imu: Option<Subscriber<ImuBatch>>,
+    /// Depth frames from this key come from the body device: its IMU is the cane's.
+    same_as_depth: String,
+    rate: BodyRate,
+    /// Whether the last frame had a body rate (to log when that changes).
+    heard: bool,
+}
+
+impl Body {
+    async fn recv(&self) -> Option<Received<ImuBatch>> {
+        match &self.imu {
+            Some(s) => s.recv().await,
+            None => std::future::pending().await,
+        }
+    }
+
+    fn add(&mut self, batch: &Received<ImuBatch>, health: &Health) {
+        for s in &batch.body.samples {
+            if let Err(e) = self.rate.add(s, batch.received_ns) {
+                health.reject(&batch.key, e.kind(), &e);
+            }
+        }
+    }
+
+    /// The body's turn rate for a frame from `depth_key` captured at `capture_ns`.
+    fn rate_for(&mut self, depth_key: &str, capture_ns: u64) -> Option<f32> {
+        let imu = self.imu.as_ref()?;
+        if depth_key == self.same_as_depth {
+            // the cane's own IMU carries the sweep: looking along it reads every wall
+            // beside a corridor as ahead (`perception::turn_ahead`)
+            tracing::error!(
+                "{} is the depth camera's device, not one worn on the body: its IMU is not used as the body's (--body-imu-device)",
+                imu.key()
+            );
+            self.imu = None;
+            return None;
+        }
+        let rate = self.rate.rate_at(capture_ns, bus::now_ns());
+        match (self.heard, rate.is_some()) {
+            (false, true) => {
+                tracing::info!("body-worn IMU on {}: the costs also look the way the user turns", imu.key())
+            }
+            (true, false) => tracing::warn!(
+                "body-worn IMU on {} silent for {} ms: the costs look along the camera's heading only",
+                imu.key(),
+                MAX_AGE_NS / 1_000_000
+            ),
+            _ => {}
+        }
+        self.heard = rate.is_some();
+        rate
+    }
+}
+
 /// Run the compute agent until `shutdown`.
 pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()> {
     let keys = config.bus.keys()?;
@@ -119,6 +185,18 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
 
     let frames = Subscriber::<DepthFrame>::declare(&session, keys.depth_any(), true, &health).await?;
     let odom = Subscriber::<OdomIncrement>::declare(&session, keys.odom_any(), false, &health).await?;
+    let mut body = Body {
+        imu: match &config.body_imu_device {
+            Some(device) => {
+                schemas::keys::check_chunk("device", device).context("bad body IMU device")?;
+                Some(Subscriber::<ImuBatch>::declare(&session, keys.imu(device), false, &health).await?)
+            }
+            None => None,
+        },
+        same_as_depth: config.body_imu_device.as_deref().map(|d| keys.depth(d)).unwrap_or_default(),
+        rate: BodyRate::default(),
+        heard: false,
+    };
     let mut out = Outputs {
         scan: Publisher::declare(&session, keys.scan(), AGENT, Lane::Perception, Some(&health)).await?,
         hazard: Publisher::declare(&session, keys.hazard(), AGENT, Lane::Perception, Some(&health)).await?,
@@ -137,11 +215,17 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             biased;
             _ = shutdown.triggered() => break,
             Some(inc) = odom.recv() => add_step(&mut motion, &inc, &health),
+            Some(batch) = body.recv() => body.add(&batch, &health),
             Some(frame) = frames.recv() => {
                 while let Some(inc) = odom.try_recv() {
                     add_step(&mut motion, &inc, &health);
                 }
-                let ok = process(&frame, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
+                while let Some(batch) = body.imu.as_ref().and_then(|s| s.try_recv()) {
+                    body.add(&batch, &health);
+                }
+                let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
+                let frame_in = FrameIn { frame: &frame, body_yaw_rate_rad_s };
+                let ok = process(frame_in, &mut pipeline, &mut depth, &mut motion, &config, &health, &mut out).await;
                 if rejections.record(ok) {
                     publish_blind(&frame, &config, &health, &mut out).await;
                 }
@@ -160,8 +244,14 @@ fn add_step(motion: &mut MotionSince, inc: &Received<OdomIncrement>, health: &He
 }
 
 /// Process one frame; `false` when it was rejected (and counted).
+/// A depth frame and the body's turn rate at its capture.
+struct FrameIn<'a> {
+    frame: &'a Received<DepthFrame>,
+    body_yaw_rate_rad_s: Option<f32>,
+}
+
 async fn process(
-    frame: &Received<DepthFrame>,
+    FrameIn { frame, body_yaw_rate_rad_s }: FrameIn<'_>,
     pipeline: &mut Pipeline,
     depth: &mut Vec<u16>,
     motion: &mut MotionSince,
@@ -192,13 +282,11 @@ async fn process(
         intrinsics: f.intrinsics,
     };
     let capture_ns = frame.header.capture_ns;
-    // no body-worn gyro reaches the agents yet (the cane's IMU carries the sweep): the
-    // costs look along the camera's heading only (`turn_ahead`)
     let ctx = FrameContext {
         stamp_ns: capture_ns,
         gravity_camera: f.gravity_camera,
         motion: motion.take_until(capture_ns),
-        body_yaw_rate_rad_s: None,
+        body_yaw_rate_rad_s,
     };
     let perception = match pipeline.process(input, &ctx, &mut clock) {
         Ok(p) => p.clone(),
@@ -215,7 +303,11 @@ async fn process(
         .collect();
     let hazard = perception.hazard(frame.header.seq, config.perception.cost_function, latency);
     let seeing = matches!(hazard.ground, schemas::GroundState::Found);
-    health.set_status(seeing, format!("{:?} ground, rumble {:?}", hazard.ground, hazard.rumble));
+    let body = match body_yaw_rate_rad_s {
+        Some(r) => format!("body turning {:+.0} deg/s", r.to_degrees()),
+        None => "no body turn rate".to_string(),
+    };
+    health.set_status(seeing, format!("{:?} ground, rumble {:?}, {body}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.
     for result in [
         out.haptic.put(capture_ns, &intent).await,

@@ -553,3 +553,27 @@ fn motions_compose_in_the_first_ones_frame() {
     });
     assert!((m.forward_m - 0.5).abs() < 1e-6 && (m.left_m - 2.0).abs() < 1e-6 && m.yaw_rad.abs() < 1e-6, "{m:?}");
 }
+
+#[test]
+fn a_body_turning_towards_a_block_beside_the_path_is_warned_before_the_camera_faces_it() {
+    // a cabinet 0.3 m right of the camera's line, from 0.9 m ahead: not in the way
+    let mut scene = Scene::kinect(0.9, 30.0);
+    scene.blocks.push(Block { min: [0.9, -0.6, 0.0], max: [2.4, -0.3, 1.0] });
+    let rumble_turning = |rate_deg_s: Option<f32>| {
+        let mut p = Pipeline::new(PerceptionConfig::default());
+        let ctx = FrameContext {
+            gravity_camera: gravity(&scene),
+            body_yaw_rate_rad_s: rate_deg_s.map(f32::to_radians),
+            ..Default::default()
+        };
+        let mut last = None;
+        for _ in 0..5 {
+            last = run(&mut p, &scene, &ctx).ok().map(|o| (o.rumble, o.turn_ahead));
+        }
+        last
+    };
+    assert_eq!(rumble_turning(None), Some((Rumble::None, false)), "no body gyro");
+    assert_eq!(rumble_turning(Some(0.0)), Some((Rumble::None, false)), "walking straight");
+    assert_eq!(rumble_turning(Some(60.0)), Some((Rumble::None, false)), "turning left, away from it");
+    assert_eq!(rumble_turning(Some(-60.0)), Some((Rumble::Left, true)), "turning right, into it");
+}
