@@ -8,12 +8,13 @@
 //! (where the perception's user frame lives: it turns with the cane's sweep), as
 //! visual odometry on the cane camera would measure it, with the sim's VO error model.
 
+use compute_agent::body_rate::BodyRate;
 use compute_agent::perception::{
     cue, cue_unavailable, rejections, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline,
     Rejections,
 };
 use feedback_agent::{Feedback, StepSettings};
-use schemas::{DepthEncoding, HapticIntent, Hazard};
+use schemas::{DepthEncoding, HapticIntent, Hazard, ImuSample};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
@@ -211,15 +212,19 @@ impl Default for WalkConfig {
     }
 }
 
-/// A gyro worn on the body (a phone on a lanyard, a belt clip): the user's turn rate
-/// about gravity, with the torso's sway at each step (3 degrees each way at 0.9 Hz,
-/// in proportion to the walking speed), white noise of 1 degree/s per sample and a
-/// constant bias of up to 0.5 degree/s drawn per walk.
+/// A gyro worn on the body (a phone at the chest, tilted 20 degrees down): the user's
+/// turn rate about gravity, with the torso's sway at each step (3 degrees each way at
+/// 0.9 Hz, in proportion to the walking speed), white noise of 1 degree/s per sample and
+/// a constant bias of up to 0.5 degree/s drawn per walk, sampled at 100 Hz and read
+/// through the compute agent's own estimator ([`BodyRate`]) as it reads a phone's.
 pub struct BodyGyro {
     rng: SimRng,
     phase_rad: f64,
     bias_rad_s: f64,
     last: Option<(f64, f64)>,
+    /// Index of the next 100 Hz sample.
+    next: u64,
+    rate: BodyRate,
 }
 
 impl BodyGyro {
@@ -231,25 +236,49 @@ impl BodyGyro {
     pub const NOISE_DEG_S: f64 = 1.0;
     /// Largest bias, degrees per second.
     pub const BIAS_DEG_S: f64 = 0.5;
+    /// Sample rate, Hz.
+    pub const RATE_HZ: f64 = 100.0;
+    /// Tilt of the device below the horizontal, degrees.
+    const TILT_DEG: f64 = 20.0;
 
     /// A gyro whose phase and bias come from `rng`.
     pub fn new(mut rng: SimRng) -> Self {
         let phase_rad = rng.uniform() * std::f64::consts::TAU;
         let bias_rad_s = (2.0 * rng.uniform() - 1.0) * Self::BIAS_DEG_S.to_radians();
-        Self { rng, phase_rad, bias_rad_s, last: None }
+        Self { rng, phase_rad, bias_rad_s, last: None, next: 0, rate: BodyRate::default() }
     }
 
-    /// The rate read at `t_s` by a user facing `yaw_rad` and walking at `speed_fraction`
-    /// of their pace: the turn since the last reading, sway, noise and bias. `None` on
-    /// the first reading.
+    /// The rate the compute agent would read at `t_s` from a user facing `yaw_rad` and
+    /// walking at `speed_fraction` of their pace: the samples since the last reading
+    /// carry the turn since then (evenly), sway, noise and bias. `None` on the first
+    /// reading.
     pub fn read(&mut self, t_s: f64, yaw_rad: f64, speed_fraction: f64) -> Option<f32> {
-        let last = self.last.replace((t_s, yaw_rad));
-        let (t0, yaw0) = last.filter(|(t0, _)| t_s > *t0)?;
+        let Some((t0, yaw0)) = self.last.replace((t_s, yaw_rad)).filter(|(t0, _)| t_s > *t0) else {
+            self.next = (t_s * Self::RATE_HZ).floor() as u64 + 1;
+            return None;
+        };
         let turn = wrap_pi(yaw_rad - yaw0) / (t_s - t0);
         let w = std::f64::consts::TAU * Self::SWAY_HZ;
-        let sway = Self::SWAY_DEG.to_radians() * speed_fraction.clamp(0.0, 1.0) * w * (w * t_s + self.phase_rad).cos();
-        let noise = self.rng.gaussian() * Self::NOISE_DEG_S.to_radians();
-        Some((turn + sway + noise + self.bias_rad_s) as f32)
+        let sway_rad = Self::SWAY_DEG.to_radians() * speed_fraction.clamp(0.0, 1.0);
+        let tilt = Self::TILT_DEG.to_radians();
+        // the device's frame: x right, y down its face, z out of its back
+        let up = [0.0, -tilt.cos() as f32, -tilt.sin() as f32];
+        loop {
+            let t_k = self.next as f64 / Self::RATE_HZ;
+            if t_k > t_s {
+                break;
+            }
+            self.next += 1;
+            let sway = sway_rad * w * (w * t_k + self.phase_rad).cos();
+            let noise = self.rng.gaussian() * Self::NOISE_DEG_S.to_radians();
+            let r = (turn + sway + noise + self.bias_rad_s) as f32;
+            let sample =
+                ImuSample { stamp_ns: ns(t_k), gyro_rad_s: up.map(|u| u * r), accel_m_s2: up.map(|u| u * 9.81) };
+            // in range and in order by construction: a refusal would leave the rate
+            // stale, never wrong
+            let _ = self.rate.add(&sample, sample.stamp_ns);
+        }
+        self.rate.rate_at(ns(t_s), ns(t_s))
     }
 }
 
