@@ -358,16 +358,24 @@ async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
         while let Some(h) = wait_for(&hazards, Duration::from_millis(300), |_| true).await {
             n += 1;
             if n > 15 {
-                felt.insert(format!("{:?}", h.body.rumble));
+                // what a monitor sees: the rumble, whether it came from the look the
+                // way the body turns, and the body's rate the agent used
+                let h = &h.body;
+                felt.insert(format!(
+                    "{:?} {} {:?}",
+                    h.rumble,
+                    h.turn_ahead,
+                    h.body_turn_deg_s.map(|r| r.round() as i32)
+                ));
             }
         }
         felt.into_iter().collect::<Vec<_>>()
     };
-    assert_eq!(phase(Some((&mut body, -60.0))).await, ["Left"], "turning right into the cabinet");
-    assert_eq!(phase(Some((&mut body, 0.0))).await, ["None"], "walking straight past it");
-    assert_eq!(phase(Some((&mut body, 60.0))).await, ["None"], "turning left, away from it");
-    assert_eq!(phase(Some((&mut cane, -60.0))).await, ["None"], "the cane's IMU is the sweep, not the body");
-    assert_eq!(phase(None).await, ["None"], "the body's IMU silent: the camera's heading only");
+    assert_eq!(phase(Some((&mut body, -60.0))).await, ["Left true Some(-60)"], "turning right into the cabinet");
+    assert_eq!(phase(Some((&mut body, 0.0))).await, ["None false Some(0)"], "walking straight past it");
+    assert_eq!(phase(Some((&mut body, 60.0))).await, ["None false Some(60)"], "turning left, away from it");
+    assert_eq!(phase(Some((&mut cane, -60.0))).await, ["None false None"], "the cane's IMU is the sweep");
+    assert_eq!(phase(None).await, ["None false None"], "the body's IMU silent: the camera's heading only");
 
     // a broken body IMU: every sample refused and counted, the look along the camera
     let mut broken = body_imu(bus::now_ns(), -60.0, 4);

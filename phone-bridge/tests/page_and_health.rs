@@ -30,6 +30,8 @@ fn hazard(rumble: Rumble) -> Hazard {
         nearest_bearing_deg: 0.0,
         ttc_s: None,
         dropoff_ahead: false,
+        turn_ahead: false,
+        body_turn_deg_s: None,
         latency: vec![],
     }
 }

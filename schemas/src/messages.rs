@@ -224,6 +224,12 @@ pub struct Hazard {
     pub ttc_s: Option<f32>,
     /// A drop-off or step down ahead.
     pub dropoff_ahead: bool,
+    /// The rumble warns of what lies the way the body is turning: along the camera's
+    /// heading the path was clear (the costs above are those along the heading).
+    pub turn_ahead: bool,
+    /// The body's turn rate perception was given, degrees/s positive left (from a
+    /// body-worn IMU); `None`: none heard lately, the costs look along the camera only.
+    pub body_turn_deg_s: Option<f32>,
     /// Per-stage latency of this frame.
     pub latency: Vec<StageLatency>,
 }
@@ -245,6 +251,8 @@ impl Hazard {
             nearest_bearing_deg: 0.0,
             ttc_s: None,
             dropoff_ahead: false,
+            turn_ahead: false,
+            body_turn_deg_s: None,
             latency: vec![],
         }
     }

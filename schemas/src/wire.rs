@@ -99,22 +99,29 @@ impl SchemaId {
         }
     }
 
+    /// The version of this schema's layout this build speaks (and writes); receivers
+    /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
+    /// `turn_ahead` and `body_turn_deg_s`.
+    pub const fn version(self) -> u16 {
+        match self {
+            SchemaId::Hazard => 2,
+            _ => 1,
+        }
+    }
+
     /// Schema string carried in the Zenoh `Encoding` (`wearnav/<name>/v<version>`), so
     /// a generic monitor can dispatch without guessing.
     pub fn encoding_schema(self) -> String {
-        format!("wearnav/{}/v{}", self.name(), CURRENT_VERSION)
+        format!("wearnav/{}/v{}", self.name(), self.version())
     }
 }
-
-/// The one wire version every schema is at today.
-pub const CURRENT_VERSION: u16 = 1;
 
 /// A message body with its schema identity and size bound.
 pub trait Message: Serialize + DeserializeOwned {
     /// Schema id written in the header.
     const SCHEMA: SchemaId;
     /// Version written in the header; receivers reject any other.
-    const VERSION: u16 = CURRENT_VERSION;
+    const VERSION: u16 = Self::SCHEMA.version();
     /// Largest acceptable encoded payload (header included).
     const MAX_BYTES: usize = 64 * 1024;
 
@@ -251,11 +258,11 @@ pub fn decode_header(bytes: &[u8]) -> Result<(Header, usize), WireError> {
         .map_err(|e| map_decode_error(e, bytes.len()))?;
     let schema =
         SchemaId::from_u16(header.schema).ok_or(WireError::UnknownSchema(header.schema))?;
-    if header.version != CURRENT_VERSION {
+    if header.version != schema.version() {
         return Err(WireError::UnknownVersion {
             schema: schema.name(),
             got: header.version,
-            expected: CURRENT_VERSION,
+            expected: schema.version(),
         });
     }
     Ok((header, used))
@@ -385,7 +392,11 @@ impl Message for Hazard {
             &c.iter()
                 .flat_map(|s| [s.left, s.forward, s.right])
                 .collect::<Vec<_>>(),
-        )
+        )?;
+        if let Some(r) = self.body_turn_deg_s {
+            finite("body turn rate", &[r])?;
+        }
+        Ok(())
     }
 }
 
@@ -607,6 +618,7 @@ mod tests {
         for s in SchemaId::ALL {
             assert_eq!(SchemaId::from_u16(s as u16), Some(s));
         }
-        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v1");
+        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v2");
+        assert_eq!(SchemaId::ImuBatch.encoding_schema(), "wearnav/imu_batch/v1");
     }
 }

@@ -18,7 +18,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use schemas::depth_codec;
-use schemas::wire::{CURRENT_VERSION, MAX_PAYLOAD_BYTES};
+use schemas::wire::MAX_PAYLOAD_BYTES;
 use schemas::*;
 use serde::Serialize;
 
@@ -282,6 +282,8 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
         nearest_bearing_deg: 0.0,
         ttc_s: None,
         dropoff_ahead: false,
+        turn_ahead: false,
+        body_turn_deg_s: None,
         latency: Vec::new(),
     };
     vec![
@@ -319,6 +321,7 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
                 nearest_m: 0.75,
                 nearest_bearing_deg: -10.0,
                 ttc_s: Some(1.5),
+                body_turn_deg_s: Some(-3.5),
                 latency: latency.clone(),
                 ..hazard(Rumble::Left, GroundState::Lost, CostFunction::Cacf)
             },
@@ -330,6 +333,8 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
                 ficf: costs(2.0, 1.0, 0.0),
                 nearest_m: 1.25,
                 nearest_bearing_deg: 15.0,
+                turn_ahead: true,
+                body_turn_deg_s: Some(45.0),
                 ..hazard(Rumble::Right, GroundState::Degraded, CostFunction::Ficf)
             },
         ),
@@ -688,6 +693,7 @@ fn reject_vectors() -> Vec<Golden> {
     too_long.resize(300, 0);
     let mut trailing = command_bytes.clone();
     trailing.push(0);
+    let hazard_bytes = encode(SENDER, 1, CAPTURE_NS, &Hazard::nothing_ahead(1, GroundState::Found));
 
     [
         reject::<SpeechIntent>(
@@ -700,6 +706,12 @@ fn reject_vectors() -> Vec<Golden> {
         reject::<SpeechIntent>(
             "wrong_version",
             patched(&speech_bytes, 2, &2u16.to_le_bytes()),
+            "unknown_version",
+        ),
+        // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s)
+        reject::<Hazard>(
+            "hazard_v1",
+            patched(&hazard_bytes, 2, &1u16.to_le_bytes()),
             "unknown_version",
         ),
         reject::<SpeechIntent>(
@@ -844,11 +856,11 @@ fn schema_table() -> Golden {
     struct SchemaJson {
         id: u16,
         name: &'static str,
+        version: u16,
         encoding_schema: String,
     }
     #[derive(Serialize)]
     struct TableJson {
-        current_version: u16,
         max_payload_bytes: usize,
         schemas: Vec<SchemaJson>,
     }
@@ -857,11 +869,11 @@ fn schema_table() -> Golden {
         .map(|s| SchemaJson {
             id: *s as u16,
             name: s.name(),
+            version: s.version(),
             encoding_schema: s.encoding_schema(),
         })
         .collect();
     let table = TableJson {
-        current_version: CURRENT_VERSION,
         max_payload_bytes: MAX_PAYLOAD_BYTES,
         schemas,
     };

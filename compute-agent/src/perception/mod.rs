@@ -228,6 +228,8 @@ pub struct Perception {
     /// The path ahead was clear and the cue comes from the heading the body is turning
     /// to (`turn_ahead`).
     pub turn_ahead: bool,
+    /// The body's turn rate this frame was given (`FrameContext::body_yaw_rate_rad_s`).
+    pub body_yaw_rate_rad_s: Option<f32>,
 }
 
 impl Perception {
@@ -245,6 +247,8 @@ impl Perception {
             nearest_bearing_deg: self.nearest_bearing_deg,
             ttc_s: self.ttc_s,
             dropoff_ahead: self.dropoff_ahead,
+            turn_ahead: self.turn_ahead,
+            body_turn_deg_s: self.body_yaw_rate_rad_s.filter(|r| r.is_finite()).map(f32::to_degrees),
             latency,
         }
     }
@@ -269,6 +273,7 @@ impl Perception {
             remembered: 0,
             obstacle_points: 0,
             turn_ahead: false,
+            body_yaw_rate_rad_s: None,
         }
     }
 }
@@ -465,6 +470,7 @@ impl Pipeline {
             .then(|| turn_ahead::rumble_ahead(&self.cost_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs))
             .flatten();
         out.turn_ahead = ahead.is_some_and(|r| r != Rumble::None);
+        out.body_yaw_rate_rad_s = ctx.body_yaw_rate_rad_s;
         raw = ahead.unwrap_or(raw);
         if let Some(a) = approach.filter(|a| raw == Rumble::None && a.ttc_s < cfg.ttc.warn_s) {
             // turn away from the side of the path the approaching obstacle is on

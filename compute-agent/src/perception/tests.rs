@@ -568,7 +568,13 @@ fn a_body_turning_towards_a_block_beside_the_path_is_warned_before_the_camera_fa
         };
         let mut last = None;
         for _ in 0..5 {
-            last = run(&mut p, &scene, &ctx).ok().map(|o| (o.rumble, o.turn_ahead));
+            last = run(&mut p, &scene, &ctx).ok().map(|o| {
+                // the hazard tells a monitor where the cue came from and the rate used
+                let h = o.hazard(0, CostFunction::Ficf, Vec::new());
+                assert_eq!(h.turn_ahead, o.turn_ahead);
+                assert_eq!(h.body_turn_deg_s.map(|r| r.round()), rate_deg_s.map(f32::round));
+                (o.rumble, o.turn_ahead)
+            });
         }
         last
     };

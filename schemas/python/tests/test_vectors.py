@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 
 from wearnav_schemas import (
-    CURRENT_VERSION,
     MAX_PAYLOAD_BYTES,
     SCHEMA_NAMES,
     SCHEMAS,
@@ -79,9 +78,9 @@ def test_damaged_payload_is_rejected_with_the_same_kind_as_rust(path):
 
 def test_schema_table_matches_rust():
     table = json.loads((VECTORS / "schemas.json").read_text())
-    assert table["current_version"] == CURRENT_VERSION
     assert table["max_payload_bytes"] == MAX_PAYLOAD_BYTES
     assert {s["id"]: s["name"] for s in table["schemas"]} == SCHEMA_NAMES
+    assert {s["name"]: s["version"] for s in table["schemas"]} == {s.name: s.version for s in SCHEMAS}
     for s in table["schemas"]:
         assert encoding_schema(s["name"]) == s["encoding_schema"]
 
@@ -162,7 +161,9 @@ def test_package_decodes_depth_frames_without_numpy_or_zstandard():
 @pytest.mark.parametrize(
     "name, line",
     [
-        ("hazard_left", "rumble Left nearest 0.75 m at -10 deg ground Lost ttc 1.5 s"),
+        ("hazard_left", "rumble Left nearest 0.75 m at -10 deg ground Lost ttc 1.5 s body turning -4 deg/s"),
+        ("hazard_right", "rumble Right nearest 1.25 m at 15 deg ground Degraded "
+                         "(what the body turns into) body turning +45 deg/s"),
         ("hazard_clear", "rumble None nearest none ground Found"),
         ("applied_speech_started", "espeak: SpeechStarted Important 'stop'"),
         ("applied_offline_warning", "console: OfflineWarning OFFLINE 'perception/hazard stale'"),

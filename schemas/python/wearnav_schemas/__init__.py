@@ -18,7 +18,6 @@ from .layout import MAX_PAYLOAD_BYTES, WireError
 from .messages import SCHEMAS, Schema
 from .summary import summarise
 from .wire import (
-    CURRENT_VERSION,
     SCHEMA_NAMES,
     Message,
     decode,
@@ -42,7 +41,6 @@ def depth_samples(frame):
 
 __all__ = [
     "COMMAND_VERBS",
-    "CURRENT_VERSION",
     "KeyNameError",
     "Keys",
     "MAX_PAYLOAD_BYTES",

@@ -88,6 +88,8 @@ HAZARD = Struct(
     nearest_bearing_deg=F32,
     ttc_s=Optional(F32),
     dropoff_ahead=BOOL,
+    turn_ahead=BOOL,
+    body_turn_deg_s=Optional(F32),
     latency=Seq(STAGE_LATENCY),
 )
 
@@ -170,13 +172,15 @@ HEADER = Struct("Header", schema=U16, version=U16, sender=STRING, seq=U64, captu
 
 @dataclass(frozen=True)
 class Schema:
-    """One schema of wire.rs ``SchemaId``: its stable id, snake-case name, body layout
-    and the largest payload (header included) a receiver accepts (``Message::MAX_BYTES``)."""
+    """One schema of wire.rs ``SchemaId``: its stable id, snake-case name, body layout,
+    the largest payload (header included) a receiver accepts (``Message::MAX_BYTES``)
+    and the version of its layout (``SchemaId::version``; receivers reject any other)."""
 
     id: int
     name: str
     body: object
     max_bytes: int = 64 * 1024
+    version: int = 1
 
 
 #: Every schema, in id order (ids are stable forever, never reused).
@@ -186,7 +190,8 @@ SCHEMAS = (
     Schema(3, "odom_increment", ODOM_INCREMENT),
     Schema(4, "ground_truth", GROUND_TRUTH),
     Schema(5, "scan", SCAN),
-    Schema(6, "hazard", HAZARD),
+    # v2 added turn_ahead and body_turn_deg_s
+    Schema(6, "hazard", HAZARD, version=2),
     Schema(7, "pose", POSE),
     Schema(8, "route_state", ROUTE_STATE),
     Schema(9, "haptic_intent", HAPTIC_INTENT, 256),

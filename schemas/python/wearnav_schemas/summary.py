@@ -62,6 +62,10 @@ def _hazard(b):
         line += f" ttc {b['ttc_s']:.1f} s"
     if b["dropoff_ahead"]:
         line += " DROP-OFF AHEAD"
+    if b["turn_ahead"]:
+        line += " (what the body turns into)"
+    if b["body_turn_deg_s"] is not None:
+        line += f" body turning {b['body_turn_deg_s']:+.0f} deg/s"
     return line
 
 

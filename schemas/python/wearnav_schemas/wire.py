@@ -12,9 +12,6 @@ from dataclasses import dataclass
 from .layout import MAX_PAYLOAD_BYTES, Reader, WireError
 from .messages import HEADER, SCHEMAS
 
-#: The one wire version every schema is at today (wire.rs ``CURRENT_VERSION``).
-CURRENT_VERSION = 1
-
 #: Schema id -> schema.
 BY_ID = {s.id: s for s in SCHEMAS}
 #: Schema name -> schema.
@@ -52,12 +49,13 @@ def schema(name):
 
 def encoding_schema(name):
     """Schema string carried in the Zenoh ``Encoding``: ``wearnav/<name>/v<version>``."""
-    return f"wearnav/{schema(name).name}/v{CURRENT_VERSION}"
+    found = schema(name)
+    return f"wearnav/{found.name}/v{found.version}"
 
 
 def schema_of_encoding(encoding):
     """The schema name in a Zenoh encoding string such as
-    ``application/octet-stream;wearnav/hazard/v1``, or ``None`` when it names none."""
+    ``application/octet-stream;wearnav/hazard/v2``, or ``None`` when it names none."""
     _, _, tail = str(encoding).partition(";")
     parts = tail.split("/")
     if len(parts) == 3 and parts[0] == "wearnav" and parts[1] in BY_NAME:
@@ -71,7 +69,7 @@ def _too_large(size, limit):
 
 def decode_header(payload):
     """Read only the envelope: ``(header, bytes used)``. Rejects oversized payloads,
-    unknown schema ids and versions other than ``CURRENT_VERSION``."""
+    unknown schema ids and versions other than the schema's own."""
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise _too_large(len(payload), MAX_PAYLOAD_BYTES)
     reader = Reader(memoryview(payload))
@@ -79,11 +77,11 @@ def decode_header(payload):
     found = BY_ID.get(header["schema"])
     if found is None:
         raise WireError("unknown_schema", f"unknown schema id {header['schema']}")
-    if header["version"] != CURRENT_VERSION:
+    if header["version"] != found.version:
         raise WireError(
             "unknown_version",
             f"{found.name} version {header['version']} not supported "
-            f"(this build speaks v{CURRENT_VERSION})",
+            f"(this build speaks v{found.version})",
         )
     return header, reader.pos
 
@@ -120,7 +118,7 @@ def encode(name, body, *, sender, seq, capture_ns):
     out = bytearray()
     header = {
         "schema": found.id,
-        "version": CURRENT_VERSION,
+        "version": found.version,
         "sender": sender,
         "seq": seq,
         "capture_ns": capture_ns,
