@@ -79,3 +79,13 @@ def test_monitor_decodes_a_running_demo_with_continuous_sequences(demo):
     # Ages come from the capture stamps and must be sane on one machine.
     hazards = [m for m in messages if m["schema"] == "hazard"]
     assert all(-5 < m["age_ms"] < 1000 for m in hazards), [m["age_ms"] for m in hazards][:10]
+
+    # The simulator wears an IMU on the body and the compute agent reads it: hazards
+    # carry the body's turn rate it used. The approach world's walker walks to a wall
+    # and backs up without turning: only the torso's sway (under 17 deg/s) is read.
+    rates = [m["body"]["body_turn_deg_s"] for m in hazards]
+    known = [r for r in rates if r is not None]
+    assert len(known) >= 0.8 * len(rates), f"{len(known)} of {len(rates)} hazards with a body turn rate"
+    assert all(abs(r) < 20.0 for r in known), max(known, key=abs)
+    assert any(abs(r) > 3.0 for r in known), "no sway read at all"
+    assert not any(m["body"]["turn_ahead"] for m in hazards)
