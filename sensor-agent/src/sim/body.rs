@@ -39,17 +39,12 @@ impl Default for BodyMount {
     }
 }
 
-/// Time step of the finite difference that gives the walker's speed, seconds.
-const SPEED_STEP_S: f64 = 0.01;
-
 impl BodyMount {
     /// The device's pose at `t_s` (in the same optical-style frame as a camera's: x
     /// right, y down, z out of the screen's back).
     pub fn pose_at(&self, walker: &ScriptedWalker, t_s: f64) -> CameraPose {
         let user = walker.pose_at(t_s);
-        let (before, after) = (walker.pose_at(t_s - SPEED_STEP_S), walker.pose_at(t_s + SPEED_STEP_S));
-        let speed_m_s = (after.x_m - before.x_m).hypot(after.y_m - before.y_m) / (2.0 * SPEED_STEP_S);
-        let scale = (speed_m_s / self.sway_speed_m_s).clamp(0.0, 1.0);
+        let scale = (walker.speed_at(t_s) / self.sway_speed_m_s).clamp(0.0, 1.0);
         let sway = self.sway_deg * scale * (std::f64::consts::TAU * self.sway_hz * t_s).sin();
         let yaw = user.yaw_rad + (self.yaw_offset_deg + sway).to_radians();
         CameraPose::from_yaw_pitch(user.x_m, user.y_m, self.height_m, yaw, self.pitch_deg.to_radians(), user.floor)

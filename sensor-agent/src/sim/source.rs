@@ -158,15 +158,10 @@ impl SimSource {
     }
 }
 
-/// Time step of the finite difference that gives the walker's speed, seconds.
-const SPEED_STEP_S: f64 = 0.01;
-
 /// The camera at `t_s`: the walker's pose, the cane's sweep and the walking bob.
 fn camera_pose_at(walker: &ScriptedWalker, mount: &CaneMount, t_s: f64) -> super::pose::CameraPose {
     let user = walker.pose_at(t_s);
-    let (before, after) = (walker.pose_at(t_s - SPEED_STEP_S), walker.pose_at(t_s + SPEED_STEP_S));
-    let speed_m_s = (after.x_m - before.x_m).hypot(after.y_m - before.y_m) / (2.0 * SPEED_STEP_S);
-    mount.camera_pose_bobbing(&user, mount.sweep_rad(t_s), mount.bob_at(t_s, speed_m_s))
+    mount.camera_pose_bobbing(&user, mount.sweep_rad(t_s), mount.bob_at(t_s, walker.speed_at(t_s)))
 }
 
 impl FrameSource for SimSource {

@@ -43,6 +43,9 @@ enum Leg {
     Move { from: [f64; 2], to: [f64; 2], yaw_rad: f64 },
 }
 
+/// Time step of the finite difference that gives the walker's speed, seconds.
+const SPEED_STEP_S: f64 = 0.01;
+
 /// A walker following a fixed script; its pose is a pure function of time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScriptedWalker {
@@ -112,6 +115,13 @@ impl ScriptedWalker {
     /// Time to walk the script once, seconds.
     pub fn script_duration_s(&self) -> f64 {
         self.out_s
+    }
+
+    /// Walking speed at `t_s`, m/s: a central difference of the pose over
+    /// 10 ms either side.
+    pub fn speed_at(&self, t_s: f64) -> f64 {
+        let (before, after) = (self.pose_at(t_s - SPEED_STEP_S), self.pose_at(t_s + SPEED_STEP_S));
+        (after.x_m - before.x_m).hypot(after.y_m - before.y_m) / (2.0 * SPEED_STEP_S)
     }
 
     /// The user's pose at `t_s` seconds after the start.
