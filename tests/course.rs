@@ -459,6 +459,10 @@ fn options_and_worlds_the_course_cannot_serve_are_refused_before_walking() {
     assert!(err.contains("goal on floor 1 and its start on floor 0") && err.contains("no stairs or lifts"), "{err}");
     let err = run("--cane-length-m 2 --runs 1").unwrap_err();
     assert!(err.contains("--cane-length-m must be between 1.05 and 1.6 m"), "{err}");
+    let err = run("--oracle-sees perception --runs 1").unwrap_err();
+    assert!(err.contains("go with --oracle"), "{err}");
+    let err = run("--oracle goal --oracle-turn-rate-deg-s 0 --runs 1").unwrap_err();
+    assert!(err.contains("--oracle-turn-rate-deg-s must be in (0, 720]"), "{err}");
 }
 
 #[test]

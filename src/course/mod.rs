@@ -16,6 +16,7 @@
 pub mod compare;
 pub mod contacts;
 pub mod hands;
+pub mod oracle;
 pub mod study;
 pub mod virtual_user;
 pub mod walk;
@@ -111,6 +112,23 @@ pub struct CourseArgs {
     /// guide and the cane's touches alone (the baseline the device is measured against).
     #[arg(long)]
     pub no_rumble: bool,
+    /// Cues from an oracle instead of perception: every camera frame it walks a copy
+    /// of the user ahead (2.5 s, the true geometry, the user's reaction) under each
+    /// rumble state and sends one under which nothing is touched, clear whenever clear
+    /// is safe. `goal`: it knows what the user heads for, as no device does (what it
+    /// cannot spare this user, no perception can); `ahead`: it takes the user to walk
+    /// straight on while nothing rumbles (perfect sensing, no mind reading).
+    #[arg(long, value_enum)]
+    pub oracle: Option<oracle::Knows>,
+    /// With `--oracle`: what its look-ahead is checked against: `world`, the true
+    /// geometry; `perception`, the obstacle points the perception holds each frame (in
+    /// view, remembered, edges of lower ground), so only the perception's sensing limits it.
+    #[arg(long, value_enum, default_value_t = oracle::Sees::World)]
+    pub oracle_sees: oracle::Sees,
+    /// With `--oracle`: the turning rate it takes the user to have, degrees per second
+    /// [default: the user's own, `--turn-rate-deg-s`] (a device knows only the typical user).
+    #[arg(long)]
+    pub oracle_turn_rate_deg_s: Option<f64>,
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
@@ -233,6 +251,9 @@ impl CourseArgs {
             no_ttc,
             body_gyro,
             no_rumble,
+            oracle,
+            oracle_sees,
+            oracle_turn_rate_deg_s,
             guide,
             route_lookahead_m,
             route_map,
@@ -281,6 +302,18 @@ impl CourseArgs {
         c.perception.ttc.enabled = !self.no_ttc;
         c.body_gyro = self.body_gyro;
         c.rumble = !self.no_rumble;
+        anyhow::ensure!(
+            self.oracle_turn_rate_deg_s.is_none_or(|r| r > 0.0 && r <= 720.0),
+            "--oracle-turn-rate-deg-s must be in (0, 720]"
+        );
+        anyhow::ensure!(
+            self.oracle.is_some() || (self.oracle_sees == oracle::Sees::World && self.oracle_turn_rate_deg_s.is_none()),
+            "--oracle-sees and --oracle-turn-rate-deg-s go with --oracle"
+        );
+        c.oracle = self.oracle.map(|k| oracle::OracleConfig {
+            turn_rate_deg_s: self.oracle_turn_rate_deg_s,
+            ..oracle::OracleConfig::new(k, self.oracle_sees)
+        });
         c.guide = self.guide;
         anyhow::ensure!(
             self.route_lookahead_m.is_none_or(|m| (0.0..=20.0).contains(&m)),
@@ -423,6 +456,7 @@ fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         "ttc": !args.no_ttc,
         "body_gyro": args.body_gyro,
         "rumble": !args.no_rumble,
+        "oracle": config.oracle,
         "guide": args.guide,
         "route_lookahead_m": config.lookahead_m(),
         "route_map": args.route_map,
@@ -458,11 +492,15 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         g => format!("{g:?}"),
     };
     let mut s = format!(
-        "world {} | camera {} | rumble {} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
+        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
          user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
         world.name(),
         config.camera.name,
         on_off(!args.no_rumble),
+        config.oracle.map_or_else(String::new, |o| {
+            let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
+            format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
+        }),
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),

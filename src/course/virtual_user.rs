@@ -13,6 +13,7 @@
 //! and turn away from it for `bump_turn_s`, as any cane user does.
 
 use std::collections::VecDeque;
+use std::rc::Rc;
 
 use sensor_agent::sim::walker::wrap_pi;
 use sensor_agent::sim::UserPose;
@@ -29,6 +30,9 @@ pub trait Guide {
     fn assists(&self) -> u32 {
         0
     }
+
+    /// A copy in the same state, to walk the user ahead with (the oracle's look-ahead).
+    fn boxed_clone(&self) -> Box<dyn Guide + '_>;
 }
 
 /// A sound source at the goal: the user hears its bearing, nothing else (Taylor's music).
@@ -45,15 +49,20 @@ impl Guide for GoalSound {
         let (dx, dy) = (self.x_m - pose.x_m, self.y_m - pose.y_m);
         (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx))
     }
+
+    fn boxed_clone(&self) -> Box<dyn Guide + '_> {
+        Box::new(*self)
+    }
 }
 
 /// Whether the user can walk straight from a pose to a point (the map's answer).
-type InSight<'a> = Box<dyn Fn(&UserPose, [f64; 2]) -> bool + 'a>;
+type InSight<'a> = Rc<dyn Fn(&UserPose, [f64; 2]) -> bool + 'a>;
 
 /// Route guidance stand-in (until the planner speaks real instructions): a fixed
 /// route, and the user is pointed at the farthest waypoint in line of sight, as
 /// ISANA's line-of-sight smoothing and deviation recovery would. Line of sight is
 /// given by the caller (the map), so the guide itself knows no geometry.
+#[derive(Clone)]
 pub struct RouteWaypoints<'a> {
     waypoints: Vec<[f64; 2]>,
     in_sight: InSight<'a>,
@@ -64,7 +73,7 @@ impl<'a> RouteWaypoints<'a> {
     /// A route through `waypoints` (map metres, the goal last); `in_sight` says whether
     /// the user can walk straight from where they are to a point.
     pub fn new(waypoints: Vec<[f64; 2]>, in_sight: impl Fn(&UserPose, [f64; 2]) -> bool + 'a) -> Self {
-        Self { waypoints, in_sight: Box::new(in_sight), target: 0 }
+        Self { waypoints, in_sight: Rc::new(in_sight), target: 0 }
     }
 }
 
@@ -77,6 +86,10 @@ impl Guide for RouteWaypoints<'_> {
         let (dx, dy) = (w[0] - pose.x_m, w[1] - pose.y_m);
         (dx.hypot(dy) > 1e-6).then(|| dy.atan2(dx))
     }
+
+    fn boxed_clone(&self) -> Box<dyn Guide + '_> {
+        Box::new(self.clone())
+    }
 }
 
 /// Route guidance stand-in that keeps the user on the route and announces turns ahead
@@ -88,6 +101,7 @@ impl Guide for RouteWaypoints<'_> {
 /// in sight (the user pushed off it), the user heads for the farthest waypoint in sight
 /// ([`RouteWaypoints`]): that walks the user right up to each corner, facing whatever
 /// lies past it.
+#[derive(Clone)]
 pub struct RouteFollow<'a> {
     points: Vec<[f64; 2]>,
     /// Distance along the route of each point, metres.
@@ -130,7 +144,7 @@ impl<'a> RouteFollow<'a> {
         Self {
             points,
             along_m,
-            in_sight: Box::new(in_sight.clone()),
+            in_sight: Rc::new(in_sight.clone()),
             lookahead_m,
             progress_m: 0.0,
             recover: RouteWaypoints::new(waypoints, in_sight),
@@ -210,6 +224,10 @@ impl Guide for RouteFollow<'_> {
             None => self.recover.heading_target_rad(pose, t_s),
         }
     }
+
+    fn boxed_clone(&self) -> Box<dyn Guide + '_> {
+        Box::new(self.clone())
+    }
 }
 
 /// The goal's sound, with an experimenter standing by as in Taylor's study (2017, sec.
@@ -218,10 +236,11 @@ impl Guide for RouteFollow<'_> {
 /// route from the nearest point of it in sight, as [`RouteFollow`]) until the goal is in
 /// a straight line of walking, then leaves them to the sound again. The rumble still
 /// decides every step; only what the user heads for changes.
+#[derive(Clone)]
 pub struct ExperimenterAssist<'a> {
     sound: GoalSound,
     route: RouteFollow<'a>,
-    goal_in_sight: Box<dyn Fn(&UserPose) -> bool + 'a>,
+    goal_in_sight: Rc<dyn Fn(&UserPose) -> bool + 'a>,
     stuck_after_s: f64,
     best_m: f64,
     best_t_s: f64,
@@ -243,7 +262,7 @@ impl<'a> ExperimenterAssist<'a> {
         Self {
             sound,
             route,
-            goal_in_sight: Box::new(goal_in_sight),
+            goal_in_sight: Rc::new(goal_in_sight),
             stuck_after_s,
             best_m: f64::INFINITY,
             best_t_s: 0.0,
@@ -278,6 +297,10 @@ impl Guide for ExperimenterAssist<'_> {
 
     fn assists(&self) -> u32 {
         self.assists
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Guide + '_> {
+        Box::new(self.clone())
     }
 }
 
@@ -375,6 +398,12 @@ impl VirtualUser {
     /// Parameters.
     pub fn params(&self) -> &UserParams {
         &self.params
+    }
+
+    /// The same user, in the same state, with other parameters (how someone who knows
+    /// only the typical user would picture this one).
+    pub fn with_params(&self, params: UserParams) -> VirtualUser {
+        VirtualUser { params, ..self.clone() }
     }
 
     /// Where the user is.

@@ -10,11 +10,11 @@
 
 use compute_agent::body_rate::BodyRate;
 use compute_agent::perception::{
-    cue, cue_unavailable, rejections, CueConfig, DepthInput, FrameContext, Motion, NoTimer, PerceptionConfig, Pipeline,
-    Rejections,
+    cue, cue_unavailable, rejections, CueConfig, DepthInput, FrameContext, Motion, NoTimer, Perception,
+    PerceptionConfig, Pipeline, Rejections,
 };
 use feedback_agent::{Feedback, StepSettings};
-use schemas::{DepthEncoding, HapticIntent, Hazard, ImuSample};
+use schemas::{DepthEncoding, GroundState, HapticIntent, Hazard, ImuSample};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
@@ -25,6 +25,7 @@ use sensor_agent::sim::{
 
 use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
+use super::oracle::{Now, Oracle, OracleConfig, PointGrid, Seen, Sees};
 use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Touch, UserParams, VirtualUser};
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
@@ -133,6 +134,10 @@ pub struct WalkConfig {
     /// ([`BodyGyro`]), so the costs are also taken along the heading the user is turning
     /// to (`turn_ahead`). Off: as the agents run today, with no such sensor.
     pub body_gyro: bool,
+    /// Cues from the [`Oracle`] (perfect knowledge of the world and the user) instead
+    /// of perception: the bound of what any device could do for this user. Perception
+    /// still runs (for the trace and the feedback agent's watchdog).
+    pub oracle: Option<OracleConfig>,
 }
 
 /// One camera frame of a walk, for finding out why a contact happened.
@@ -208,6 +213,7 @@ impl Default for WalkConfig {
             reaction_jitter: 0.25,
             trace: false,
             body_gyro: false,
+            oracle: None,
         }
     }
 }
@@ -411,7 +417,7 @@ type InFlight = (f64, Option<Hazard>, Option<(HapticIntent, u64)>);
 /// taps the cane left and right in step with the feet, so a user standing still (turning
 /// in place, waiting) holds it ahead instead of sweeping; full sweep from half the
 /// walking speed up.
-fn sweep_scale(speed_m_s: f64, params: &UserParams) -> f64 {
+pub(super) fn sweep_scale(speed_m_s: f64, params: &UserParams) -> f64 {
     (2.0 * speed_m_s / params.walk_speed_m_s.max(1e-6)).clamp(0.0, 1.0)
 }
 
@@ -457,6 +463,9 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let radius_m = params.shoulder_width_m / 2.0;
     let mut guide = guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m());
     let mut target = None;
+    let mut guided_at_s = 0.0;
+    let mut oracle = config.oracle.map(Oracle::new);
+    let mut seen_points = PointGrid::default();
 
     let dt = 1.0 / PHYSICS_HZ as f64;
     let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
@@ -552,18 +561,61 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
                 intrinsics: k,
             };
+            let processed = pipeline.process(input, &ctx, &mut NoTimer).map(|p| {
+                let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
+                (hazard, cue(p, &config.cue), p.turn_ahead)
+            });
+            let known = oracle.as_mut().map(|o| {
+                if processed.is_ok() {
+                    // what the perception holds, into the map (a refused frame keeps the last)
+                    let (s, c) = floor_pose.yaw_rad.sin_cos();
+                    // only what the user could reach within the look-ahead
+                    let reach_m = (params.walk_speed_m_s * o.config().horizon_s + mount.cane_length_m + 0.5) as f32;
+                    seen_points.rebuild(pipeline.obstacle_points().iter().filter(|p| p[0].hypot(p[1]) <= reach_m).map(
+                        |&[x, y]| {
+                            let (x, y) = (f64::from(x), f64::from(y));
+                            [floor_pose.x_m + c * x - s * y, floor_pose.y_m + s * x + c * y]
+                        },
+                    ));
+                }
+                let now = Now {
+                    t_s: t,
+                    user: &user,
+                    assumed: UserParams {
+                        turn_rate_deg_s: o.config().turn_rate_deg_s.unwrap_or(config.user.turn_rate_deg_s),
+                        ..config.user
+                    },
+                    guide: guide.as_ref(),
+                    target_rad: target,
+                    guide_every_s: GUIDE_EVERY as f64 * dt,
+                    guided_at_s,
+                    felt: shown,
+                    latency_s,
+                    goal: ([goal.x_m, goal.y_m], config.goal_radius_m),
+                    seen: match o.config().sees {
+                        Sees::World => Seen::World(world),
+                        Sees::Perception => Seen::Points(&seen_points),
+                    },
+                };
+                let rumble = o.decide(&mount, &now);
+                let nearest_m = body_now.iter().copied().fold(f64::INFINITY, f64::min) as f32;
+                let p = Perception { rumble, ground: GroundState::Found, nearest_m, ..Perception::empty() };
+                cue(&p, &config.cue)
+            });
             let mut turn_ahead = false;
-            let hazard = match pipeline.process(input, &ctx, &mut NoTimer) {
-                Ok(p) => {
-                    turn_ahead = p.turn_ahead;
+            let hazard = match processed {
+                Ok((hazard, intent, ahead)) => {
+                    turn_ahead = ahead;
                     rejections.record(true);
-                    let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
-                    pending.push_back((t + latency_s, Some(hazard.clone()), Some((cue(p, &config.cue), now))));
+                    let intent = known.unwrap_or(intent);
+                    pending.push_back((t + latency_s, Some(hazard.clone()), Some((intent, now))));
                     Some(hazard)
                 }
                 Err(_) => {
                     out.perception_errors += 1;
-                    if rejections.record(false) {
+                    if let Some(intent) = known {
+                        pending.push_back((t + latency_s, None, Some((intent, now))));
+                    } else if rejections.record(false) {
                         let blind =
                             rejections::blind().hazard(out.frames as u64, config.perception.cost_function, Vec::new());
                         pending.push_back((t + latency_s, Some(blind), Some((cue_unavailable(&config.cue), now))));
@@ -641,6 +693,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
 
         if step % GUIDE_EVERY == 0 {
             target = guide.heading_target_rad(&pose, t);
+            guided_at_s = t;
         }
         let (proposed, speed) = user.propose(t, dt, target);
         let t_next = t + dt;

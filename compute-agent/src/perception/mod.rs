@@ -328,6 +328,13 @@ impl Pipeline {
         &self.config
     }
 
+    /// Every obstacle point the cost functions took in the last frame processed: the
+    /// scan's, the edges of lower ground and what the memory holds out of view; user
+    /// frame, metres `(x forward, y left)`.
+    pub fn obstacle_points(&self) -> &[[f32; 2]] {
+        &self.cost_points
+    }
+
     /// Runs every stage on one frame.
     pub fn process(
         &mut self,
