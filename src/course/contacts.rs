@@ -25,6 +25,19 @@ const SURFACE_STEP_M: f64 = 0.05;
 /// Most surface points per shape edge (a 10 m wall is sampled every 5 cm up to this).
 const MAX_STEPS: usize = 400;
 
+/// Distance from the cane (the segment `hand`–`tip`) to `shape`, metres: exact within
+/// `exact_within_m`, a cheap lower bound beyond it; a drop-off is never touched by the
+/// cane (the feet find it).
+pub fn cane_distance_m(shape: &Shape, hand: [f64; 3], tip: [f64; 3], exact_within_m: f64) -> f64 {
+    match shape {
+        Shape::DropOff(_) => f64::INFINITY,
+        _ => match shape.segment_distance_lower_bound_m(hand, tip) {
+            far if far > exact_within_m => far,
+            _ => shape.segment_distance_m(hand, tip),
+        },
+    }
+}
+
 /// Which part of the user touched.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -14,10 +14,9 @@
 //! perception holds instead of the world, so only the perception's sensing limits it.
 
 use schemas::Rumble;
-use sensor_agent::sim::shape::Shape;
 use sensor_agent::sim::{CaneMount, World};
 
-use super::contacts::RELEASE_M;
+use super::contacts::{cane_distance_m, RELEASE_M};
 use super::hands::Felt;
 use super::virtual_user::{Guide, UserParams, VirtualUser};
 use super::walk::sweep_scale;
@@ -321,13 +320,7 @@ impl Seen<'_> {
                 let mut nearest = [f64::INFINITY; 64];
                 for (id, shape) in world.obstacles_at(floor, t_s) {
                     let body = shape.body_distance_m(body_xy[0], body_xy[1], radius_m, height_m);
-                    let cane = match shape {
-                        Shape::DropOff(_) => f64::INFINITY,
-                        _ => match shape.segment_distance_lower_bound_m(hand, tip) {
-                            far if far > reach_m => far,
-                            _ => shape.segment_distance_m(hand, tip),
-                        },
-                    };
+                    let cane = cane_distance_m(&shape, hand, tip, reach_m);
                     let i = id.0 as usize;
                     match nearest.get_mut(i) {
                         Some(d) => *d = d.min(body.min(cane)),

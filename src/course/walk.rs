@@ -23,7 +23,7 @@ use sensor_agent::sim::{
     CameraPose, CameraProfile, CaneMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
 };
 
-use super::contacts::{in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
+use super::contacts::{cane_distance_m, in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
 use super::hands::{Felt, FeltRumble, Hands};
 use super::oracle::{Now, Oracle, OracleConfig, PointGrid, Seen, Sees};
 use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Touch, UserParams, VirtualUser};
@@ -745,13 +745,7 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
         let (hand, tip) = mount.cane_segment(&now_pose, sweep);
         // Only "touching or not" is read from the cane's distances, so a shape whose
         // bounds are clear of the release distance keeps its lower bound.
-        cane.measure(world, now_pose.floor, t_next, |s| match s {
-            Shape::DropOff(_) => f64::INFINITY,
-            _ => match s.segment_distance_lower_bound_m(hand, tip) {
-                far if far > RELEASE_M => far,
-                _ => s.segment_distance_m(hand, tip),
-            },
-        });
+        cane.measure(world, now_pose.floor, t_next, |s| cane_distance_m(s, hand, tip, RELEASE_M));
         for id in cane.entering() {
             let on_left = cane_touch_on_left(world, &mount, &now_pose, sweep, id, t_next);
             user.touch(Touch { t_s: t_next, on_left });
