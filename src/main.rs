@@ -32,7 +32,7 @@ enum Command {
     /// how many contacts came with no cue felt, with one felt too late to act on (less
     /// than the user's reaction time before), or with one felt in time. A line per walk
     /// goes to stderr as it ends.
-    Course(wearnav::course::CourseArgs),
+    Course(study::CourseArgs),
 }
 
 /// Log filter of `wearnav course` when `RUST_LOG` is unset: a line per walk. The
@@ -51,6 +51,6 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(args) => runtime.block_on(demo::run(args)),
         Command::Perceive(args) => perceive::run(&args),
         Command::Codec(args) => codec_cmd::run(&args),
-        Command::Course(args) => wearnav::course::run(&args),
+        Command::Course(args) => study::run(&args),
     }
 }

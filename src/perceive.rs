@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use compute_agent::perception::{
-    DepthInput, FrameContext, InstantTimer, Perception, PerceptionConfig, Pipeline, StageMedians,
+use perception::{
+    ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, Perception, PerceptionConfig, StageMedians, StepOutput,
 };
-use schemas::{GroundState, Intrinsics, Rumble, SideCosts};
+use schemas::{DepthEncoding, DepthFrame, GroundState, Intrinsics, Rumble, SideCosts};
 use serde_json::{json, Value};
 
 /// Arguments of `wearnav perceive`.
@@ -62,11 +62,12 @@ pub fn run(args: &PerceiveArgs) -> anyhow::Result<()> {
 }
 
 enum Frame {
-    Depth { samples: Vec<u16>, width: u32, height: u32 },
+    /// A depth image, packed as the sensor agent would send it (uncompressed).
+    Depth(DepthFrame),
     Xyz { points: Vec<[f32; 3]>, width: u32, height: u32 },
 }
 
-fn load(path: &Path) -> anyhow::Result<Frame> {
+fn load(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Frame> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("pcd") => {
@@ -75,7 +76,25 @@ fn load(path: &Path) -> anyhow::Result<Frame> {
         }
         Some("png") => {
             let d = sensor_agent::formats::depth_png::read(path)?;
-            Ok(Frame::Depth { samples: d.samples, width: d.width, height: d.height })
+            let (width, height) = (d.width, d.height);
+            let mut data = Vec::new();
+            schemas::depth_codec::encode(&d.samples, width, height, DepthEncoding::Raw, &mut data)
+                .with_context(|| format!("{}: cannot pack the depth image", path.display()))?;
+            Ok(Frame::Depth(DepthFrame {
+                width,
+                height,
+                depth_scale_m: args.depth_scale,
+                intrinsics: args.intrinsics.unwrap_or(Intrinsics {
+                    fx: 525.0,
+                    fy: 525.0,
+                    cx: (width as f32 - 1.0) / 2.0,
+                    cy: (height as f32 - 1.0) / 2.0,
+                }),
+                gravity_camera: args.gravity,
+                mount: None,
+                encoding: DepthEncoding::Raw,
+                data,
+            }))
         }
         _ => bail!("{}: not a .pcd or .png file", path.display()),
     }
@@ -83,44 +102,36 @@ fn load(path: &Path) -> anyhow::Result<Frame> {
 
 /// Perceives one file `args.runs` times and returns its JSON result.
 pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> {
-    let frame = load(path)?;
+    let frame = load(path, args)?;
     let mut config = PerceptionConfig::default();
     if let Some(deg) = args.up_cone_deg {
         config.ground.up_cone_deg = deg;
     }
-    let mut pipeline = Pipeline::new(config);
+    // the compute agent's own step on each frame, as it would run on the bus
+    let mut step = ComputeStep::new(config, CueConfig::default());
     let mut timer = InstantTimer::default();
     let mut medians = StageMedians::default();
     let mut last: Option<Perception> = None;
     for k in 0..args.runs.max(1) {
-        let input = match &frame {
-            Frame::Depth { samples, width, height } => DepthInput::Depth {
-                samples,
-                width: *width,
-                height: *height,
-                depth_scale_m: args.depth_scale,
-                intrinsics: args.intrinsics.unwrap_or(Intrinsics {
-                    fx: 525.0,
-                    fy: 525.0,
-                    cx: (*width as f32 - 1.0) / 2.0,
-                    cy: (*height as f32 - 1.0) / 2.0,
-                }),
-            },
-            Frame::Xyz { points, width, height } => DepthInput::Xyz { points, width: *width, height: *height },
+        let data = match &frame {
+            Frame::Depth(f) => FrameData::Wire(f),
+            Frame::Xyz { points, width, height } => {
+                FrameData::Xyz { points, width: *width, height: *height, gravity_camera: args.gravity }
+            }
         };
-        let ctx = FrameContext {
-            stamp_ns: k as u64 * 33_333_333,
-            gravity_camera: args.gravity,
-            motion: None,
-            body_yaw_rate_rad_s: None,
-        };
+        let input = FrameIn { data, seq: k as u64, capture_ns: k as u64 * 33_333_333, body_yaw_rate_rad_s: None };
         timer.clear();
         let t0 = Instant::now();
-        let result = pipeline.process(input, &ctx, &mut timer);
+        let result = step.process(input, &mut timer);
         let total = t0.elapsed();
-        let p = result.with_context(|| format!("{}: perception failed", path.display()))?;
+        let p = match result {
+            StepOutput::Perceived { perception, .. } => perception,
+            StepOutput::Refused { error, .. } => {
+                return Err(error).with_context(|| format!("{}: perception failed", path.display()))
+            }
+        };
         medians.add(&timer.stages, total);
-        last = Some(p.clone());
+        last = Some(p);
     }
     let p = last.context("no run")?;
     let mut timing = serde_json::Map::new();

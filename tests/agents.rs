@@ -304,7 +304,7 @@ fn body_imu(now_ns: u64, rate_deg_s: f32, n: u64) -> schemas::ImuBatch {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
-    use compute_agent::perception::synthetic_scene::{Block, Scene};
+    use perception::synthetic_scene::{Block, Scene};
     let user = "body-imu-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();

@@ -1,6 +1,6 @@
-//! wearnav compute agent: obstacle perception (Taylor 2017 and beyond), later
-//! localization and route planning, as pure libraries plus one agent loop (`run`).
+//! wearnav compute agent: the shell around the pure cores (`perception`, and as they
+//! arrive localization, planning, guidance): one agent loop ([`run`]) that takes frames,
+//! odometry and the body's IMU off the bus, runs them through
+//! [`perception::ComputeStep`] and publishes what it gives.
 
-pub mod body_rate;
-pub mod perception;
 pub mod run;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Parser;
-use compute_agent::perception::PerceptionConfig;
+use perception::PerceptionConfig;
 use schemas::CostFunction;
 
 /// Find obstacles in the cane camera's depth frames and publish scan, hazard and

@@ -1,6 +1,6 @@
 //! A simulated IMU worn on the body: a phone on a lanyard at the chest, tilted against
 //! it, turning with the walker and swaying with each stride. The compute agent reads
-//! the body's turn rate from it (`compute_agent::body_rate`); the cane's IMU cannot give
+//! the body's turn rate from it (`perception::body_rate`); the cane's IMU cannot give
 //! that, it carries the sweep.
 
 use super::pose::CameraPose;

@@ -1,6 +1,6 @@
 //! Per-stage medians of the perception pipeline on the real captures, on analytic
 //! synthetic frames and on the simulator's noisy frames at 10 and 30 deg pitch:
-//! `cargo bench -p compute-agent --bench perception`.
+//! `cargo bench -p perception --bench perception`.
 //! One core, one frame at a time, the pipeline reused across runs as in the agent.
 //! `PERCEPTION_BENCH_RUNS` sets the runs per frame (default 200). Last, the memory
 //! beyond the field of view alone, full of a walk's worth of obstacles.
@@ -8,11 +8,11 @@
 use std::path::Path;
 use std::time::Instant;
 
-use compute_agent::perception::config::{DropoffConfig, MemoryConfig};
-use compute_agent::perception::dropoff::StepZone;
-use compute_agent::perception::obstacle_memory::{ObstacleMemory, ViewCone};
-use compute_agent::perception::synthetic_scene::{Block, Scene};
-use compute_agent::perception::{
+use perception::config::{DropoffConfig, MemoryConfig};
+use perception::dropoff::StepZone;
+use perception::obstacle_memory::{ObstacleMemory, ViewCone};
+use perception::synthetic_scene::{Block, Scene};
+use perception::{
     DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline, StageMedians,
 };
 use schemas::Intrinsics;

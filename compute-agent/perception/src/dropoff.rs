@@ -320,8 +320,8 @@ impl PathGround {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::perception::ground_plane::Plane;
-    use crate::perception::synthetic_scene::Scene;
+    use crate::ground_plane::Plane;
+    use crate::synthetic_scene::Scene;
 
     /// The sampled cloud of `scene` (stride 2), the user frame of a floor plane pitched
     /// `plane_error_deg` more than the true one, and the true gravity.

@@ -251,7 +251,7 @@ mod tests {
             offline_signals: 0,
             contacts: contacts
                 .iter()
-                .map(|&(part, warned_ago_s)| super::super::contacts::Contact {
+                .map(|&(part, warned_ago_s)| crate::contacts::Contact {
                     t_s: 5.0,
                     part,
                     obstacle: 0,

@@ -28,8 +28,8 @@
 
 use clap::Parser;
 use sensor_agent::sim::World;
-use wearnav::course::study::{study, Row};
-use wearnav::course::CourseArgs;
+use study::study::{study, Row};
+use study::CourseArgs;
 
 #[derive(Parser)]
 struct Cli {

@@ -15,20 +15,28 @@
 //! | drop-offs, memory, TTC, debounce | [`dropoff`], [`obstacle_memory`], [`time_to_collision`], [`hysteresis`] | beyond |
 //! | haptic intent | [`cue`] | Table 2.1 + ISANA's beep rate |
 //!
-//! Pure library: no clock is read and no bus touched ([`InstantTimer`] is the shell's
+//! Around the pipeline: [`frame_step`], the compute agent's whole step on a frame as
+//! the wire carries it (decode, [`odometry`] held until its frame, perceive, cue, the
+//! blind state), which the agent, `wearnav perceive` and the study share; and
+//! [`body_rate`], the body's turn rate from a body-worn IMU.
+//!
+//! Pure library (its own crate, so nothing else can creep in): no clock is read and no bus touched ([`InstantTimer`] is the shell's
 //! tool, passed in). [`Pipeline`] owns every buffer and is reused frame after frame.
 //! Bad input is an `Err` ([`PerceptionError::kind`] names a counter); a frame with no
 //! ground is reported as such (`Lost`, then `Degraded`), never as a clear path.
 
+pub mod body_rate;
 pub mod config;
 pub mod cost_function;
 pub mod cue;
 pub mod dropoff;
+pub mod frame_step;
 pub mod ground_plane;
 pub mod ground_prediction;
 pub mod hysteresis;
 pub mod nearest_scan;
 pub mod obstacle_memory;
+pub mod odometry;
 pub mod organized_cloud;
 pub mod rejections;
 pub mod synthetic_scene;
@@ -40,6 +48,7 @@ use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
 pub use config::PerceptionConfig;
 pub use cue::{cue, cue_unavailable, CueConfig};
+pub use frame_step::{Blind, ComputeStep, FrameData, FrameIn, StepError, StepOutput};
 pub use rejections::Rejections;
 pub use timing::{InstantTimer, NoTimer, StageMedians, StageTimer};
 

@@ -11,12 +11,12 @@
 
 use clap::Parser;
 use sensor_agent::sim::World;
-use wearnav::course::compare::compare;
-use wearnav::course::contacts::Part;
-use wearnav::course::hands::Felt;
-use wearnav::course::study::{study, LeadTimes, Row};
-use wearnav::course::walk::{walk, GuideKind, WalkConfig};
-use wearnav::course::CourseArgs;
+use study::compare::compare;
+use study::contacts::Part;
+use study::hands::Felt;
+use study::study::{study, LeadTimes, Row};
+use study::walk::{walk, GuideKind, WalkConfig};
+use study::CourseArgs;
 
 fn world(items: &str) -> World {
     match World::from_toml(items, "test") {
@@ -129,7 +129,7 @@ fn same_seed_gives_the_same_row_and_another_seed_differs() {
 fn study_spread_over_threads_gives_the_walks_in_seed_order_as_walked_alone() {
     let w = dead_end();
     let ended = std::sync::Mutex::new(Vec::new());
-    let s = wearnav::course::study::study_with_progress(&w, &quick(3.0), 3, 5, |o| {
+    let s = study::study::study_with_progress(&w, &quick(3.0), 3, 5, |o| {
         ended.lock().unwrap_or_else(|e| e.into_inner()).push((o.seed, o.time_s))
     });
     let seeds: Vec<u64> = s.walks.iter().map(|o| o.seed).collect();
@@ -449,7 +449,7 @@ struct Cli {
 fn options_and_worlds_the_course_cannot_serve_are_refused_before_walking() {
     let run = |line: &str| {
         let argv = std::iter::once("course").chain(line.split_whitespace());
-        wearnav::course::run(&Cli::parse_from(argv).args).map_err(|e| format!("{e:#}"))
+        study::run(&Cli::parse_from(argv).args).map_err(|e| format!("{e:#}"))
     };
     let err = run("--world corridor --guide route --route-map floor-plan --runs 1").unwrap_err();
     assert!(err.contains("world `corridor` has no floor-plan route") && err.contains("[floor_plan_route]"), "{err}");
@@ -471,7 +471,7 @@ fn course_cli() {
     let line = std::env::var("COURSE_ARGS").unwrap_or_default();
     let argv = std::iter::once("course".to_string()).chain(line.split_whitespace().map(String::from));
     let cli = Cli::parse_from(argv);
-    if let Err(e) = wearnav::course::run(&cli.args) {
+    if let Err(e) = study::run(&cli.args) {
         panic!("{e:#}");
     }
 }

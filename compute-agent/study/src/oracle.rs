@@ -465,7 +465,7 @@ fn first_touch_one_s(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::course::virtual_user::GoalSound;
+    use crate::virtual_user::GoalSound;
     use sensor_agent::sim::UserPose;
 
     /// A wall 1 m wide standing across the way 4 m ahead of a user at the origin facing

@@ -8,13 +8,12 @@
 //! (where the perception's user frame lives: it turns with the cane's sweep), as
 //! visual odometry on the cane camera would measure it, with the sim's VO error model.
 
-use compute_agent::body_rate::BodyRate;
-use compute_agent::perception::{
-    cue, cue_unavailable, rejections, CueConfig, DepthInput, FrameContext, Motion, NoTimer, Perception,
-    PerceptionConfig, Pipeline, Rejections,
-};
 use feedback_agent::{Feedback, StepSettings};
-use schemas::{DepthEncoding, GroundState, HapticIntent, Hazard, ImuSample};
+use perception::body_rate::BodyRate;
+use perception::{
+    cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput,
+};
+use schemas::{DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
@@ -309,7 +308,7 @@ pub struct WalkOutcome {
     /// Times an experimenter led the user back on course ([`GuideKind::Assisted`]).
     pub assists: u32,
     /// Frames the perception refused (no intent for them; the third in a row and every
-    /// 30th after send the blind state, as the compute agent does: [`Rejections`]).
+    /// 30th after send the blind state, as the compute agent does: `perception::rejections`).
     pub perception_errors: u32,
     /// Camera frames processed.
     pub frames: u32,
@@ -448,8 +447,18 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
 
     let mut user = VirtualUser::new(params, start);
     let mut renderer = Renderer::new(config.camera.clone());
-    let mut pipeline = Pipeline::new(config.perception.clone());
-    let mut rejections = Rejections::default();
+    // the compute agent's own frame step, fed frames as the sensor agent packs them
+    let mut frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+    let mut wire = DepthFrame {
+        width: config.camera.width,
+        height: config.camera.height,
+        depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+        intrinsics: renderer.intrinsics(),
+        gravity_camera: None,
+        mount: None,
+        encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
+        data: Vec::new(),
+    };
     let mut feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
     let mut felt = FeltRumble::default();
     let n = world.obstacles().len();
@@ -457,8 +466,6 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
     let mut cane = Touching::new(n);
     let mut seen = SeenLog::new(n);
     let mut depth = Vec::new();
-    let mut packed = Vec::new();
-    let mut unpacked = Vec::new();
     let goal = world.goal().clone();
     let radius_m = params.shoulder_width_m / 2.0;
     let mut guide = guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m());
@@ -516,26 +523,17 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             renderer.render(world, &camera, t, &mut depth_rng, &mut depth);
             seen.update(renderer.obstacle_ids(), &depth, t);
             out.frames += 1;
-            let k = renderer.intrinsics();
-            let samples: &[u16] = match config.bounded_mm {
-                Some(step_mm) => {
-                    let mode = DepthEncoding::Bounded { step: step_mm };
-                    let (w, h) = (config.camera.width, config.camera.height);
-                    let ok = schemas::depth_codec::encode(&depth, w, h, mode, &mut packed).is_ok()
-                        && schemas::depth_codec::decode(&packed, w, h, mode, &mut unpacked).is_ok();
-                    if ok {
-                        &unpacked
-                    } else {
-                        &[]
-                    }
-                }
-                None => &depth,
-            };
+            if schemas::depth_codec::encode(&depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
+                // nothing to send: the step refuses the empty frame as the agent would
+                wire.data.clear();
+            }
             let floor_pose = camera_floor(&camera);
-            let motion = last_floor.map(|(from, from_ns)| {
+            if let Some((from, from_ns)) = last_floor {
                 let inc = odometry.increment(&from, &floor_pose, from_ns, now);
-                Motion { forward_m: inc.forward_m, left_m: inc.left_m, yaw_rad: inc.yaw_rad }
-            });
+                if let Err(e) = frame_step.add_odometry(&inc) {
+                    tracing::warn!("seed {seed}: {e}");
+                }
+            }
             last_floor = Some((floor_pose, now));
             let g = camera.gravity_camera();
             let s = 0.5f64.to_radians();
@@ -545,33 +543,23 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
                 g.z + gravity_rng.gaussian() * s,
             )
             .normalize();
+            wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
             let body_yaw_rate_rad_s = body_gyro
                 .as_mut()
                 .and_then(|gyro| gyro.read(t, pose.yaw_rad, user.speed_m_s() / params.walk_speed_m_s.max(1e-6)));
-            let ctx = FrameContext {
-                stamp_ns: now,
-                gravity_camera: Some([g.x as f32, g.y as f32, g.z as f32]),
-                motion,
-                body_yaw_rate_rad_s,
+            let input =
+                FrameIn { data: FrameData::Wire(&wire), seq: out.frames as u64, capture_ns: now, body_yaw_rate_rad_s };
+            let processed = match frame_step.process(input, &mut NoTimer) {
+                StepOutput::Perceived { perception, hazard, intent } => Ok((hazard, intent, perception.turn_ahead)),
+                StepOutput::Refused { blind, .. } => Err(blind),
             };
-            let input = DepthInput::Depth {
-                samples,
-                width: config.camera.width,
-                height: config.camera.height,
-                depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
-                intrinsics: k,
-            };
-            let processed = pipeline.process(input, &ctx, &mut NoTimer).map(|p| {
-                let hazard = p.hazard(out.frames as u64, config.perception.cost_function, Vec::new());
-                (hazard, cue(p, &config.cue), p.turn_ahead)
-            });
             let known = oracle.as_mut().map(|o| {
                 if processed.is_ok() {
                     // what the perception holds, into the map (a refused frame keeps the last)
                     let (s, c) = floor_pose.yaw_rad.sin_cos();
                     // only what the user could reach within the look-ahead
                     let reach_m = (params.walk_speed_m_s * o.config().horizon_s + mount.cane_length_m + 0.5) as f32;
-                    seen_points.rebuild(pipeline.obstacle_points().iter().filter(|p| p[0].hypot(p[1]) <= reach_m).map(
+                    seen_points.rebuild(frame_step.obstacle_points().iter().filter(|p| p[0].hypot(p[1]) <= reach_m).map(
                         |&[x, y]| {
                             let (x, y) = (f64::from(x), f64::from(y));
                             [floor_pose.x_m + c * x - s * y, floor_pose.y_m + s * x + c * y]
@@ -606,19 +594,16 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             let hazard = match processed {
                 Ok((hazard, intent, ahead)) => {
                     turn_ahead = ahead;
-                    rejections.record(true);
                     let intent = known.unwrap_or(intent);
                     pending.push_back((t + latency_s, Some(hazard.clone()), Some((intent, now))));
                     Some(hazard)
                 }
-                Err(_) => {
+                Err(blind) => {
                     out.perception_errors += 1;
                     if let Some(intent) = known {
                         pending.push_back((t + latency_s, None, Some((intent, now))));
-                    } else if rejections.record(false) {
-                        let blind =
-                            rejections::blind().hazard(out.frames as u64, config.perception.cost_function, Vec::new());
-                        pending.push_back((t + latency_s, Some(blind), Some((cue_unavailable(&config.cue), now))));
+                    } else if let Some(blind) = blind {
+                        pending.push_back((t + latency_s, Some(blind.hazard), Some((blind.intent, now))));
                     }
                     None
                 }

@@ -1,0 +1,210 @@
+//! The compute agent's frame step: a depth frame as the wire carries it in; the
+//! perception, the hazard and the haptic intent out.
+//!
+//! The compute agent, `wearnav demo` (through the agent), `wearnav perceive` and the
+//! virtual-user study all run frames through [`ComputeStep`], so the study measures
+//! exactly what the agent does: decoding, odometry held until its frame, perception,
+//! the cue, and the blind state after rejections in a row ([`crate::rejections`]).
+//! Only the stamping of latencies and the publishing are the agent's.
+
+use schemas::depth_codec::{self, CodecError};
+use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement};
+
+use crate::odometry::{ImplausibleStep, MotionSince};
+use crate::rejections::{self, Rejections};
+use crate::{cue, cue_unavailable, CueConfig, DepthInput, FrameContext, Perception, PerceptionConfig, PerceptionError};
+use crate::{Pipeline, StageTimer};
+
+/// One frame and what is known of it.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameIn<'a> {
+    /// The frame.
+    pub data: FrameData<'a>,
+    /// The sender's sequence number (the hazard's `frame_seq`).
+    pub seq: u64,
+    /// Capture stamp, ns.
+    pub capture_ns: u64,
+    /// The body's turn rate about gravity at capture, rad/s, positive left, from a
+    /// body-worn gyro ([`FrameContext::body_yaw_rate_rad_s`]).
+    pub body_yaw_rate_rad_s: Option<f32>,
+}
+
+/// A frame as it comes.
+#[derive(Debug, Clone, Copy)]
+pub enum FrameData<'a> {
+    /// A depth frame as the wire carries it (packed samples, intrinsics, gravity).
+    Wire(&'a DepthFrame),
+    /// An organized point cloud from a file (PCD), camera optical frame, NaN = invalid.
+    Xyz {
+        /// Points, `width * height` of them.
+        points: &'a [[f32; 3]],
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Gravity in the camera frame, pointing down, when known.
+        gravity_camera: Option<[f32; 3]>,
+    },
+}
+
+/// Why a frame gave no perception.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepError {
+    /// The packed samples do not decode.
+    #[error("depth frame does not decode: {0}")]
+    Decode(#[from] CodecError),
+    /// The pipeline refused the frame.
+    #[error(transparent)]
+    Perception(#[from] PerceptionError),
+}
+
+impl StepError {
+    /// Short stable name for reject counters.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            StepError::Decode(_) => "depth_decode",
+            StepError::Perception(e) => e.kind(),
+        }
+    }
+}
+
+/// What to tell the user while frames keep coming but none can be used: a degraded
+/// hazard (rumble `Both`: stop) and the distinct "unavailable" cue, never silence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blind {
+    /// Hazard with ground `Degraded` and rumble `Both`.
+    pub hazard: Hazard,
+    /// The "unavailable" cue.
+    pub intent: HapticIntent,
+}
+
+/// What one frame gave.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepOutput {
+    /// The frame was perceived.
+    Perceived {
+        /// Everything perception found (the scan among it).
+        perception: Perception,
+        /// The hazard message; `latency` is left empty for the caller who owns the clock.
+        hazard: Hazard,
+        /// The haptic intent for the user's hands.
+        intent: HapticIntent,
+    },
+    /// The frame was refused.
+    Refused {
+        /// Why (count it under [`StepError::kind`]).
+        error: StepError,
+        /// Set when the refusals in a row mean the user must be told perception is
+        /// blind now.
+        blind: Option<Blind>,
+    },
+}
+
+/// Decoding buffer, odometry held for frames, the pipeline and the rejection count:
+/// everything the compute agent carries from one frame to the next.
+#[derive(Debug)]
+pub struct ComputeStep {
+    pipeline: Pipeline,
+    cue: CueConfig,
+    motion: MotionSince,
+    rejections: Rejections,
+    depth: Vec<u16>,
+}
+
+impl ComputeStep {
+    /// A step with these perception and cue settings.
+    pub fn new(perception: PerceptionConfig, cue: CueConfig) -> Self {
+        Self {
+            pipeline: Pipeline::new(perception),
+            cue,
+            motion: MotionSince::default(),
+            rejections: Rejections::default(),
+            depth: Vec::new(),
+        }
+    }
+
+    /// The perception settings in use.
+    pub fn perception_config(&self) -> &PerceptionConfig {
+        self.pipeline.config()
+    }
+
+    /// The cue settings in use.
+    pub fn cue_config(&self) -> &CueConfig {
+        &self.cue
+    }
+
+    /// Holds an odometry increment for the frame it leads up to; an implausible one is
+    /// refused (count it under [`ImplausibleStep::kind`]) and nothing moves.
+    pub fn add_odometry(&mut self, inc: &OdomIncrement) -> Result<(), ImplausibleStep> {
+        self.motion.add(inc)
+    }
+
+    /// Every obstacle point the costs took in the last frame perceived, user frame,
+    /// metres `(x forward, y left)` ([`Pipeline::obstacle_points`]).
+    pub fn obstacle_points(&self) -> &[[f32; 2]] {
+        self.pipeline.obstacle_points()
+    }
+
+    /// Runs one frame: decode, perceive with the odometry that ends by its capture,
+    /// cue; or refuse it, and after [`rejections::REJECTIONS_BEFORE_BLIND`] refusals in
+    /// a row say the system is blind. `timer` times the stages (`decode` and the
+    /// pipeline's).
+    pub fn process(&mut self, input: FrameIn<'_>, timer: &mut dyn StageTimer) -> StepOutput {
+        let perceived = match input.data {
+            FrameData::Wire(f) => {
+                timer.start("decode");
+                let decoded = depth_codec::decode(&f.data, f.width, f.height, f.encoding, &mut self.depth);
+                timer.stop();
+                // a frame that does not decode leaves its motion to the next frame
+                decoded.map_err(StepError::from).and_then(|()| {
+                    let depth = DepthInput::Depth {
+                        samples: &self.depth,
+                        width: f.width,
+                        height: f.height,
+                        depth_scale_m: f.depth_scale_m,
+                        intrinsics: f.intrinsics,
+                    };
+                    perceive(&mut self.pipeline, &mut self.motion, depth, f.gravity_camera, &input, timer)
+                })
+            }
+            FrameData::Xyz { points, width, height, gravity_camera } => {
+                let xyz = DepthInput::Xyz { points, width, height };
+                perceive(&mut self.pipeline, &mut self.motion, xyz, gravity_camera, &input, timer)
+            }
+        };
+        let active = self.pipeline.config().cost_function;
+        match perceived {
+            Ok(perception) => {
+                self.rejections.record(true);
+                let hazard = perception.hazard(input.seq, active, Vec::new());
+                let intent = cue(&perception, &self.cue);
+                StepOutput::Perceived { perception, hazard, intent }
+            }
+            Err(error) => {
+                let blind = self.rejections.record(false).then(|| Blind {
+                    hazard: rejections::blind().hazard(input.seq, active, Vec::new()),
+                    intent: cue_unavailable(&self.cue),
+                });
+                StepOutput::Refused { error, blind }
+            }
+        }
+    }
+}
+
+/// The pipeline on one decoded frame, with the motion that ends by its capture.
+fn perceive(
+    pipeline: &mut Pipeline,
+    motion: &mut MotionSince,
+    depth: DepthInput<'_>,
+    gravity_camera: Option<[f32; 3]>,
+    input: &FrameIn<'_>,
+    timer: &mut dyn StageTimer,
+) -> Result<Perception, StepError> {
+    let ctx = FrameContext {
+        stamp_ns: input.capture_ns,
+        gravity_camera,
+        motion: motion.take_until(input.capture_ns),
+        body_yaw_rate_rad_s: input.body_yaw_rate_rad_s,
+    };
+    Ok(pipeline.process(depth, &ctx, timer)?.clone())
+}
