@@ -8,12 +8,12 @@
 //! (where the perception's user frame lives: it turns with the cane's sweep), as
 //! visual odometry on the cane camera would measure it, with the sim's VO error model.
 
+use std::collections::VecDeque;
+
 use feedback_agent::{Feedback, StepSettings};
 use perception::body_rate::BodyRate;
-use perception::{
-    cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput,
-};
-use schemas::{DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample};
+use perception::{cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput};
+use schemas::{DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, OdomIncrement};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
@@ -427,269 +427,429 @@ fn ns(t_s: f64) -> u64 {
 /// Walks `world` once with `seed` (start jitter, sweep phase, reaction time, sensor
 /// noise, odometry errors all follow from it).
 pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
-    let mut rng = SimRng::seed_from(seed);
-    let mut depth_rng = rng.fork();
-    let mut gravity_rng = rng.fork();
-    let mut odometry = OdometryModel::new(OdometryNoise::default(), rng.fork());
-    let mut jitter = |half: f64| (2.0 * rng.uniform() - 1.0) * half;
-    let start = world.start();
-    let start = UserPose {
-        x_m: start.x_m + jitter(config.start_jitter.0),
-        y_m: start.y_m + jitter(config.start_jitter.0),
-        yaw_rad: start.yaw_rad + jitter(config.start_jitter.1).to_radians(),
-        floor: start.floor,
-    };
-    let mount = CaneMount { sweep_phase_rad: jitter(std::f64::consts::PI), ..config.mount };
-    let params =
-        UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
-    // drawn after everything else, so a walk without it is the walk it always was
-    let mut body_gyro = config.body_gyro.then(|| BodyGyro::new(rng.fork()));
+    let mut w = Walk::new(world, config, seed);
+    while w.step() {}
+    w.finish()
+}
 
-    let mut user = VirtualUser::new(params, start);
-    let mut renderer = Renderer::new(config.camera.clone());
-    // the compute agent's own frame step, fed frames as the sensor agent packs them
-    let mut frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
-    let mut wire = DepthFrame {
-        width: config.camera.width,
-        height: config.camera.height,
-        depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
-        intrinsics: renderer.intrinsics(),
-        gravity_camera: None,
-        mount: None,
-        encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
-        data: Vec::new(),
-    };
-    let mut feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
-    let mut felt = FeltRumble::default();
-    let n = world.obstacles().len();
-    let mut body = Touching::new(n);
-    let mut cane = Touching::new(n);
-    let mut seen = SeenLog::new(n);
-    let mut depth = Vec::new();
-    let goal = world.goal().clone();
-    let radius_m = params.shoulder_width_m / 2.0;
-    let mut guide = guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m());
-    let mut target = None;
-    let mut guided_at_s = 0.0;
-    let mut oracle = config.oracle.map(Oracle::new);
-    let mut seen_points = PointGrid::default();
+/// One frame as the walk fed it to the compute agent's step (recorded with
+/// [`Walk::record_frames`]): what a sensor agent would have published, and what the
+/// step made of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FedFrame {
+    /// Odometry increments added to the step since the previous frame.
+    pub odometry: Vec<OdomIncrement>,
+    /// The depth frame, packed as on the wire.
+    pub frame: DepthFrame,
+    /// Its sequence number (the hazard's `frame_seq`).
+    pub seq: u64,
+    /// Its capture stamp, ns.
+    pub capture_ns: u64,
+    /// The hazard the step gave (`None`: the frame was refused).
+    pub hazard: Option<Hazard>,
+}
 
-    let dt = 1.0 / PHYSICS_HZ as f64;
-    let frame_every = ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1);
-    let latency_s = config.latency_ms / 1000.0;
-    let mut pending: std::collections::VecDeque<InFlight> = Default::default();
-    let mut last_floor: Option<(UserPose, u64)> = None;
-    let mut out = WalkOutcome {
-        seed,
-        completed: false,
-        time_s: config.timeout_s,
-        signals: 0,
-        offline_signals: 0,
-        contacts: Vec::new(),
-        reorientations: 0,
-        assists: 0,
-        perception_errors: 0,
-        frames: 0,
-        min_clearance_m: f64::INFINITY,
-        path_m: 0.0,
-        reaction_s: params.reaction_s,
-        end_xy_m: [start.x_m, start.y_m],
-        trace: Vec::new(),
-    };
-    body.measure(world, start.floor, 0.0, |s| s.body_distance_m(start.x_m, start.y_m, radius_m, params.height_m));
-    let mut body_now = body.distance_m.clone();
-    let mut shown = Felt::None;
-    let mut felt_since: Option<f64> = None;
-    let mut away_since: Option<f64> = None;
-    let mut away_counted = false;
+/// A walk in progress: [`Walk::step`] advances it by one physics step
+/// (1 / [`PHYSICS_HZ`] s): a camera frame through the compute agent's step when one is
+/// due, intents due through the feedback step to the hands, the user's reaction and
+/// move, and the contacts that move makes.
+pub struct Walk<'w> {
+    world: &'w World,
+    config: &'w WalkConfig,
+    /// Physics steps taken.
+    steps: u64,
+    /// Physics steps before the time limit.
+    limit: u64,
+    frame_every: u64,
+    latency_s: f64,
+    depth_rng: SimRng,
+    gravity_rng: SimRng,
+    odometry: OdometryModel,
+    mount: CaneMount,
+    params: UserParams,
+    body_gyro: Option<BodyGyro>,
+    user: VirtualUser,
+    renderer: Renderer,
+    frame_step: ComputeStep,
+    wire: DepthFrame,
+    depth: Vec<u16>,
+    feedback: Feedback,
+    felt: FeltRumble,
+    body: Touching,
+    /// Body distances at the user's committed position.
+    body_now: Vec<f64>,
+    cane: Touching,
+    seen: SeenLog,
+    radius_m: f64,
+    guide: Box<dyn Guide + 'w>,
+    target: Option<f64>,
+    guided_at_s: f64,
+    oracle: Option<Oracle>,
+    seen_points: PointGrid,
+    pending: VecDeque<InFlight>,
+    last_floor: Option<(UserPose, u64)>,
+    shown: Felt,
+    felt_since: Option<f64>,
+    away_since: Option<f64>,
+    away_counted: bool,
+    /// Frames fed to the compute agent's step, when recording.
+    fed: Option<Vec<FedFrame>>,
+    odometry_fed: Vec<OdomIncrement>,
+    out: WalkOutcome,
+}
 
-    let steps = (config.timeout_s * PHYSICS_HZ as f64).ceil() as u64;
-    for step in 0..=steps {
-        let t = step as f64 * dt;
+impl<'w> Walk<'w> {
+    /// The user at the (jittered) start of `world`, nothing felt yet.
+    pub fn new(world: &'w World, config: &'w WalkConfig, seed: u64) -> Self {
+        let mut rng = SimRng::seed_from(seed);
+        let depth_rng = rng.fork();
+        let gravity_rng = rng.fork();
+        let odometry = OdometryModel::new(OdometryNoise::default(), rng.fork());
+        let mut jitter = |half: f64| (2.0 * rng.uniform() - 1.0) * half;
+        let start = world.start();
+        let start = UserPose {
+            x_m: start.x_m + jitter(config.start_jitter.0),
+            y_m: start.y_m + jitter(config.start_jitter.0),
+            yaw_rad: start.yaw_rad + jitter(config.start_jitter.1).to_radians(),
+            floor: start.floor,
+        };
+        let mount = CaneMount { sweep_phase_rad: jitter(std::f64::consts::PI), ..config.mount };
+        let params =
+            UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
+        // drawn after everything else, so a walk without it is the walk it always was
+        let body_gyro = config.body_gyro.then(|| BodyGyro::new(rng.fork()));
+
+        let renderer = Renderer::new(config.camera.clone());
+        // the compute agent's own frame step, fed frames as the sensor agent packs them
+        let frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+        let wire = DepthFrame {
+            width: config.camera.width,
+            height: config.camera.height,
+            depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+            intrinsics: renderer.intrinsics(),
+            gravity_camera: None,
+            mount: None,
+            encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
+            data: Vec::new(),
+        };
+        let feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
+        let n = world.obstacles().len();
+        let mut body = Touching::new(n);
+        let radius_m = params.shoulder_width_m / 2.0;
+        body.measure(world, start.floor, 0.0, |s| s.body_distance_m(start.x_m, start.y_m, radius_m, params.height_m));
+        let body_now = body.distance_m.clone();
+        let out = WalkOutcome {
+            seed,
+            completed: false,
+            time_s: config.timeout_s,
+            signals: 0,
+            offline_signals: 0,
+            contacts: Vec::new(),
+            reorientations: 0,
+            assists: 0,
+            perception_errors: 0,
+            frames: 0,
+            min_clearance_m: f64::INFINITY,
+            path_m: 0.0,
+            reaction_s: params.reaction_s,
+            end_xy_m: [start.x_m, start.y_m],
+            trace: Vec::new(),
+        };
+        Self {
+            world,
+            config,
+            steps: 0,
+            limit: (config.timeout_s * PHYSICS_HZ as f64).ceil() as u64,
+            frame_every: ((PHYSICS_HZ as f64 / config.camera.rate_hz).round() as u64).max(1),
+            latency_s: config.latency_ms / 1000.0,
+            depth_rng,
+            gravity_rng,
+            odometry,
+            mount,
+            params,
+            body_gyro,
+            user: VirtualUser::new(params, start),
+            renderer,
+            frame_step,
+            wire,
+            depth: Vec::new(),
+            feedback,
+            felt: FeltRumble::default(),
+            body,
+            body_now,
+            cane: Touching::new(n),
+            seen: SeenLog::new(n),
+            radius_m,
+            guide: guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m()),
+            target: None,
+            guided_at_s: 0.0,
+            oracle: config.oracle.map(Oracle::new),
+            seen_points: PointGrid::default(),
+            pending: VecDeque::new(),
+            last_floor: None,
+            shown: Felt::None,
+            felt_since: None,
+            away_since: None,
+            away_counted: false,
+            fed: None,
+            odometry_fed: Vec::new(),
+            out,
+        }
+    }
+
+    /// Keep every frame fed to the compute agent's step from now on ([`Walk::fed_frames`]).
+    pub fn record_frames(&mut self) {
+        self.fed.get_or_insert_with(Vec::new);
+    }
+
+    /// The frames fed to the compute agent's step since [`Walk::record_frames`].
+    pub fn fed_frames(&self) -> &[FedFrame] {
+        self.fed.as_deref().unwrap_or_default()
+    }
+
+    /// Where the user is now.
+    pub fn pose(&self) -> UserPose {
+        self.user.pose()
+    }
+
+    /// Advances the walk by one physics step; `false` once it is over (the goal
+    /// reached, or the time limit).
+    pub fn step(&mut self) -> bool {
+        let dt = 1.0 / PHYSICS_HZ as f64;
+        let t = self.steps as f64 * dt;
         let now = ns(t);
-        let pose = user.pose();
-        if (pose.x_m - goal.x_m).hypot(pose.y_m - goal.y_m) <= config.goal_radius_m && pose.floor == goal.floor {
-            out.completed = true;
-            out.time_s = t;
-            break;
+        let pose = self.user.pose();
+        let goal = self.world.goal();
+        if (pose.x_m - goal.x_m).hypot(pose.y_m - goal.y_m) <= self.config.goal_radius_m && pose.floor == goal.floor {
+            self.out.completed = true;
+            self.out.time_s = t;
+            return false;
         }
-        if step == steps {
+        if self.steps == self.limit {
             // the limit: nothing more happens in this walk (arriving right at it counts)
-            break;
+            return false;
         }
-        if step % frame_every == 0 {
-            let sweep = mount.sweep_rad(t) * sweep_scale(user.speed_m_s(), &params);
-            let camera = mount.camera_pose(&pose, sweep);
-            renderer.render(world, &camera, t, &mut depth_rng, &mut depth);
-            seen.update(renderer.obstacle_ids(), &depth, t);
-            out.frames += 1;
-            if schemas::depth_codec::encode(&depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
-                // nothing to send: the step refuses the empty frame as the agent would
-                wire.data.clear();
+        if self.steps.is_multiple_of(self.frame_every) {
+            self.camera_frame(t, now, &pose);
+        }
+        self.feel(t, now);
+        self.track_reorientation(t, &pose);
+        if self.steps.is_multiple_of(GUIDE_EVERY) {
+            self.target = self.guide.heading_target_rad(&pose, t);
+            self.guided_at_s = t;
+        }
+        self.move_user(t, dt, &pose);
+        self.steps += 1;
+        true
+    }
+
+    /// What happened, once the walk is over.
+    pub fn finish(mut self) -> WalkOutcome {
+        self.out.assists = self.guide.assists();
+        self.out
+    }
+
+    /// A camera frame: rendered, packed as the sensor agent packs it, through the
+    /// compute agent's step (with the odometry since the last frame and the body's turn
+    /// rate); its hazard and intent leave for the feedback step after the latency.
+    fn camera_frame(&mut self, t: f64, now: u64, pose: &UserPose) {
+        let (config, world) = (self.config, self.world);
+        let sweep = self.mount.sweep_rad(t) * sweep_scale(self.user.speed_m_s(), &self.params);
+        let camera = self.mount.camera_pose(pose, sweep);
+        self.renderer.render(world, &camera, t, &mut self.depth_rng, &mut self.depth);
+        self.seen.update(self.renderer.obstacle_ids(), &self.depth, t);
+        self.out.frames += 1;
+        let wire = &mut self.wire;
+        if schemas::depth_codec::encode(&self.depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
+            // nothing to send: the step refuses the empty frame as the agent would
+            wire.data.clear();
+        }
+        let floor_pose = camera_floor(&camera);
+        if let Some((from, from_ns)) = self.last_floor {
+            let inc = self.odometry.increment(&from, &floor_pose, from_ns, now);
+            if let Err(e) = self.frame_step.add_odometry(&inc) {
+                tracing::warn!("seed {}: {e}", self.out.seed);
             }
-            let floor_pose = camera_floor(&camera);
-            if let Some((from, from_ns)) = last_floor {
-                let inc = odometry.increment(&from, &floor_pose, from_ns, now);
-                if let Err(e) = frame_step.add_odometry(&inc) {
-                    tracing::warn!("seed {seed}: {e}");
-                }
+            if self.fed.is_some() {
+                self.odometry_fed.push(inc);
             }
-            last_floor = Some((floor_pose, now));
-            let g = camera.gravity_camera();
-            let s = 0.5f64.to_radians();
-            let g = nalgebra::Vector3::new(
-                g.x + gravity_rng.gaussian() * s,
-                g.y + gravity_rng.gaussian() * s,
-                g.z + gravity_rng.gaussian() * s,
-            )
+        }
+        self.last_floor = Some((floor_pose, now));
+        let g = camera.gravity_camera();
+        let s = 0.5f64.to_radians();
+        let rng = &mut self.gravity_rng;
+        let g = nalgebra::Vector3::new(g.x + rng.gaussian() * s, g.y + rng.gaussian() * s, g.z + rng.gaussian() * s)
             .normalize();
-            wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
-            let body_yaw_rate_rad_s = body_gyro
-                .as_mut()
-                .and_then(|gyro| gyro.read(t, pose.yaw_rad, user.speed_m_s() / params.walk_speed_m_s.max(1e-6)));
-            let input =
-                FrameIn { data: FrameData::Wire(&wire), seq: out.frames as u64, capture_ns: now, body_yaw_rate_rad_s };
-            let processed = match frame_step.process(input, &mut NoTimer) {
-                StepOutput::Perceived { perception, hazard, intent } => Ok((hazard, intent, perception.turn_ahead)),
-                StepOutput::Refused { blind, .. } => Err(blind),
-            };
-            let known = oracle.as_mut().map(|o| {
-                if processed.is_ok() {
-                    // what the perception holds, into the map (a refused frame keeps the last)
-                    let (s, c) = floor_pose.yaw_rad.sin_cos();
-                    // only what the user could reach within the look-ahead
-                    let reach_m = (params.walk_speed_m_s * o.config().horizon_s + mount.cane_length_m + 0.5) as f32;
-                    seen_points.rebuild(frame_step.obstacle_points().iter().filter(|p| p[0].hypot(p[1]) <= reach_m).map(
-                        |&[x, y]| {
-                            let (x, y) = (f64::from(x), f64::from(y));
-                            [floor_pose.x_m + c * x - s * y, floor_pose.y_m + s * x + c * y]
-                        },
-                    ));
-                }
-                let now = Now {
-                    t_s: t,
-                    user: &user,
-                    assumed: UserParams {
-                        turn_rate_deg_s: o.config().turn_rate_deg_s.unwrap_or(config.user.turn_rate_deg_s),
-                        ..config.user
-                    },
-                    guide: guide.as_ref(),
-                    target_rad: target,
-                    guide_every_s: GUIDE_EVERY as f64 * dt,
-                    guided_at_s,
-                    felt: shown,
-                    latency_s,
-                    goal: ([goal.x_m, goal.y_m], config.goal_radius_m),
-                    seen: match o.config().sees {
-                        Sees::World => Seen::World(world),
-                        Sees::Perception => Seen::Points(&seen_points),
-                    },
-                };
-                let rumble = o.decide(&mount, &now);
-                let nearest_m = body_now.iter().copied().fold(f64::INFINITY, f64::min) as f32;
-                let p = Perception { rumble, ground: GroundState::Found, nearest_m, ..Perception::empty() };
-                cue(&p, &config.cue)
+        wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
+        let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
+        let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
+        let seq = self.out.frames as u64;
+        let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s };
+        let processed = match self.frame_step.process(input, &mut NoTimer) {
+            StepOutput::Perceived { perception, hazard, intent } => Ok((hazard, intent, perception.turn_ahead)),
+            StepOutput::Refused { blind, .. } => Err(blind),
+        };
+        if let Some(fed) = self.fed.as_mut() {
+            fed.push(FedFrame {
+                odometry: std::mem::take(&mut self.odometry_fed),
+                frame: self.wire.clone(),
+                seq,
+                capture_ns: now,
+                hazard: processed.as_ref().ok().map(|(h, _, _)| h.clone()),
             });
-            let mut turn_ahead = false;
-            let hazard = match processed {
-                Ok((hazard, intent, ahead)) => {
-                    turn_ahead = ahead;
-                    let intent = known.unwrap_or(intent);
-                    pending.push_back((t + latency_s, Some(hazard.clone()), Some((intent, now))));
-                    Some(hazard)
-                }
-                Err(blind) => {
-                    out.perception_errors += 1;
-                    if let Some(intent) = known {
-                        pending.push_back((t + latency_s, None, Some((intent, now))));
-                    } else if let Some(blind) = blind {
-                        pending.push_back((t + latency_s, Some(blind.hazard), Some((blind.intent, now))));
-                    }
-                    None
-                }
-            };
-            if config.trace {
-                let forward_cost = hazard.as_ref().map_or(f32::NAN, |h| match h.active {
-                    schemas::CostFunction::Ficf => h.ficf.forward,
-                    schemas::CostFunction::Cacf => h.cacf.forward,
-                });
-                out.trace.push(TraceRow {
-                    t_s: t,
-                    x_m: pose.x_m,
-                    y_m: pose.y_m,
-                    yaw_deg: pose.yaw_rad.to_degrees(),
-                    sweep_deg: sweep.to_degrees(),
-                    speed_m_s: user.speed_m_s(),
-                    rumble: hazard.as_ref().map(|h| h.rumble),
-                    felt: shown,
-                    nearest_m: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_m),
-                    bearing_deg: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_bearing_deg),
-                    ttc_s: hazard.as_ref().and_then(|h| h.ttc_s),
-                    forward_cost,
-                    clearance_m: body_now.iter().copied().fold(f64::INFINITY, f64::min),
-                    turn_ahead,
-                });
-            }
         }
-        while pending.front().is_some_and(|(at, _, _)| *at <= t + 1e-9) {
-            if let Some((_, hazard, intent)) = pending.pop_front() {
+        let known = self.oracle_cue(t, &floor_pose, processed.is_ok());
+        let latency_s = self.latency_s;
+        let mut turn_ahead = false;
+        let hazard = match processed {
+            Ok((hazard, intent, ahead)) => {
+                turn_ahead = ahead;
+                let intent = known.unwrap_or(intent);
+                self.pending.push_back((t + latency_s, Some(hazard.clone()), Some((intent, now))));
+                Some(hazard)
+            }
+            Err(blind) => {
+                self.out.perception_errors += 1;
+                if let Some(intent) = known {
+                    self.pending.push_back((t + latency_s, None, Some((intent, now))));
+                } else if let Some(blind) = blind {
+                    self.pending.push_back((t + latency_s, Some(blind.hazard), Some((blind.intent, now))));
+                }
+                None
+            }
+        };
+        if config.trace {
+            let forward_cost = hazard.as_ref().map_or(f32::NAN, |h| match h.active {
+                schemas::CostFunction::Ficf => h.ficf.forward,
+                schemas::CostFunction::Cacf => h.cacf.forward,
+            });
+            self.out.trace.push(TraceRow {
+                t_s: t,
+                x_m: pose.x_m,
+                y_m: pose.y_m,
+                yaw_deg: pose.yaw_rad.to_degrees(),
+                sweep_deg: sweep.to_degrees(),
+                speed_m_s: self.user.speed_m_s(),
+                rumble: hazard.as_ref().map(|h| h.rumble),
+                felt: self.shown,
+                nearest_m: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_m),
+                bearing_deg: hazard.as_ref().map_or(f32::NAN, |h| h.nearest_bearing_deg),
+                ttc_s: hazard.as_ref().and_then(|h| h.ttc_s),
+                forward_cost,
+                clearance_m: self.body_now.iter().copied().fold(f64::INFINITY, f64::min),
+                turn_ahead,
+            });
+        }
+    }
+
+    /// With an oracle, its cue for this frame (`perceived`: the step took the frame, so
+    /// what the perception holds is new).
+    fn oracle_cue(&mut self, t: f64, floor_pose: &UserPose, perceived: bool) -> Option<HapticIntent> {
+        let o = self.oracle.as_mut()?;
+        let config = self.config;
+        if perceived {
+            // what the perception holds, into the map (a refused frame keeps the last)
+            let (s, c) = floor_pose.yaw_rad.sin_cos();
+            // only what the user could reach within the look-ahead
+            let reach_m = (self.params.walk_speed_m_s * o.config().horizon_s + self.mount.cane_length_m + 0.5) as f32;
+            self.seen_points.rebuild(
+                self.frame_step.obstacle_points().iter().filter(|p| p[0].hypot(p[1]) <= reach_m).map(|&[x, y]| {
+                    let (x, y) = (f64::from(x), f64::from(y));
+                    [floor_pose.x_m + c * x - s * y, floor_pose.y_m + s * x + c * y]
+                }),
+            );
+        }
+        let goal = self.world.goal();
+        let now = Now {
+            t_s: t,
+            user: &self.user,
+            assumed: UserParams {
+                turn_rate_deg_s: o.config().turn_rate_deg_s.unwrap_or(config.user.turn_rate_deg_s),
+                ..config.user
+            },
+            guide: self.guide.as_ref(),
+            target_rad: self.target,
+            guide_every_s: GUIDE_EVERY as f64 * (1.0 / PHYSICS_HZ as f64),
+            guided_at_s: self.guided_at_s,
+            felt: self.shown,
+            latency_s: self.latency_s,
+            goal: ([goal.x_m, goal.y_m], config.goal_radius_m),
+            seen: match o.config().sees {
+                Sees::World => Seen::World(self.world),
+                Sees::Perception => Seen::Points(&self.seen_points),
+            },
+        };
+        let rumble = o.decide(&self.mount, &now);
+        let nearest_m = self.body_now.iter().copied().fold(f64::INFINITY, f64::min) as f32;
+        let p = Perception { rumble, ground: GroundState::Found, nearest_m, ..Perception::empty() };
+        Some(cue(&p, &config.cue))
+    }
+
+    /// Intents due reach the feedback step; what it applies reaches the hands (with the
+    /// device on), and the user feels it.
+    fn feel(&mut self, t: f64, now: u64) {
+        while self.pending.front().is_some_and(|(at, _, _)| *at <= t + 1e-9) {
+            if let Some((_, hazard, intent)) = self.pending.pop_front() {
                 if let Some(h) = hazard {
-                    feedback.on_hazard(&h, now);
+                    self.feedback.on_hazard(&h, now);
                 }
                 if let Some((i, capture_ns)) = intent {
                     // intents from our own cue never carry NaN; a refusal would leave the motors as they are
-                    let _ = feedback.on_haptic(&i, capture_ns, now);
+                    let _ = self.feedback.on_haptic(&i, capture_ns, now);
                 }
             }
         }
-        feedback.tick(now);
-        for a in feedback.drain_applied() {
-            if config.rumble {
-                felt.apply(&a);
+        self.feedback.tick(now);
+        for a in self.feedback.drain_applied() {
+            if self.config.rumble {
+                self.felt.apply(&a);
             }
         }
-        let state = felt.felt(now);
-        if state != shown {
+        let state = self.felt.felt(now);
+        if state != self.shown {
             match state {
-                Felt::Left | Felt::Right | Felt::Both => out.signals += 1,
-                Felt::Offline => out.offline_signals += 1,
+                Felt::Left | Felt::Right | Felt::Both => self.out.signals += 1,
+                Felt::Offline => self.out.offline_signals += 1,
                 Felt::None => {}
             }
             if state == Felt::None {
-                felt_since = None;
-            } else if shown == Felt::None {
-                felt_since = Some(t);
+                self.felt_since = None;
+            } else if self.shown == Felt::None {
+                self.felt_since = Some(t);
             }
-            shown = state;
+            self.shown = state;
         }
-        user.feel(t, state, felt.pulse_period_ms(now));
+        self.user.feel(t, state, self.felt.pulse_period_ms(now));
+    }
 
-        // reorientations: heading far off where the guide points for too long
-        if target.is_some_and(|to| wrap_pi(to - pose.yaw_rad).abs() > AWAY_RAD) {
-            let since = *away_since.get_or_insert(t);
-            if !away_counted && t - since > REORIENT_AFTER_S {
-                out.reorientations += 1;
-                away_counted = true;
+    /// Reorientations: heading far off where the guide points for too long.
+    fn track_reorientation(&mut self, t: f64, pose: &UserPose) {
+        if self.target.is_some_and(|to| wrap_pi(to - pose.yaw_rad).abs() > AWAY_RAD) {
+            let since = *self.away_since.get_or_insert(t);
+            if !self.away_counted && t - since > REORIENT_AFTER_S {
+                self.out.reorientations += 1;
+                self.away_counted = true;
             }
         } else {
-            away_since = None;
-            away_counted = false;
+            self.away_since = None;
+            self.away_counted = false;
         }
+    }
 
-        if step % GUIDE_EVERY == 0 {
-            target = guide.heading_target_rad(&pose, t);
-            guided_at_s = t;
-        }
-        let (proposed, speed) = user.propose(t, dt, target);
+    /// The user's proposed move, stopped by what the body touches; then the cane's
+    /// touches at the new pose.
+    fn move_user(&mut self, t: f64, dt: f64, pose: &UserPose) {
+        let world = self.world;
+        let (proposed, speed) = self.user.propose(t, dt, self.target);
         let t_next = t + dt;
-        let height_m = params.height_m;
-        body.measure(world, proposed.floor, t_next, |s| {
+        let (radius_m, height_m) = (self.radius_m, self.params.height_m);
+        self.body.measure(world, proposed.floor, t_next, |s| {
             s.body_distance_m(proposed.x_m, proposed.y_m, radius_m, height_m)
         });
-        let entering = body.entering();
+        let entering = self.body.entering();
         // the body cannot go deeper into anything it touches
-        let blocking = body.distance_m.iter().zip(&body_now).position(|(&d, &was)| d <= TOUCH_M && d < was);
-        let camera = mount.camera_pose(&proposed, mount.sweep_rad(t_next) * sweep_scale(speed, &params));
+        let blocking = self.body.distance_m.iter().zip(&self.body_now).position(|(&d, &was)| d <= TOUCH_M && d < was);
+        let camera = self.mount.camera_pose(&proposed, self.mount.sweep_rad(t_next) * sweep_scale(speed, &self.params));
         // which side an obstacle is on: probe a little to the left and right of the body
         let on_left = |id: ObstacleId| {
             let (s, c) = proposed.yaw_rad.sin_cos();
@@ -701,57 +861,54 @@ pub fn walk(world: &World, config: &WalkConfig, seed: u64) -> WalkOutcome {
             probe(0.05) <= probe(-0.05)
         };
         for id in entering {
-            out.contacts.push(contact(
-                world,
-                id,
-                Part::Body,
-                t_next,
-                &camera,
-                config,
-                &seen,
-                felt_since,
-                body.touch_bottom_m[id.0 as usize],
-                &mount,
-            ));
+            let bottom_m = self.body.touch_bottom_m[id.0 as usize];
+            let c = self.contact(id, Part::Body, t_next, &camera, bottom_m);
+            self.out.contacts.push(c);
         }
-        out.min_clearance_m = out.min_clearance_m.min(body.nearest_m());
+        self.out.min_clearance_m = self.out.min_clearance_m.min(self.body.nearest_m());
         if let Some(i) = blocking {
             // the body stays where it was, but the turn goes on (a cylinder turning
             // in place never goes deeper into anything)
-            user.commit(UserPose { yaw_rad: proposed.yaw_rad, ..pose }, 0.0);
-            user.stopped_by(t_next, on_left(ObstacleId(i as u32)));
+            self.user.commit(UserPose { yaw_rad: proposed.yaw_rad, ..*pose }, 0.0);
+            self.user.stopped_by(t_next, on_left(ObstacleId(i as u32)));
         } else {
-            out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
-            user.commit(proposed, speed);
-            body_now.copy_from_slice(&body.distance_m);
+            self.out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
+            self.user.commit(proposed, speed);
+            self.body_now.copy_from_slice(&self.body.distance_m);
         }
-        let now_pose = user.pose();
-        let sweep = mount.sweep_rad(t_next) * sweep_scale(user.speed_m_s(), &params);
-        let (hand, tip) = mount.cane_segment(&now_pose, sweep);
+        let now_pose = self.user.pose();
+        let sweep = self.mount.sweep_rad(t_next) * sweep_scale(self.user.speed_m_s(), &self.params);
+        let (hand, tip) = self.mount.cane_segment(&now_pose, sweep);
         // Only "touching or not" is read from the cane's distances, so a shape whose
         // bounds are clear of the release distance keeps its lower bound.
-        cane.measure(world, now_pose.floor, t_next, |s| cane_distance_m(s, hand, tip, RELEASE_M));
-        for id in cane.entering() {
-            let on_left = cane_touch_on_left(world, &mount, &now_pose, sweep, id, t_next);
-            user.touch(Touch { t_s: t_next, on_left });
-            let camera = mount.camera_pose(&now_pose, sweep);
-            out.contacts.push(contact(
-                world,
-                id,
-                Part::Cane,
-                t_next,
-                &camera,
-                config,
-                &seen,
-                felt_since,
-                cane.touch_bottom_m[id.0 as usize],
-                &mount,
-            ));
+        self.cane.measure(world, now_pose.floor, t_next, |s| cane_distance_m(s, hand, tip, RELEASE_M));
+        for id in self.cane.entering() {
+            let on_left = cane_touch_on_left(world, &self.mount, &now_pose, sweep, id, t_next);
+            self.user.touch(Touch { t_s: t_next, on_left });
+            let camera = self.mount.camera_pose(&now_pose, sweep);
+            let bottom_m = self.cane.touch_bottom_m[id.0 as usize];
+            let c = self.contact(id, Part::Cane, t_next, &camera, bottom_m);
+            self.out.contacts.push(c);
         }
-        out.end_xy_m = [now_pose.x_m, now_pose.y_m];
+        self.out.end_xy_m = [now_pose.x_m, now_pose.y_m];
     }
-    out.assists = guide.assists();
-    out
+
+    /// A contact of `part` with obstacle `id` at `t_s`, the camera at `camera`; the
+    /// contact's lowest point at `touch_bottom_m` above the floor.
+    fn contact(&self, id: ObstacleId, part: Part, t_s: f64, camera: &CameraPose, touch_bottom_m: f64) -> Contact {
+        let obstacle = self.world.obstacle(id);
+        Contact {
+            t_s,
+            part,
+            obstacle: id.0,
+            label: obstacle.map_or_else(String::new, |o| o.label.clone()),
+            kind: obstacle.map_or_else(String::new, |o| format!("{:?}", o.kind)),
+            in_fov: in_field_of_view(self.world, id, camera, &self.config.camera, t_s),
+            seen_ago_s: self.seen.ago_s(id, t_s),
+            warned_ago_s: self.felt_since.map(|since| t_s - since),
+            head_high: touch_bottom_m > self.mount.handle_height_m,
+        }
+    }
 }
 
 /// Whether obstacle `id`, touched by the cane, is on the user's left: where the swept
@@ -771,33 +928,6 @@ fn cane_touch_on_left(world: &World, mount: &CaneMount, pose: &UserPose, sweep: 
 /// Smallest `distance` to any shape of obstacle `id` on `floor` at `t_s`, metres.
 fn obstacle_distance_m(world: &World, id: ObstacleId, floor: i32, t_s: f64, distance: impl Fn(&Shape) -> f64) -> f64 {
     world.obstacles_at(floor, t_s).filter(|(i, _)| *i == id).map(|(_, sh)| distance(&sh)).fold(f64::INFINITY, f64::min)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn contact(
-    world: &World,
-    id: ObstacleId,
-    part: Part,
-    t_s: f64,
-    camera: &CameraPose,
-    config: &WalkConfig,
-    seen: &SeenLog,
-    felt_since_s: Option<f64>,
-    touch_bottom_m: f64,
-    mount: &CaneMount,
-) -> Contact {
-    let obstacle = world.obstacle(id);
-    Contact {
-        t_s,
-        part,
-        obstacle: id.0,
-        label: obstacle.map_or_else(String::new, |o| o.label.clone()),
-        kind: obstacle.map_or_else(String::new, |o| format!("{:?}", o.kind)),
-        in_fov: in_field_of_view(world, id, camera, &config.camera, t_s),
-        seen_ago_s: seen.ago_s(id, t_s),
-        warned_ago_s: felt_since_s.map(|since| t_s - since),
-        head_high: touch_bottom_m > mount.handle_height_m,
-    }
 }
 
 #[cfg(test)]
