@@ -403,3 +403,61 @@ fn sensor_agent_refuses_a_body_worn_imu_named_as_the_camera() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("--body-device \"cane\" is the camera's --device"), "{err}");
 }
+
+/// The study measures what the compute agent does: the frames a study walk fed to its
+/// frame step, with the odometry between them, published to a real `compute-agent`
+/// process give, frame by frame, the hazards the walk's own step gave.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_frames() {
+    use study::walk::{Walk, WalkConfig};
+    // four seconds of Taylor's course: the first divider comes into the costs
+    let world = sensor_agent::sim::World::load("taylor-course").expect("built-in world");
+    let config = WalkConfig { timeout_s: 4.0, ..WalkConfig::default() };
+    let mut walk = Walk::new(&world, &config, 3);
+    walk.record_frames();
+    while walk.step() {}
+    let fed = walk.fed_frames().to_vec();
+    assert!(fed.len() >= 100, "{} frames in 4 s at 30 Hz", fed.len());
+    assert!(fed.iter().all(|f| f.hazard.is_some()), "the walk's step refused a frame");
+    let warned = fed.iter().filter(|f| f.hazard.as_ref().is_some_and(|h| h.rumble != Rumble::None)).count();
+    assert!(warned >= 5, "only {warned} frames with a rumble: the walk tests nothing");
+
+    let user = "frame-step-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    // the study's perception settings (the Xtion's QVGA rays at stride 1); no body IMU
+    let dir = std::env::temp_dir().join(format!("wearnav-frame-step-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let perception_toml = dir.join("perception.toml");
+    assert_eq!(config.perception.stride_px, 1);
+    std::fs::write(&perception_toml, "stride_px = 1\n").unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let toml_arg = perception_toml.to_string_lossy().to_string();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--perception-config", &toml_arg, "--no-body-imu"]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    let mut frames =
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
+            .await
+            .unwrap();
+    let mut odom =
+        Publisher::<schemas::OdomIncrement>::declare(&hub.session, keys.odom("cane"), "test", Lane::Events, None)
+            .await
+            .unwrap();
+
+    for (i, f) in fed.iter().enumerate() {
+        for inc in &f.odometry {
+            odom.put(inc.to_ns, inc).await.unwrap();
+        }
+        frames.put(f.capture_ns, &f.frame).await.unwrap();
+        let got = wait_for(&hazards, Duration::from_secs(5), |_| true)
+            .await
+            .unwrap_or_else(|| panic!("no hazard for frame {i} of {}", fed.len()));
+        assert_eq!(got.header.capture_ns, f.capture_ns, "frame {i}: hazards out of step with frames");
+        let want = f.hazard.clone().expect("checked above");
+        // the agent numbers frames by its sender's sequence and stamps its latencies
+        let got = schemas::Hazard { frame_seq: want.frame_seq, latency: Vec::new(), ..got.body };
+        assert_eq!(got, want, "frame {i}: the agent and the study disagree");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
