@@ -208,3 +208,104 @@ fn perceive(
     };
     Ok(pipeline.process(depth, &ctx, timer)?.clone())
 }
+
+#[cfg(test)]
+mod tests {
+    use schemas::{DepthEncoding, GroundState, Rumble};
+
+    use super::*;
+    use crate::synthetic_scene::Scene;
+    use crate::NoTimer;
+
+    /// A wall 1.2 m ahead of a Kinect 0.9 m up, pitched 30 degrees down (the floor in
+    /// view before it), packed as the sensor agent packs it.
+    fn wall_frame(encoding: DepthEncoding) -> DepthFrame {
+        let mut scene = Scene::kinect(0.9, 30.0);
+        scene.walls_x_m.push(1.2);
+        let depth = scene.render_depth(0.001);
+        let mut data = Vec::new();
+        depth_codec::encode(&depth, scene.width, scene.height, encoding, &mut data).unwrap();
+        let [a, b, c, _] = scene.floor_plane_camera();
+        DepthFrame {
+            width: scene.width,
+            height: scene.height,
+            depth_scale_m: 0.001,
+            intrinsics: scene.intrinsics,
+            gravity_camera: Some([-a, -b, -c]),
+            mount: None,
+            encoding,
+            data,
+        }
+    }
+
+    fn input(frame: &DepthFrame, seq: u64) -> FrameIn<'_> {
+        FrameIn { data: FrameData::Wire(frame), seq, capture_ns: seq * 33_333_333, body_yaw_rate_rad_s: None }
+    }
+
+    #[test]
+    fn a_packed_frame_gives_what_the_pipeline_and_the_cue_give_on_its_samples() {
+        let frame = wall_frame(DepthEncoding::Lossless);
+        let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
+        let StepOutput::Perceived { perception, hazard, intent } = step.process(input(&frame, 7), &mut NoTimer) else {
+            panic!("the wall frame was refused");
+        };
+        let mut samples = Vec::new();
+        depth_codec::decode(&frame.data, frame.width, frame.height, frame.encoding, &mut samples).unwrap();
+        let mut pipeline = Pipeline::new(PerceptionConfig::default());
+        let depth = DepthInput::Depth {
+            samples: &samples,
+            width: frame.width,
+            height: frame.height,
+            depth_scale_m: 0.001,
+            intrinsics: frame.intrinsics,
+        };
+        let ctx = FrameContext { stamp_ns: 7 * 33_333_333, gravity_camera: frame.gravity_camera, ..Default::default() };
+        let direct = pipeline.process(depth, &ctx, &mut NoTimer).unwrap().clone();
+        assert_eq!(perception, direct);
+        assert_eq!(hazard, direct.hazard(7, schemas::CostFunction::Ficf, Vec::new()));
+        assert_eq!(intent, cue(&direct, &CueConfig::default()));
+        assert_eq!(hazard.ground, GroundState::Found);
+        assert!(hazard.ficf.forward > 0.0, "{hazard:?}");
+        assert!((hazard.nearest_m - 1.2).abs() < 0.05, "{}", hazard.nearest_m);
+    }
+
+    #[test]
+    fn frames_that_do_not_decode_are_refused_and_the_third_in_a_row_says_blind() {
+        let mut broken = wall_frame(DepthEncoding::Lossless);
+        broken.data.truncate(broken.data.len() / 2);
+        let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
+        let mut blinds = Vec::new();
+        for seq in 1..=3 {
+            match step.process(input(&broken, seq), &mut NoTimer) {
+                StepOutput::Refused { error, blind } => {
+                    assert_eq!(error.kind(), "depth_decode", "{error}");
+                    blinds.push(blind);
+                }
+                StepOutput::Perceived { .. } => panic!("a truncated frame was perceived"),
+            }
+        }
+        assert!(blinds[0].is_none() && blinds[1].is_none(), "one or two bad frames keep the last cue");
+        let blind = blinds[2].clone().expect("the third refusal in a row says blind");
+        assert_eq!((blind.hazard.rumble, blind.hazard.ground), (Rumble::Both, GroundState::Degraded));
+        assert_eq!(blind.hazard.frame_seq, 3);
+        assert_eq!(blind.intent, cue_unavailable(&CueConfig::default()));
+        // a good frame ends the run of refusals
+        let good = wall_frame(DepthEncoding::Raw);
+        assert!(matches!(step.process(input(&good, 4), &mut NoTimer), StepOutput::Perceived { .. }));
+        assert!(matches!(step.process(input(&broken, 5), &mut NoTimer), StepOutput::Refused { blind: None, .. }));
+    }
+
+    #[test]
+    fn odometry_is_held_for_its_frame_and_an_absurd_step_is_refused() {
+        let frame = wall_frame(DepthEncoding::Raw);
+        let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
+        let inc = |to_ns, forward_m| OdomIncrement { from_ns: 0, to_ns, forward_m, left_m: 0.0, yaw_rad: 0.0 };
+        assert!(step.add_odometry(&inc(10, 0.03)).is_ok());
+        let e = step.add_odometry(&inc(10, f32::NAN)).unwrap_err();
+        assert_eq!(e.kind(), "odom_implausible");
+        // the step ending after frame 1's capture waits for frame 2
+        assert!(step.add_odometry(&inc(2 * 33_333_333, 0.03)).is_ok());
+        assert!(matches!(step.process(input(&frame, 1), &mut NoTimer), StepOutput::Perceived { .. }));
+        assert_eq!(step.motion.take_until(u64::MAX).map(|m| m.forward_m), Some(0.03));
+    }
+}
