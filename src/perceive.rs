@@ -229,14 +229,11 @@ fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
 mod tests {
     use super::*;
 
-    fn data(name: &str) -> Option<PathBuf> {
-        let p = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/real")).join(name);
-        if p.exists() {
-            Some(p)
-        } else {
-            eprintln!("skipping: {} not found", p.display());
-            None
-        }
+    /// A real capture from the repository's `tests/data/real/` (see its README).
+    fn data(name: &str) -> PathBuf {
+        let p = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/real")).join(name);
+        assert!(p.is_file(), "{} is missing from the checkout", p.display());
+        p
     }
 
     fn args(files: Vec<PathBuf>) -> PerceiveArgs {
@@ -253,9 +250,7 @@ mod tests {
 
     #[test]
     fn five_people_json_has_every_field_of_the_issue() {
-        let Some(path) = data("five_people.pcd") else {
-            return;
-        };
+        let path = data("five_people.pcd");
         let v = perceive_file(&path, &args(vec![path.clone()])).unwrap();
         let plane: Vec<f64> = v["plane"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
         assert!((plane[1] + 0.9968).abs() < 0.02 && (plane[3] - 1.2714).abs() < 0.03, "{plane:?}");
@@ -277,9 +272,7 @@ mod tests {
 
     #[test]
     fn tum_png_with_its_scale_and_a_wider_cone_finds_the_floor() {
-        let Some(path) = data("tum_depth_640x480_u16_5000perm.png") else {
-            return;
-        };
+        let path = data("tum_depth_640x480_u16_5000perm.png");
         let mut a = args(vec![path.clone()]);
         a.depth_scale = 0.0002;
         // The floor is ~29 deg from camera -y: outside the thesis's 20 deg cone.

@@ -1,4 +1,4 @@
-//! Codec speed and ratio on the real depth PNGs in `../shared/data/real` (one core).
+//! Codec speed and ratio on the real depth PNGs in `tests/data/real/` (one core).
 //! `cargo bench -p schemas --bench depth_codec` prints, per file and mode, the packed
 //! size, the ratio to raw u16 and the median (and minimum) encode / decode time over
 //! 200 runs. For a profiler, `RUNS=n` changes the run count and `ONLY=encode` or
@@ -18,26 +18,19 @@ fn median_min_us(mut v: Vec<f64>) -> (f64, f64) {
 }
 
 fn main() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real");
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/real");
     let runs = std::env::var("RUNS").ok().and_then(|r| r.parse().ok()).unwrap_or(200);
     let only = std::env::var("ONLY").unwrap_or_default();
     // 5 mm in each file's units: TUM stores 5000 per metre, Redwood millimetres.
     for (name, step_5mm) in [("tum_depth_640x480_u16_5000perm.png", 25), ("redwood_00000_depth_640x480_u16_mm.png", 5)]
     {
         let path = format!("{dir}/{name}");
-        let Ok(file) = std::fs::File::open(&path) else {
-            println!("skipping {path}: not present");
-            continue;
-        };
-        let Ok(mut reader) = png::Decoder::new(std::io::BufReader::new(file)).read_info() else {
-            println!("skipping {path}: not a PNG");
-            continue;
-        };
+        // Part of the checkout: a missing or broken file is a broken checkout.
+        let file = std::fs::File::open(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+        let mut reader =
+            png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap_or_else(|e| panic!("{path}: {e}"));
         let mut buf = vec![0; reader.output_buffer_size()];
-        let Ok(info) = reader.next_frame(&mut buf) else {
-            println!("skipping {path}: does not decode");
-            continue;
-        };
+        let info = reader.next_frame(&mut buf).unwrap_or_else(|e| panic!("{path}: {e}"));
         let samples: Vec<u16> = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
         let (w, h) = (info.width, info.height);
         for mode in [DepthEncoding::Lossless, DepthEncoding::Bounded { step: step_5mm }] {

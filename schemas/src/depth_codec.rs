@@ -1124,19 +1124,15 @@ pub fn decode(data: &[u8], width: u32, height: u32, mode: DepthEncoding, out: &m
 mod tests {
     use super::*;
 
-    /// A 16-bit grayscale PNG from `../shared/data/real`, or `None` (with a message)
-    /// when the data folder is absent.
-    fn real_png(name: &str) -> Option<(u32, u32, Vec<u16>)> {
-        let path = format!("{}/../../shared/data/real/{name}", env!("CARGO_MANIFEST_DIR"));
-        let Ok(file) = std::fs::File::open(&path) else {
-            println!("skipping: {path} not present");
-            return None;
-        };
+    /// A 16-bit grayscale PNG from the repository's `tests/data/real/` (see its README).
+    fn real_png(name: &str) -> (u32, u32, Vec<u16>) {
+        let path = format!("{}/../tests/data/real/{name}", env!("CARGO_MANIFEST_DIR"));
+        let file = std::fs::File::open(&path).unwrap_or_else(|e| panic!("{path} (part of the checkout): {e}"));
         let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
         let mut buf = vec![0; reader.output_buffer_size()];
         let info = reader.next_frame(&mut buf).unwrap();
         let samples = buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])).collect();
-        Some((info.width, info.height, samples))
+        (info.width, info.height, samples)
     }
 
     const REAL: [&str; 2] = ["tum_depth_640x480_u16_5000perm.png", "redwood_00000_depth_640x480_u16_mm.png"];
@@ -1245,9 +1241,7 @@ mod tests {
     #[test]
     fn lossless_real_frames_round_trip_exactly_at_9x_or_better() {
         for name in REAL {
-            let Some((w, h, samples)) = real_png(name) else {
-                return;
-            };
+            let (w, h, samples) = real_png(name);
             let (packed, back) = round_trip(&samples, w, h, DepthEncoding::Lossless);
             assert_eq!(back, samples, "{name}");
             let ratio = (samples.len() * 2) as f64 / packed.len() as f64;
@@ -1260,9 +1254,7 @@ mod tests {
     fn bounded_5mm_real_frames_stay_within_2_5mm_on_every_pixel_at_12x_or_better() {
         // 5 mm in each file's units: TUM stores 5000 per metre, Redwood millimetres.
         for (name, step) in [(REAL[0], 25), (REAL[1], 5)] {
-            let Some((w, h, samples)) = real_png(name) else {
-                return;
-            };
+            let (w, h, samples) = real_png(name);
             let mode = DepthEncoding::Bounded { step };
             let (packed, back) = round_trip(&samples, w, h, mode);
             let worst = assert_bounded(&samples, &back, step);

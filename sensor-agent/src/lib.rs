@@ -8,3 +8,5 @@ pub mod replay;
 pub mod run;
 pub mod sim;
 pub mod source;
+#[cfg(test)]
+mod test_data;

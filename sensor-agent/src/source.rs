@@ -151,8 +151,6 @@ fn open_camera(_uri: &str) -> Result<Box<dyn FrameSource>, OpenError> {
 mod tests {
     use super::*;
 
-    const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real");
-
     #[test]
     fn every_kind_of_spec_opens_or_says_what_to_use() {
         let opts = SourceOptions::default();
@@ -167,12 +165,8 @@ mod tests {
 
     #[test]
     fn recorded_pcd_frames_come_out_of_the_replay_spec() {
-        let file = format!("{DATA}/five_people.pcd");
-        if !std::path::Path::new(&file).exists() {
-            eprintln!("skipping: {file} not found (../shared/data is absent)");
-            return;
-        }
-        let mut source = open(&format!("pcd:{file}"), &SourceOptions::default()).unwrap();
+        let file = crate::test_data::real_capture("five_people.pcd");
+        let mut source = open(&format!("pcd:{}", file.display()), &SourceOptions::default()).unwrap();
         let frame = source.next_frame(1_000).unwrap().expect("one frame");
         assert_eq!((frame.width, frame.height), (640, 480));
         let valid = frame.depth.iter().filter(|&&d| d > 0).count();

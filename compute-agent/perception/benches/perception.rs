@@ -12,9 +12,7 @@ use perception::config::{DropoffConfig, MemoryConfig};
 use perception::dropoff::StepZone;
 use perception::obstacle_memory::{ObstacleMemory, ViewCone};
 use perception::synthetic_scene::{Block, Scene};
-use perception::{
-    DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline, StageMedians,
-};
+use perception::{DepthInput, FrameContext, InstantTimer, Motion, PerceptionConfig, Pipeline, StageMedians};
 use schemas::Intrinsics;
 
 enum Frame {
@@ -31,43 +29,79 @@ struct Case {
 
 const KINECT: Intrinsics = Intrinsics { fx: 525.0, fy: 525.0, cx: 319.5, cy: 239.5 };
 
+/// The organized cloud a depth image deprojects to (NaN where invalid): how PCL's
+/// grabbers made the PCDs the two derived PNGs come from (tests/data/README.md).
+fn deproject(samples: &[u16], width: u32, scale_m: f32, k: Intrinsics) -> Vec<[f32; 3]> {
+    let w = width as usize;
+    samples
+        .iter()
+        .enumerate()
+        .map(|(i, &d)| {
+            if d == 0 {
+                return [f32::NAN; 3];
+            }
+            let z = d as f32 * scale_m;
+            let (u, v) = ((i % w) as f32, (i / w) as f32);
+            [(u - k.cx) * z / k.fx, (v - k.cy) * z / k.fy, z]
+        })
+        .collect()
+}
+
+/// The real captures kept in the repository (`tests/data/real/`); a missing or broken
+/// one is a broken checkout, so it panics with the path.
 fn real_cases() -> Vec<Case> {
-    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real"));
-    if !dir.exists() {
-        eprintln!("skipping real captures: {} not found", dir.display());
-        return Vec::new();
-    }
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/real"));
     let mut cases = Vec::new();
+    let path = dir.join("five_people.pcd");
+    let cloud = sensor_agent::formats::pcd::read(&path).unwrap_or_else(|e| panic!("{e}"));
+    cases.push(Case {
+        name: "five_people.pcd".into(),
+        frame: Frame::Xyz { points: cloud.points, width: cloud.width, height: cloud.height },
+        gravity: None,
+        up_cone_deg: None,
+    });
+    // The two other PCL captures, kept as depth PNGs, run as the clouds they were.
     let (s, c) = 46f32.to_radians().sin_cos();
-    for (file, gravity) in [
-        ("five_people.pcd", None),
-        ("table_scene_mug_stereo_textured.pcd", None),
-        ("frame_20121214T142255.814212.pcd", Some([0.0, c, s])),
+    for (origin, file, scale_m, k, gravity) in [
+        (
+            "table_scene_mug_stereo_textured.pcd",
+            "table_scene_depth_640x480_u16_100um.png",
+            0.0001,
+            Intrinsics { fx: 964.36, fy: 964.36, cx: 319.81, cy: 223.36 },
+            None,
+        ),
+        (
+            "frame_20121214T142255.814212.pcd",
+            "desk_openni_depth_640x480_u16_mm.png",
+            0.001,
+            Intrinsics { fx: 525.0, fy: 525.0, cx: 320.0, cy: 240.0 },
+            Some([0.0, c, s]),
+        ),
     ] {
-        match sensor_agent::formats::pcd::read(&dir.join(file)) {
-            Ok(cloud) => cases.push(Case {
-                name: file.into(),
-                frame: Frame::Xyz { points: cloud.points, width: cloud.width, height: cloud.height },
-                gravity,
-                up_cone_deg: None,
-            }),
-            Err(e) => eprintln!("skipping {file}: {e}"),
-        }
+        let png = sensor_agent::formats::depth_png::read(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        cases.push(Case {
+            name: format!("{origin} (from {file})"),
+            frame: Frame::Xyz {
+                points: deproject(&png.samples, png.width, scale_m, k),
+                width: png.width,
+                height: png.height,
+            },
+            gravity,
+            up_cone_deg: None,
+        });
     }
     // TUM's floor is ~29 deg from camera -y: outside the thesis's 20 deg cone
     for (file, scale_m, up_cone_deg) in [
         ("tum_depth_640x480_u16_5000perm.png", 0.0002, Some(35.0)),
         ("redwood_00000_depth_640x480_u16_mm.png", 0.001, None),
     ] {
-        match sensor_agent::formats::depth_png::read(&dir.join(file)) {
-            Ok(png) => cases.push(Case {
-                name: file.into(),
-                frame: Frame::Depth { samples: png.samples, width: png.width, height: png.height, scale_m, k: KINECT },
-                gravity: None,
-                up_cone_deg,
-            }),
-            Err(e) => eprintln!("skipping {file}: {e}"),
-        }
+        let png = sensor_agent::formats::depth_png::read(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        cases.push(Case {
+            name: file.into(),
+            frame: Frame::Depth { samples: png.samples, width: png.width, height: png.height, scale_m, k: KINECT },
+            gravity: None,
+            up_cone_deg,
+        });
     }
     cases
 }
@@ -101,13 +135,7 @@ fn synthetic_cases() -> Vec<Case> {
 /// world, camera 1.0 m up.
 fn simulator_cases() -> Vec<Case> {
     use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
-    let world = match World::builtin("corridor") {
-        Some(Ok(w)) => w,
-        _ => {
-            eprintln!("skipping simulator frames: no corridor world");
-            return Vec::new();
-        }
-    };
+    let world = World::builtin("corridor").expect("the corridor world is built in").expect("it parses");
     let start = world.start();
     [10.0f64, 30.0]
         .into_iter()

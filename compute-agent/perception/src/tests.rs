@@ -297,29 +297,16 @@ fn obstacle_below_the_view_is_remembered_while_walking_towards_it() {
     assert!(without.nearest_m > x + 0.2, "without memory the box is gone: {}", without.nearest_m);
 }
 
-fn real_file(name: &str) -> Option<std::path::PathBuf> {
-    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/")).join(name);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("skipping: {} not found", path.display());
-        None
-    }
-}
-
-fn real_xyz(name: &str, ctx: &FrameContext, cfg: PerceptionConfig) -> Option<Perception> {
-    let cloud = sensor_agent::formats::pcd::read(&real_file(name)?).unwrap();
-    let mut p = Pipeline::new(cfg);
-    let input = DepthInput::Xyz { points: &cloud.points, width: cloud.width, height: cloud.height };
-    Some(p.process(input, ctx, &mut NoTimer).unwrap().clone())
+/// A real capture from the repository's `tests/data/real/` (its README says what each is).
+fn real_file(name: &str) -> std::path::PathBuf {
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/real/")).join(name);
+    assert!(path.is_file(), "{} is missing from the checkout", path.display());
+    path
 }
 
 #[test]
 fn five_people_floor_within_2_deg_and_3_cm_of_reference_frame_after_frame() {
-    let Some(path) = real_file("five_people.pcd") else {
-        return;
-    };
-    let cloud = sensor_agent::formats::pcd::read(&path).unwrap();
+    let cloud = sensor_agent::formats::pcd::read(&real_file("five_people.pcd")).unwrap();
     let mut p = Pipeline::new(PerceptionConfig::default());
     let input = DepthInput::Xyz { points: &cloud.points, width: cloud.width, height: cloud.height };
     let mut worst = (0.0f32, 0.0f32);
@@ -329,7 +316,8 @@ fn five_people_floor_within_2_deg_and_3_cm_of_reference_frame_after_frame() {
         worst = (worst.0.max(deg), worst.1.max(m));
     }
     assert!(worst.0 < 2.0 && worst.1 < 0.03, "worst {worst:?} over 40 frames");
-    let out = real_xyz("five_people.pcd", &FrameContext::default(), PerceptionConfig::default()).unwrap();
+    let mut p = Pipeline::new(PerceptionConfig::default());
+    let out = p.process(input, &FrameContext::default(), &mut NoTimer).unwrap();
     assert!((out.points_valid as f32 / 239_075.0 - 1.0).abs() < 0.01, "{}", out.points_valid);
     assert!(
         out.scan.ranges_m.iter().filter(|r| r.is_finite()).count() >= 10,
@@ -343,9 +331,19 @@ fn desk_frame_with_gravity_gives_the_desk_plane() {
     // desk normal ~46 deg from camera y: a gravity vector along it, pointing down
     let (s, c) = 46f32.to_radians().sin_cos();
     let ctx = FrameContext { gravity_camera: Some([0.0, c, s]), ..Default::default() };
-    let Some(out) = real_xyz("frame_20121214T142255.814212.pcd", &ctx, PerceptionConfig::default()) else {
-        return;
+    // PCL's OpenNI grabber frame, kept as its depth image: the grabber deprojected it
+    // with these intrinsics, so this is the same cloud (tests/data/README.md).
+    let png = sensor_agent::formats::depth_png::read(&real_file("desk_openni_depth_640x480_u16_mm.png")).unwrap();
+    let k = Intrinsics { fx: 525.0, fy: 525.0, cx: 320.0, cy: 240.0 };
+    let input = DepthInput::Depth {
+        samples: &png.samples,
+        width: png.width,
+        height: png.height,
+        depth_scale_m: MM,
+        intrinsics: k,
     };
+    let mut p = Pipeline::new(PerceptionConfig::default());
+    let out = p.process(input, &ctx, &mut NoTimer).unwrap();
     let n = out.plane_camera;
     let angle = (-n[1]).clamp(-1.0, 1.0).acos().to_degrees();
     assert_eq!(out.ground, GroundState::Found);
@@ -362,15 +360,9 @@ struct SimFrame {
     floor_plane: [f32; 4],
 }
 
-fn simulated(pitch_deg: f64) -> Option<SimFrame> {
+fn simulated(pitch_deg: f64) -> SimFrame {
     use sensor_agent::sim::{camera::CameraProfile, pose::CameraPose, random::SimRng, render::Renderer, world::World};
-    let world = match World::builtin("corridor")? {
-        Ok(w) => w,
-        Err(e) => {
-            eprintln!("skipping simulator frame: {e}");
-            return None;
-        }
-    };
+    let world = World::builtin("corridor").expect("the corridor world is built in").expect("it parses");
     let start = world.start();
     let pose =
         CameraPose::from_yaw_pitch(start.x_m, start.y_m, 1.0, start.yaw_rad, pitch_deg.to_radians(), start.floor);
@@ -380,15 +372,13 @@ fn simulated(pitch_deg: f64) -> Option<SimFrame> {
     let g = pose.gravity_camera();
     let gravity = [g.x as f32, g.y as f32, g.z as f32];
     let plane = [-gravity[0], -gravity[1], -gravity[2], 1.0];
-    Some(SimFrame { depth, intrinsics: renderer.intrinsics(), gravity, floor_plane: plane })
+    SimFrame { depth, intrinsics: renderer.intrinsics(), gravity, floor_plane: plane }
 }
 
 #[test]
 fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm() {
     for pitch in [10.0, 30.0] {
-        let Some(SimFrame { depth, intrinsics: k, gravity, floor_plane: truth }) = simulated(pitch) else {
-            return;
-        };
+        let SimFrame { depth, intrinsics: k, gravity, floor_plane: truth } = simulated(pitch);
         let mut p = Pipeline::new(PerceptionConfig::default());
         let input = DepthInput::Depth { samples: &depth, width: 640, height: 480, depth_scale_m: MM, intrinsics: k };
         let ctx = FrameContext { gravity_camera: Some(gravity), ..Default::default() };

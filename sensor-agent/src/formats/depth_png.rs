@@ -53,16 +53,7 @@ fn problem(e: &png::DecodingError) -> FormatProblem {
 mod tests {
     use super::*;
 
-    fn real(name: &str) -> Option<Vec<u8>> {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real/").to_string() + name;
-        match std::fs::read(&path) {
-            Ok(b) => Some(b),
-            Err(_) => {
-                println!("skipping: {path} not present");
-                None
-            }
-        }
-    }
+    use crate::test_data::real_capture_bytes;
 
     fn encode_png(width: u32, height: u32, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
@@ -88,9 +79,7 @@ mod tests {
 
     #[test]
     fn tum_frame_is_80_8_percent_valid_within_1_46_to_9_33_m() {
-        let Some(bytes) = real("tum_depth_640x480_u16_5000perm.png") else {
-            return;
-        };
+        let bytes = real_capture_bytes("tum_depth_640x480_u16_5000perm.png");
         let img = parse(&bytes).unwrap();
         assert_eq!((img.width, img.height), (640, 480));
         let valid: Vec<u16> = img.samples.iter().copied().filter(|&s| s > 0).collect();
@@ -103,9 +92,7 @@ mod tests {
 
     #[test]
     fn redwood_frame_is_87_percent_valid_within_955_to_2702_mm() {
-        let Some(bytes) = real("redwood_00000_depth_640x480_u16_mm.png") else {
-            return;
-        };
+        let bytes = real_capture_bytes("redwood_00000_depth_640x480_u16_mm.png");
         let img = parse(&bytes).unwrap();
         let valid: Vec<u16> = img.samples.iter().copied().filter(|&s| s > 0).collect();
         let frac = valid.len() as f64 / img.samples.len() as f64;
@@ -113,11 +100,28 @@ mod tests {
         assert_eq!((*valid.iter().min().unwrap(), *valid.iter().max().unwrap()), (955, 2702));
     }
 
+    /// Valid pixels and their range of a depth PNG in `tests/data/real/`.
+    fn valid_range(name: &str) -> (usize, u16, u16) {
+        let img = parse(&real_capture_bytes(name)).unwrap();
+        assert_eq!((img.width, img.height), (640, 480));
+        let valid: Vec<u16> = img.samples.into_iter().filter(|&s| s > 0).collect();
+        (valid.len(), *valid.iter().min().unwrap(), *valid.iter().max().unwrap())
+    }
+
+    #[test]
+    fn openni_desk_frame_is_271575_valid_within_671_to_1713_mm() {
+        // the counts of the PCL grabber's PCD it was derived from
+        assert_eq!(valid_range("desk_openni_depth_640x480_u16_mm.png"), (271_575, 671, 1713));
+    }
+
+    #[test]
+    fn table_scene_frame_is_209280_valid_within_0_69_to_2_59_m() {
+        assert_eq!(valid_range("table_scene_depth_640x480_u16_100um.png"), (209_280, 6900, 25_927));
+    }
+
     #[test]
     fn truncated_and_corrupt_pngs_are_refused() {
-        let Some(bytes) = real("redwood_00000_depth_640x480_u16_mm.png") else {
-            return;
-        };
+        let bytes = real_capture_bytes("redwood_00000_depth_640x480_u16_mm.png");
         for cut in [bytes.len() - 20, bytes.len() / 2, 40, 8, 0] {
             assert!(parse(&bytes[..cut]).is_err(), "cut at {cut} accepted");
         }

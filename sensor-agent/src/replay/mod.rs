@@ -293,15 +293,7 @@ impl FrameSource for ReplaySource {
 mod tests {
     use super::*;
 
-    fn real(name: &str) -> Option<PathBuf> {
-        let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real")).join(name);
-        if p.exists() {
-            Some(p)
-        } else {
-            println!("skipping: {} not present", p.display());
-            None
-        }
-    }
+    use crate::test_data::real_capture;
 
     fn temp_dir(tag: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("wearnav-replay-{tag}-{}", std::process::id()));
@@ -312,9 +304,7 @@ mod tests {
 
     #[test]
     fn pcd_file_becomes_a_millimetre_depth_frame_with_fitted_intrinsics() {
-        let Some(path) = real("five_people.pcd") else {
-            return;
-        };
+        let path = real_capture("five_people.pcd");
         let mut src = open_source(&format!("pcd:{}", path.display()), &ReplayOptions::default()).unwrap();
         let f = src.next_frame(1_000).unwrap().unwrap();
         assert_eq!((f.width, f.height, f.stamp_ns, f.depth_scale_m), (640, 480, 1_000, 0.001));
@@ -327,9 +317,7 @@ mod tests {
 
     #[test]
     fn corrupt_file_in_a_folder_is_skipped_by_name_and_the_stream_goes_on() {
-        let Some(good) = real("tum_depth_640x480_u16_5000perm.png") else {
-            return;
-        };
+        let good = real_capture("tum_depth_640x480_u16_5000perm.png");
         let dir = temp_dir("skip");
         std::fs::copy(&good, dir.join("001.png")).unwrap();
         std::fs::write(dir.join("002.png"), b"\x89PNG\r\n\x1a\ngarbage").unwrap();
@@ -364,9 +352,7 @@ mod tests {
 
     #[test]
     fn looped_recording_starts_again_and_time_moves_forward() {
-        let Some(good) = real("redwood_00000_depth_640x480_u16_mm.png") else {
-            return;
-        };
+        let good = real_capture("redwood_00000_depth_640x480_u16_mm.png");
         let dir = temp_dir("loop");
         std::fs::copy(&good, dir.join("a.png")).unwrap();
         let opts = ReplayOptions {

@@ -112,17 +112,10 @@ mod tests {
 
     #[test]
     fn tum_folder_plays_at_recorded_spacing_with_gravity_and_skips_a_missing_png() {
-        let png = std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/data/real/tum_depth_640x480_u16_5000perm.png"
-        ));
-        if !png.exists() {
-            println!("skipping: {} not present", png.display());
-            return;
-        }
+        let png = crate::test_data::real_capture("tum_depth_640x480_u16_5000perm.png");
         let dir = temp_dir();
-        std::fs::copy(png, dir.join("depth/1.000000.png")).unwrap();
-        std::fs::copy(png, dir.join("depth/1.100000.png")).unwrap();
+        std::fs::copy(&png, dir.join("depth/1.000000.png")).unwrap();
+        std::fs::copy(&png, dir.join("depth/1.100000.png")).unwrap();
         std::fs::write(
             dir.join("depth.txt"),
             "# depth maps\n# timestamp filename\n1.000000 depth/1.000000.png\n1.033000 depth/missing.png\n1.100000 depth/1.100000.png\n",
