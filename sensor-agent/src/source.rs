@@ -134,7 +134,15 @@ pub fn open(spec: &str, opts: &SourceOptions) -> Result<Box<dyn FrameSource>, Op
 fn open_camera(uri: &str) -> Result<Box<dyn FrameSource>, OpenError> {
     use crate::camera::openni2::{OpenNi2Camera, OpenNi2Options};
     let options = OpenNi2Options { uri: (!uri.is_empty()).then(|| uri.to_string()), ..Default::default() };
-    let camera = OpenNi2Camera::open(&options).map_err(|e| OpenError::Camera(e.to_string()))?;
+    let camera = OpenNi2Camera::open(&options).map_err(|e| {
+        let hint = if e.call == "oniDeviceOpen" {
+            "; is the camera plugged in (an Xtion or Kinect shows in `lsusb`)? Without one, use a recording \
+             (pcd:, tum:, png:) or a simulated world (sim:)"
+        } else {
+            ""
+        };
+        OpenError::Camera(format!("{e}{hint}"))
+    })?;
     Ok(Box::new(camera))
 }
 
@@ -171,6 +179,19 @@ mod tests {
         assert_eq!((frame.width, frame.height), (640, 480));
         let valid = frame.depth.iter().filter(|&&d| d > 0).count();
         assert!((230_000..=240_000).contains(&valid), "{valid} valid pixels");
+    }
+
+    #[cfg(feature = "openni2")]
+    #[test]
+    fn openni2_spec_without_a_camera_says_to_plug_one_in_or_use_a_recording() {
+        let err = open("openni2:", &SourceOptions::default()).err().unwrap().to_string();
+        assert!(
+            err.starts_with(
+                "camera: OpenNI2 oniDeviceOpen failed (status 1): DeviceOpen using default: no devices found; "
+            ),
+            "{err}"
+        );
+        assert!(err.contains("plugged in") && err.contains("pcd:") && err.contains("sim:"), "{err}");
     }
 
     #[cfg(not(feature = "openni2"))]
