@@ -1,6 +1,8 @@
 //! Speech tests that listen for real: espeak-ng synthesises to WAV, sox measures it.
-//! They skip with a message when espeak-ng or sox is missing
-//! (`apt-get install -y espeak-ng sox`).
+//! Without espeak-ng or sox (`apt-get install -y espeak-ng sox`) they fail under CI and
+//! skip loudly elsewhere (`host_tools::skip_or_fail`).
+
+mod host_tools;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -11,14 +13,11 @@ use feedback_agent::espeak::{EspeakConfig, EspeakEngine, Playback};
 use feedback_agent::feedback::{Feedback, StepSettings};
 use schemas::{AppliedAction, Priority, SpeechIntent};
 
-fn have(program: &str, arg: &str) -> bool {
-    Command::new(program).arg(arg).output().map(|o| o.status.success()).unwrap_or(false)
-}
-
-fn tools_present(test: &str) -> bool {
-    let ok = have("espeak-ng", "--version") && have("sox", "--version");
+/// espeak-ng and sox are installed; if not, fails under CI or says the test is skipped.
+fn tools_present() -> bool {
+    let ok = host_tools::runs("espeak-ng", "--version") && host_tools::runs("sox", "--version");
     if !ok {
-        eprintln!("skipping {test}: needs espeak-ng and sox (apt-get install -y espeak-ng sox)");
+        host_tools::skip_or_fail("needs espeak-ng and sox (apt-get install -y espeak-ng sox)");
     }
     ok
 }
@@ -63,7 +62,7 @@ const GUIDANCE: &str =
 
 #[test]
 fn utterance_wav_is_speech_with_a_duration_that_fits_text_and_rate() {
-    if !tools_present("utterance_wav_is_speech_with_a_duration_that_fits_text_and_rate") {
+    if !tools_present() {
         return;
     }
     let words = GUIDANCE.split_whitespace().count() as f64;
@@ -132,7 +131,7 @@ fn interrupt_once(dir: &Path, round: usize) -> (Duration, Duration) {
 
 #[test]
 fn warning_interrupts_guidance_and_its_audio_starts_within_100ms() {
-    if !tools_present("warning_interrupts_guidance_and_its_audio_starts_within_100ms") {
+    if !tools_present() {
         return;
     }
     let dir = scratch_dir("interrupt");
