@@ -1,13 +1,16 @@
 //! Per-agent health: stream counters (rate, bytes/s, capture->receipt latency
 //! percentiles), rejected inputs by kind (each kind logged once), a liveliness token
-//! at `health/<agent>` and a periodic [`HealthStats`] publication.
+//! at `health/<agent>` and a periodic [`HealthStats`] publication, run by a
+//! [`HealthTask`] that the agent's loop watches.
 
 use std::collections::{BTreeMap, HashSet};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
+use anyhow::{anyhow, Context};
 use schemas::{HealthStats, Keys, RejectCount, StreamStats};
+use tokio::task::JoinHandle;
 use zenoh::Session;
 
 use crate::{now_ns, stream::Lane, Publisher, Shutdown};
@@ -208,22 +211,32 @@ impl Health {
         }
     }
 
-    /// Declare the liveliness token `health/<agent>` and publish stats every `period`
-    /// until shutdown. Dropping the token (on return or process death) tells every
-    /// watcher the agent is gone.
-    pub async fn serve(
+    /// Start the task that declares the liveliness token `health/<agent>` and
+    /// publishes stats every `period` until shutdown or [`HealthTask::join`]. Dropping
+    /// the token (when the task ends or the process dies) tells every watcher the agent
+    /// is gone.
+    pub fn spawn(self: &Arc<Self>, session: Session, keys: Keys, period: Duration, shutdown: Shutdown) -> HealthTask {
+        // Its own stop as well: an agent may end before shutdown (a recording ran out)
+        // without stopping the other agents of the process, as the demo runs them.
+        let stop = Shutdown::new();
+        let task = tokio::spawn(self.clone().serve(session, keys, period, shutdown.clone(), stop.clone()));
+        HealthTask { task: Some(task), shutdown, stop }
+    }
+
+    async fn serve(
         self: Arc<Self>,
         session: Session,
         keys: Keys,
         period: Duration,
         shutdown: Shutdown,
+        stop: Shutdown,
     ) -> anyhow::Result<()> {
         let key = keys.health(&self.agent);
         let token = session
             .liveliness()
             .declare_token(key.clone())
             .await
-            .map_err(|e| anyhow::anyhow!("cannot declare liveliness token {key}: {e}"))?;
+            .map_err(|e| anyhow!("cannot declare liveliness token {key}: {e}"))?;
         let mut publisher =
             Publisher::<HealthStats>::declare(&session, key, &self.agent, Lane::Telemetry, None).await?;
         let mut tick = tokio::time::interval(period);
@@ -232,6 +245,7 @@ impl Health {
         loop {
             tokio::select! {
                 _ = shutdown.triggered() => break,
+                _ = stop.triggered() => break,
                 _ = self.nudge.notified() => {}
                 _ = tick.tick() => {}
             }
@@ -245,9 +259,105 @@ impl Health {
     }
 }
 
+/// The running task behind [`Health::spawn`]. Without it the agent has no liveliness
+/// token, so every watchdog believes it is gone while it runs: the agent's loop selects
+/// on [`HealthTask::failed`] and ends with that error, and joins the task when it stops.
+#[derive(Debug)]
+#[must_use = "a health task nobody watches fails unnoticed: select on `failed()`, then `join()` it"]
+pub struct HealthTask {
+    /// `None` once the task has ended and [`HealthTask::failed`] has taken its outcome.
+    task: Option<JoinHandle<anyhow::Result<()>>>,
+    shutdown: Shutdown,
+    stop: Shutdown,
+}
+
+impl HealthTask {
+    /// Resolves with the reason if the task ends before shutdown (`health task failed:
+    /// cannot declare liveliness token ...`); stays pending while it runs and after a
+    /// clean stop. Cancel-safe: call it in every round of a `select!`.
+    pub async fn failed(&mut self) -> anyhow::Error {
+        let Some(task) = self.task.as_mut() else { return std::future::pending().await };
+        let ended = task.await;
+        self.task = None;
+        match ended {
+            Ok(Ok(())) if self.shutdown.is_triggered() => std::future::pending().await,
+            Ok(Ok(())) => anyhow!("health task failed: it ended before shutdown"),
+            Ok(Err(e)) => e.context("health task failed"),
+            Err(e) => anyhow!("health task failed: {e}"),
+        }
+    }
+
+    /// Stop the task (if shutdown has not already) and wait for it, which withdraws the
+    /// liveliness token: its error if it failed.
+    pub async fn join(mut self) -> anyhow::Result<()> {
+        self.stop.trigger();
+        let Some(task) = self.task.take() else { return Ok(()) };
+        task.await.map_err(|e| anyhow!("{e}")).and_then(|r| r).context("health task failed")
+    }
+}
+
+impl Drop for HealthTask {
+    /// An agent that returns early (an error) takes its token with it, even when its
+    /// session lives on in the same process (the demo).
+    fn drop(&mut self) {
+        if let Some(task) = &self.task {
+            task.abort();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::BusOptions;
+
+    fn loopback() -> BusOptions {
+        // no endpoints, no multicast: a session that meets nobody
+        BusOptions { no_multicast: true, ..BusOptions::for_user("healthtest") }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_token_that_cannot_be_declared_fails_the_task_at_once() {
+        let opts = loopback();
+        let session = crate::open_session(&opts).await.unwrap();
+        // The one way zenoh 1.10 refuses a token: the session is closed.
+        session.close().await.unwrap();
+        let mut task =
+            Health::new("test-agent").spawn(session, opts.keys().unwrap(), Duration::from_millis(50), Shutdown::new());
+        let error = tokio::time::timeout(Duration::from_secs(5), task.failed())
+            .await
+            .expect("the failure surfaces at once, not at shutdown");
+        let text = format!("{error:#}");
+        assert!(
+            text.starts_with(
+                "health task failed: cannot declare liveliness token wearnav/healthtest/health/test-agent"
+            ),
+            "{text}"
+        );
+        assert!(text.contains("session closed"), "{text}");
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_running_task_is_not_a_failure_and_joins_cleanly_at_shutdown() {
+        let opts = loopback();
+        let session = crate::open_session(&opts).await.unwrap();
+        let keys = opts.keys().unwrap();
+        let shutdown = Shutdown::new();
+        let watch = session.liveliness().declare_subscriber(keys.health("test-agent")).history(true).await.unwrap();
+        let mut task =
+            Health::new("test-agent").spawn(session.clone(), keys.clone(), Duration::from_millis(50), shutdown.clone());
+        let declared = tokio::time::timeout(Duration::from_secs(5), watch.recv_async()).await;
+        assert!(matches!(declared, Ok(Ok(_))), "the token is declared while the task runs");
+        assert!(
+            tokio::time::timeout(Duration::from_millis(200), task.failed()).await.is_err(),
+            "no failure while running"
+        );
+        shutdown.trigger();
+        tokio::time::timeout(Duration::from_secs(2), task.join()).await.expect("stops at shutdown").unwrap();
+        let gone = tokio::time::timeout(Duration::from_secs(2), watch.recv_async()).await;
+        assert!(matches!(gone, Ok(Ok(s)) if s.kind() == zenoh::sample::SampleKind::Delete), "the token goes with it");
+        session.close().await.unwrap();
+    }
 
     #[test]
     fn percentiles_use_nearest_rank() {

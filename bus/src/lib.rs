@@ -12,7 +12,7 @@ pub mod shutdown;
 pub mod stream;
 
 pub use clock::now_ns;
-pub use health::{Health, StreamCounter};
+pub use health::{Health, HealthTask, StreamCounter};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;
 pub use stream::{Lane, Publisher, Received, Subscriber};

@@ -117,7 +117,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let keys = config.bus.keys()?;
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
-    tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
+    let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
 
     let frames = Subscriber::<DepthFrame>::declare(&session, keys.depth_any(), true, &health).await?;
     let odom = Subscriber::<OdomIncrement>::declare(&session, keys.odom_any(), false, &health).await?;
@@ -147,6 +147,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             // odometry first: a frame waiting with its own step behind it takes the step
             biased;
             _ = shutdown.triggered() => break,
+            e = health_task.failed() => return Err(e),
             Some(inc) = odom.recv() => add_step(&mut step, &inc, &health),
             Some(batch) = body.recv() => body.add(&batch, &health),
             Some(frame) = frames.recv() => {
@@ -162,6 +163,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         }
     }
     tracing::info!("compute agent stopping");
+    health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
 }

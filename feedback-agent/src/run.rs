@@ -144,12 +144,8 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     let keys = config.bus.keys()?;
     let session = bus::open_session(&config.bus).await?;
     let health: Arc<Health> = Health::new(AGENT);
-    let health_task = tokio::spawn(health.clone().serve(
-        session.clone(),
-        keys.clone(),
-        Duration::from_millis(config.health_period_ms.max(100)),
-        shutdown.clone(),
-    ));
+    let period = Duration::from_millis(config.health_period_ms.max(100));
+    let mut health_task = health.spawn(session.clone(), keys.clone(), period, shutdown.clone());
 
     let haptic_key = keys.haptic();
     let speech_key = keys.speech();
@@ -190,6 +186,8 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
 
     let mut shown = status_of(feedback.detection());
     health.set_status(shown.0, shown.1.clone());
+    // Set when the loop ends on an error; the devices are still switched off first.
+    let mut failure = None;
     loop {
         let now = now_ns();
         let wake = feedback.next_wake_ns(now);
@@ -202,6 +200,10 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
             tokio::select! {
                 biased;
                 _ = shutdown.triggered() => break,
+                e = health_task.failed() => {
+                    failure = Some(e);
+                    break;
+                }
                 Some(m) = haptic_sub.recv() => {
                     match feedback.on_haptic(&m.body, m.header.capture_ns, now_ns()) {
                         Ok(None) => {}
@@ -244,17 +246,17 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         tracing::warn!("applied publishing task ended abnormally: {e}");
     }
     drop(feedback);
-    shutdown.trigger();
+    // The phone task ends with its last sender, which went with the devices.
     if let Some(task) = phone_task {
         match task.await {
             Ok(r) => r.context("phone forwarding")?,
             Err(e) => tracing::warn!("phone task ended abnormally: {e}"),
         }
     }
-    match health_task.await {
-        Ok(r) => r.context("health task")?,
-        Err(e) => tracing::warn!("health task ended abnormally: {e}"),
+    if let Some(e) = failure {
+        return Err(e);
     }
+    health_task.join().await?;
     session.close().await.map_err(|e| anyhow!("closing the session: {e}"))?;
     Ok(())
 }

@@ -72,7 +72,7 @@ pub async fn run(
     let keys = config.bus.keys()?;
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
-    tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
+    let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
     let view: Shared = Arc::new(Mutex::new(BridgeView { user: config.bus.user.clone(), ..Default::default() }));
 
     let hazards = Subscriber::<Hazard>::declare(&session, keys.hazard(), true, &health).await?;
@@ -101,6 +101,10 @@ pub async fn run(
     loop {
         tokio::select! {
             _ = shutdown.triggered() => break,
+            e = health_task.failed() => {
+                server.abort();
+                return Err(e);
+            }
             Some(h) = hazards.recv() => {
                 let mut v = view.lock().unwrap_or_else(|e| e.into_inner());
                 v.hazards += 1;
@@ -123,6 +127,7 @@ pub async fn run(
         Ok(Err(e)) => tracing::warn!("phone page server: {e}"),
         Err(e) => tracing::warn!("phone page server task: {e}"),
     }
+    health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
 }

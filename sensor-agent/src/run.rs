@@ -167,7 +167,7 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     }
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
-    tokio::spawn(health.clone().serve(session.clone(), keys.clone(), config.health_period, shutdown.clone()));
+    let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
     let dev = &config.device;
     let mut out = Outputs {
         depth: Publisher::declare(&session, keys.depth(dev), AGENT, Lane::Bulk, Some(&health)).await?,
@@ -195,6 +195,7 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     loop {
         let item = tokio::select! {
             _ = shutdown.triggered() => break,
+            e = health_task.failed() => return Err(e),
             item = tokio::time::timeout(config.stall_after, rx.recv()) => item,
         };
         match item {
@@ -232,6 +233,7 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     if producer.join().is_err() {
         tracing::error!("frame source thread panicked");
     }
+    health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
 }
