@@ -148,6 +148,13 @@ fn fmt_ms(v: f32) -> String {
 /// Run the demo; `Ok` when it ran cleanly (frames perceived, every agent stopped well).
 pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     schemas::Keys::new(&args.user).with_context(|| format!("bad --user {:?}", args.user))?;
+    // Refused backends (the phone's) stop the demo here, before any agent starts.
+    let feedback_config = feedback_agent::FeedbackConfig {
+        speech: args.speech.clone(),
+        haptic: args.haptic.clone(),
+        ..feedback_agent::FeedbackConfig::default()
+    };
+    feedback_config.check()?;
     let hub = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
     let mut hub_bus = BusOptions::for_user(&args.user);
     hub_bus.listen = std::iter::once(hub.clone()).chain(args.listen.iter().cloned()).collect();
@@ -165,9 +172,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let compute =
         tokio::spawn(compute_agent::run::run(compute_agent::run::ComputeConfig::new(hub_bus), shutdown.clone()));
     tokio::time::sleep(Duration::from_millis(300)).await;
-    let mut feedback_config = feedback_agent::FeedbackConfig::with_bus(peer_bus.clone());
-    feedback_config.speech = args.speech.clone();
-    feedback_config.haptic = args.haptic.clone();
+    let feedback_config = feedback_agent::FeedbackConfig { bus: peer_bus.clone(), ..feedback_config };
     let feedback = tokio::spawn(feedback_agent::run(feedback_config, shutdown.clone()));
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
@@ -267,4 +272,33 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
         bail!("no hazard was perceived: obstacle detection never ran");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Demo {
+        #[command(flatten)]
+        args: DemoArgs,
+    }
+
+    #[tokio::test]
+    async fn phone_backends_are_refused_before_any_agent_starts() {
+        for (flag, instead) in [
+            ("--haptic", "use --haptic console, wiimote or evdev"),
+            ("--speech", "use --speech console, espeak or speechd"),
+        ] {
+            // a source that cannot open: reaching it would fail with another message
+            let Demo { args } = Demo::parse_from(["demo", flag, "phone", "--source", "sim:no-such-world"]);
+            let error = format!("{:#}", run(args).await.unwrap_err());
+            assert!(
+                error.starts_with(&format!("{flag} phone is not available yet")) && error.contains(instead),
+                "{error}"
+            );
+        }
+    }
 }

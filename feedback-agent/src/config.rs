@@ -26,7 +26,9 @@ pub enum HapticBackend {
     /// Force-feedback rumble on evdev input nodes (`--evdev-left`, `--evdev-right`),
     /// e.g. the kernel hid-wiimote driver's, or a gamepad's.
     Evdev,
-    /// The phone's vibration, through the phone bridge (`phone/haptic`).
+    /// The phone's vibration: refused ([`ConfigError::PhoneHaptic`]) until the phone
+    /// bridge forwards intents and the phone acknowledges them.
+    #[value(hide = true)]
     Phone,
 }
 
@@ -40,8 +42,29 @@ pub enum SpeechBackend {
     Espeak,
     /// speech-dispatcher, over SSIP on its Unix socket (`--speechd-socket`).
     Speechd,
-    /// The phone's voice, through the phone bridge (`phone/speech`).
+    /// The phone's voice: refused ([`ConfigError::PhoneSpeech`]) until the phone
+    /// bridge forwards intents and the phone acknowledges them.
+    #[value(hide = true)]
     Phone,
+}
+
+/// A configuration the agent refuses to run with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// `--haptic phone`: `feedback/applied` would report rumbles nobody felt.
+    #[error(
+        "--haptic phone is not available yet: the phone bridge does not forward intents to a phone and no \
+         phone acknowledges them, so the agent would report rumbles nobody felt; use --haptic console, \
+         wiimote or evdev"
+    )]
+    PhoneHaptic,
+    /// `--speech phone`: `feedback/applied` would report speech nobody heard.
+    #[error(
+        "--speech phone is not available yet: the phone bridge does not forward intents to a phone and no \
+         phone acknowledges them, so the agent would report speech nobody heard; use --speech console, \
+         espeak or speechd"
+    )]
+    PhoneSpeech,
 }
 
 fn default_bus() -> bus::BusOptions {
@@ -57,12 +80,11 @@ pub struct FeedbackConfig {
     #[serde(skip, default = "default_bus")]
     pub bus: bus::BusOptions,
 
-    /// Haptic backends, comma-separated; several run at once (e.g. `wiimote,console`,
-    /// `phone`).
+    /// Haptic backends, comma-separated; several run at once (e.g. `wiimote,console`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub haptic: Vec<HapticBackend>,
 
-    /// Speech backends, comma-separated (e.g. `espeak,console`, `phone`).
+    /// Speech backends, comma-separated (e.g. `espeak,console`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub speech: Vec<SpeechBackend>,
 
@@ -161,6 +183,18 @@ impl FeedbackConfig {
     /// Defaults on the given bus (what `wearnav demo` uses).
     pub fn with_bus(bus: bus::BusOptions) -> Self {
         Self { bus, ..Self::default() }
+    }
+
+    /// Refuse what the agent cannot honestly do: `feedback/applied` says the user felt
+    /// or heard something, so a backend that cannot confirm it is not started.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        if self.haptic.contains(&HapticBackend::Phone) {
+            return Err(ConfigError::PhoneHaptic);
+        }
+        if self.speech.contains(&SpeechBackend::Phone) {
+            return Err(ConfigError::PhoneSpeech);
+        }
+        Ok(())
     }
 
     /// Settings of the feedback step.
@@ -266,6 +300,24 @@ mod tests {
         assert_eq!(d.config.evdev().left.as_deref(), Some(std::path::Path::new("/dev/input/event5")));
         assert_eq!(d.config.evdev().backstop_ms, 2000);
         assert_eq!(d.config.speechd().unwrap().socket, PathBuf::from("/tmp/s.sock"));
+    }
+
+    #[test]
+    fn phone_backends_are_refused_with_what_to_use_instead() {
+        let parse = |args: &[&str]| DefaultsOnly::try_parse_from(args).unwrap().config;
+        let haptic = parse(&["x", "--haptic", "console,phone"]).check().unwrap_err();
+        assert_eq!(haptic, ConfigError::PhoneHaptic);
+        assert!(haptic.to_string().contains("use --haptic console, wiimote or evdev"), "{haptic}");
+        let speech = parse(&["x", "--speech", "phone"]).check().unwrap_err();
+        assert_eq!(speech, ConfigError::PhoneSpeech);
+        assert!(speech.to_string().contains("use --speech console, espeak or speechd"), "{speech}");
+        // config files too
+        let c: FeedbackConfig = serde_json::from_str(r#"{"speech": ["espeak", "phone"]}"#).unwrap();
+        assert_eq!(c.check(), Err(ConfigError::PhoneSpeech));
+        assert_eq!(
+            parse(&["x", "--haptic", "wiimote,evdev,console", "--speech", "espeak,speechd,console"]).check(),
+            Ok(())
+        );
     }
 
     #[test]

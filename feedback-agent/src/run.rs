@@ -11,13 +11,12 @@ use schemas::{Applied, AppliedAction, Command, HapticIntent, Hazard, SpeechInten
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
-use crate::config::{FeedbackConfig, HapticBackend, SpeechBackend};
+use crate::config::{ConfigError, FeedbackConfig, HapticBackend, SpeechBackend};
 use crate::console::{ConsoleHaptic, ConsoleSpeech};
 use crate::device::{HapticDevice, SpeechEngine};
 use crate::espeak::{find_player, EspeakEngine};
 use crate::evdev::{EvdevBackend, EvdevOpener};
 use crate::feedback::Feedback;
-use crate::phone::{phone_channel, PhoneHaptic, PhoneLink, PhoneMessage, PhoneSpeech};
 use crate::speechd::SpeechdEngine;
 use crate::watchdog::DetectionState;
 use crate::wiimote::link::HidapiBus;
@@ -34,25 +33,14 @@ pub struct Devices {
     pub engines: Vec<Box<dyn SpeechEngine>>,
     /// Start-up notes (`device`, text), published as device status.
     pub notes: Vec<(String, String)>,
-    /// Messages of the phone backends, published by the loop (`None` without them).
-    pub phone: Option<mpsc::UnboundedReceiver<PhoneMessage>>,
 }
 
 impl Devices {
     /// Open the backends the configuration names. Fails when a named backend cannot
-    /// work at all (espeak-ng missing), rather than running silently without it.
+    /// work at all (espeak-ng missing, or refused: [`FeedbackConfig::check`]), rather
+    /// than running silently without it.
     pub fn from_config(config: &FeedbackConfig) -> anyhow::Result<Self> {
-        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new(), phone: None };
-        let mut phone_link: Option<PhoneLink> = None;
-        let mut phone = |devices: &mut Devices| -> PhoneLink {
-            phone_link
-                .get_or_insert_with(|| {
-                    let (link, rx) = phone_channel();
-                    devices.phone = Some(rx);
-                    link
-                })
-                .clone()
-        };
+        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new() };
         for backend in &config.haptic {
             match backend {
                 HapticBackend::Console => devices.haptics.push(Box::new(ConsoleHaptic::stdout())),
@@ -66,10 +54,7 @@ impl Devices {
                     }
                     devices.haptics.push(Box::new(EvdevBackend::new(Box::new(EvdevOpener), evdev)));
                 }
-                HapticBackend::Phone => {
-                    let link = phone(&mut devices);
-                    devices.haptics.push(Box::new(PhoneHaptic::new(link)));
-                }
+                HapticBackend::Phone => return Err(ConfigError::PhoneHaptic.into()),
             }
         }
         for backend in &config.speech {
@@ -86,10 +71,7 @@ impl Devices {
                     devices.notes.push(("speechd".into(), engine.describe()));
                     devices.engines.push(Box::new(engine));
                 }
-                SpeechBackend::Phone => {
-                    let link = phone(&mut devices);
-                    devices.engines.push(Box::new(PhoneSpeech::new(link, config.rate_wpm)));
-                }
+                SpeechBackend::Phone => return Err(ConfigError::PhoneSpeech.into()),
             }
         }
         Ok(devices)
@@ -97,7 +79,9 @@ impl Devices {
 }
 
 /// Run the feedback agent with the devices its configuration names until `shutdown`.
+/// A refused configuration ([`FeedbackConfig::check`]) fails before any session opens.
 pub async fn run(config: FeedbackConfig, shutdown: Shutdown) -> anyhow::Result<()> {
+    config.check()?;
     let devices = Devices::from_config(&config)?;
     run_with(config, devices, shutdown).await
 }
@@ -168,10 +152,6 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         Publisher::<Applied>::declare(&session, applied_key.clone(), AGENT, Lane::Events, Some(&health)).await?;
     let (applied_tx, applied_rx) = mpsc::channel(APPLIED_BACKLOG);
     let applied_task = tokio::spawn(publish_applied(applied_pub, applied_rx));
-
-    let phone_task = devices
-        .phone
-        .map(|rx| tokio::spawn(crate::phone::forward(session.clone(), keys.clone(), AGENT, rx, health.clone())));
 
     let started = now_ns();
     let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
@@ -246,13 +226,6 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         tracing::warn!("applied publishing task ended abnormally: {e}");
     }
     drop(feedback);
-    // The phone task ends with its last sender, which went with the devices.
-    if let Some(task) = phone_task {
-        match task.await {
-            Ok(r) => r.context("phone forwarding")?,
-            Err(e) => tracing::warn!("phone task ended abnormally: {e}"),
-        }
-    }
     if let Some(e) = failure {
         return Err(e);
     }

@@ -9,7 +9,6 @@ use std::time::{Duration, Instant};
 use bus::{BusOptions, Lane, Publisher, Shutdown, Subscriber};
 use common::{wait_applied, HazardStream, Loopback};
 use feedback_agent::console::ConsoleSpeech;
-use feedback_agent::phone::{phone_channel, PhoneHaptic};
 use feedback_agent::wiimote::fake::FakeHid;
 use feedback_agent::wiimote::{WiimoteBackend, WiimoteConfig};
 use feedback_agent::{Devices, FeedbackConfig};
@@ -34,17 +33,11 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     let hid = FakeHid::new();
     hid.attach(LEFT, "00:19:1d:00:00:01");
     hid.attach(RIGHT, "00:19:1d:00:00:02");
-    let (phone_link, phone_rx) = phone_channel();
     let devices = Devices {
-        haptics: vec![
-            Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default())),
-            Box::new(PhoneHaptic::new(phone_link)),
-        ],
+        haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
-        phone: Some(phone_rx),
     };
-    let phone = Subscriber::<HapticIntent>::declare(&session, keys.phone_haptic(), false, &test_health).await.unwrap();
     let config = FeedbackConfig { health_period_ms: 200, ..FeedbackConfig::with_bus(agent_bus) };
     let shutdown = Shutdown::new();
     let agent = tokio::spawn(feedback_agent::run_with(config, devices, shutdown.clone()));
@@ -64,18 +57,6 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     .await;
     assert_eq!(a.cause_capture_ns, capture);
     assert!(hid.written_to(LEFT).contains(&vec![0x10, 0x01]));
-    // The phone backend forwards the same decision to the phone bridge's key.
-    let deadline = Instant::now() + Duration::from_secs(2);
-    loop {
-        let m = tokio::time::timeout(deadline.saturating_duration_since(Instant::now()), phone.recv())
-            .await
-            .expect("phone/haptic within 2 s")
-            .expect("phone stream");
-        if m.header.capture_ns == capture {
-            assert_eq!((m.body.left, m.body.right, m.body.ttl_ms), (1.0, 0.0, 250));
-            break;
-        }
-    }
     // ... and its TTL switches it off without any further message.
     let off = wait_applied(&applied, Duration::from_secs(1), |a| {
         a.device == "wiimote-left" && matches!(a.action, AppliedAction::Rumble { left, .. } if left == 0.0)
@@ -192,7 +173,6 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid2.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
-        phone: None,
     };
     let agent_bus = BusOptions { connect: test_bus.listen.clone(), no_multicast: true, ..BusOptions::for_user(&user) };
     let shutdown = Shutdown::new();
