@@ -317,21 +317,7 @@ async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
     // in the way of a user turning right.
     let mut scene = Scene::kinect(0.9, 30.0);
     scene.blocks.push(Block { min: [0.9, -0.6, 0.0], max: [2.4, -0.3, 1.0] });
-    let mut data = Vec::new();
-    let depth = scene.render_depth(0.001);
-    schemas::depth_codec::encode(&depth, scene.width, scene.height, schemas::DepthEncoding::Lossless, &mut data)
-        .unwrap();
-    let [a, b, c, _] = scene.floor_plane_camera();
-    let frame = schemas::DepthFrame {
-        width: scene.width,
-        height: scene.height,
-        depth_scale_m: 0.001,
-        intrinsics: scene.intrinsics,
-        gravity_camera: Some([-a, -b, -c]),
-        mount: None,
-        encoding: schemas::DepthEncoding::Lossless,
-        data,
-    };
+    let frame = scene.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
     let declare =
         |key: String| Publisher::<schemas::ImuBatch>::declare(&hub.session, key, "test", Lane::Telemetry, None);
     let mut frames =

@@ -222,20 +222,7 @@ mod tests {
     fn wall_frame(encoding: DepthEncoding) -> DepthFrame {
         let mut scene = Scene::kinect(0.9, 30.0);
         scene.walls_x_m.push(1.2);
-        let depth = scene.render_depth(0.001);
-        let mut data = Vec::new();
-        depth_codec::encode(&depth, scene.width, scene.height, encoding, &mut data).unwrap();
-        let [a, b, c, _] = scene.floor_plane_camera();
-        DepthFrame {
-            width: scene.width,
-            height: scene.height,
-            depth_scale_m: 0.001,
-            intrinsics: scene.intrinsics,
-            gravity_camera: Some([-a, -b, -c]),
-            mount: None,
-            encoding,
-            data,
-        }
+        scene.depth_frame(encoding).unwrap()
     }
 
     fn input(frame: &DepthFrame, seq: u64) -> FrameIn<'_> {

@@ -5,7 +5,7 @@
 //! World = user frame: x forward, y left, z up, floor at z = 0, camera at `(0, 0,
 //! height_m)` looking forward, pitched down by `pitch_deg`, no roll.
 
-use schemas::Intrinsics;
+use schemas::{DepthEncoding, DepthFrame, Intrinsics};
 
 /// Axis-aligned box in the world, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -120,6 +120,24 @@ impl Scene {
             }
         }
         out
+    }
+
+    /// The scene as a sensor agent would publish it: millimetre depth packed with
+    /// `encoding`, the exact gravity (the floor's normal, pointing down).
+    pub fn depth_frame(&self, encoding: DepthEncoding) -> Result<DepthFrame, schemas::depth_codec::CodecError> {
+        let mut data = Vec::new();
+        schemas::depth_codec::encode(&self.render_depth(0.001), self.width, self.height, encoding, &mut data)?;
+        let [a, b, c, _] = self.floor_plane_camera();
+        Ok(DepthFrame {
+            width: self.width,
+            height: self.height,
+            depth_scale_m: 0.001,
+            intrinsics: self.intrinsics,
+            gravity_camera: Some([-a, -b, -c]),
+            mount: None,
+            encoding,
+            data,
+        })
     }
 
     /// Renders the scene as organized xyz, camera frame, NaN where nothing is hit.
