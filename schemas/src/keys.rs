@@ -3,7 +3,7 @@
 //! Key space (ARCHITECTURE.md), one user per prefix so several people can share a LAN:
 //! `wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}`, `perception/{scan,hazard}`,
 //! `localization/pose`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
-//! `health/<agent>`, `query/<service>`, `phone/{haptic,speech}` (feedback agent -> phone bridge).
+//! `health/<agent>`, `query/<service>`, `phone/{haptic,speech}` (reserved: intents for the phone app, once it acknowledges them).
 
 use thiserror::Error;
 
@@ -150,14 +150,13 @@ impl Keys {
         format!("{}/feedback/applied", self.prefix)
     }
 
-    /// What the phone should vibrate now (the feedback agent's phone backend ->
-    /// the phone bridge): a `HapticIntent` with the levels in force and a short TTL.
+    /// What the phone should vibrate (reserved for the phone app: the feedback agent
+    /// refuses a phone backend until the phone acknowledges what it is sent).
     pub fn phone_haptic(&self) -> String {
         format!("{}/phone/haptic", self.prefix)
     }
 
-    /// What the phone should say (the feedback agent's phone backend -> the phone
-    /// bridge): a `SpeechIntent` already ordered by the agent's speech queue.
+    /// What the phone should say (reserved for the phone app, as [`Keys::phone_haptic`]).
     pub fn phone_speech(&self) -> String {
         format!("{}/phone/speech", self.prefix)
     }

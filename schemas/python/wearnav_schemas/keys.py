@@ -4,7 +4,7 @@
 Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}``,
 ``perception/{scan,hazard}``, ``localization/pose``, ``route/state``,
 ``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``,
-``phone/{haptic,speech}`` (feedback agent -> phone bridge).
+``phone/{haptic,speech}`` (reserved for the phone app; nothing publishes there yet).
 """
 
 
@@ -103,11 +103,11 @@ class Keys:
         return f"{self._prefix}/feedback/applied"
 
     def phone_haptic(self):
-        """What the phone should vibrate now (feedback agent's phone backend -> phone bridge)."""
+        """What the phone should vibrate (reserved for the phone app)."""
         return f"{self._prefix}/phone/haptic"
 
     def phone_speech(self):
-        """What the phone should say (feedback agent's phone backend -> phone bridge)."""
+        """What the phone should say (reserved for the phone app)."""
         return f"{self._prefix}/phone/speech"
 
     def cmd(self, verb):
