@@ -5,9 +5,7 @@
 //! however the cane sweeps, gives a verdict on an unreachable goal, is deterministic per
 //! seed, reacts later with a slower user and swings further with a faster-turning one.
 //!
-//! The full 20-run table is a CLI run (`wearnav course`); the ignored test
-//! `course_cli` runs it from this harness too: `COURSE_ARGS="--world taylor-course
-//! --cost ficf" cargo test --release --test course -- --ignored --nocapture`.
+//! The full 20-run table is a CLI run (`wearnav course`).
 
 use clap::Parser;
 use sensor_agent::sim::World;
@@ -463,17 +461,6 @@ fn options_and_worlds_the_course_cannot_serve_are_refused_before_walking() {
     assert!(err.contains("go with --oracle"), "{err}");
     let err = run("--oracle goal --oracle-turn-rate-deg-s 0 --runs 1").unwrap_err();
     assert!(err.contains("--oracle-turn-rate-deg-s must be in (0, 720]"), "{err}");
-}
-
-#[test]
-#[ignore = "the full study: run with --release, arguments in COURSE_ARGS"]
-fn course_cli() {
-    let line = std::env::var("COURSE_ARGS").unwrap_or_default();
-    let argv = std::iter::once("course".to_string()).chain(line.split_whitespace().map(String::from));
-    let cli = Cli::parse_from(argv);
-    if let Err(e) = study::run(&cli.args) {
-        panic!("{e:#}");
-    }
 }
 
 #[test]
