@@ -165,7 +165,7 @@ async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
 
     let good = schemas::encode(
-        "test",
+        &schemas::Origin { sender: "test", session: 1 },
         0,
         bus::now_ns(),
         &HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 },
@@ -420,7 +420,13 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
     let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
     let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
     let toml_arg = perception_toml.to_string_lossy().to_string();
-    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--perception-config", &toml_arg, "--no-body-imu"]);
+    // a loaded machine may fall behind the walk's pace: this test compares hazards, not ages
+    let _compute = spawn(
+        "compute-agent",
+        &hub.endpoint,
+        user,
+        &["--perception-config", &toml_arg, "--no-body-imu", "--max-input-age-ms", "10000"],
+    );
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
     let mut frames =
         Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
@@ -431,15 +437,21 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
             .await
             .unwrap();
 
+    // The walk's clock moved to now, and its frames sent at their pace: the agent refuses
+    // frames stamped in the future.
+    let shift = bus::now_ns() + 100_000_000 - fed[0].capture_ns;
     for (i, f) in fed.iter().enumerate() {
+        let due = f.capture_ns + shift;
+        tokio::time::sleep(Duration::from_nanos(due.saturating_sub(bus::now_ns()))).await;
         for inc in &f.odometry {
-            odom.put(inc.to_ns, inc).await.unwrap();
+            let inc = schemas::OdomIncrement { from_ns: inc.from_ns + shift, to_ns: inc.to_ns + shift, ..*inc };
+            odom.put(inc.to_ns, &inc).await.unwrap();
         }
-        frames.put(f.capture_ns, &f.frame).await.unwrap();
+        frames.put(due, &f.frame).await.unwrap();
         let got = wait_for(&hazards, Duration::from_secs(5), |_| true)
             .await
             .unwrap_or_else(|| panic!("no hazard for frame {i} of {}", fed.len()));
-        assert_eq!(got.header.capture_ns, f.capture_ns, "frame {i}: hazards out of step with frames");
+        assert_eq!(got.header.capture_ns, due, "frame {i}: hazards out of step with frames");
         let want = f.hazard.clone().expect("checked above");
         // the agent numbers frames by its sender's sequence and stamps its latencies
         let got = schemas::Hazard { frame_seq: want.frame_seq, latency: Vec::new(), ..got.body };

@@ -13,7 +13,8 @@ use schemas::{HealthStats, Keys, RejectCount, StreamStats};
 use tokio::task::JoinHandle;
 use zenoh::Session;
 
-use crate::{now_ns, stream::Lane, Publisher, Shutdown};
+use crate::guard::Clocks;
+use crate::{now_ns, stream::Lane, Publisher, Shutdown, Subscriber};
 
 /// Latency samples kept per stream per reporting period (older ones are dropped).
 const MAX_LATENCY_SAMPLES: usize = 8192;
@@ -127,6 +128,13 @@ pub struct Health {
     logged: Mutex<HashSet<(String, String)>>,
     status: Mutex<(bool, String)>,
     nudge: tokio::sync::Notify,
+    /// The other agents' clock offsets, from their health messages.
+    clocks: Mutex<Clocks>,
+    /// The tightest freshness bound of this agent's subscriptions: a sender whose clock
+    /// is off by more is named in the status.
+    clock_bound: Mutex<Option<Duration>>,
+    /// Senders already warned about (a clock found off is logged once).
+    clock_warned: Mutex<HashSet<String>>,
 }
 
 impl Health {
@@ -140,7 +148,46 @@ impl Health {
             logged: Mutex::new(HashSet::new()),
             status: Mutex::new((true, "starting".to_string())),
             nudge: tokio::sync::Notify::new(),
+            clocks: Mutex::new(Clocks::default()),
+            clock_bound: Mutex::new(None),
+            clock_warned: Mutex::new(HashSet::new()),
         })
+    }
+
+    /// A subscription refuses inputs older than `max_age`: senders whose clock is off
+    /// by more than the tightest such bound are named in the status.
+    pub fn bound_clock_offsets(&self, max_age: Duration) {
+        let mut bound = lock(&self.clock_bound);
+        *bound = Some(bound.map_or(max_age, |b| b.min(max_age)));
+    }
+
+    /// How far `sender`'s clock reads behind ours (trip included), from its health
+    /// messages; 0 until one is heard.
+    pub fn clock_offset_ns(&self, sender: &str) -> i64 {
+        lock(&self.clocks).offset_ns(sender)
+    }
+
+    /// A health message of `sender` stamped `stamp_ns` arrived at `received_ns`.
+    pub fn observe_clock(&self, sender: &str, stamp_ns: u64, received_ns: u64) {
+        if sender != self.agent {
+            lock(&self.clocks).observe(sender, stamp_ns, received_ns);
+        }
+    }
+
+    /// "clock of X 2001 ms behind" for each sender off by more than the bound.
+    fn clock_notes(&self) -> Vec<String> {
+        let Some(bound) = *lock(&self.clock_bound) else { return Vec::new() };
+        let off = lock(&self.clocks).off_by_more_than(bound);
+        let mut warned = lock(&self.clock_warned);
+        off.into_iter()
+            .map(|(sender, ms)| {
+                let note = format!("clock of {sender} {} ms {}", ms.abs(), if ms > 0 { "behind" } else { "ahead" });
+                if warned.insert(sender) {
+                    tracing::warn!(agent = %self.agent, "{note} (more than the {} ms input bound): its stamps are read through that offset; check NTP on its host", bound.as_millis());
+                }
+                note
+            })
+            .collect()
     }
 
     /// Agent name.
@@ -197,7 +244,11 @@ impl Health {
 
     /// Close the reporting period and return the stats message.
     pub fn snapshot(&self) -> HealthStats {
-        let (ok, status) = self.status();
+        let (ok, mut status) = self.status();
+        for note in self.clock_notes() {
+            status.push_str("; ");
+            status.push_str(&note);
+        }
         HealthStats {
             agent: self.agent.clone(),
             uptime_ms: self.started.elapsed().as_millis() as u64,
@@ -239,6 +290,8 @@ impl Health {
             .map_err(|e| anyhow!("cannot declare liveliness token {key}: {e}"))?;
         let mut publisher =
             Publisher::<HealthStats>::declare(&session, key, &self.agent, Lane::Telemetry, None).await?;
+        // the other agents' health stamps give their clock offsets
+        let others = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &self).await?;
         let mut tick = tokio::time::interval(period);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         tick.tick().await;
@@ -248,6 +301,10 @@ impl Health {
                 _ = stop.triggered() => break,
                 _ = self.nudge.notified() => {}
                 _ = tick.tick() => {}
+                Some(h) = others.recv() => {
+                    self.observe_clock(&h.header.sender, h.header.capture_ns, h.received_ns);
+                    continue;
+                }
             }
             let stats = self.snapshot();
             if let Err(e) = publisher.put(now_ns(), &stats).await {

@@ -5,6 +5,7 @@
 //! agent's `run` module touches Zenoh, Tokio or the clock.
 
 pub mod clock;
+pub mod guard;
 pub mod health;
 pub mod logging;
 pub mod session;
@@ -12,6 +13,7 @@ pub mod shutdown;
 pub mod stream;
 
 pub use clock::now_ns;
+pub use guard::{Freshness, InputError};
 pub use health::{Health, HealthTask, StreamCounter};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;

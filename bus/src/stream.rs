@@ -1,17 +1,26 @@
 //! Typed publishers and subscribers: encode/decode with the `schemas` wire contract,
 //! QoS per lane, counted and logged rejects.
+//!
+//! A subscriber checks each message where it arrives, in Zenoh's callback: the wire
+//! checks (checksum, size, layout, values), then the [`Guard`] (sequence, and freshness
+//! where the subscription has a bound). Only a message that passes takes a place in
+//! the inbox, so a flood of garbage, replays or stale frames never displaces a good one.
 
+use std::collections::VecDeque;
+use std::hash::BuildHasher;
 use std::marker::PhantomData;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use anyhow::anyhow;
-use schemas::{Header, Message};
+use schemas::{Header, Message, Origin};
 use zenoh::bytes::Encoding;
-use zenoh::handlers::{FifoChannel, FifoChannelHandler, RingChannel, RingChannelHandler};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
+use crate::guard::{Freshness, Guard};
 use crate::{clock, Health, StreamCounter};
 
 /// Quality of service of a stream.
@@ -51,10 +60,22 @@ pub fn encoding_of<M: Message>() -> Encoding {
     Encoding::APPLICATION_OCTET_STREAM.with_schema(M::SCHEMA.encoding_schema())
 }
 
+/// A random publisher session id, different for every publisher of every run.
+fn new_session_id() -> u64 {
+    static DECLARED: AtomicU64 = AtomicU64::new(0);
+    // RandomState is keyed from the OS's randomness once per process
+    std::collections::hash_map::RandomState::new().hash_one((
+        clock::now_ns(),
+        std::process::id(),
+        DECLARED.fetch_add(1, Ordering::Relaxed),
+    ))
+}
+
 /// Publishes messages of one schema on one key, numbering them.
 pub struct Publisher<M: Message> {
     inner: zenoh::pubsub::Publisher<'static>,
     sender: String,
+    session: u64,
     seq: u64,
     counter: Option<Arc<StreamCounter>>,
     _m: PhantomData<fn(M)>,
@@ -79,13 +100,14 @@ impl<M: Message> Publisher<M> {
             .express(express)
             .await
             .map_err(|e| anyhow!("cannot declare publisher on {key}: {e}"))?;
-        Ok(Self { inner, sender: sender.to_string(), seq: 0, counter, _m: PhantomData })
+        Ok(Self { inner, sender: sender.to_string(), session: new_session_id(), seq: 0, counter, _m: PhantomData })
     }
 
     /// Publish `body` with capture stamp `capture_ns`; returns its sequence number.
     pub async fn put(&mut self, capture_ns: u64, body: &M) -> anyhow::Result<u64> {
         let seq = self.seq;
-        let bytes = schemas::encode(&self.sender, seq, capture_ns, body);
+        let origin = Origin { sender: &self.sender, session: self.session };
+        let bytes = schemas::encode(&origin, seq, capture_ns, body);
         let len = bytes.len();
         self.inner.put(bytes).await.map_err(|e| anyhow!("publish on {} failed: {e}", self.inner.key_expr()))?;
         self.seq += 1;
@@ -121,86 +143,156 @@ impl<M> Received<M> {
     }
 }
 
-enum Inbox {
-    Fifo(zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>),
-    Newest(zenoh::pubsub::Subscriber<RingChannelHandler<Sample>>),
+/// Messages that passed every check, waiting for the agent's loop.
+struct Inbox<M> {
+    queue: Mutex<VecDeque<Received<M>>>,
+    /// Keep only the newest (depth frames, intents) instead of queueing.
+    newest: bool,
+    ready: tokio::sync::Notify,
 }
 
-/// Receives messages of one schema; rejects (wrong schema or version, truncated,
-/// oversized, malformed, invalid) are counted and logged in `health`, never returned.
+/// Messages a queueing subscriber holds; beyond it new ones are refused and counted.
+const QUEUE_CAPACITY: usize = 256;
+
+impl<M> Inbox<M> {
+    fn push(&self, message: Received<M>) -> Result<(), Received<M>> {
+        let mut queue = self.queue.lock().unwrap_or_else(|e| e.into_inner());
+        if self.newest {
+            queue.clear();
+        } else if queue.len() >= QUEUE_CAPACITY {
+            return Err(message);
+        }
+        queue.push_back(message);
+        drop(queue);
+        self.ready.notify_one();
+        Ok(())
+    }
+
+    fn pop(&self) -> Option<Received<M>> {
+        self.queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front()
+    }
+}
+
+/// Receives messages of one schema. Rejects (wrong schema or version, damaged,
+/// truncated, oversized, malformed, invalid; replayed; stale or from the future where
+/// a freshness bound is set) are counted and logged in `health`, never returned.
 pub struct Subscriber<M: Message> {
-    inbox: Inbox,
+    _zenoh: zenoh::pubsub::Subscriber<()>,
+    inbox: Arc<Inbox<M>>,
     key: String,
-    health: Arc<Health>,
-    counter: Arc<StreamCounter>,
-    _m: PhantomData<fn() -> M>,
 }
 
-impl<M: Message> Subscriber<M> {
-    /// Subscribe to `key`. With `keep_newest` only the latest unread sample is kept
+impl<M: Message + Send + 'static> Subscriber<M> {
+    /// Subscribe to `key`. With `keep_newest` only the latest unread message is kept
     /// (consumers of depth frames must never work through a backlog of old frames);
-    /// otherwise samples queue (up to 256).
+    /// otherwise messages queue (up to 256). Sequence numbers are checked; no age.
     pub async fn declare(
         session: &Session,
         key: String,
         keep_newest: bool,
         health: &Arc<Health>,
     ) -> anyhow::Result<Self> {
-        let builder = session.declare_subscriber(key.clone());
-        let inbox = if keep_newest {
-            Inbox::Newest(builder.with(RingChannel::new(1)).await.map_err(|e| anyhow!("cannot subscribe {key}: {e}"))?)
-        } else {
-            Inbox::Fifo(builder.with(FifoChannel::new(256)).await.map_err(|e| anyhow!("cannot subscribe {key}: {e}"))?)
-        };
-        let counter = health.stream(&key, true);
-        Ok(Self { inbox, key, health: health.clone(), counter, _m: PhantomData })
+        Self::declare_with(session, key, keep_newest, None, health).await
     }
 
-    /// Next valid message; `None` once the subscription is closed.
+    /// Like [`Subscriber::declare`], refusing messages captured more than `max_age`
+    /// before they arrive (or stamped in the future), after taking out the sender's
+    /// clock offset as [`Health`] estimates it.
+    pub async fn declare_fresh(
+        session: &Session,
+        key: String,
+        keep_newest: bool,
+        max_age: Duration,
+        health: &Arc<Health>,
+    ) -> anyhow::Result<Self> {
+        Self::declare_with(session, key, keep_newest, Some(Freshness::within(max_age)), health).await
+    }
+
+    async fn declare_with(
+        session: &Session,
+        key: String,
+        keep_newest: bool,
+        freshness: Option<Freshness>,
+        health: &Arc<Health>,
+    ) -> anyhow::Result<Self> {
+        if let Some(f) = freshness {
+            health.bound_clock_offsets(f.max_age);
+        }
+        let inbox =
+            Arc::new(Inbox { queue: Mutex::new(VecDeque::new()), newest: keep_newest, ready: Default::default() });
+        let check = Check {
+            key: key.clone(),
+            health: health.clone(),
+            counter: health.stream(&key, true),
+            guard: Mutex::new(Guard::new(freshness)),
+            inbox: inbox.clone(),
+        };
+        let zenoh = session
+            .declare_subscriber(key.clone())
+            .callback(move |sample| check.accept(&sample))
+            .await
+            .map_err(|e| anyhow!("cannot subscribe {key}: {e}"))?;
+        Ok(Self { _zenoh: zenoh, inbox, key })
+    }
+}
+
+impl<M: Message> Subscriber<M> {
+    /// Next valid message (waits for one as long as the subscription lives).
     pub async fn recv(&self) -> Option<Received<M>> {
         loop {
-            let sample = match &self.inbox {
-                Inbox::Fifo(s) => s.recv_async().await.ok()?,
-                Inbox::Newest(s) => s.recv_async().await.ok()?,
-            };
-            if let Some(msg) = self.accept(&sample) {
-                return Some(msg);
+            let ready = self.inbox.ready.notified();
+            if let Some(m) = self.inbox.pop() {
+                return Some(m);
             }
+            ready.await;
         }
     }
 
     /// Next valid message if one is waiting.
     pub fn try_recv(&self) -> Option<Received<M>> {
-        loop {
-            let sample = match &self.inbox {
-                Inbox::Fifo(s) => s.try_recv().ok()??,
-                Inbox::Newest(s) => s.try_recv().ok()??,
-            };
-            if let Some(msg) = self.accept(&sample) {
-                return Some(msg);
-            }
-        }
-    }
-
-    fn accept(&self, sample: &Sample) -> Option<Received<M>> {
-        let bytes = sample.payload().to_bytes();
-        let key = sample.key_expr().as_str();
-        match schemas::decode::<M>(&bytes) {
-            Ok((header, body)) => {
-                let received_ns = clock::now_ns();
-                let age = clock::age_ms(header.capture_ns, received_ns) as f32;
-                self.counter.record(bytes.len(), Some(age));
-                Some(Received { key: key.to_string(), header, body, received_ns })
-            }
-            Err(e) => {
-                self.health.reject(&self.key, e.kind(), &format_args!("{e} (on {key})"));
-                None
-            }
-        }
+        self.inbox.pop()
     }
 
     /// The key expression subscribed.
     pub fn key(&self) -> &str {
         &self.key
+    }
+}
+
+/// What a subscription's callback does with each sample.
+struct Check<M> {
+    key: String,
+    health: Arc<Health>,
+    counter: Arc<StreamCounter>,
+    guard: Mutex<Guard>,
+    inbox: Arc<Inbox<M>>,
+}
+
+impl<M: Message> Check<M> {
+    fn accept(&self, sample: &Sample) {
+        let received_ns = clock::now_ns();
+        let bytes = sample.payload().to_bytes();
+        let key = sample.key_expr().as_str();
+        let (header, body) = match schemas::decode::<M>(&bytes) {
+            Ok(decoded) => decoded,
+            Err(e) => return self.health.reject(&self.key, e.kind(), &format_args!("{e} (on {key})")),
+        };
+        let offset_ns = self.health.clock_offset_ns(&header.sender);
+        let checked = self.guard.lock().unwrap_or_else(|e| e.into_inner()).check(key, &header, received_ns, offset_ns);
+        if let Err(e) = checked {
+            return self.health.reject(&self.key, e.kind(), &format_args!("{e} (on {key})"));
+        }
+        // the latency as stamped: on one host that is the truth, across hosts the
+        // offset estimate is too coarse to correct a few milliseconds with
+        let age = clock::age_ms(header.capture_ns, received_ns) as f32;
+        self.counter.record(bytes.len(), Some(age));
+        let message = Received { key: key.to_string(), header, body, received_ns };
+        if let Err(m) = self.inbox.push(message) {
+            let why = format!(
+                "{QUEUE_CAPACITY} messages already wait; seq {} from {} refused",
+                m.header.seq, m.header.sender
+            );
+            self.health.reject(&self.key, "queue_full", &why);
+        }
     }
 }

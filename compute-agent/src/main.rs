@@ -33,6 +33,13 @@ struct Cli {
     /// in the thesis.
     #[arg(long)]
     no_body_imu: bool,
+    /// Oldest depth frame or odometry step acted on, in milliseconds from its capture
+    /// (the sender's clock offset, estimated from its health messages, taken out). An
+    /// older one (a stalled link, a replay) is refused and counted as `stale`; when
+    /// every frame is, the feedback agent warns that detection is offline.
+    #[arg(long, value_name = "MS", default_value_t = compute_agent::run::DEFAULT_MAX_INPUT_AGE.as_millis() as u64,
+          value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    max_input_age_ms: u64,
 }
 
 fn parse_cost(s: &str) -> Result<CostFunction, String> {
@@ -57,6 +64,7 @@ async fn main() -> anyhow::Result<()> {
         config.perception.cost_function = cost;
     }
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
+    config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     compute_agent::run::run(config, shutdown).await

@@ -31,7 +31,16 @@ pub struct ComputeConfig {
     /// the costs look the way the user turns (`perception::turn_ahead`). `None`: the
     /// costs look along the camera's heading only, as in the thesis.
     pub body_imu_device: Option<String>,
+    /// Oldest depth frame or odometry step acted on, from capture to arrival and again
+    /// when the loop takes it up: an older one (a stalled link, a replay) is refused as
+    /// `stale`, so a rumble never reports a world that was, and it counts as no input
+    /// (the feedback agent's watchdog then warns that detection is offline).
+    pub max_input_age: Duration,
 }
+
+/// Default [`ComputeConfig::max_input_age`]: a frame is 33 ms at 30 Hz and capture ->
+/// intent 5-6 ms at p99 in the demo, so this allows a few frames of delay, not more.
+pub const DEFAULT_MAX_INPUT_AGE: Duration = Duration::from_millis(150);
 
 /// Default body-worn IMU device: the simulator's (`sensor-agent --source sim:...`
 /// publishes one); a phone or belt IMU publishing under this name is used the same way.
@@ -46,6 +55,7 @@ impl ComputeConfig {
             cue: CueConfig::default(),
             health_period: Duration::from_secs(1),
             body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
+            max_input_age: DEFAULT_MAX_INPUT_AGE,
         }
     }
 }
@@ -119,8 +129,9 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let health = Health::new(AGENT);
     let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
 
-    let frames = Subscriber::<DepthFrame>::declare(&session, keys.depth_any(), true, &health).await?;
-    let odom = Subscriber::<OdomIncrement>::declare(&session, keys.odom_any(), false, &health).await?;
+    let max_age = config.max_input_age;
+    let frames = Subscriber::<DepthFrame>::declare_fresh(&session, keys.depth_any(), true, max_age, &health).await?;
+    let odom = Subscriber::<OdomIncrement>::declare_fresh(&session, keys.odom_any(), false, max_age, &health).await?;
     let mut body = Body {
         imu: match &config.body_imu_device {
             Some(device) => {
@@ -157,6 +168,10 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                 while let Some(batch) = body.imu.as_ref().and_then(|s| s.try_recv()) {
                     body.add(&batch, &health);
                 }
+                if let Err(e) = still_fresh(&frame, max_age, &health) {
+                    health.reject(&frame.key, e.kind(), &e);
+                    continue;
+                }
                 let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
                 process(&frame, body_yaw_rate_rad_s, &mut step, &health, &mut out).await;
             }
@@ -165,6 +180,19 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     tracing::info!("compute agent stopping");
     health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
+    Ok(())
+}
+
+/// A frame that was fresh on arrival may have waited for the loop: checked again.
+fn still_fresh(frame: &Received<DepthFrame>, max_age: Duration, health: &Health) -> Result<(), bus::InputError> {
+    let offset_ns = health.clock_offset_ns(&frame.header.sender) as i128;
+    let age_ns = bus::now_ns() as i128 - frame.header.capture_ns as i128 - offset_ns;
+    if age_ns > max_age.as_nanos() as i128 {
+        return Err(bus::InputError::Stale {
+            age_ms: (age_ns / 1_000_000) as i64,
+            bound_ms: max_age.as_millis() as u64,
+        });
+    }
     Ok(())
 }
 

@@ -60,7 +60,7 @@ fn in_agent(n: u64) {
     for k in 0..n {
         payload.clear();
         let capture = bus::now_ns();
-        schemas::encode_into("bench", k, capture, &intent(k), &mut payload);
+        schemas::encode_into(&schemas::Origin { sender: "bench", session: 1 }, k, capture, &intent(k), &mut payload);
         hid.clear_written();
         let t = bus::now_ns();
         if let Ok((header, body)) = schemas::decode::<HapticIntent>(&payload) {

@@ -93,6 +93,18 @@ pub struct FeedbackConfig {
     #[arg(long, default_value_t = 500, value_name = "MS")]
     pub offline_after_ms: u64,
 
+    /// Oldest haptic intent or hazard acted on, in milliseconds from the capture of the
+    /// frame behind it (its sender's clock offset taken out): an older one (a stalled
+    /// link, a replay) is refused and counted as `stale`, and counts as no input for
+    /// the offline watchdog.
+    #[arg(long, default_value_t = 250, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub max_intent_age_ms: u64,
+
+    /// Oldest speech intent or user command acted on, in milliseconds from when it was
+    /// made (utterances also end with their own time to live).
+    #[arg(long, default_value_t = 2000, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    pub max_speech_age_ms: u64,
+
     /// While offline, repeat the left-right alert rumble this often (0 = only once).
     #[arg(long, default_value_t = 5000, value_name = "MS")]
     pub offline_repeat_ms: u64,

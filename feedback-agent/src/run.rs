@@ -134,12 +134,17 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     let haptic_key = keys.haptic();
     let speech_key = keys.speech();
     // Only the newest haptic intent matters; speech intents queue, none may be lost.
-    let haptic_sub = Subscriber::<HapticIntent>::declare(&session, haptic_key.clone(), true, &health).await?;
-    let speech_sub = Subscriber::<SpeechIntent>::declare(&session, speech_key.clone(), false, &health).await?;
-    let hazard_sub = Subscriber::<Hazard>::declare(&session, keys.hazard(), true, &health).await?;
+    // Stale or replayed ones are refused where they arrive: they never reach a device.
+    let intent_age = Duration::from_millis(config.max_intent_age_ms);
+    let speech_age = Duration::from_millis(config.max_speech_age_ms);
+    let haptic_sub =
+        Subscriber::<HapticIntent>::declare_fresh(&session, haptic_key.clone(), true, intent_age, &health).await?;
+    let speech_sub =
+        Subscriber::<SpeechIntent>::declare_fresh(&session, speech_key.clone(), false, speech_age, &health).await?;
+    let hazard_sub = Subscriber::<Hazard>::declare_fresh(&session, keys.hazard(), true, intent_age, &health).await?;
     // Only `mute` is ours among the user commands; each one counts, none may be lost.
     let mute_key = keys.cmd("mute");
-    let mute_sub = Subscriber::<Command>::declare(&session, mute_key.clone(), false, &health).await?;
+    let mute_sub = Subscriber::<Command>::declare_fresh(&session, mute_key.clone(), false, speech_age, &health).await?;
     let alive_key = keys.health(&config.compute_agent);
     let liveliness = session
         .liveliness()

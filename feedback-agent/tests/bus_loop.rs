@@ -87,8 +87,9 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     wait_applied(&applied, Duration::from_secs(1), |a| offline_warning(a, false)).await;
 
     // Garbage on every subscribed key: counted, never acted on.
+    let evil = schemas::Origin { sender: "evil", session: 1 };
     let nan = schemas::encode(
-        "evil",
+        &evil,
         0,
         bus::now_ns(),
         &HapticIntent { left: f32::NAN, right: 1.0, pattern: HapticPattern::Steady, ttl_ms: 300 },
@@ -100,9 +101,9 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         ttl_ms: 1000,
         dedup_key: String::new(),
     };
-    let huge = schemas::encode("evil", 0, bus::now_ns(), &huge);
+    let huge = schemas::encode(&evil, 0, bus::now_ns(), &huge);
     let mut bad_priority = schemas::encode(
-        "evil",
+        &evil,
         0,
         bus::now_ns(),
         &SpeechIntent {
@@ -116,6 +117,8 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     let (_, header_len) = schemas::decode_header(&bad_priority).unwrap();
     // Priority variant index 9 does not exist.
     bad_priority[header_len + 8 + 2] = 9;
+    // sealed again: a faulty sender's well-checksummed payload reaches the decoder
+    schemas::wire::reseal(&mut bad_priority);
     // Spaced out: haptic and hazard subscribers keep only the newest sample, so
     // back-to-back garbage would be overwritten before the agent reads it (150 ms: a
     // loaded 2-core machine can hold the agent's loop off for more than 50).

@@ -11,4 +11,4 @@ pub mod wire;
 
 pub use keys::{KeyError, Keys};
 pub use messages::*;
-pub use wire::{decode, decode_header, encode, encode_into, Header, Message, SchemaId, WireError};
+pub use wire::{decode, decode_header, encode, encode_into, Header, Message, Origin, SchemaId, WireError};

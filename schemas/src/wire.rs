@@ -3,7 +3,11 @@
 //! A payload is `Header` then the body, both in bincode's legacy layout: fixed-width
 //! little-endian integers, `u64` length prefixes for strings and vectors, `u32` enum
 //! variant indices, a `u8` tag for options. That is plain `struct` in Python and a layout
-//! any maintained bincode-1 compatible crate reproduces byte for byte.
+//! any maintained bincode-1 compatible crate reproduces byte for byte. A CRC-32 of
+//! everything before it (IEEE, as zlib's `crc32`) ends the payload: a payload damaged on
+//! the way (a flipped bit, a cut) is refused as `corrupt` before any of it is read. The
+//! checksum catches damage, not forgery: anyone can compute it (the secure deployment
+//! profile keeps strangers off the bus).
 //!
 //! Decoding never trusts a length prefix: the whole payload is bounded by the schema's
 //! `MAX_BYTES` before anything is read, and bincode's allocation limit stops a forged
@@ -101,11 +105,12 @@ impl SchemaId {
 
     /// The version of this schema's layout this build speaks (and writes); receivers
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
-    /// `turn_ahead` and `body_turn_deg_s`.
+    /// `turn_ahead` and `body_turn_deg_s`; every schema went up one when the envelope
+    /// gained the sender's `session` and the checksum trailer.
     pub const fn version(self) -> u16 {
         match self {
-            SchemaId::Hazard => 2,
-            _ => 1,
+            SchemaId::Hazard => 3,
+            _ => 2,
         }
     }
 
@@ -141,6 +146,10 @@ pub struct Header {
     pub version: u16,
     /// Sending agent (and host) name.
     pub sender: String,
+    /// Random id of the publisher that sent it, new each time one is declared: a sender
+    /// that restarts numbers from 0 again under a new session, which receivers tell
+    /// from a replay of old messages.
+    pub session: u64,
     /// Per-publisher sequence number, from 0, +1 per message.
     pub seq: u64,
     /// Capture time of the data this message derives from, ns since the Unix epoch.
@@ -188,6 +197,14 @@ pub enum WireError {
     /// Well-formed but semantically unusable (NaN levels, empty text...).
     #[error("invalid message: {0}")]
     Invalid(String),
+    /// The checksum does not match: damaged (bit flips, cut short) on the way.
+    #[error("checksum mismatch: payload damaged or cut short (crc {found:08x}, computed {computed:08x})")]
+    Corrupt {
+        /// Checksum in the trailer.
+        found: u32,
+        /// Checksum of the bytes received.
+        computed: u32,
+    },
 }
 
 impl WireError {
@@ -201,6 +218,7 @@ impl WireError {
             WireError::Truncated => "truncated",
             WireError::Malformed(_) => "malformed",
             WireError::Invalid(_) => "invalid",
+            WireError::Corrupt { .. } => "corrupt",
         }
     }
 }
@@ -209,33 +227,39 @@ fn map_decode_error(err: bincode::error::DecodeError, len: usize) -> WireError {
     use bincode::error::DecodeError as D;
     match err {
         D::UnexpectedEnd { .. } => WireError::Truncated,
-        D::LimitExceeded => WireError::TooLarge {
-            len,
-            max: MAX_PAYLOAD_BYTES,
-        },
+        D::LimitExceeded => WireError::TooLarge { len, max: MAX_PAYLOAD_BYTES },
         other => WireError::Malformed(other.to_string()),
     }
 }
 
-/// Encode `body` behind `header`'s sender/seq/stamp (schema and version are filled in).
-pub fn encode<M: Message>(sender: &str, seq: u64, capture_ns: u64, body: &M) -> Vec<u8> {
+/// Bytes of the checksum trailer.
+pub const CHECKSUM_BYTES: usize = 4;
+
+/// Who sends a message: the name in its envelope and the publisher's session.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct Origin<'a> {
+    /// Sending agent (and host) name.
+    pub sender: &'a str,
+    /// The publisher's random session id ([`Header::session`]).
+    pub session: u64,
+}
+
+/// Encode `body` from `origin` with sequence number `seq` and capture stamp
+/// `capture_ns` (schema and version are filled in), checksum last.
+pub fn encode<M: Message>(origin: &Origin, seq: u64, capture_ns: u64, body: &M) -> Vec<u8> {
     let mut out = Vec::with_capacity(64);
-    encode_into(sender, seq, capture_ns, body, &mut out);
+    encode_into(origin, seq, capture_ns, body, &mut out);
     out
 }
 
 /// Like [`encode`], appending to `out` (reuse one buffer on hot paths).
-pub fn encode_into<M: Message>(
-    sender: &str,
-    seq: u64,
-    capture_ns: u64,
-    body: &M,
-    out: &mut Vec<u8>,
-) {
+pub fn encode_into<M: Message>(origin: &Origin, seq: u64, capture_ns: u64, body: &M, out: &mut Vec<u8>) {
+    let start = out.len();
     let header = Header {
         schema: M::SCHEMA as u16,
         version: M::VERSION,
-        sender: sender.to_string(),
+        sender: origin.sender.to_string(),
+        session: origin.session,
         seq,
         capture_ns,
     };
@@ -244,55 +268,72 @@ pub fn encode_into<M: Message>(
     let cfg = bincode::config::legacy();
     bincode::serde::encode_into_std_write(&header, out, cfg).expect("header serialises into a Vec");
     bincode::serde::encode_into_std_write(body, out, cfg).expect("body serialises into a Vec");
+    let crc = crc32fast::hash(&out[start..]);
+    out.extend_from_slice(&crc.to_le_bytes());
 }
 
-/// Read only the envelope, e.g. to dispatch on the schema.
+/// Rewrite the checksum trailer of `payload` to match the bytes before it: for tests
+/// and the fuzzer, which damage a payload's inside on purpose and want the decoder, not
+/// the checksum, to meet the damage. Does nothing to a payload shorter than a trailer.
+pub fn reseal(payload: &mut [u8]) {
+    if let Some(split) = payload.len().checked_sub(CHECKSUM_BYTES) {
+        let crc = crc32fast::hash(&payload[..split]);
+        payload[split..].copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
+/// The payload without its trailer, once the trailer matches.
+fn verified(bytes: &[u8]) -> Result<&[u8], WireError> {
+    let split = bytes.len().checked_sub(CHECKSUM_BYTES).ok_or(WireError::Truncated)?;
+    let (body, trailer) = bytes.split_at(split);
+    let found = u32::from_le_bytes(trailer.try_into().expect("4-byte trailer"));
+    let computed = crc32fast::hash(body);
+    if found != computed {
+        return Err(WireError::Corrupt { found, computed });
+    }
+    Ok(body)
+}
+
+/// Schema and version from the first four bytes, checked before the checksum so a
+/// payload of another build's layout is named as such rather than as damaged.
+fn check_schema_version(bytes: &[u8]) -> Result<SchemaId, WireError> {
+    let [s0, s1, v0, v1, ..] = *bytes else {
+        return Err(WireError::Truncated);
+    };
+    let (id, version) = (u16::from_le_bytes([s0, s1]), u16::from_le_bytes([v0, v1]));
+    let schema = SchemaId::from_u16(id).ok_or(WireError::UnknownSchema(id))?;
+    if version != schema.version() {
+        return Err(WireError::UnknownVersion { schema: schema.name(), got: version, expected: schema.version() });
+    }
+    Ok(schema)
+}
+
+/// Read only the envelope of a whole payload (checksum verified), e.g. to dispatch on
+/// the schema: the header and the bytes it used.
 pub fn decode_header(bytes: &[u8]) -> Result<(Header, usize), WireError> {
     if bytes.len() > MAX_PAYLOAD_BYTES {
-        return Err(WireError::TooLarge {
-            len: bytes.len(),
-            max: MAX_PAYLOAD_BYTES,
-        });
+        return Err(WireError::TooLarge { len: bytes.len(), max: MAX_PAYLOAD_BYTES });
     }
-    let (header, used): (Header, usize) = bincode::serde::decode_from_slice(bytes, config())
-        .map_err(|e| map_decode_error(e, bytes.len()))?;
-    let schema =
-        SchemaId::from_u16(header.schema).ok_or(WireError::UnknownSchema(header.schema))?;
-    if header.version != schema.version() {
-        return Err(WireError::UnknownVersion {
-            schema: schema.name(),
-            got: header.version,
-            expected: schema.version(),
-        });
-    }
+    check_schema_version(bytes)?;
+    let bytes = verified(bytes)?;
+    let (header, used): (Header, usize) =
+        bincode::serde::decode_from_slice(bytes, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
     Ok((header, used))
 }
 
 /// Decode and validate a payload of schema `M`.
 pub fn decode<M: Message>(bytes: &[u8]) -> Result<(Header, M), WireError> {
     if bytes.len() > M::MAX_BYTES {
-        return Err(WireError::TooLarge {
-            len: bytes.len(),
-            max: M::MAX_BYTES,
-        });
+        return Err(WireError::TooLarge { len: bytes.len(), max: M::MAX_BYTES });
+    }
+    let schema = check_schema_version(bytes)?;
+    if schema != M::SCHEMA {
+        return Err(WireError::WrongSchema { expected: M::SCHEMA.name(), got: schema as u16 });
     }
     let (header, used) = decode_header(bytes)?;
-    if header.schema != M::SCHEMA as u16 {
-        return Err(WireError::WrongSchema {
-            expected: M::SCHEMA.name(),
-            got: header.schema,
-        });
-    }
-    if header.version != M::VERSION {
-        return Err(WireError::UnknownVersion {
-            schema: M::SCHEMA.name(),
-            got: header.version,
-            expected: M::VERSION,
-        });
-    }
-    let rest = &bytes[used..];
-    let (body, body_used): (M, usize) = bincode::serde::decode_from_slice(rest, config())
-        .map_err(|e| map_decode_error(e, bytes.len()))?;
+    let rest = &bytes[used..bytes.len() - CHECKSUM_BYTES];
+    let (body, body_used): (M, usize) =
+        bincode::serde::decode_from_slice(rest, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
     if body_used != rest.len() {
         return Err(WireError::Malformed(format!(
             "{} trailing bytes after the {} body",
@@ -376,10 +417,7 @@ impl Message for Scan {
         if self.ranges_m.iter().any(|r| r.is_nan()) {
             return Err("NaN range in scan".into());
         }
-        finite(
-            "scan angles",
-            &[self.angle_min_deg, self.angle_increment_deg],
-        )
+        finite("scan angles", &[self.angle_min_deg, self.angle_increment_deg])
     }
 }
 
@@ -387,12 +425,7 @@ impl Message for Hazard {
     const SCHEMA: SchemaId = SchemaId::Hazard;
     fn validate(&self) -> Result<(), String> {
         let c = [self.ficf, self.cacf];
-        finite(
-            "cost",
-            &c.iter()
-                .flat_map(|s| [s.left, s.forward, s.right])
-                .collect::<Vec<_>>(),
-        )?;
+        finite("cost", &c.iter().flat_map(|s| [s.left, s.forward, s.right]).collect::<Vec<_>>())?;
         if let Some(r) = self.body_turn_deg_s {
             finite("body turn rate", &[r])?;
         }
@@ -419,9 +452,7 @@ impl Message for HapticIntent {
         unit_level("right", self.right)?;
         if let HapticPattern::Pulses { period_ms, duty } = self.pattern {
             if period_ms == 0 || duty.is_nan() {
-                return Err(format!(
-                    "bad pulse pattern period {period_ms} ms duty {duty}"
-                ));
+                return Err(format!("bad pulse pattern period {period_ms} ms duty {duty}"));
             }
         }
         Ok(())
@@ -436,9 +467,7 @@ impl Message for SpeechIntent {
             return Err("empty utterance".into());
         }
         if self.text.chars().count() > MAX_SPEECH_CHARS {
-            return Err(format!(
-                "utterance longer than {MAX_SPEECH_CHARS} characters"
-            ));
+            return Err(format!("utterance longer than {MAX_SPEECH_CHARS} characters"));
         }
         Ok(())
     }
@@ -461,87 +490,108 @@ impl Message for HealthStats {
 mod tests {
     use super::*;
 
+    const X: Origin = Origin { sender: "x", session: 0x5e55 };
+
     fn intent() -> HapticIntent {
         HapticIntent {
             left: 0.5,
             right: 1.0,
-            pattern: HapticPattern::Pulses {
-                period_ms: 200,
-                duty: 0.5,
-            },
+            pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 },
             ttl_ms: 300,
         }
     }
 
     #[test]
     fn round_trip_keeps_header_and_body() {
-        let bytes = encode("compute-agent", 7, 123_456_789, &intent());
+        let origin = Origin { sender: "compute-agent", session: 42 };
+        let bytes = encode(&origin, 7, 123_456_789, &intent());
         let (h, body) = decode::<HapticIntent>(&bytes).unwrap();
         assert_eq!(h.schema, SchemaId::HapticIntent as u16);
         assert_eq!(
-            (h.version, h.sender.as_str(), h.seq, h.capture_ns),
-            (1, "compute-agent", 7, 123_456_789)
+            (h.version, h.sender.as_str(), h.session, h.seq, h.capture_ns),
+            (2, "compute-agent", 42, 7, 123_456_789)
         );
         assert_eq!(body, intent());
     }
 
     #[test]
     fn header_layout_is_bincode_legacy() {
-        let bytes = encode("ab", 1, 2, &Command::Repeat);
-        // schema u16, version u16, sender (u64 len + bytes), seq u64, capture u64, variant u32.
+        let bytes = encode(&Origin { sender: "ab", session: 9 }, 1, 2, &Command::Repeat);
+        // schema u16, version u16, sender (u64 len + bytes), session u64, seq u64,
+        // capture u64, variant u32, then the CRC-32 of all that.
         assert_eq!(&bytes[0..2], &12u16.to_le_bytes());
-        assert_eq!(&bytes[2..4], &1u16.to_le_bytes());
+        assert_eq!(&bytes[2..4], &2u16.to_le_bytes());
         assert_eq!(&bytes[4..12], &2u64.to_le_bytes());
         assert_eq!(&bytes[12..14], b"ab");
-        assert_eq!(&bytes[14..22], &1u64.to_le_bytes());
-        assert_eq!(&bytes[22..30], &2u64.to_le_bytes());
-        assert_eq!(&bytes[30..34], &3u32.to_le_bytes());
-        assert_eq!(bytes.len(), 34);
+        assert_eq!(&bytes[14..22], &9u64.to_le_bytes());
+        assert_eq!(&bytes[22..30], &1u64.to_le_bytes());
+        assert_eq!(&bytes[30..38], &2u64.to_le_bytes());
+        assert_eq!(&bytes[38..42], &3u32.to_le_bytes());
+        assert_eq!(&bytes[42..46], &crc32fast::hash(&bytes[..42]).to_le_bytes());
+        assert_eq!(bytes.len(), 46);
     }
 
     #[test]
-    fn every_truncation_is_rejected_as_truncated() {
-        let bytes = encode("x", 0, 0, &intent());
+    fn every_truncation_is_rejected_as_corrupt_or_truncated() {
+        let bytes = encode(&X, 0, 0, &intent());
         for cut in 0..bytes.len() {
             let err = decode::<HapticIntent>(&bytes[..cut]).unwrap_err();
-            assert_eq!(err, WireError::Truncated, "cut at {cut}");
+            let want = if cut < 4 { "truncated" } else { "corrupt" };
+            assert_eq!(err.kind(), want, "cut at {cut}: {err}");
+            // cut short by a sender that sealed what it had: the decoder meets the end
+            let mut sealed = bytes[..cut].to_vec();
+            if cut >= 4 + CHECKSUM_BYTES {
+                sealed.extend_from_slice(&[0; CHECKSUM_BYTES]);
+                reseal(&mut sealed);
+                sealed.truncate(cut);
+                reseal(&mut sealed);
+                let err = decode::<HapticIntent>(&sealed).unwrap_err();
+                assert!(matches!(err, WireError::Truncated), "sealed cut at {cut}: {err}");
+            }
+        }
+    }
+
+    #[test]
+    fn every_single_bit_flip_is_refused() {
+        let bytes = encode(&X, 3, 99, &intent());
+        for bit in 0..bytes.len() * 8 {
+            let mut b = bytes.clone();
+            b[bit / 8] ^= 1 << (bit % 8);
+            let err = decode::<HapticIntent>(&b).unwrap_err();
+            // a flip in schema or version is named as such; anywhere else it is damage
+            let want = match bit / 8 {
+                0 | 1 => ["unknown_schema", "wrong_schema"].as_slice(),
+                2 | 3 => &["unknown_version"],
+                _ => &["corrupt"],
+            };
+            assert!(want.contains(&err.kind()), "bit {bit}: {err}");
         }
     }
 
     #[test]
     fn unknown_version_and_wrong_schema_are_named() {
-        let mut bytes = encode("x", 0, 0, &intent());
+        let mut bytes = encode(&X, 0, 0, &intent());
         bytes[2] = 9;
-        assert_eq!(
-            decode::<HapticIntent>(&bytes).unwrap_err().kind(),
-            "unknown_version"
-        );
-        let other = encode("x", 0, 0, &Command::WhereAmI);
+        reseal(&mut bytes);
+        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "unknown_version");
+        let other = encode(&X, 0, 0, &Command::WhereAmI);
         assert_eq!(
             decode::<HapticIntent>(&other).unwrap_err(),
-            WireError::WrongSchema {
-                expected: "haptic_intent",
-                got: 12
-            }
+            WireError::WrongSchema { expected: "haptic_intent", got: 12 }
         );
         let mut unknown = other.clone();
         unknown[0] = 200;
-        assert_eq!(
-            decode::<Command>(&unknown).unwrap_err(),
-            WireError::UnknownSchema(200)
-        );
+        reseal(&mut unknown);
+        assert_eq!(decode::<Command>(&unknown).unwrap_err(), WireError::UnknownSchema(200));
     }
 
     #[test]
     fn oversized_and_forged_lengths_are_refused_without_allocating() {
         let big = vec![0u8; HapticIntent::MAX_BYTES + 1];
-        assert_eq!(
-            decode::<HapticIntent>(&big).unwrap_err().kind(),
-            "too_large"
-        );
+        assert_eq!(decode::<HapticIntent>(&big).unwrap_err().kind(), "too_large");
         // A speech intent whose text claims 2^40 bytes.
         let mut bytes = encode(
-            "x",
+            &X,
             0,
             0,
             &SpeechIntent {
@@ -552,27 +602,24 @@ mod tests {
                 dedup_key: String::new(),
             },
         );
-        let text_len_at = 4 + 8 + 1 + 8 + 8;
+        let text_len_at = 4 + 8 + 1 + 8 + 8 + 8;
         bytes[text_len_at..text_len_at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        reseal(&mut bytes);
         let err = decode::<SpeechIntent>(&bytes).unwrap_err();
-        assert!(
-            matches!(err, WireError::TooLarge { .. } | WireError::Truncated),
-            "{err:?}"
-        );
+        assert!(matches!(err, WireError::TooLarge { .. } | WireError::Truncated), "{err:?}");
     }
 
     #[test]
     fn garbage_and_trailing_bytes_are_malformed_not_panics() {
-        let mut bytes = encode("x", 0, 0, &Command::Mute { muted: true });
-        bytes.push(0);
+        let mut bytes = encode(&X, 0, 0, &Command::Mute { muted: true });
+        bytes.insert(bytes.len() - CHECKSUM_BYTES, 0);
+        reseal(&mut bytes);
         assert_eq!(decode::<Command>(&bytes).unwrap_err().kind(), "malformed");
-        let mut bad_variant = encode("x", 0, 0, &Command::Repeat);
-        let n = bad_variant.len();
-        bad_variant[n - 4..].copy_from_slice(&77u32.to_le_bytes());
-        assert_eq!(
-            decode::<Command>(&bad_variant).unwrap_err().kind(),
-            "malformed"
-        );
+        let mut bad_variant = encode(&X, 0, 0, &Command::Repeat);
+        let n = bad_variant.len() - CHECKSUM_BYTES;
+        bad_variant[n - 4..n].copy_from_slice(&77u32.to_le_bytes());
+        reseal(&mut bad_variant);
+        assert_eq!(decode::<Command>(&bad_variant).unwrap_err().kind(), "malformed");
         // Pseudo-random garbage never panics.
         let mut x = 0x2545_f491_4f6c_dd1du64;
         for len in 0..300 {
@@ -593,11 +640,8 @@ mod tests {
     fn nan_levels_and_empty_texts_are_invalid() {
         let mut nan = intent();
         nan.left = f32::NAN;
-        let bytes = encode("x", 0, 0, &nan);
-        assert_eq!(
-            decode::<HapticIntent>(&bytes).unwrap_err().kind(),
-            "invalid"
-        );
+        let bytes = encode(&X, 0, 0, &nan);
+        assert_eq!(decode::<HapticIntent>(&bytes).unwrap_err().kind(), "invalid");
         let empty = SpeechIntent {
             text: "  ".into(),
             priority: Priority::Important,
@@ -605,12 +649,7 @@ mod tests {
             ttl_ms: 1,
             dedup_key: String::new(),
         };
-        assert_eq!(
-            decode::<SpeechIntent>(&encode("x", 0, 0, &empty))
-                .unwrap_err()
-                .kind(),
-            "invalid"
-        );
+        assert_eq!(decode::<SpeechIntent>(&encode(&X, 0, 0, &empty)).unwrap_err().kind(), "invalid");
     }
 
     #[test]
@@ -618,7 +657,7 @@ mod tests {
         for s in SchemaId::ALL {
             assert_eq!(SchemaId::from_u16(s as u16), Some(s));
         }
-        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v2");
-        assert_eq!(SchemaId::ImuBatch.encoding_schema(), "wearnav/imu_batch/v1");
+        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v3");
+        assert_eq!(SchemaId::ImuBatch.encoding_schema(), "wearnav/imu_batch/v2");
     }
 }

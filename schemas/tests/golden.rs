@@ -23,6 +23,9 @@ use schemas::*;
 use serde::Serialize;
 
 const SENDER: &str = "golden";
+/// The golden publisher's session id.
+const SESSION: u64 = 0x0123_4567_89ab_cdef;
+const ORIGIN: Origin = Origin { sender: SENDER, session: SESSION };
 /// 2025-11-22T02:00:00Z, so ages printed from these vectors look like real stamps.
 const CAPTURE_NS: u64 = 1_763_776_800_000_000_000;
 const REGENERATE: &str = "regenerate with `UPDATE_VECTORS=1 cargo test -p schemas --test golden`, \
@@ -50,11 +53,7 @@ struct Golden {
 impl Golden {
     /// A file with nothing to decode (the JSON side of a vector, the key table).
     fn plain(path: String, bytes: Vec<u8>) -> Self {
-        Self {
-            path,
-            bytes,
-            check: Box::new(|_| Ok(())),
-        }
+        Self { path, bytes, check: Box::new(|_| Ok(())) }
     }
 }
 
@@ -84,25 +83,18 @@ where
     vector_with_samples(name, seq, body, None)
 }
 
-fn vector_with_samples<M>(
-    name: &str,
-    seq: u64,
-    body: M,
-    depth_samples: Option<Vec<u16>>,
-) -> [Golden; 2]
+fn vector_with_samples<M>(name: &str, seq: u64, body: M, depth_samples: Option<Vec<u16>>) -> [Golden; 2]
 where
     M: Message + PartialEq + Debug + 'static,
 {
-    assert!(
-        name.starts_with(M::SCHEMA.name()),
-        "vector {name} must start with its schema name"
-    );
+    assert!(name.starts_with(M::SCHEMA.name()), "vector {name} must start with its schema name");
     let capture_ns = CAPTURE_NS + seq * 33_000_000;
-    let bytes = encode(SENDER, seq, capture_ns, &body);
+    let bytes = encode(&ORIGIN, seq, capture_ns, &body);
     let header = Header {
         schema: M::SCHEMA as u16,
         version: M::VERSION,
         sender: SENDER.to_string(),
+        session: SESSION,
         seq,
         capture_ns,
     };
@@ -120,34 +112,14 @@ where
         Ok((h, b)) => Err(format!("decodes to {h:?} {b:?}")),
         Err(e) => Err(format!("does not decode: {e}")),
     };
-    [
-        Golden {
-            path: format!("{name}.bin"),
-            bytes,
-            check: Box::new(check),
-        },
-        Golden::plain(format!("{name}.json"), json),
-    ]
+    [Golden { path: format!("{name}.bin"), bytes, check: Box::new(check) }, Golden::plain(format!("{name}.json"), json)]
 }
 
 fn depth_vector(name: &str, seq: u64, mut frame: DepthFrame, samples: &[u16]) -> [Golden; 2] {
-    depth_codec::encode(
-        samples,
-        frame.width,
-        frame.height,
-        frame.encoding,
-        &mut frame.data,
-    )
-    .expect("test image packs");
+    depth_codec::encode(samples, frame.width, frame.height, frame.encoding, &mut frame.data).expect("test image packs");
     let mut decoded = Vec::new();
-    depth_codec::decode(
-        &frame.data,
-        frame.width,
-        frame.height,
-        frame.encoding,
-        &mut decoded,
-    )
-    .expect("test image unpacks");
+    depth_codec::decode(&frame.data, frame.width, frame.height, frame.encoding, &mut decoded)
+        .expect("test image unpacks");
     vector_with_samples(name, seq, frame, Some(decoded))
 }
 
@@ -159,42 +131,20 @@ fn depth_frames() -> Vec<[Golden; 2]> {
         width: 4,
         height: 3,
         depth_scale_m: 0.001,
-        intrinsics: Intrinsics {
-            fx: 3.5,
-            fy: 3.5,
-            cx: 1.5,
-            cy: 1.0,
-        },
+        intrinsics: Intrinsics { fx: 3.5, fy: 3.5, cx: 1.5, cy: 1.0 },
         gravity_camera,
         mount,
         encoding,
         data: Vec::new(),
     };
-    let mount = MountGuess {
-        height_m: 0.8,
-        pitch_deg: 30.0,
-    };
+    let mount = MountGuess { height_m: 0.8, pitch_deg: 30.0 };
     vec![
-        depth_vector(
-            "depth_frame_raw",
-            1,
-            frame(DepthEncoding::Raw, Some([0.0, 0.866, 0.5]), Some(mount)),
-            &DEPTH_MM,
-        ),
-        depth_vector(
-            "depth_frame_lossless",
-            2,
-            frame(DepthEncoding::Lossless, None, None),
-            &DEPTH_MM,
-        ),
+        depth_vector("depth_frame_raw", 1, frame(DepthEncoding::Raw, Some([0.0, 0.866, 0.5]), Some(mount)), &DEPTH_MM),
+        depth_vector("depth_frame_lossless", 2, frame(DepthEncoding::Lossless, None, None), &DEPTH_MM),
         depth_vector(
             "depth_frame_bounded",
             3,
-            frame(
-                DepthEncoding::Bounded { step: 4 },
-                Some([0.01, 0.99, -0.125]),
-                None,
-            ),
+            frame(DepthEncoding::Bounded { step: 4 }, Some([0.01, 0.99, -0.125]), None),
             &DEPTH_MM,
         ),
     ]
@@ -207,11 +157,7 @@ fn sensor_vectors() -> Vec<[Golden; 2]> {
             4,
             ImuBatch {
                 samples: vec![
-                    ImuSample {
-                        stamp_ns: CAPTURE_NS,
-                        gyro_rad_s: [0.01, -0.02, 0.5],
-                        accel_m_s2: [0.1, -9.81, 0.25],
-                    },
+                    ImuSample { stamp_ns: CAPTURE_NS, gyro_rad_s: [0.01, -0.02, 0.5], accel_m_s2: [0.1, -9.81, 0.25] },
                     ImuSample {
                         stamp_ns: CAPTURE_NS + 5_000_000,
                         gyro_rad_s: [0.0, 0.0, -0.5],
@@ -220,13 +166,7 @@ fn sensor_vectors() -> Vec<[Golden; 2]> {
                 ],
             },
         ),
-        vector(
-            "imu_batch_empty",
-            5,
-            ImuBatch {
-                samples: Vec::new(),
-            },
-        ),
+        vector("imu_batch_empty", 5, ImuBatch { samples: Vec::new() }),
         vector(
             "odom_increment",
             6,
@@ -255,21 +195,9 @@ fn sensor_vectors() -> Vec<[Golden; 2]> {
 }
 
 fn perception_vectors() -> Vec<[Golden; 2]> {
-    let costs = |left, forward, right| SideCosts {
-        left,
-        forward,
-        right,
-    };
-    let latency = vec![
-        StageLatency {
-            stage: "decode".into(),
-            us: 850,
-        },
-        StageLatency {
-            stage: "ground_plane".into(),
-            us: 4200,
-        },
-    ];
+    let costs = |left, forward, right| SideCosts { left, forward, right };
+    let latency =
+        vec![StageLatency { stage: "decode".into(), us: 850 }, StageLatency { stage: "ground_plane".into(), us: 4200 }];
     let hazard = |rumble, ground, active| Hazard {
         frame_seq: 41,
         ficf: costs(0.0, 0.0, 0.0),
@@ -300,18 +228,9 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
         vector(
             "scan_empty",
             9,
-            Scan {
-                angle_min_deg: -22.5,
-                angle_increment_deg: 1.0,
-                ranges_m: Vec::new(),
-                range_max_m: 4.0,
-            },
+            Scan { angle_min_deg: -22.5, angle_increment_deg: 1.0, ranges_m: Vec::new(), range_max_m: 4.0 },
         ),
-        vector(
-            "hazard_clear",
-            10,
-            hazard(Rumble::None, GroundState::Found, CostFunction::Ficf),
-        ),
+        vector("hazard_clear", 10, hazard(Rumble::None, GroundState::Found, CostFunction::Ficf)),
         vector(
             "hazard_left",
             11,
@@ -371,11 +290,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
             15,
             RouteState {
                 destination: "room 2.14".into(),
-                next_waypoint: Some(MapPoint {
-                    x_m: 14.0,
-                    y_m: 3.0,
-                    floor: 2,
-                }),
+                next_waypoint: Some(MapPoint { x_m: 14.0, y_m: 3.0, floor: 2 }),
                 distance_left_m: 23.5,
                 instruction: "turn left in 3 metres".into(),
             },
@@ -394,10 +309,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
 }
 
 fn feedback_vectors() -> Vec<[Golden; 2]> {
-    let pulses = HapticPattern::Pulses {
-        period_ms: 120,
-        duty: 0.5,
-    };
+    let pulses = HapticPattern::Pulses { period_ms: 120, duty: 0.5 };
     let speech = |text: &str, priority, interrupt| SpeechIntent {
         text: text.into(),
         priority,
@@ -415,108 +327,45 @@ fn feedback_vectors() -> Vec<[Golden; 2]> {
         vector(
             "haptic_intent_steady",
             17,
-            HapticIntent {
-                left: 1.0,
-                right: 0.0,
-                pattern: HapticPattern::Steady,
-                ttl_ms: 300,
-            },
+            HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 },
         ),
-        vector(
-            "haptic_intent_pulses",
-            18,
-            HapticIntent {
-                left: 0.75,
-                right: 0.75,
-                pattern: pulses,
-                ttl_ms: 250,
-            },
-        ),
+        vector("haptic_intent_pulses", 18, HapticIntent { left: 0.75, right: 0.75, pattern: pulses, ttl_ms: 250 }),
         vector(
             "speech_intent_important",
             19,
             SpeechIntent {
                 dedup_key: "obstacle-ahead".into(),
-                ..speech(
-                    "Achtung: Tür links, 1,5 m — stufe ↓ 出口",
-                    Priority::Important,
-                    true,
-                )
+                ..speech("Achtung: Tür links, 1,5 m — stufe ↓ 出口", Priority::Important, true)
             },
         ),
-        vector(
-            "speech_intent_message",
-            20,
-            speech("turn left in 3 metres", Priority::Message, false),
-        ),
-        vector(
-            "speech_intent_text",
-            21,
-            speech("door 2.14 on your right", Priority::Text, false),
-        ),
-        vector(
-            "speech_intent_notification",
-            22,
-            speech("battery 20 %", Priority::Notification, false),
-        ),
-        vector(
-            "speech_intent_progress",
-            23,
-            speech("23 metres left", Priority::Progress, false),
-        ),
+        vector("speech_intent_message", 20, speech("turn left in 3 metres", Priority::Message, false)),
+        vector("speech_intent_text", 21, speech("door 2.14 on your right", Priority::Text, false)),
+        vector("speech_intent_notification", 22, speech("battery 20 %", Priority::Notification, false)),
+        vector("speech_intent_progress", 23, speech("23 metres left", Priority::Progress, false)),
         vector(
             "applied_rumble",
             24,
-            applied(
-                "wiimote-left",
-                AppliedAction::Rumble {
-                    left: 1.0,
-                    right: 0.0,
-                    pattern: pulses,
-                },
-            ),
+            applied("wiimote-left", AppliedAction::Rumble { left: 1.0, right: 0.0, pattern: pulses }),
         ),
         vector(
             "applied_speech_started",
             25,
-            applied(
-                "espeak",
-                AppliedAction::SpeechStarted {
-                    text: "stop".into(),
-                    priority: Priority::Important,
-                },
-            ),
+            applied("espeak", AppliedAction::SpeechStarted { text: "stop".into(), priority: Priority::Important }),
         ),
         vector(
             "applied_speech_finished",
             26,
-            applied(
-                "espeak",
-                AppliedAction::SpeechFinished {
-                    text: "Café straight ahead".into(),
-                },
-            ),
+            applied("espeak", AppliedAction::SpeechFinished { text: "Café straight ahead".into() }),
         ),
         vector(
             "applied_speech_interrupted",
             27,
-            applied(
-                "espeak",
-                AppliedAction::SpeechInterrupted {
-                    text: "turn left in 3 metres".into(),
-                },
-            ),
+            applied("espeak", AppliedAction::SpeechInterrupted { text: "turn left in 3 metres".into() }),
         ),
         vector(
             "applied_speech_dropped",
             28,
-            applied(
-                "console",
-                AppliedAction::SpeechDropped {
-                    text: "23 metres left".into(),
-                    reason: "stale".into(),
-                },
-            ),
+            applied("console", AppliedAction::SpeechDropped { text: "23 metres left".into(), reason: "stale".into() }),
         ),
         vector(
             "applied_offline_warning",
@@ -525,35 +374,17 @@ fn feedback_vectors() -> Vec<[Golden; 2]> {
                 cause_capture_ns: 0,
                 ..applied(
                     "console",
-                    AppliedAction::OfflineWarning {
-                        offline: true,
-                        reason: "perception/hazard stale".into(),
-                    },
+                    AppliedAction::OfflineWarning { offline: true, reason: "perception/hazard stale".into() },
                 )
             },
         ),
-        vector(
-            "applied_device_status",
-            30,
-            applied(
-                "phone",
-                AppliedAction::DeviceStatus {
-                    text: "connected".into(),
-                },
-            ),
-        ),
+        vector("applied_device_status", 30, applied("phone", AppliedAction::DeviceStatus { text: "connected".into() })),
     ]
 }
 
 fn command_and_health_vectors() -> Vec<[Golden; 2]> {
     vec![
-        vector(
-            "command_destination",
-            31,
-            Command::Destination {
-                label: "café".into(),
-            },
-        ),
+        vector("command_destination", 31, Command::Destination { label: "café".into() }),
         vector("command_where_am_i", 32, Command::WhereAmI),
         vector("command_mute", 33, Command::Mute { muted: true }),
         vector("command_repeat", 34, Command::Repeat),
@@ -587,10 +418,7 @@ fn command_and_health_vectors() -> Vec<[Golden; 2]> {
                         latency_p99_ms: 0.0,
                     },
                 ],
-                rejects: vec![RejectCount {
-                    kind: "truncated".into(),
-                    count: 2,
-                }],
+                rejects: vec![RejectCount { kind: "truncated".into(), count: 2 }],
             },
         ),
     ]
@@ -624,22 +452,16 @@ fn reject<M: Message + Debug>(case: &str, bytes: Vec<u8>, kind: &'static str) ->
         Err(e) => Err(format!("rejected as {} ({e}), expected {kind}", e.kind())),
         Ok(got) => Err(format!("decoded to {got:?}, expected a {kind} error")),
     };
-    let json = json_text(&RejectJson {
-        expect_schema: M::SCHEMA.name(),
-        kind,
-    });
+    let json = json_text(&RejectJson { expect_schema: M::SCHEMA.name(), kind });
     [
-        Golden {
-            path: format!("reject/{case}.bin"),
-            bytes,
-            check: Box::new(check),
-        },
+        Golden { path: format!("reject/{case}.bin"), bytes, check: Box::new(check) },
         Golden::plain(format!("reject/{case}.json"), json),
     ]
 }
 
-/// Byte offset of the body: `schema u16, version u16, sender (u64 len + bytes), seq u64, capture_ns u64`.
-const BODY_AT: usize = 2 + 2 + 8 + SENDER.len() + 8 + 8;
+/// Byte offset of the body: `schema u16, version u16, sender (u64 len + bytes),
+/// session u64, seq u64, capture_ns u64`.
+const BODY_AT: usize = 2 + 2 + 8 + SENDER.len() + 8 + 8 + 8;
 
 fn reject_vectors() -> Vec<Golden> {
     let speech = SpeechIntent {
@@ -649,11 +471,11 @@ fn reject_vectors() -> Vec<Golden> {
         ttl_ms: 1000,
         dedup_key: String::new(),
     };
-    let speech_bytes = encode(SENDER, 1, CAPTURE_NS, &speech);
+    let speech_bytes = encode(&ORIGIN, 1, CAPTURE_NS, &speech);
     let text_at = BODY_AT + 8;
-    let command_bytes = encode(SENDER, 1, CAPTURE_NS, &Command::Repeat);
+    let command_bytes = encode(&ORIGIN, 1, CAPTURE_NS, &Command::Repeat);
     let route_bytes = encode(
-        SENDER,
+        &ORIGIN,
         1,
         CAPTURE_NS,
         &RouteState {
@@ -664,89 +486,70 @@ fn reject_vectors() -> Vec<Golden> {
         },
     );
     let scan_bytes = encode(
-        SENDER,
+        &ORIGIN,
         1,
         CAPTURE_NS,
-        &Scan {
-            angle_min_deg: 0.0,
-            angle_increment_deg: 1.0,
-            ranges_m: vec![1.0, 2.0],
-            range_max_m: 4.0,
-        },
+        &Scan { angle_min_deg: 0.0, angle_increment_deg: 1.0, ranges_m: vec![1.0, 2.0], range_max_m: 4.0 },
     );
+    // Damage inside a payload whose checksum was then made to match (a faulty sender,
+    // or a forger): the decoder itself must meet it.
     let patched = |bytes: &[u8], at: usize, new: &[u8]| {
         let mut b = bytes.to_vec();
         b[at..at + new.len()].copy_from_slice(new);
+        wire::reseal(&mut b);
+        b
+    };
+    // Cut to `len` bytes, then sealed again.
+    let cut_sealed = |bytes: &[u8], len: usize| {
+        let mut b = bytes[..len].to_vec();
+        b.extend_from_slice(&[0; wire::CHECKSUM_BYTES]);
+        wire::reseal(&mut b);
+        b
+    };
+    let flipped = |bytes: &[u8], bit: usize| {
+        let mut b = bytes.to_vec();
+        b[bit / 8] ^= 1 << (bit % 8);
         b
     };
     let mut too_long = encode(
-        SENDER,
+        &ORIGIN,
         1,
         CAPTURE_NS,
-        &HapticIntent {
-            left: 0.5,
-            right: 0.5,
-            pattern: HapticPattern::Steady,
-            ttl_ms: 100,
-        },
+        &HapticIntent { left: 0.5, right: 0.5, pattern: HapticPattern::Steady, ttl_ms: 100 },
     );
     too_long.resize(300, 0);
+    wire::reseal(&mut too_long);
     let mut trailing = command_bytes.clone();
-    trailing.push(0);
-    let hazard_bytes = encode(SENDER, 1, CAPTURE_NS, &Hazard::nothing_ahead(1, GroundState::Found));
+    trailing.insert(trailing.len() - wire::CHECKSUM_BYTES, 0);
+    wire::reseal(&mut trailing);
+    let hazard_bytes = encode(&ORIGIN, 1, CAPTURE_NS, &Hazard::nothing_ahead(1, GroundState::Found));
 
     [
-        reject::<SpeechIntent>(
-            "truncated_body",
-            speech_bytes[..speech_bytes.len() - 1].to_vec(),
-            "truncated",
-        ),
-        reject::<SpeechIntent>("truncated_header", speech_bytes[..5].to_vec(), "truncated"),
+        // damaged on the way: the checksum refuses it before anything is read
+        reject::<SpeechIntent>("cut_short", speech_bytes[..speech_bytes.len() - 1].to_vec(), "corrupt"),
+        reject::<SpeechIntent>("bit_flip_in_text", flipped(&speech_bytes, (BODY_AT + 8) * 8 + 3), "corrupt"),
+        reject::<SpeechIntent>("bit_flip_in_checksum", flipped(&speech_bytes, speech_bytes.len() * 8 - 1), "corrupt"),
+        reject::<Hazard>("bit_flip_in_stamp", flipped(&hazard_bytes, (BODY_AT - 8) * 8), "corrupt"),
+        // cut short by the sender, sealed as it was
+        reject::<SpeechIntent>("truncated_body", cut_sealed(&speech_bytes, speech_bytes.len() - 5), "truncated"),
+        reject::<SpeechIntent>("truncated_header", cut_sealed(&speech_bytes, 5), "truncated"),
+        reject::<SpeechIntent>("too_short", speech_bytes[..3].to_vec(), "truncated"),
         reject::<SpeechIntent>("empty", Vec::new(), "truncated"),
-        reject::<SpeechIntent>(
-            "wrong_version",
-            patched(&speech_bytes, 2, &2u16.to_le_bytes()),
-            "unknown_version",
-        ),
-        // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s)
-        reject::<Hazard>(
-            "hazard_v1",
-            patched(&hazard_bytes, 2, &1u16.to_le_bytes()),
-            "unknown_version",
-        ),
-        reject::<SpeechIntent>(
-            "unknown_schema",
-            patched(&speech_bytes, 0, &99u16.to_le_bytes()),
-            "unknown_schema",
-        ),
+        reject::<SpeechIntent>("wrong_version", patched(&speech_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
+        // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s), and from one
+        // before v3 (no session, no checksum)
+        reject::<Hazard>("hazard_v1", patched(&hazard_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
+        reject::<Hazard>("hazard_v2", patched(&hazard_bytes, 2, &2u16.to_le_bytes()), "unknown_version"),
+        reject::<SpeechIntent>("unknown_schema", patched(&speech_bytes, 0, &99u16.to_le_bytes()), "unknown_schema"),
         reject::<Hazard>("wrong_schema", scan_bytes.clone(), "wrong_schema"),
-        reject::<Hazard>("garbage_ff", vec![0xff; 40], "too_large"),
-        reject::<Hazard>(
-            "garbage_text",
-            b"this is not a wearnav payload at all".to_vec(),
-            "too_large",
-        ),
+        reject::<Hazard>("garbage_ff", vec![0xff; 40], "unknown_schema"),
+        reject::<Hazard>("garbage_text", b"this is not a wearnav payload at all".to_vec(), "unknown_schema"),
+        reject::<Hazard>("garbage_after_valid_start", [&hazard_bytes[..4], &[0xff; 40][..]].concat(), "corrupt"),
         reject::<Command>("trailing_byte", trailing, "malformed"),
-        reject::<Command>(
-            "bad_variant_index",
-            patched(&command_bytes, BODY_AT, &9u32.to_le_bytes()),
-            "malformed",
-        ),
-        reject::<RouteState>(
-            "bad_option_tag",
-            patched(&route_bytes, BODY_AT + 8, &[2]),
-            "malformed",
-        ),
-        reject::<SpeechIntent>(
-            "bad_bool",
-            patched(&speech_bytes, text_at + 4 + 4, &[2]),
-            "malformed",
-        ),
-        reject::<SpeechIntent>(
-            "bad_utf8",
-            patched(&speech_bytes, text_at, &[0xff, 0xfe]),
-            "malformed",
-        ),
+        reject::<Command>("bad_variant_index", patched(&command_bytes, BODY_AT, &9u32.to_le_bytes()), "malformed"),
+        reject::<RouteState>("bad_option_tag", patched(&route_bytes, BODY_AT + 8, &[2]), "malformed"),
+        reject::<SpeechIntent>("bad_bool", patched(&speech_bytes, text_at + 4 + 4, &[2]), "malformed"),
+        reject::<SpeechIntent>("bad_utf8", patched(&speech_bytes, text_at, &[0xff, 0xfe]), "malformed"),
         reject::<SpeechIntent>(
             "forged_string_length",
             patched(&speech_bytes, BODY_AT, &(1u64 << 40).to_le_bytes()),
@@ -773,11 +576,8 @@ struct KeyCase {
 
 fn key_vectors() -> Golden {
     let k = Keys::new("alice").expect("valid user");
-    let case = |method, args: &[&'static str], key: &str| KeyCase {
-        method,
-        args: args.to_vec(),
-        key: Some(key.to_string()),
-    };
+    let case =
+        |method, args: &[&'static str], key: &str| KeyCase { method, args: args.to_vec(), key: Some(key.to_string()) };
     let cases = vec![
         case("prefix", &[], k.prefix()),
         case("all", &[], &k.all()),
@@ -806,23 +606,17 @@ fn key_vectors() -> Golden {
         KeyCase {
             method: "device_of",
             args: vec!["wearnav/alice/sensor/cane/depth"],
-            key: k
-                .device_of("wearnav/alice/sensor/cane/depth")
-                .map(str::to_string),
+            key: k.device_of("wearnav/alice/sensor/cane/depth").map(str::to_string),
         },
         KeyCase {
             method: "device_of",
             args: vec!["wearnav/bob/sensor/cane/depth"],
-            key: k
-                .device_of("wearnav/bob/sensor/cane/depth")
-                .map(str::to_string),
+            key: k.device_of("wearnav/bob/sensor/cane/depth").map(str::to_string),
         },
         KeyCase {
             method: "agent_of",
             args: vec!["wearnav/alice/health/feedback-agent"],
-            key: k
-                .agent_of("wearnav/alice/health/feedback-agent")
-                .map(str::to_string),
+            key: k.agent_of("wearnav/alice/health/feedback-agent").map(str::to_string),
         },
     ];
     #[derive(Serialize)]
@@ -832,22 +626,12 @@ fn key_vectors() -> Golden {
         command_verbs: Vec<(&'static str, &'static str)>,
     }
     let command_verbs = vec![
-        (
-            "Destination",
-            Command::Destination {
-                label: String::new(),
-            }
-            .verb(),
-        ),
+        ("Destination", Command::Destination { label: String::new() }.verb()),
         ("WhereAmI", Command::WhereAmI.verb()),
         ("Mute", Command::Mute { muted: false }.verb()),
         ("Repeat", Command::Repeat.verb()),
     ];
-    let table = KeysJson {
-        user: "alice",
-        cases,
-        command_verbs,
-    };
+    let table = KeysJson { user: "alice", cases, command_verbs };
     Golden::plain("keys.json".into(), json_text(&table))
 }
 
@@ -873,10 +657,7 @@ fn schema_table() -> Golden {
             encoding_schema: s.encoding_schema(),
         })
         .collect();
-    let table = TableJson {
-        max_payload_bytes: MAX_PAYLOAD_BYTES,
-        schemas,
-    };
+    let table = TableJson { max_payload_bytes: MAX_PAYLOAD_BYTES, schemas };
     Golden::plain("schemas.json".into(), json_text(&table))
 }
 
@@ -898,11 +679,7 @@ fn committed_files(dir: &Path) -> Vec<String> {
         for entry in entries.flatten() {
             if entry.path().is_file() {
                 let name = entry.file_name().to_string_lossy().into_owned();
-                found.push(if sub.is_empty() {
-                    name
-                } else {
-                    format!("{sub}/{name}")
-                });
+                found.push(if sub.is_empty() { name } else { format!("{sub}/{name}") });
             }
         }
     }
@@ -931,10 +708,7 @@ fn vectors_match_committed_files_and_decode_back() {
             Err(e) => problems.push(format!("{}: cannot read ({e})", g.path)),
             Ok(committed) => {
                 if committed != g.bytes {
-                    problems.push(format!(
-                        "{}: committed file differs from what Rust writes now",
-                        g.path
-                    ));
+                    problems.push(format!("{}: committed file differs from what Rust writes now", g.path));
                 }
                 if let Err(e) = (g.check)(&committed) {
                     problems.push(format!("{}: {e}", g.path));
@@ -947,11 +721,7 @@ fn vectors_match_committed_files_and_decode_back() {
             problems.push(format!("{file}: stale, no vector writes it any more"));
         }
     }
-    assert!(
-        problems.is_empty(),
-        "golden vectors out of date:\n  {}\n{REGENERATE}",
-        problems.join("\n  ")
-    );
+    assert!(problems.is_empty(), "golden vectors out of date:\n  {}\n{REGENERATE}", problems.join("\n  "));
 }
 
 #[test]
@@ -960,9 +730,9 @@ fn every_schema_has_a_vector() {
     for schema in SchemaId::ALL {
         let name = schema.name();
         assert!(
-            goldens.iter().any(|g| !g.path.starts_with("reject/")
-                && g.path.starts_with(name)
-                && g.path.ends_with(".bin")),
+            goldens
+                .iter()
+                .any(|g| !g.path.starts_with("reject/") && g.path.starts_with(name) && g.path.ends_with(".bin")),
             "no golden vector for {name}"
         );
     }
@@ -971,19 +741,10 @@ fn every_schema_has_a_vector() {
 #[test]
 fn infinity_survives_the_wire_and_becomes_null_in_json() {
     let goldens = all_goldens();
-    let scan = goldens
-        .iter()
-        .find(|g| g.path == "scan.bin")
-        .expect("scan vector");
+    let scan = goldens.iter().find(|g| g.path == "scan.bin").expect("scan vector");
     let (_, decoded) = decode::<Scan>(&scan.bytes).expect("scan decodes");
     assert_eq!(decoded.ranges_m[0], f32::INFINITY);
-    let json = goldens
-        .iter()
-        .find(|g| g.path == "scan.json")
-        .expect("scan json");
+    let json = goldens.iter().find(|g| g.path == "scan.json").expect("scan json");
     let text = String::from_utf8(json.bytes.clone()).expect("utf-8 json");
-    assert!(
-        text.contains("null"),
-        "serde_json writes INFINITY as null: {text}"
-    );
+    assert!(text.contains("null"), "serde_json writes INFINITY as null: {text}");
 }

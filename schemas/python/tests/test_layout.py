@@ -2,10 +2,12 @@
 
 import math
 import struct
+import zlib
 
 import pytest
 
 from wearnav_schemas import MAX_PAYLOAD_BYTES, WireError, decode, decode_header, encode
+from wearnav_schemas.wire import reseal
 from wearnav_schemas.layout import (
     BOOL,
     BYTES,
@@ -112,7 +114,7 @@ def test_unknown_schema_name_lists_the_known_ones():
 
 
 def command(body="Repeat"):
-    return encode("command", body, sender="t", seq=5, capture_ns=9)
+    return encode("command", body, sender="t", seq=5, capture_ns=9, session=77)
 
 
 def kind_of(payload, expected=None):
@@ -123,26 +125,46 @@ def kind_of(payload, expected=None):
 
 def test_header_is_read_alone_with_its_length():
     header, used = decode_header(command())
-    assert header == {"schema": 12, "version": 1, "sender": "t", "seq": 5, "capture_ns": 9}
-    assert used == 2 + 2 + 9 + 8 + 8
+    assert header == {"schema": 12, "version": 2, "sender": "t", "session": 77, "seq": 5,
+                      "capture_ns": 9}
+    assert used == 2 + 2 + 9 + 8 + 8 + 8
 
 
-def test_every_truncation_of_a_payload_is_truncated_never_a_crash():
+def test_the_payload_ends_with_the_zlib_crc32_of_the_rest():
+    payload = command()
+    assert payload[-4:] == zlib.crc32(payload[:-4]).to_bytes(4, "little")
+
+
+def test_every_cut_is_corrupt_and_a_resealed_cut_truncated_never_a_crash():
     payload = command({"Destination": {"label": "kitchen"}})
     for end in range(len(payload)):
-        assert kind_of(payload[:end]) == "truncated", end
+        assert kind_of(payload[:end]) == ("truncated" if end < 4 else "corrupt"), end
+        if end >= 8:
+            assert kind_of(reseal(payload[:end] + b"\0\0\0\0")[:end]) in {"corrupt", "truncated"}
+            assert kind_of(reseal(payload[: end - 4] + b"\0\0\0\0")) == "truncated", end
 
 
-def test_version_2_is_refused_as_unknown_version():
+def test_every_single_bit_flip_is_refused():
+    payload = command({"Destination": {"label": "kitchen"}})
+    for bit in range(len(payload) * 8):
+        damaged = bytearray(payload)
+        damaged[bit // 8] ^= 1 << (bit % 8)
+        # a flip in the schema id may name another schema, whose checksum then fails
+        want = {0: {"unknown_schema", "corrupt"}, 1: {"unknown_schema", "corrupt"}, 2: {"unknown_version"},
+                3: {"unknown_version"}}.get(bit // 8, {"corrupt"})
+        assert kind_of(bytes(damaged)) in want, bit
+
+
+def test_version_1_is_refused_as_unknown_version():
     payload = bytearray(command())
-    payload[2:4] = (2).to_bytes(2, "little")
-    assert kind_of(bytes(payload)) == "unknown_version"
+    payload[2:4] = (1).to_bytes(2, "little")
+    assert kind_of(reseal(bytes(payload))) == "unknown_version"
 
 
 def test_unknown_schema_id_is_refused():
     payload = bytearray(command())
     payload[0:2] = (500).to_bytes(2, "little")
-    assert kind_of(bytes(payload)) == "unknown_schema"
+    assert kind_of(reseal(bytes(payload))) == "unknown_schema"
 
 
 def test_other_schema_than_expected_is_wrong_schema():
@@ -157,7 +179,8 @@ def test_payload_over_its_schema_limit_is_too_large():
     haptic = encode("haptic_intent", {"left": 1.0, "right": 0.0, "pattern": "Steady", "ttl_ms": 100},
                     sender="t", seq=0, capture_ns=0)
     assert kind_of(haptic + b"\x00" * 300) == "too_large"
-    assert kind_of(haptic + b"\x00") == "malformed"
+    assert kind_of(haptic + b"\x00") == "corrupt"
+    assert kind_of(reseal(haptic[:-4] + b"\x00" + haptic[-4:])) == "malformed"
 
 
 def test_garbage_never_raises_anything_but_wire_error():
@@ -170,6 +193,11 @@ def test_garbage_never_raises_anything_but_wire_error():
         for prefix in (b"", command()[:4]):
             try:
                 decode(prefix + bytes(raw))
+            except WireError as err:
+                assert err.kind in {"unknown_schema", "unknown_version", "too_large",
+                                    "truncated", "corrupt", "malformed"}
+            try:
+                decode(reseal(prefix + bytes(raw) + b"\0\0\0\0"))
             except WireError as err:
                 assert err.kind in {"unknown_schema", "unknown_version", "too_large",
                                     "truncated", "malformed"}

@@ -54,7 +54,8 @@ def test_vector_reencodes_to_the_same_bytes(path):
     message = decode(payload)
     h = message.header
     again = encode(
-        message.schema, message.body, sender=h["sender"], seq=h["seq"], capture_ns=h["capture_ns"]
+        message.schema, message.body, sender=h["sender"], seq=h["seq"], capture_ns=h["capture_ns"],
+        session=h["session"],
     )
     assert again == payload
 

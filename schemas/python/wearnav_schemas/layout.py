@@ -29,7 +29,7 @@ MAX_PAYLOAD_BYTES = 8 * 1024 * 1024
 class WireError(Exception):
     """A payload was rejected. ``kind`` is Rust's ``WireError::kind()`` string:
     ``unknown_schema``, ``unknown_version``, ``wrong_schema``, ``too_large``,
-    ``truncated`` or ``malformed``."""
+    ``truncated``, ``corrupt`` or ``malformed``."""
 
     def __init__(self, kind, message):
         super().__init__(message)

@@ -167,7 +167,9 @@ HEALTH_STATS = Struct(
 )
 
 #: The envelope every payload starts with (wire.rs ``Header``).
-HEADER = Struct("Header", schema=U16, version=U16, sender=STRING, seq=U64, capture_ns=U64)
+HEADER = Struct(
+    "Header", schema=U16, version=U16, sender=STRING, session=U64, seq=U64, capture_ns=U64
+)
 
 
 @dataclass(frozen=True)
@@ -180,7 +182,7 @@ class Schema:
     name: str
     body: object
     max_bytes: int = 64 * 1024
-    version: int = 1
+    version: int = 2
 
 
 #: Every schema, in id order (ids are stable forever, never reused).
@@ -191,7 +193,7 @@ SCHEMAS = (
     Schema(4, "ground_truth", GROUND_TRUTH),
     Schema(5, "scan", SCAN),
     # v2 added turn_ahead and body_turn_deg_s
-    Schema(6, "hazard", HAZARD, version=2),
+    Schema(6, "hazard", HAZARD, version=3),
     Schema(7, "pose", POSE),
     Schema(8, "route_state", ROUTE_STATE),
     Schema(9, "haptic_intent", HAPTIC_INTENT, 256),
