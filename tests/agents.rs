@@ -459,3 +459,64 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn frames_a_stalled_link_delivers_late_count_as_none_and_the_user_is_told_detection_is_offline() {
+    let user = "late-link-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--no-body-imu"]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "feedback-agent").await.expect("feedback health");
+    let frame = perception::synthetic_scene::Scene::kinect(0.8, 30.0)
+        .depth_frame(schemas::DepthEncoding::Lossless)
+        .expect("test scene packs");
+    let mut frames =
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
+            .await
+            .unwrap();
+    let offline = |a: &bus::Received<Applied>, want: bool| {
+        matches!(&a.body.action, AppliedAction::OfflineWarning { offline, .. } if *offline == want)
+    };
+
+    // Fresh frames: hazards flow and detection is online.
+    for _ in 0..30 {
+        frames.put(bus::now_ns(), &frame).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    let recent = |h: &bus::Received<Hazard>| bus::now_ns() - h.header.capture_ns < 300_000_000;
+    wait_for(&hazards, Duration::from_secs(3), recent).await.expect("no hazard for fresh frames");
+
+    // The link stalls and delivers every frame 400 ms late, for 2 s.
+    let late_from = bus::now_ns();
+    let mut late = std::collections::HashSet::new();
+    for _ in 0..60 {
+        let stamp = bus::now_ns() - 400_000_000;
+        late.insert(stamp);
+        frames.put(stamp, &frame).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    let warned = wait_for(&applied, Duration::from_secs(2), |a| offline(a, true) && a.body.applied_ns > late_from).await;
+    assert!(warned.is_some(), "no offline warning while every frame arrived 400 ms late");
+    // none of the late frames was acted on
+    while let Some(h) = hazards.try_recv() {
+        assert!(!late.contains(&h.header.capture_ns), "a hazard from a frame that arrived 400 ms late: {:?}", h.header);
+    }
+    let counted = wait_for(&health, Duration::from_secs(3), |h| {
+        h.body.agent == "compute-agent" && h.body.rejects.iter().any(|r| r.kind == "stale" && r.count >= 50)
+    })
+    .await;
+    assert!(counted.is_some(), "the compute agent did not count the late frames as stale");
+
+    // The link recovers: detection is back.
+    for _ in 0..30 {
+        frames.put(bus::now_ns(), &frame).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    let back = wait_for(&applied, Duration::from_secs(3), |a| offline(a, false) && a.body.applied_ns > late_from).await;
+    assert!(back.is_some(), "detection never came back");
+}
