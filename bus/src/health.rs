@@ -13,7 +13,7 @@ use schemas::{HealthStats, Keys, RejectCount, StreamStats};
 use tokio::task::JoinHandle;
 use zenoh::Session;
 
-use crate::guard::Clocks;
+use schemas::guard::Clocks;
 use crate::{now_ns, stream::Lane, Publisher, Shutdown, Subscriber};
 
 /// Latency samples kept per stream per reporting period (older ones are dropped).

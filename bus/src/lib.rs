@@ -5,7 +5,6 @@
 //! agent's `run` module touches Zenoh, Tokio or the clock.
 
 pub mod clock;
-pub mod guard;
 pub mod health;
 pub mod logging;
 pub mod session;
@@ -13,7 +12,7 @@ pub mod shutdown;
 pub mod stream;
 
 pub use clock::now_ns;
-pub use guard::{Freshness, InputError};
+pub use schemas::guard::{self, Freshness, InputError};
 pub use health::{Health, HealthTask, StreamCounter};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;

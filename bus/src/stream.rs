@@ -20,7 +20,7 @@ use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
-use crate::guard::{Freshness, Guard};
+use schemas::guard::{Freshness, Guard};
 use crate::{clock, Health, StreamCounter};
 
 /// Quality of service of a stream.

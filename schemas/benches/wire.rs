@@ -1,12 +1,14 @@
 //! What the wire's integrity check costs per depth frame (one core): `cargo bench -p
 //! schemas --bench wire` prints the median (and minimum) time to encode and to decode a
 //! real frame's payload (the TUM frame, packed lossless, as the sensor agent sends it),
-//! and of the CRC-32 over it alone, over 2000 runs (`RUNS=n` to change).
+//! and of the CRC-32 over it alone, and of the receiver's freshness and sequence check
+//! (`schemas::guard`), over 2000 runs (`RUNS=n` to change).
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use schemas::depth_codec::DepthEncoder;
-use schemas::{DepthEncoding, DepthFrame, Intrinsics, Origin};
+use schemas::guard::{Clocks, Freshness, Guard};
+use schemas::{DepthEncoding, DepthFrame, Header, Intrinsics, Origin};
 
 fn median_min_us(mut v: Vec<f64>) -> (f64, f64) {
     v.sort_by(f64::total_cmp);
@@ -67,4 +69,16 @@ fn main() {
         std::hint::black_box(schemas::decode::<DepthFrame>(&payload).expect("own payload decodes"));
     });
     println!("  decode          median {med:8.1}  min {min:8.1}");
+    let (header, _) = schemas::decode::<DepthFrame>(&payload).expect("own payload decodes");
+    let mut guard = Guard::new(Some(Freshness::within(Duration::from_millis(150))));
+    let mut clocks = Clocks::default();
+    clocks.observe("sensor-agent", 1_000, 1_500);
+    let mut seq = 0;
+    let (med, min) = time_us(runs, || {
+        seq += 1;
+        let h = Header { seq, ..header.clone() };
+        let offset = clocks.offset_ns(&h.sender);
+        std::hint::black_box(guard.check("wearnav/u/sensor/cane/depth", &h, h.capture_ns + 1_000_000, offset)).ok();
+    });
+    println!("  guard check     median {med:8.1}  min {min:8.1}");
 }

@@ -5,6 +5,7 @@
 //! This crate knows nothing of Zenoh: the `bus` crate carries these bytes.
 
 pub mod depth_codec;
+pub mod guard;
 pub mod keys;
 pub mod messages;
 pub mod wire;

@@ -1,8 +1,8 @@
 //! What a well-formed message must also be before anything acts on it: fresh (captured
 //! within a bound of its arrival, not in the future) and new (a sequence number its
-//! publisher has not used before). Pure logic, time as an argument; the subscribers in
-//! `stream` apply it before a message takes its place in the inbox, so a replayed or
-//! stale message never displaces a good one.
+//! publisher has not used before). Pure logic, time as an argument; the `bus` crate's
+//! subscribers apply it where a message arrives, before it takes its place in the inbox,
+//! so a replayed or stale message never displaces a good one.
 //!
 //! Capture stamps come from the sender's clock. Across hosts that clock may be off from
 //! ours, so ages are read against [`Clocks`]: per sender, the smallest `arrival - stamp`
@@ -12,7 +12,7 @@
 use std::collections::{HashMap, VecDeque};
 use std::time::Duration;
 
-use schemas::Header;
+use crate::Header;
 use thiserror::Error;
 
 /// How old (and how far in the future) an input may be when it arrives.
