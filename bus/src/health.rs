@@ -455,4 +455,25 @@ mod tests {
         // The next period starts empty.
         assert!(h.snapshot().streams[0].latency_p50_ms.is_nan());
     }
+
+    #[test]
+    fn a_sender_whose_clock_is_off_by_more_than_the_bound_is_named_in_the_status() {
+        let h = Health::new("compute-agent");
+        h.set_status(true, "seeing");
+        let t = 1_800_000_000_000_000_000u64;
+        // no bound registered yet: nothing to compare with
+        h.observe_clock("sensor-agent", t - 2_000_000_000, t + 1_000_000);
+        assert_eq!(h.snapshot().status, "seeing");
+        h.bound_clock_offsets(Duration::from_millis(250));
+        h.bound_clock_offsets(Duration::from_millis(150));
+        h.observe_clock("feedback-agent", t + 100_000_000, t + 100_500_000); // 0.5 ms trip: fine
+        h.observe_clock("phone-bridge", t + 400_000_000, t); // 400 ms ahead
+        h.observe_clock("compute-agent", t - 9_000_000_000, t); // its own messages are not another's clock
+        assert_eq!(
+            h.snapshot().status,
+            "seeing; clock of phone-bridge 400 ms ahead; clock of sensor-agent 2001 ms behind"
+        );
+        assert_eq!(h.clock_offset_ns("sensor-agent"), 2_001_000_000);
+        assert_eq!(h.clock_offset_ns("compute-agent"), 0);
+    }
 }
