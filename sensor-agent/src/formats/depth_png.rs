@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use schemas::depth_codec::MAX_PIXELS;
+
 use super::{in_file, read_bytes, FormatError, FormatProblem};
 
 /// A depth image as stored: raw samples in the file's own units.
@@ -31,6 +33,14 @@ pub fn parse(bytes: &[u8]) -> Result<DepthPng, FormatProblem> {
     if color != png::ColorType::Grayscale || depth != png::BitDepth::Sixteen {
         return Err(FormatProblem::Unsupported(format!(
             "PNG pixel format {color:?} {depth:?} (depth images are 16-bit grayscale)"
+        )));
+    }
+    // The IHDR's size is the sender's word: refuse what no depth camera makes before
+    // sizing the buffer for it (a forged 65536 x 65536 would reserve 8 GB).
+    let (width, height) = reader.info().size();
+    if width as u64 * height as u64 > MAX_PIXELS as u64 {
+        return Err(FormatProblem::Unsupported(format!(
+            "PNG of {width}x{height} pixels (a depth image has at most {MAX_PIXELS})"
         )));
     }
     let mut buf = vec![0; reader.output_buffer_size()];

@@ -33,6 +33,10 @@ impl OrganizedCloud {
 /// Refuse clouds larger than this many points before allocating (a 4K sensor has 8.3 M).
 const MAX_POINTS: usize = 1 << 25;
 
+/// Refuse point records wider than this (PCL's widest point types take under 100
+/// bytes), so sizes computed from `SIZE` x `COUNT` cannot overflow.
+const MAX_RECORD_BYTES: usize = 1 << 16;
+
 /// Reads an organized PCD file.
 pub fn read(path: &Path) -> Result<OrganizedCloud, FormatError> {
     let bytes = read_bytes(path)?;
@@ -88,6 +92,21 @@ pub fn parse(bytes: &[u8]) -> Result<OrganizedCloud, FormatProblem> {
     let header = parse_header(bytes)?;
     let body = &bytes[header.body_start..];
     let xyz = xyz_fields(&header.fields)?;
+    // A forged WIDTH x HEIGHT must not reserve memory for points the body cannot hold:
+    // an ascii value takes a byte at least, an LZF byte expands `MAX_EXPANSION` at most.
+    let record = record_size(&header.fields);
+    let least_body = match header.body {
+        Body::Ascii => header.points * header.fields.iter().map(|f| f.count).sum::<usize>(),
+        Body::Binary => header.points * record,
+        Body::BinaryCompressed => header.points * record / lzf::MAX_EXPANSION,
+    };
+    if body.len() < least_body {
+        return Err(FormatProblem::Truncated(format!(
+            "{} body bytes cannot hold {} points of {record} bytes",
+            body.len(),
+            header.points
+        )));
+    }
     let mut points = vec![[f32::NAN; 3]; header.points];
     match header.body {
         Body::Ascii => read_ascii(body, &header, xyz, &mut points)?,
@@ -213,6 +232,14 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatProblem> {
                         Ok(Field { name, scalar, count })
                     })
                     .collect::<Result<Vec<_>, _>>()?;
+                let record = fields.iter().try_fold(0usize, |sum, f| {
+                    f.scalar.size().checked_mul(f.count).and_then(|bytes| sum.checked_add(bytes))
+                });
+                if record.is_none_or(|bytes| bytes > MAX_RECORD_BYTES) {
+                    return Err(FormatProblem::Unsupported(format!(
+                        "point records over {MAX_RECORD_BYTES} bytes (SIZE x COUNT, line {type_line})"
+                    )));
+                }
                 let width = width.ok_or(FormatProblem::MissingHeader("WIDTH"))?;
                 let height = height.ok_or(FormatProblem::MissingHeader("HEIGHT"))?;
                 let total = width.checked_mul(height).filter(|&n| n <= MAX_POINTS).ok_or_else(|| {
