@@ -7,56 +7,48 @@
 //! (arrays are reset once every 2^32 - 1 queries). Ties in f go to the larger g (the node
 //! nearer the goal), which expands far fewer nodes on open floors.
 
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 use std::f64::consts::SQRT_2;
 
-use crate::nav_graph::NavGraph;
+use crate::nav_graph::{NavGraph, DIRS};
 
-#[derive(Clone, Copy)]
-struct Entry {
-    f: f64,
+/// A heap entry packed in one integer so the heap compares one `u128`: from the most
+/// significant bits, f (an f64 >= 0, whose bits order as the number), then u32::MAX
+/// minus the bits of g as f32 (ties in f go to the larger g), then the vertex. Stored
+/// complemented, so std's max-heap pops the smallest f first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Entry(u128);
+
+impl Entry {
+    #[inline]
+    fn new(f: f64, g: f64, v: u32) -> Self {
+        let key = ((f.to_bits() as u128) << 64) | (((u32::MAX - (g as f32).to_bits()) as u128) << 32) | v as u128;
+        Entry(!key)
+    }
+
+    #[inline]
+    fn vertex(self) -> u32 {
+        (!self.0) as u32
+    }
+}
+
+/// Per-vertex search state, together so one cache line serves a vertex.
+#[derive(Clone, Copy, Debug, Default)]
+struct NodeState {
     g: f64,
-    v: u32,
-}
-
-impl PartialEq for Entry {
-    fn eq(&self, o: &Self) -> bool {
-        self.cmp(o) == Ordering::Equal
-    }
-}
-impl Eq for Entry {}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Entry {
-    /// Max-heap order: smallest f first, then largest g.
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.f.total_cmp(&self.f).then(self.g.total_cmp(&o.g))
-    }
+    parent: u32,
+    /// `2 * generation` once reached in that query, `2 * generation + 1` once expanded
+    stamp: u32,
 }
 
 /// A reusable A* search: keep one per graph and call [`AStar::search`] per query.
 #[derive(Clone, Debug, Default)]
 pub struct AStar {
-    g: Vec<f64>,
-    parent: Vec<u32>,
-    /// generation in which g/parent were set
-    seen: Vec<u32>,
-    /// generation in which the vertex was closed
-    closed: Vec<u32>,
+    nodes: Vec<NodeState>,
     generation: u32,
     heap: BinaryHeap<Entry>,
     /// vertices expanded by the last search
     expanded: usize,
-}
-
-impl std::fmt::Debug for Entry {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "({}, {}, {})", self.v, self.f, self.g)
-    }
 }
 
 impl AStar {
@@ -71,16 +63,8 @@ impl AStar {
     }
 
     fn begin(&mut self, n: usize) {
-        if self.g.len() != n {
-            self.g = vec![0.0; n];
-            self.parent = vec![u32::MAX; n];
-            self.seen = vec![0; n];
-            self.closed = vec![0; n];
-            self.generation = 0;
-        }
-        if self.generation == u32::MAX {
-            self.seen.fill(0);
-            self.closed.fill(0);
+        if self.nodes.len() != n || self.generation >= u32::MAX / 2 - 1 {
+            self.nodes = vec![NodeState::default(); n];
             self.generation = 0;
         }
         self.generation += 1;
@@ -91,62 +75,63 @@ impl AStar {
     /// The shortest open path from `start` to `goal`: its length in metres, with the
     /// vertices (start first) written to `path`. `None` when the goal cannot be reached
     /// or either end is not an open vertex.
+    ///
+    /// With a consistent heuristic a popped vertex already has its optimal g: it is
+    /// stamped closed, and any older (longer) heap entry for it is skipped when popped.
     pub fn search(&mut self, graph: &NavGraph, start: u32, goal: u32, path: &mut Vec<u32>) -> Option<f64> {
         path.clear();
         if !graph.is_open(start) || !graph.is_open(goal) {
             return None;
         }
         self.begin(graph.lattice_len());
-        let gen = self.generation;
-        let cols = graph.cols() as i64;
+        let (open, closed) = (2 * self.generation, 2 * self.generation + 1);
+        let cols = graph.cols();
         let spacing = graph.spacing_m();
         let diag = spacing * SQRT_2;
-        let (gi, gj) = ((goal as i64 % cols), (goal as i64 / cols));
-        let h = |v: u32| -> f64 {
-            let (i, j) = (v as i64 % cols, v as i64 / cols);
-            let (dx, dy) = ((i - gi).abs() as f64, (j - gj).abs() as f64);
+        let (gi, gj) = ((goal as usize % cols) as i32, (goal as usize / cols) as i32);
+        let h = |i: i32, j: i32| -> f64 {
+            let (dx, dy) = ((i - gi).abs(), (j - gj).abs());
             let (lo, hi) = if dx < dy { (dx, dy) } else { (dy, dx) };
-            spacing * (hi - lo) + diag * lo
+            spacing * (hi - lo) as f64 + diag * lo as f64
         };
         let offsets: [isize; 8] = std::array::from_fn(|d| graph.offset(d));
-        self.g[start as usize] = 0.0;
-        self.parent[start as usize] = u32::MAX;
-        self.seen[start as usize] = gen;
-        self.heap.push(Entry { f: h(start), g: 0.0, v: start });
-        while let Some(Entry { g, v, .. }) = self.heap.pop() {
+        let step_len: [f64; 8] = std::array::from_fn(|d| if d & 1 == 0 { spacing } else { diag });
+        let nodes = &mut self.nodes[..];
+        nodes[start as usize] = NodeState { g: 0.0, parent: u32::MAX, stamp: open };
+        let (si, sj) = ((start as usize % cols) as i32, (start as usize / cols) as i32);
+        self.heap.push(Entry::new(h(si, sj), 0.0, start));
+        while let Some(entry) = self.heap.pop() {
+            let v = entry.vertex();
             let vi = v as usize;
-            if self.closed[vi] == gen {
-                continue;
+            if nodes[vi].stamp == closed {
+                continue; // stale: v was expanded through a shorter entry
             }
-            self.closed[vi] = gen;
+            nodes[vi].stamp = closed;
             self.expanded += 1;
+            let g = nodes[vi].g;
             if v == goal {
                 let mut cur = goal;
                 while cur != u32::MAX {
                     path.push(cur);
-                    cur = self.parent[cur as usize];
+                    cur = nodes[cur as usize].parent;
                 }
                 path.reverse();
                 return Some(g);
             }
-            let mut mask = graph.edge_mask(v);
+            let (i, j) = ((vi % cols) as i32, (vi / cols) as i32);
+            let mut mask = graph.open_mask(v);
             while mask != 0 {
                 let d = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                if !graph.step_open(v, d) {
-                    continue;
-                }
                 let n = (vi as isize + offsets[d]) as usize;
-                if self.closed[n] == gen {
+                let ng = g + step_len[d];
+                let node = &mut nodes[n];
+                if node.stamp == closed || (node.stamp == open && ng >= node.g) {
                     continue;
                 }
-                let ng = g + if d & 1 == 0 { spacing } else { diag };
-                if self.seen[n] != gen || ng < self.g[n] {
-                    self.seen[n] = gen;
-                    self.g[n] = ng;
-                    self.parent[n] = v;
-                    self.heap.push(Entry { f: ng + h(n as u32), g: ng, v: n as u32 });
-                }
+                *node = NodeState { g: ng, parent: v, stamp: open };
+                let (dx, dy) = DIRS[d];
+                self.heap.push(Entry::new(ng + h(i + dx, j + dy), ng, n as u32));
             }
         }
         None

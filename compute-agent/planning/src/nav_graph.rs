@@ -39,6 +39,8 @@ pub struct NavGraph {
     spacing_m: f64,
     /// bit d set: the static edge in direction `DIRS[d]` exists
     edges: Vec<u8>,
+    /// the static edges still open now (obstacles applied), what A* reads
+    open: Vec<u8>,
     /// static vertex (free after inflation)
     vertex: Vec<bool>,
     /// how many obstacles block each vertex now
@@ -67,6 +69,7 @@ impl NavGraph {
             step_cells: step,
             spacing_m: step as f64 * res,
             edges: vec![0; cols * rows],
+            open: vec![0; cols * rows],
             vertex: vec![false; cols * rows],
             blocked: vec![0; cols * rows],
             offsets: [0; 8],
@@ -123,6 +126,7 @@ impl NavGraph {
                 }
             }
         }
+        g.open = edges.clone();
         g.edges = edges;
         g
     }
@@ -231,52 +235,79 @@ impl NavGraph {
 
     /// The open neighbours of `v` with their edge lengths (metres), obstacles honoured.
     pub fn neighbours(&self, v: u32) -> impl Iterator<Item = (u32, f64)> + '_ {
-        let mask = if self.is_open(v) { self.edges[v as usize] } else { 0 };
-        (0..8).filter(move |d| mask & (1 << d) != 0).filter_map(move |d| {
-            let n = (v as isize + self.offsets[d]) as u32;
+        let mask = self.open.get(v as usize).copied().unwrap_or(0);
+        (0..8).filter(move |d| mask & (1 << d) != 0).map(move |d| {
             let len = if d & 1 == 0 { self.spacing_m } else { self.spacing_m * SQRT_2 };
-            self.step_open(v, d).then_some((n, len))
+            ((v as isize + self.offsets[d]) as u32, len)
         })
     }
 
-    /// The static edge mask of `v` (bit d: direction `DIRS[d]`).
+    /// The edges of `v` open now (bit d: direction `DIRS[d]`): static edges whose target
+    /// is unblocked and, for a diagonal, whose two orthogonal neighbours are too; 0 when
+    /// `v` itself is blocked.
     #[inline]
-    pub(crate) fn edge_mask(&self, v: u32) -> u8 {
-        self.edges[v as usize]
+    pub(crate) fn open_mask(&self, v: u32) -> u8 {
+        self.open[v as usize]
     }
 
-    /// Whether the step from `v` in direction `d` (a static edge) is open now: the target
-    /// is unblocked and, for a diagonal, so are both orthogonal neighbours.
-    #[inline]
-    pub(crate) fn step_open(&self, v: u32, d: usize) -> bool {
-        let v = v as isize;
-        let n = (v + self.offsets[d]) as usize;
-        if self.blocked[n] != 0 {
-            return false;
-        }
-        if d % 2 == 1 {
-            let a = (v + self.offsets[d - 1]) as usize;
-            let b = (v + self.offsets[(d + 1) % 8]) as usize;
-            return self.blocked[a] == 0 && self.blocked[b] == 0;
-        }
-        true
-    }
-
+    /// Neighbour index offset of direction `d`.
     #[inline]
     pub(crate) fn offset(&self, d: usize) -> isize {
         self.offsets[d]
+    }
+
+    /// Recomputes the open mask of `v` from the static edges and the blocks.
+    fn refresh(&mut self, v: usize) {
+        if !self.vertex[v] {
+            return;
+        }
+        if self.blocked[v] != 0 {
+            self.open[v] = 0;
+            return;
+        }
+        let free = |k: isize| self.blocked[(v as isize + k) as usize] == 0;
+        let mut mask = self.edges[v];
+        let mut bits = mask;
+        while bits != 0 {
+            let d = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let ok =
+                free(self.offsets[d]) && (d & 1 == 0 || (free(self.offsets[d - 1]) && free(self.offsets[(d + 1) % 8])));
+            if !ok {
+                mask &= !(1 << d);
+            }
+        }
+        self.open[v] = mask;
+    }
+
+    /// Recomputes the open masks of `v` and every vertex whose edges it can close.
+    fn refresh_around(&mut self, v: u32) {
+        let (i, j) = self.lattice_of(v);
+        for nj in j.saturating_sub(1)..=(j + 1).min(self.rows - 1) {
+            for ni in i.saturating_sub(1)..=(i + 1).min(self.cols - 1) {
+                self.refresh(nj * self.cols + ni);
+            }
+        }
     }
 
     /// Blocks `v` once more (an obstacle covers it).
     pub(crate) fn block(&mut self, v: u32) {
         let b = &mut self.blocked[v as usize];
         *b = b.saturating_add(1);
+        if *b == 1 {
+            self.refresh_around(v);
+        }
     }
 
     /// Releases one block of `v`.
     pub(crate) fn unblock(&mut self, v: u32) {
         let b = &mut self.blocked[v as usize];
-        *b = b.saturating_sub(1);
+        if *b == 1 {
+            *b = 0;
+            self.refresh_around(v);
+        } else {
+            *b = b.saturating_sub(1);
+        }
     }
 
     /// The vertices (blocked or not) within `radius_m` of map point (x, y).
