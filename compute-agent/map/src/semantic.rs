@@ -41,7 +41,7 @@
 //!
 //! [[gateway]]
 //! name = "main elevator"
-//! kind = "elevator"     # elevator | stairs | ramp
+//! type = "elevator"     # elevator | stairs | ramp
 //! stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]
 //! ```
 //!
@@ -141,7 +141,8 @@ pub struct GatewayStop {
 pub struct Gateway {
     /// unique in the building
     pub name: String,
-    /// elevator, stairs or ramp
+    /// elevator, stairs or ramp (`type` in the file)
+    #[serde(rename = "type")]
     pub kind: GatewayKind,
     /// one per floor it serves (at least two)
     pub stops: Vec<GatewayStop>,
@@ -375,7 +376,7 @@ polygon = [[11.0, 2.0], [14.0, 2.0], [14.0, 5.0], [11.0, 5.0]]
 
 [[gateway]]
 name = "main elevator"
-kind = "elevator"
+type = "elevator"
 stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]
 "#;
 
@@ -445,7 +446,7 @@ stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]
                 "3 points",
             ),
             (SAMPLE.replace("x = 12.5", "x = nan"), "finite"),
-            (SAMPLE.replace("kind = \"elevator\"", "kind = \"escalator\""), "escalator"),
+            (SAMPLE.replace("type = \"elevator\"", "type = \"escalator\""), "escalator"),
             (
                 SAMPLE.replace(
                     "name = \"east wing\"\nfloor = 2\n",

@@ -151,7 +151,7 @@ floor = 1
 
 [[gateway]]
 name = "lift"
-kind = "elevator"
+type = "elevator"
 stops = [ { floor = 0, x = 0.5, y = 0.0 }, { floor = 1, x = 0.5, y = 0.0 } ]
 "#,
         Path::new("inline.toml"),

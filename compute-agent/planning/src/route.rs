@@ -152,3 +152,25 @@ impl Route {
 pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn remaining_lengths_are_cached_along_the_smoothed_route() {
+        // an L: right 2 m, up 2 m; smoothing kept the corner
+        let points = vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]];
+        let r = Route::new(0, vec![10, 11, 12, 22, 32], points, vec![0, 2, 4], 4.0, [0.0, 0.0]);
+        assert_eq!(r.length_m, 4.0);
+        assert_eq!(r.waypoints, vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]]);
+        let remaining: Vec<f64> = (0..5).map(|k| r.remaining_from_node_m(k)).collect();
+        assert_eq!(remaining, vec![4.0, 3.0, 2.0, 1.0, 0.0]);
+        let next: Vec<usize> = (0..5).map(|k| r.next_waypoint_of(k)).collect();
+        assert_eq!(next, vec![0, 1, 1, 2, 2]);
+        assert_eq!(r.node_of_vertex(22), Some(3));
+        assert_eq!(r.node_of_vertex(99), None);
+        assert_eq!(r.remaining_from_waypoint_m(1), 2.0);
+        assert_eq!(r.goal(), [2.0, 2.0]);
+    }
+}

@@ -12,12 +12,12 @@ use support::floor::isana_floor;
 const GATEWAYS: &str = r#"
 [[gateway]]
 name = "west elevator"
-kind = "elevator"
+type = "elevator"
 stops = [ { floor = 0, x = 1.0, y = 11.0 }, { floor = 1, x = 1.0, y = 11.0 } ]
 
 [[gateway]]
 name = "east stairs"
-kind = "stairs"
+type = "stairs"
 stops = [ { floor = 0, x = 28.0, y = 11.0 }, { floor = 1, x = 28.0, y = 11.0 } ]
 "#;
 
