@@ -3,7 +3,11 @@
 //! proportion to `z_hit * exp(-d^2 / 2 sigma_hit^2) + z_rand / max_range`, `d` the
 //! distance from the end point to the nearest occupied cell, capped at `max_distance`
 //! (AMCL's `laser_likelihood_max_dist`). The log of that is precomputed per cell from
-//! `map::DistanceField`, so a beam costs one lookup.
+//! `map::DistanceField`, so a beam costs one lookup. Beside it, per cell, the beam's
+//! *fit*: its likelihood relative to a beam ending on a wall, in (0, 1]; the mean fit
+//! over a scan's beams is how much of the scan the map explains (the status and the
+//! recovery read it: a geometric mean would let a few beams through a window or past a
+//! person drag a good pose down).
 
 use map::{DistanceField, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -42,9 +46,10 @@ pub struct LikelihoodField {
     /// cos and sin of the grid's yaw
     cos_yaw: f64,
     sin_yaw: f64,
-    log_p: Vec<f32>,
+    /// (log-likelihood, fit) per cell
+    cells: Vec<[f32; 2]>,
     /// for an end point off the map (as far as `max_distance` from anything)
-    log_p_outside: f32,
+    outside: [f32; 2],
     /// the best a beam can score (an end point on a wall)
     log_p_max: f64,
 }
@@ -59,7 +64,9 @@ impl LikelihoodField {
             let d = d.min(config.max_distance_m);
             (config.z_hit * (-d * d / s2).exp() + rand).ln()
         };
-        let log_p = field.distances_m().iter().map(|&d| p(d as f64) as f32).collect();
+        let p_max = p(0.0);
+        let cell = |d: f64| [p(d) as f32, (p(d) - p_max).exp() as f32];
+        let cells = field.distances_m().iter().map(|&d| cell(d as f64)).collect();
         let o = grid.origin();
         Self {
             width: grid.width(),
@@ -69,15 +76,21 @@ impl LikelihoodField {
             origin_y_m: o.y_m,
             cos_yaw: o.yaw_rad.cos(),
             sin_yaw: o.yaw_rad.sin(),
-            log_p,
-            log_p_outside: p(f64::INFINITY) as f32,
-            log_p_max: p(0.0),
+            cells,
+            outside: cell(f64::INFINITY),
+            log_p_max: p_max,
         }
     }
 
     /// Log-likelihood of an end point at map (x, y).
     #[inline]
     pub fn log_p(&self, x_m: f64, y_m: f64) -> f32 {
+        self.at(x_m, y_m)[0]
+    }
+
+    /// (log-likelihood, fit) of an end point at map (x, y).
+    #[inline]
+    fn at(&self, x_m: f64, y_m: f64) -> [f32; 2] {
         let (dx, dy) = (x_m - self.origin_x_m, y_m - self.origin_y_m);
         let gx = (self.cos_yaw * dx + self.sin_yaw * dy) / self.resolution_m;
         let gy = (-self.sin_yaw * dx + self.cos_yaw * dy) / self.resolution_m;
@@ -85,21 +98,23 @@ impl LikelihoodField {
         if gx >= 0.0 && gy >= 0.0 {
             let (c, r) = (gx as usize, gy as usize);
             if c < self.width && r < self.height {
-                return self.log_p[r * self.width + c];
+                return self.cells[r * self.width + c];
             }
         }
-        self.log_p_outside
+        self.outside
     }
 
-    /// Sum of the log-likelihoods of body-frame end points seen from `pose`
-    /// (x, y, cos heading, sin heading).
+    /// Sum of the log-likelihoods and of the fits of body-frame end points seen from
+    /// a pose (x, y, cos heading, sin heading).
     #[inline]
-    pub fn scan_log_p(&self, x_m: f64, y_m: f64, cos_h: f64, sin_h: f64, endpoints: &[[f64; 2]]) -> f64 {
-        let mut sum = 0.0f32;
+    pub fn scan_log_p(&self, x_m: f64, y_m: f64, cos_h: f64, sin_h: f64, endpoints: &[[f64; 2]]) -> (f64, f64) {
+        let (mut ll, mut fit) = (0.0f32, 0.0f32);
         for &[bx, by] in endpoints {
-            sum += self.log_p(x_m + cos_h * bx - sin_h * by, y_m + sin_h * bx + cos_h * by);
+            let [l, f] = self.at(x_m + cos_h * bx - sin_h * by, y_m + sin_h * bx + cos_h * by);
+            ll += l;
+            fit += f;
         }
-        sum as f64
+        (ll as f64, fit as f64)
     }
 
     /// The best log-likelihood one beam can have (end point on an occupied cell).
@@ -109,7 +124,7 @@ impl LikelihoodField {
 
     /// The log-likelihood of an end point far from anything.
     pub fn log_p_min(&self) -> f64 {
-        self.log_p_outside as f64
+        self.outside[0] as f64
     }
 }
 

@@ -13,9 +13,10 @@
 //!    resampling draws a new set whose size follows the spread of the weights (a
 //!    KLD bound over occupied bins, see [`FilterConfig::kld_error`]);
 //! 4. augmented MCL: short- and long-term averages of how well the scan fits
-//!    (`w_fast`, `w_slow`) — when the short-term one drops, a fraction
-//!    `1 - w_fast / w_slow` of the new set is drawn uniformly in free space, so a wrong
-//!    start, a kidnap or a belief dragged off by a misread door is recovered from.
+//!    (`w_fast`, `w_slow`) — when the short-term one drops well below the long-term one
+//!    (a dead band: [`FilterConfig::recovery_ratio`]), a fraction of the new set is
+//!    drawn uniformly in free space, so a wrong start, a kidnap or a belief dragged off
+//!    by a misread door is recovered from.
 //!
 //! Everything random comes from one seeded [`Rng`]: the same inputs and seed give the
 //! same particles, bit for bit.
@@ -51,8 +52,12 @@ pub struct FilterConfig {
     pub scan_weight_exponent: f64,
     /// fewest particles (`min_particles`, 500)
     pub min_particles: usize,
-    /// most particles (`max_particles`, 5000); also the size of a global start
+    /// most particles after a resampling (`max_particles`, 5000)
     pub max_particles: usize,
+    /// particles of a global start (spread over all free space; the first resampling
+    /// brings the count within [min, max]). 10,000: on the Intel log 5,000 converged
+    /// after 3 to 175 scans, 10,000 after 3 to 7 (docs/localization.md)
+    pub global_particles: usize,
     /// KLD bound: allowed error between the sample and the true posterior (`kld_err`, 0.01)
     pub kld_error: f64,
     /// KLD bound: the normal quantile (`kld_z` as AMCL uses it, 0.99)
@@ -70,14 +75,27 @@ pub struct FilterConfig {
     pub alpha_fast: f64,
     /// at most this fraction of a resampled set is injected at random
     pub max_inject_fraction: f64,
+    /// dead band of the recovery: particles are injected only when `w_fast / w_slow`
+    /// falls below this, a fraction `1 - (w_fast / w_slow) / recovery_ratio`. Thrun's
+    /// `1 - w_fast / w_slow` injects on every dip of an ordinary scan; on the Intel log
+    /// those few random particles, when one fit a corridor by chance while the true
+    /// cluster had a poor scan, took over a good track in 4 runs of 6
+    /// (docs/localization.md). 0.6: tracking dips to ~0.8, a kidnap drops to ~0.25.
+    pub recovery_ratio: f64,
     /// `Tracking` needs the larger position standard deviation below this, metres
     pub tracking_max_std_m: f64,
     /// ... and the heading standard deviation below this, radians
     pub tracking_max_heading_std_rad: f64,
     /// ... and (once a scan was seen) the short-term scan fit at least this
     pub tracking_min_fit: f64,
-    /// `Lost` when the position standard deviation exceeds this, metres
-    pub lost_min_std_m: f64,
+    /// `Tracking` also needs this share of the weight in the main cluster
+    pub tracking_min_cluster_weight: f64,
+    /// `Lost` when the main cluster holds less than this share of the weight
+    pub lost_max_cluster_weight: f64,
+    /// the main cluster's radius, metres (see [`Estimate`])
+    pub cluster_radius_m: f64,
+    /// ... and its half-width in heading, radians
+    pub cluster_heading_rad: f64,
     /// ... or the short-term scan fit falls below this (likelihood collapse)
     pub lost_max_fit: f64,
     /// odometry faster than this is refused, metres per second (a running person: 3)
@@ -94,9 +112,10 @@ impl Default for FilterConfig {
             update_min_distance_m: 0.25,
             update_min_angle_rad: 0.2,
             max_beams: 30,
-            scan_weight_exponent: 1.0 / 3.0,
+            scan_weight_exponent: 0.2,
             min_particles: 500,
             max_particles: 5000,
+            global_particles: 10_000,
             kld_error: 0.01,
             kld_z: 0.99,
             kld_bin_m: 0.5,
@@ -105,10 +124,14 @@ impl Default for FilterConfig {
             alpha_slow: 0.01,
             alpha_fast: 0.1,
             max_inject_fraction: 0.5,
+            recovery_ratio: 0.6,
             tracking_max_std_m: 0.5,
             tracking_max_heading_std_rad: 10f64.to_radians(),
-            tracking_min_fit: 0.3,
-            lost_min_std_m: 3.0,
+            tracking_min_fit: 0.25,
+            tracking_min_cluster_weight: 0.8,
+            lost_max_cluster_weight: 0.25,
+            cluster_radius_m: 1.5,
+            cluster_heading_rad: 45f64.to_radians(),
             lost_max_fit: 0.12,
             max_speed_m_s: 3.0,
             max_yaw_rate_rad_s: 6.0,
@@ -133,28 +156,33 @@ pub struct Particle {
 /// How sure the filter is (thresholds in [`FilterConfig`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Status {
-    /// one tight cluster that fits the scans: guidance may rely on it
+    /// one tight cluster holding most of the weight that fits the scans: guidance may
+    /// rely on it
     Tracking,
     /// converging or spread out, but the scans still fit
     Uncertain,
-    /// spread over the map, or the scans no longer fit anywhere near the estimate
+    /// no dominant hypothesis, or the scans no longer fit (likelihood collapse)
     Lost,
 }
 
 /// The filter's answer.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
-    /// weighted mean pose (circular mean heading) on the most likely floor
+    /// weighted mean pose (circular mean heading) of the main cluster: the particles
+    /// within `cluster_radius_m` and `cluster_heading_rad` of the heaviest part of the
+    /// most likely floor
     pub pose: Pose2,
     /// the most likely floor's level
     pub level: i32,
-    /// covariance of (x, y, heading) about the mean, m^2 / m rad / rad^2
+    /// covariance of (x, y, heading) of the main cluster about its mean, m^2 / m rad / rad^2
     pub covariance: [[f64; 3]; 3],
+    /// the main cluster's share of the weight (1: a single hypothesis)
+    pub cluster_weight: f64,
     /// see [`Status`]
     pub status: Status,
-    /// short-term scan fit in (0, 1]: weighted mean over particles of the geometric
-    /// mean, over beams, of a beam's likelihood relative to a beam on a wall; 1 when no
-    /// scan was seen
+    /// short-term scan fit in (0, 1]: weighted mean over particles of the mean, over
+    /// beams, of a beam's likelihood relative to a beam on a wall (how much of the scan
+    /// the map explains); 1 when no scan was seen
     pub fit: f64,
     /// number of particles
     pub particles: usize,
@@ -274,8 +302,8 @@ impl ParticleFilter {
         if !(config.min_particles >= 1 && config.min_particles <= config.max_particles) {
             return Err(LocalizationError::BadConfig("need 1 <= min_particles <= max_particles".into()));
         }
-        if config.max_particles > 1_000_000 {
-            return Err(LocalizationError::BadConfig("max_particles above 1,000,000".into()));
+        if config.max_particles > 1_000_000 || config.global_particles > 1_000_000 {
+            return Err(LocalizationError::BadConfig("max_particles or global_particles above 1,000,000".into()));
         }
         let mut f = Self {
             floors,
@@ -294,6 +322,7 @@ impl ParticleFilter {
                 pose: Pose2::default(),
                 level: 0,
                 covariance: [[0.0; 3]; 3],
+                cluster_weight: 0.0,
                 status: Status::Lost,
                 fit: 1.0,
                 particles: 0,
@@ -309,10 +338,10 @@ impl ParticleFilter {
         Ok(f)
     }
 
-    /// Forget everything: `max_particles` particles uniform over the free space of all
-    /// floors (in proportion to their free area), uniform heading.
+    /// Forget everything: `global_particles` particles uniform over the free space of
+    /// all floors (in proportion to their free area), uniform heading.
     pub fn init_global(&mut self) {
-        let n = self.config.max_particles;
+        let n = self.config.global_particles.max(self.config.min_particles);
         self.particles.clear();
         for _ in 0..n {
             let p = self.random_particle(1.0 / n as f64);
@@ -479,7 +508,8 @@ impl ParticleFilter {
 
         let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
         let inject_fraction = if self.scan_seen && self.w_slow > 0.0 {
-            (1.0 - self.w_fast / self.w_slow).clamp(0.0, self.config.max_inject_fraction)
+            let ratio = self.w_fast / self.w_slow;
+            (1.0 - ratio / self.config.recovery_ratio.max(1e-9)).clamp(0.0, self.config.max_inject_fraction)
         } else {
             0.0
         };
@@ -523,9 +553,9 @@ impl ParticleFilter {
         for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
             let field = &self.floors[p.floor as usize].field;
             let (s, c) = p.pose.heading_rad.sin_cos();
-            let ll = field.scan_log_p(p.pose.x_m, p.pose.y_m, c, s, &self.endpoints);
+            let (ll, fit) = field.scan_log_p(p.pose.x_m, p.pose.y_m, c, s, &self.endpoints);
             *lw += k * ll;
-            self.scan_fit.push((ll / nb as f64 - field.log_p_max()).exp());
+            self.scan_fit.push(fit / nb as f64);
         }
         true
     }
@@ -659,49 +689,101 @@ impl ParticleFilter {
         n_inject
     }
 
-    /// Mean, covariance and status from the weighted particles.
+    /// Mean, covariance and status from the weighted particles: of the main cluster,
+    /// not of the whole set (a few particles injected across the map, or a second
+    /// hypothesis in a similar corridor, must not drag the mean into a wall). The main
+    /// cluster: on the most likely floor, the particles within `cluster_radius_m` and
+    /// `cluster_heading_rad` of the
+    /// weighted mean of the heaviest 3 x 3 m block of 1 m bins, the mean re-centred twice (AMCL reports
+    /// its heaviest cluster the same way).
     fn compute_estimate(&mut self) {
-        // the most likely floor
         let mut floor_w = vec![0.0; self.floors.len()];
         for p in &self.particles {
             floor_w[p.floor as usize] += p.weight;
         }
-        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0);
-        let on_floor = || self.particles.iter().filter(move |p| p.floor as usize == fi);
-        let wsum: f64 = on_floor().map(|p| p.weight).sum::<f64>().max(1e-300);
-        let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
-        for p in on_floor() {
-            mx += p.weight * p.pose.x_m;
-            my += p.weight * p.pose.y_m;
-            ms += p.weight * p.pose.heading_rad.sin();
-            mc += p.weight * p.pose.heading_rad.cos();
+        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
+        // the heaviest 1 m bin
+        self.bins.clear();
+        for p in self.particles.iter().filter(|p| p.floor == fi) {
+            let ix = p.pose.x_m.floor() as i64 as u64 & 0xFFFF_FFFF;
+            let iy = p.pose.y_m.floor() as i64 as u64 & 0xFFFF_FFFF;
+            self.bins.push(((ix << 32) | iy, p.weight));
         }
-        let (mx, my) = (mx / wsum, my / wsum);
-        let mh = ms.atan2(mc);
+        self.bins.sort_unstable_by_key(|b| b.0);
+        // bins and their weights, then the bin whose 3 x 3 neighbourhood is heaviest
+        // (a cluster straddling a bin corner must not lose to a compact wrong one)
+        let mut merged: Vec<(u64, f64)> = Vec::new();
+        let mut i = 0;
+        while i < self.bins.len() {
+            let key = self.bins[i].0;
+            let mut w = 0.0;
+            while i < self.bins.len() && self.bins[i].0 == key {
+                w += self.bins[i].1;
+                i += 1;
+            }
+            merged.push((key, w));
+        }
+        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
+        let (mut best_key, mut best_w) = (0u64, -1.0);
+        for &(key, _) in &merged {
+            let (ix, iy) = (key >> 32, key & 0xFFFF_FFFF);
+            let mut w = 0.0;
+            for dx in [0xFFFF_FFFFu64, 0, 1] {
+                for dy in [0xFFFF_FFFFu64, 0, 1] {
+                    w += weight_of((((ix + dx) & 0xFFFF_FFFF) << 32) | ((iy + dy) & 0xFFFF_FFFF));
+                }
+            }
+            if w > best_w {
+                (best_key, best_w) = (key, w);
+            }
+        }
+        let in_bin = |p: &Particle| {
+            let dx = (p.pose.x_m.floor() as i64 as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
+            let dy = (p.pose.y_m.floor() as i64 as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
+            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
+        };
+        let mut centre = weighted_mean(self.particles.iter().filter(|p| in_bin(p)));
+        let r2 = self.config.cluster_radius_m * self.config.cluster_radius_m;
+        let max_dh = self.config.cluster_heading_rad;
+        let near = |c: &Pose2, p: &Particle| {
+            p.floor == fi
+                && (p.pose.x_m - c.x_m).powi(2) + (p.pose.y_m - c.y_m).powi(2) <= r2
+                && wrap_angle(p.pose.heading_rad - c.heading_rad).abs() <= max_dh
+        };
+        for _ in 0..2 {
+            let c = centre;
+            centre = weighted_mean(self.particles.iter().filter(|p| near(&c, p)));
+        }
+        let total: f64 = self.particles.iter().map(|p| p.weight).sum::<f64>().max(1e-300);
         let mut cov = [[0.0; 3]; 3];
-        for p in on_floor() {
-            let d = [p.pose.x_m - mx, p.pose.y_m - my, wrap_angle(p.pose.heading_rad - mh)];
+        let mut wsum = 0.0;
+        for p in self.particles.iter().filter(|p| near(&centre, p)) {
+            let d =
+                [p.pose.x_m - centre.x_m, p.pose.y_m - centre.y_m, wrap_angle(p.pose.heading_rad - centre.heading_rad)];
             for i in 0..3 {
                 for j in 0..3 {
                     cov[i][j] += p.weight * d[i] * d[j];
                 }
             }
+            wsum += p.weight;
         }
         for row in &mut cov {
             for v in row {
-                *v /= wsum;
+                *v /= wsum.max(1e-300);
             }
         }
-        self.estimate.pose = Pose2::new(mx, my, mh);
-        self.estimate.level = self.floors[fi].level;
+        self.estimate.pose = centre;
+        self.estimate.level = self.floors[fi as usize].level;
         self.estimate.covariance = cov;
+        self.estimate.cluster_weight = wsum / total;
         self.estimate.particles = self.particles.len();
         let (std_m, std_h) = (self.estimate.position_std_m(), self.estimate.heading_std_rad());
         let c = &self.config;
-        let fit = self.estimate.fit;
-        self.estimate.status = if std_m > c.lost_min_std_m || (self.scan_seen && fit < c.lost_max_fit) {
+        let (fit, share) = (self.estimate.fit, self.estimate.cluster_weight);
+        self.estimate.status = if share < c.lost_max_cluster_weight || (self.scan_seen && fit < c.lost_max_fit) {
             Status::Lost
-        } else if std_m <= c.tracking_max_std_m
+        } else if share >= c.tracking_min_cluster_weight
+            && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
             && (!self.scan_seen || fit >= c.tracking_min_fit)
         {
@@ -742,4 +824,20 @@ impl ParticleFilter {
     pub fn fit_averages(&self) -> (f64, f64) {
         (self.w_fast, self.w_slow)
     }
+}
+
+/// Weighted mean position and circular-mean heading (the origin for an empty set).
+fn weighted_mean<'a>(particles: impl Iterator<Item = &'a Particle>) -> Pose2 {
+    let (mut w, mut x, mut y, mut s, mut c) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for p in particles {
+        w += p.weight;
+        x += p.weight * p.pose.x_m;
+        y += p.weight * p.pose.y_m;
+        s += p.weight * p.pose.heading_rad.sin();
+        c += p.weight * p.pose.heading_rad.cos();
+    }
+    if w <= 0.0 {
+        return Pose2::default();
+    }
+    Pose2::new(x / w, y / w, s.atan2(c))
 }
