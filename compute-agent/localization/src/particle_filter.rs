@@ -86,7 +86,8 @@ pub struct FilterConfig {
     pub tracking_max_std_m: f64,
     /// ... and the heading standard deviation below this, radians
     pub tracking_max_heading_std_rad: f64,
-    /// ... and (once a scan was seen) the short-term scan fit at least this
+    /// ... and (once a scan was seen) the short-term scan fit and the last scan's fit
+    /// at least this (on the Intel log a tracked scan fits 0.3 to 0.6)
     pub tracking_min_fit: f64,
     /// `Tracking` also needs this share of the weight in the main cluster
     pub tracking_min_cluster_weight: f64,
@@ -96,7 +97,9 @@ pub struct FilterConfig {
     pub cluster_radius_m: f64,
     /// ... and its half-width in heading, radians
     pub cluster_heading_rad: f64,
-    /// ... or the short-term scan fit falls below this (likelihood collapse)
+    /// ... or the last scan's fit falls below this (likelihood collapse); `Lost` too
+    /// while the recovery injects (`w_fast < recovery_ratio * w_slow`: the scans fit far
+    /// worse than they have been)
     pub lost_max_fit: f64,
     /// odometry faster than this is refused, metres per second (a running person: 3)
     pub max_speed_m_s: f64,
@@ -273,6 +276,8 @@ pub struct ParticleFilter {
     force_update: bool,
     w_slow: f64,
     w_fast: f64,
+    last_w_avg: f64,
+    scans_since_init: u64,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -317,6 +322,8 @@ impl ParticleFilter {
             force_update: true,
             w_slow: 0.0,
             w_fast: 0.0,
+            last_w_avg: 0.0,
+            scans_since_init: 0,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -385,6 +392,8 @@ impl ParticleFilter {
         self.force_update = true;
         self.w_slow = 0.0;
         self.w_fast = 0.0;
+        self.last_w_avg = 0.0;
+        self.scans_since_init = 0;
         self.scan_seen = false;
         self.estimate.fit = 1.0;
         self.compute_estimate();
@@ -474,14 +483,17 @@ impl ParticleFilter {
         if scan_used {
             // augmented MCL: the average fit under the predicted (prior-weighted) set
             let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
-            if self.scan_seen {
-                self.w_slow += self.config.alpha_slow * (w_avg - self.w_slow);
-                self.w_fast += self.config.alpha_fast * (w_avg - self.w_fast);
-            } else {
-                self.w_slow = w_avg;
-                self.w_fast = w_avg;
-                self.scan_seen = true;
-            }
+            // bias-corrected: the plain mean of the scans so far until there are 1/alpha
+            // of them, so the first scan (often a perfect fit at a known start) does
+            // not set the long-term level for hundreds of updates
+            self.scans_since_init += 1;
+            let n = self.scans_since_init as f64;
+            let slow = self.config.alpha_slow.max(1.0 / n);
+            let fast = self.config.alpha_fast.max(1.0 / n);
+            self.w_slow += slow * (w_avg - self.w_slow);
+            self.w_fast += fast * (w_avg - self.w_fast);
+            self.last_w_avg = w_avg;
+            self.scan_seen = true;
         }
 
         // posterior weights, in the log domain against the best
@@ -780,12 +792,15 @@ impl ParticleFilter {
         let (std_m, std_h) = (self.estimate.position_std_m(), self.estimate.heading_std_rad());
         let c = &self.config;
         let (fit, share) = (self.estimate.fit, self.estimate.cluster_weight);
-        self.estimate.status = if share < c.lost_max_cluster_weight || (self.scan_seen && fit < c.lost_max_fit) {
+        // the last scan's own fit reacts at once; w_fast only after a few scans
+        let now = self.last_w_avg;
+        let collapsed = self.scan_seen && (now < c.lost_max_fit || self.w_fast < c.recovery_ratio * self.w_slow);
+        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
             Status::Lost
         } else if share >= c.tracking_min_cluster_weight
             && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
-            && (!self.scan_seen || fit >= c.tracking_min_fit)
+            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit)
         {
             Status::Tracking
         } else {
@@ -820,9 +835,10 @@ impl ParticleFilter {
         &self.config
     }
 
-    /// Short- and long-term scan-fit averages (augmented MCL's `w_fast`, `w_slow`).
-    pub fn fit_averages(&self) -> (f64, f64) {
-        (self.w_fast, self.w_slow)
+    /// Short- and long-term scan-fit averages (augmented MCL's `w_fast`, `w_slow`) and
+    /// the last correction's fit.
+    pub fn fit_averages(&self) -> (f64, f64, f64) {
+        (self.w_fast, self.w_slow, self.last_w_avg)
     }
 }
 

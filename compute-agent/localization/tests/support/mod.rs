@@ -4,6 +4,8 @@
 
 #![allow(dead_code)]
 
+pub mod sim;
+
 use std::path::Path;
 use std::sync::OnceLock;
 use std::time::Instant;
