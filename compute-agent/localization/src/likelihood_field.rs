@@ -46,10 +46,13 @@ pub struct LikelihoodField {
     /// cos and sin of the grid's yaw
     cos_yaw: f64,
     sin_yaw: f64,
-    /// (log-likelihood, fit) per cell
-    cells: Vec<[f32; 2]>,
-    /// for an end point off the map (as far as `max_distance` from anything)
-    outside: [f32; 2],
+    /// per cell, the distance to the nearest wall quantised to 254 steps of
+    /// `max_distance / 254` (code 255: off the map); one byte keeps the field of a
+    /// 40 x 40 m floor at 5 cm (640 k cells) in the L2 cache, where 8 bytes per cell
+    /// did not (2,000 particles x 61 beams: 1.14 -> see docs/localization.md)
+    codes: Vec<u8>,
+    /// (log-likelihood, fit) per code
+    table: [[f32; 2]; 256],
     /// the best a beam can score (an end point on a wall)
     log_p_max: f64,
 }
@@ -65,8 +68,17 @@ impl LikelihoodField {
             (config.z_hit * (-d * d / s2).exp() + rand).ln()
         };
         let p_max = p(0.0);
-        let cell = |d: f64| [p(d) as f32, (p(d) - p_max).exp() as f32];
-        let cells = field.distances_m().iter().map(|&d| cell(d as f64)).collect();
+        let step = config.max_distance_m / 254.0;
+        let mut table = [[0.0f32; 2]; 256];
+        for (code, entry) in table.iter_mut().enumerate() {
+            let d = if code == 255 { f64::INFINITY } else { code as f64 * step };
+            *entry = [p(d) as f32, (p(d) - p_max).exp() as f32];
+        }
+        let codes = field
+            .distances_m()
+            .iter()
+            .map(|&d| if (d as f64) >= config.max_distance_m { 254 } else { ((d as f64) / step).round() as u8 })
+            .collect();
         let o = grid.origin();
         Self {
             width: grid.width(),
@@ -76,8 +88,8 @@ impl LikelihoodField {
             origin_y_m: o.y_m,
             cos_yaw: o.yaw_rad.cos(),
             sin_yaw: o.yaw_rad.sin(),
-            cells,
-            outside: cell(f64::INFINITY),
+            codes,
+            table,
             log_p_max: p_max,
         }
     }
@@ -98,10 +110,10 @@ impl LikelihoodField {
         if gx >= 0.0 && gy >= 0.0 {
             let (c, r) = (gx as usize, gy as usize);
             if c < self.width && r < self.height {
-                return self.cells[r * self.width + c];
+                return self.table[self.codes[r * self.width + c] as usize];
             }
         }
-        self.outside
+        self.table[255]
     }
 
     /// Sum of the log-likelihoods and of the fits of body-frame end points seen from
@@ -124,7 +136,7 @@ impl LikelihoodField {
 
     /// The log-likelihood of an end point far from anything.
     pub fn log_p_min(&self) -> f64 {
-        self.outside[0] as f64
+        self.table[255][0] as f64
     }
 }
 
@@ -145,7 +157,7 @@ mod tests {
         let near = f.log_p(2.325, 1.0) as f64; // 0.2 m off: one sigma
         let far = f.log_p(-10.0, 1.0) as f64;
         assert!((on - f.log_p_max()).abs() < 1e-6);
-        assert!((on - near - 0.5).abs() < 0.01, "one sigma costs 1/2 in log: {on} {near}");
+        assert!((on - near - 0.5).abs() < 0.02, "one sigma costs 1/2 in log: {on} {near}");
         assert!((far - f.log_p_min()).abs() < 1e-6);
         assert!(far < near);
     }

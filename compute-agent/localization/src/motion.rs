@@ -151,7 +151,9 @@ pub fn sample_motion(
             gyro + rng.normal(sd)
         }
     };
-    pose.compose(0.0, 0.0, rot1_hat).compose(trans_hat, 0.0, total - rot1_hat)
+    // = pose.compose(0, 0, rot1_hat).compose(trans_hat, 0, total - rot1_hat), one sin_cos
+    let (s, c) = (pose.heading_rad + rot1_hat).sin_cos();
+    Pose2::new(pose.x_m + trans_hat * c, pose.y_m + trans_hat * s, pose.heading_rad + total)
 }
 
 #[cfg(test)]
