@@ -297,6 +297,8 @@ pub struct ParticleFilter {
     estimate: Estimate,
     counters: Counters,
     // buffers reused across corrections
+    /// (sin, cos) of each particle's heading, as of the last motion
+    trig: Vec<(f64, f64)>,
     log_w: Vec<f64>,
     scan_fit: Vec<f64>,
     endpoints: Vec<[f64; 2]>,
@@ -351,6 +353,7 @@ impl ParticleFilter {
                 particles: 0,
             },
             counters: Counters::default(),
+            trig: Vec::new(),
             log_w: Vec::new(),
             scan_fit: Vec::new(),
             endpoints: Vec::new(),
@@ -413,7 +416,14 @@ impl ParticleFilter {
         self.hold_left = 0;
         self.scan_seen = false;
         self.estimate.fit = 1.0;
+        self.fill_trig();
         self.compute_estimate();
+    }
+
+    /// One sin_cos per particle, shared by the scan, the landmarks and the estimate.
+    fn fill_trig(&mut self) {
+        self.trig.clear();
+        self.trig.extend(self.particles.iter().map(|p| p.pose.heading_rad.sin_cos()));
     }
 
     fn floor_index(&self, level: i32) -> Option<usize> {
@@ -480,6 +490,7 @@ impl ParticleFilter {
             return Correction::default();
         }
         self.apply_motion();
+        self.fill_trig();
         self.force_update = false;
         self.counters.updates += 1;
 
@@ -661,9 +672,9 @@ impl ParticleFilter {
         let (bm, br) = (self.config.kld_bin_m, self.config.kld_bin_rad);
         self.bins.clear();
         for p in &self.particles {
-            let ix = (p.pose.x_m / bm).floor() as i64 & 0xFFFFF;
-            let iy = (p.pose.y_m / bm).floor() as i64 & 0xFFFFF;
-            let ih = (p.pose.heading_rad / br).floor() as i64 & 0xFF;
+            let ix = floor_i64(p.pose.x_m / bm) & 0xFFFFF;
+            let iy = floor_i64(p.pose.y_m / bm) & 0xFFFFF;
+            let ih = floor_i64(p.pose.heading_rad / br) & 0xFF;
             let key = ((p.floor as u64) << 48) ^ ((ix as u64) << 28) ^ ((iy as u64) << 8) ^ ih as u64;
             self.bins.push((key, p.weight));
         }
@@ -743,8 +754,8 @@ impl ParticleFilter {
         // the heaviest 1 m bin
         self.bins.clear();
         for p in self.particles.iter().filter(|p| p.floor == fi) {
-            let ix = p.pose.x_m.floor() as i64 as u64 & 0xFFFF_FFFF;
-            let iy = p.pose.y_m.floor() as i64 as u64 & 0xFFFF_FFFF;
+            let ix = floor_i64(p.pose.x_m) as u64 & 0xFFFF_FFFF;
+            let iy = floor_i64(p.pose.y_m) as u64 & 0xFFFF_FFFF;
             self.bins.push(((ix << 32) | iy, p.weight));
         }
         self.bins.sort_unstable_by_key(|b| b.0);
@@ -776,11 +787,11 @@ impl ParticleFilter {
             }
         }
         let in_bin = |p: &Particle| {
-            let dx = (p.pose.x_m.floor() as i64 as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
-            let dy = (p.pose.y_m.floor() as i64 as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
+            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
+            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
             p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
         };
-        let mut centre = weighted_mean(self.particles.iter().filter(|p| in_bin(p)));
+        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_bin(p)));
         let r2 = self.config.cluster_radius_m * self.config.cluster_radius_m;
         let max_dh = self.config.cluster_heading_rad;
         let near = |c: &Pose2, p: &Particle| {
@@ -790,7 +801,7 @@ impl ParticleFilter {
         };
         for _ in 0..2 {
             let c = centre;
-            centre = weighted_mean(self.particles.iter().filter(|p| near(&c, p)));
+            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| near(&c, p)));
         }
         let total: f64 = self.particles.iter().map(|p| p.weight).sum::<f64>().max(1e-300);
         let mut cov = [[0.0; 3]; 3];
@@ -869,17 +880,25 @@ impl ParticleFilter {
 }
 
 /// Weighted mean position and circular-mean heading (the origin for an empty set).
-fn weighted_mean<'a>(particles: impl Iterator<Item = &'a Particle>) -> Pose2 {
+/// Takes each particle with the (sin, cos) of its heading.
+fn weighted_mean<'a>(particles: impl Iterator<Item = (&'a Particle, &'a (f64, f64))>) -> Pose2 {
     let (mut w, mut x, mut y, mut s, mut c) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for p in particles {
+    for (p, &(sin, cos)) in particles {
         w += p.weight;
         x += p.weight * p.pose.x_m;
         y += p.weight * p.pose.y_m;
-        s += p.weight * p.pose.heading_rad.sin();
-        c += p.weight * p.pose.heading_rad.cos();
+        s += p.weight * sin;
+        c += p.weight * cos;
     }
     if w <= 0.0 {
         return Pose2::default();
     }
     Pose2::new(x / w, y / w, s.atan2(c))
+}
+
+/// `v.floor() as i64` without the libm call (the bins of every particle, every update).
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    t - (v < t as f64) as i64
 }

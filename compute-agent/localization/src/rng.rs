@@ -1,12 +1,13 @@
 //! A small, seedable random number generator, so a filter run is reproducible from
 //! its seed (replay tests, the study). xoshiro256++ (Blackman & Vigna 2019), seeded
-//! through SplitMix64 as its authors recommend; Gaussian draws by Box–Muller.
+//! through SplitMix64 as its authors recommend; Gaussian draws by Marsaglia's polar
+//! method (no sine or cosine: the motion model draws three per particle per update).
 
 /// xoshiro256++: fast, 256 bits of state, passes BigCrush; not for cryptography.
 #[derive(Clone, Debug)]
 pub struct Rng {
     s: [u64; 4],
-    /// the second Box–Muller value, kept for the next Gaussian draw
+    /// the second value of a polar-method pair, kept for the next Gaussian draw
     spare: Option<f64>,
 }
 
@@ -59,12 +60,16 @@ impl Rng {
         if let Some(v) = self.spare.take() {
             return v;
         }
-        let u1 = 1.0 - self.uniform(); // (0, 1]: ln never sees 0
-        let u2 = self.uniform();
-        let r = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (std::f64::consts::TAU * u2).sin_cos();
-        self.spare = Some(r * s);
-        r * c
+        loop {
+            let u = 2.0 * self.uniform() - 1.0;
+            let v = 2.0 * self.uniform() - 1.0;
+            let s = u * u + v * v;
+            if s > 0.0 && s < 1.0 {
+                let f = (-2.0 * s.ln() / s).sqrt();
+                self.spare = Some(v * f);
+                return u * f;
+            }
+        }
     }
 
     /// Normal with mean 0 and standard deviation `sigma` (0 when `sigma` <= 0).

@@ -196,28 +196,26 @@ fn kidnap_seeds() {
     eprintln!("kidnap: lost after / back after (999: never) / tracking while > 1 m off, per seed:{line}");
 }
 
+/// A kidnap is a search: whether the injected particles land near the true place soon
+/// is luck, so this asserts over ten seeds rather than one. Measured over seeds 1 to 20
+/// (the `kidnap_seeds` diagnostic): lost at once in all 20; back within 0.5 m and
+/// tracking after 10 to 69 updates in 19, the 20th not within the 100-update walk.
 #[test]
 fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
-    let (statuses, errors, injected) = kidnap_walk(13);
-    let letters: String = statuses.iter().map(|s| format!("{s:?}").chars().next().unwrap_or('?')).collect();
-    eprintln!("statuses: {letters}");
-    eprintln!(
-        "errors after the kidnap: {:?}",
-        errors[40..].iter().map(|e| (e * 10.0).round() / 10.0).collect::<Vec<_>>()
-    );
-    assert!(statuses[30..40].iter().all(|s| *s == Status::Tracking), "tracking before the kidnap: {letters}");
-    assert!(errors[..40].iter().all(|&e| e < 0.3), "accurate before the kidnap");
-    let lost_at = statuses[40..].iter().position(|s| *s == Status::Lost).expect("never reported lost");
-    let back_at = recovered_after(&statuses, &errors);
-    eprintln!(
-        "kidnap into the hall: lost after {lost_at} updates, back within 0.5 m and tracking after {back_at:?} updates; {} particles injected",
-        injected
-    );
-    assert!(lost_at <= 5, "took {lost_at} updates to notice");
-    let back_at = back_at.expect("never recovered");
-    // over seeds 1 to 20 (the `kidnap_seeds` diagnostic): lost at once in all, back
-    // after 11 to 76 updates (median ~32: 8 m of walking)
-    assert!(back_at <= 80, "took {back_at} updates to recover");
+    let mut back = Vec::new();
+    for seed in 1..=10 {
+        let (statuses, errors, injected) = kidnap_walk(seed);
+        assert!(statuses[30..40].iter().all(|s| *s == Status::Tracking), "seed {seed}: not tracking before the kidnap");
+        assert!(errors[..40].iter().all(|&e| e < 0.3), "seed {seed}: inaccurate before the kidnap");
+        let lost_at = statuses[40..].iter().position(|s| *s == Status::Lost);
+        let back_at = recovered_after(&statuses, &errors);
+        eprintln!("kidnap into the hall, seed {seed}: lost after {lost_at:?} updates, back after {back_at:?}; {injected} injected");
+        assert!(lost_at.is_some_and(|k| k <= 5), "seed {seed}: lost after {lost_at:?} updates");
+        back.extend(back_at);
+    }
+    back.sort();
+    assert!(back.len() >= 9, "only {} of 10 seeds recovered", back.len());
+    assert!(back[back.len() / 2] <= 40, "median recovery {} updates", back[back.len() / 2]);
 }
 
 /// On the Intel lab a kidnap does not collapse the likelihood: the office rows look
