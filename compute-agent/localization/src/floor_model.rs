@@ -1,0 +1,173 @@
+//! What the filter needs of one floor: the likelihood field of its occupancy grid, its
+//! free cells (where recovery may put particles), its numbered doors and corners, and
+//! its wall directions (for the wall-angle correction).
+
+use map::{Cell, DistanceField, OccupancyGrid, SemanticLayer};
+
+use crate::likelihood_field::{LikelihoodField, LikelihoodFieldConfig};
+use crate::LocalizationError;
+
+/// One floor, ready for the filter.
+#[derive(Clone, Debug)]
+pub struct FloorModel {
+    /// the floor's level (0 = ground)
+    pub level: i32,
+    pub(crate) field: LikelihoodField,
+    /// centres of the free cells, metres
+    pub(crate) free_cells: Vec<[f64; 2]>,
+    pub(crate) cell_m: f64,
+    pub(crate) doors: Vec<(String, [f64; 2])>,
+    pub(crate) corners: Vec<[f64; 2]>,
+    /// wall directions in the map frame, radians, each modulo pi
+    pub(crate) wall_directions_rad: Vec<f64>,
+}
+
+impl FloorModel {
+    /// A floor from its grid and semantic layer (doors and corners of other floors are
+    /// ignored). Wall directions are estimated from the grid
+    /// ([`dominant_wall_directions`]); set others with [`Self::with_wall_directions`].
+    /// Refuses a grid with no free cell: nothing could ever be localized on it.
+    pub fn new(
+        level: i32,
+        grid: &OccupancyGrid,
+        semantic: &SemanticLayer,
+        config: &LikelihoodFieldConfig,
+    ) -> Result<Self, LocalizationError> {
+        let free_cells: Vec<[f64; 2]> = (0..grid.height())
+            .flat_map(|r| (0..grid.width()).map(move |c| (c, r)))
+            .filter(|&(c, r)| grid.get(c, r) == Some(Cell::Free))
+            .map(|(c, r)| {
+                let (x, y) = grid.cell_center(c, r);
+                [x, y]
+            })
+            .collect();
+        if free_cells.is_empty() {
+            return Err(LocalizationError::NoFreeSpace { level });
+        }
+        let on_floor = semantic.floor(level);
+        Ok(Self {
+            level,
+            field: LikelihoodField::new(grid, config),
+            free_cells,
+            cell_m: grid.resolution_m(),
+            doors: on_floor.doors.iter().map(|d| (d.number.clone(), [d.x, d.y])).collect(),
+            corners: on_floor.corners.iter().map(|c| [c.x, c.y]).collect(),
+            wall_directions_rad: dominant_wall_directions(grid),
+        })
+    }
+
+    /// Replaces the wall directions (radians in the map frame, each taken modulo pi).
+    pub fn with_wall_directions(mut self, directions_rad: Vec<f64>) -> Self {
+        self.wall_directions_rad = directions_rad;
+        self
+    }
+
+    /// The wall directions the wall-angle correction matches against.
+    pub fn wall_directions_rad(&self) -> &[f64] {
+        &self.wall_directions_rad
+    }
+
+    /// The map position of door `number` on this floor.
+    pub fn door(&self, number: &str) -> Option<[f64; 2]> {
+        self.doors.iter().find(|(n, _)| n == number).map(|(_, p)| *p)
+    }
+
+    /// The likelihood field of the floor's grid.
+    pub fn field(&self) -> &LikelihoodField {
+        &self.field
+    }
+}
+
+/// The dominant wall direction of a grid and the one at right angles to it (most
+/// buildings are rectilinear; Zhang et al. correct heading modulo 90 degrees). From the
+/// gradient of the distance to walls 4 to 12 cells away (nearer, the raster steps of a
+/// slanted wall dominate): a wall's normal is that gradient.
+/// Angles are folded modulo 90 degrees and averaged on the circle (angle x 4) within 5
+/// degrees of the histogram peak. A grid with no walls gives the grid's own axes.
+pub fn dominant_wall_directions(grid: &OccupancyGrid) -> Vec<f64> {
+    let field = DistanceField::to_occupied(grid);
+    let (w, h) = (field.width(), field.height());
+    let res = field.resolution_m() as f32;
+    let mut hist = [0.0f64; 90];
+    let mut samples: Vec<f64> = Vec::new();
+    for r in 2..h.saturating_sub(2) {
+        for c in 2..w.saturating_sub(2) {
+            let d = field.distances_m()[r * w + c];
+            // 4 to 12 cells from a wall: the gradient there is the wall's normal, and
+            // far enough from the wall's raster steps to be smooth
+            if !(d > 4.0 * res && d < 12.0 * res) {
+                continue;
+            }
+            let at = |cc: usize, rr: usize| field.distances_m()[rr * w + cc];
+            let gx = (at(c + 2, r) - at(c - 2, r)) as f64;
+            let gy = (at(c, r + 2) - at(c, r - 2)) as f64;
+            if !(gx.is_finite() && gy.is_finite()) || gx.hypot(gy) < 1e-9 {
+                continue;
+            }
+            let folded = gy.atan2(gx).rem_euclid(std::f64::consts::FRAC_PI_2);
+            hist[(folded.to_degrees() as usize).min(89)] += 1.0;
+            samples.push(folded);
+        }
+    }
+    let yaw = grid.origin().yaw_rad;
+    if samples.is_empty() {
+        return vec![yaw, yaw + std::f64::consts::FRAC_PI_2];
+    }
+    // smooth over +-2 degrees (circularly) and take the peak
+    let peak = (0..90)
+        .max_by(|&a, &b| {
+            let s = |i: usize| (0..5).map(|k| hist[(i + 88 + k) % 90]).sum::<f64>();
+            s(a).total_cmp(&s(b))
+        })
+        .unwrap_or(0) as f64
+        + 0.5;
+    let (mut sx, mut sy) = (0.0, 0.0);
+    for a in samples {
+        let diff = ((a.to_degrees() - peak + 45.0).rem_euclid(90.0)) - 45.0;
+        if diff.abs() <= 5.0 {
+            sx += (4.0 * a).cos();
+            sy += (4.0 * a).sin();
+        }
+    }
+    let theta = (sy.atan2(sx) / 4.0).rem_euclid(std::f64::consts::FRAC_PI_2);
+    // the normal's direction folded modulo 90 degrees is also the wall's
+    vec![theta, theta + std::f64::consts::FRAC_PI_2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use map::Origin;
+
+    #[test]
+    fn finds_the_direction_of_a_rotated_rectangle_room() {
+        let angle = 20f64.to_radians();
+        let (w, h) = (200, 200);
+        let mut g =
+            OccupancyGrid::filled(w, h, 0.05, Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }, Cell::Free).expect("grid");
+        // a 6 x 4 m rectangle rotated by 20 degrees about (5, 5)
+        for r in 0..h {
+            for c in 0..w {
+                let (x, y) = g.cell_center(c, r);
+                let (dx, dy) = (x - 5.0, y - 5.0);
+                let (u, v) = (angle.cos() * dx + angle.sin() * dy, -angle.sin() * dx + angle.cos() * dy);
+                let inside = u.abs() < 3.0 && v.abs() < 2.0;
+                let wall = inside && (u.abs() > 2.9 || v.abs() > 1.9);
+                g.set(
+                    c,
+                    r,
+                    if wall {
+                        Cell::Occupied
+                    } else if inside {
+                        Cell::Free
+                    } else {
+                        Cell::Unknown
+                    },
+                );
+            }
+        }
+        let dirs = dominant_wall_directions(&g);
+        let err = crate::landmarks::wall_residual(angle, &dirs);
+        assert!(err < 1f64.to_radians(), "found {:?} deg", dirs.iter().map(|d| d.to_degrees()).collect::<Vec<_>>());
+    }
+}

@@ -1,0 +1,125 @@
+//! Landmark and wall-angle observations (Zhang et al., CCNY: door numbers are unique
+//! landmarks, corridor corners are not; the angle of a wall beside the user corrects
+//! heading).
+//!
+//! None of them is trusted outright. A door sign can be misread (by a person asked to
+//! "verify door number", or by a sign reader), so a reading's likelihood is a mixture:
+//! `(1 - p_misread) * g(d) + p_misread`, `g` an unnormalised Gaussian of the distance
+//! `d` between where the particle predicts the sign and where the map has that door.
+//! A particle far from the door keeps `p_misread` of its weight instead of nothing, so
+//! one wrong number shifts belief by at most a factor `1 / p_misread` and the scans
+//! can still win it back (their trial that "diverged after a misread door number"
+//! trusted it). Corners and wall angles mix in an outlier probability the same way.
+
+use serde::{Deserialize, Serialize};
+
+use crate::pose::wrap_angle;
+
+/// A landmark seen from the user, its position in the body frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Landmark {
+    /// A door sign read as `number` (unique on its floor).
+    Door {
+        /// the number as read (may be wrong)
+        number: String,
+        /// metres ahead of the user
+        forward_m: f64,
+        /// metres to the user's left
+        left_m: f64,
+    },
+    /// A corridor corner (not unique: it is matched to the nearest corner on the map).
+    Corner {
+        /// metres ahead of the user
+        forward_m: f64,
+        /// metres to the user's left
+        left_m: f64,
+    },
+}
+
+impl Landmark {
+    /// The body-frame position of the landmark.
+    pub fn offset_m(&self) -> (f64, f64) {
+        match self {
+            Landmark::Door { forward_m, left_m, .. } | Landmark::Corner { forward_m, left_m } => (*forward_m, *left_m),
+        }
+    }
+}
+
+/// The direction of a wall beside the user, measured by the depth camera relative to
+/// the body's forward axis (a wall is a line: `a` and `a + pi` are the same wall).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WallAngle {
+    /// radians counter-clockwise from forward
+    pub angle_rad: f64,
+}
+
+/// How much to trust landmarks and wall angles.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LandmarkConfig {
+    /// standard deviation of a landmark's measured position, metres (a door sign is read
+    /// within arm's length; a corner from depth within half a metre)
+    pub sigma_m: f64,
+    /// probability that a door number is misread (Zhang et al. report a misread in one
+    /// of their trials; 0.1 is a sign reader in poor light)
+    pub door_misread_probability: f64,
+    /// probability that a detected corner is not a map corner (clutter, an open door)
+    pub corner_false_probability: f64,
+    /// standard deviation of a measured wall angle, radians (3 degrees: a plane fit to
+    /// a metre of wall in a depth image)
+    pub wall_sigma_rad: f64,
+    /// probability that a "wall" is not one of the map's wall directions (furniture)
+    pub wall_outlier_probability: f64,
+}
+
+impl Default for LandmarkConfig {
+    fn default() -> Self {
+        Self {
+            sigma_m: 0.5,
+            door_misread_probability: 0.1,
+            corner_false_probability: 0.2,
+            wall_sigma_rad: 3f64.to_radians(),
+            wall_outlier_probability: 0.1,
+        }
+    }
+}
+
+/// `(1 - p_out) * exp(-d^2 / 2 sigma^2) + p_out`, as a log.
+#[inline]
+pub fn mixture_log_p(d: f64, sigma: f64, p_out: f64) -> f64 {
+    ((1.0 - p_out) * (-d * d / (2.0 * sigma * sigma)).exp() + p_out).ln()
+}
+
+/// The smallest angle between a wall direction `a` and any of `directions` (all lines,
+/// so modulo pi), radians in [0, pi/2].
+pub fn wall_residual(a: f64, directions: &[f64]) -> f64 {
+    directions
+        .iter()
+        .map(|&d| {
+            let r = wrap_angle(2.0 * (a - d)) / 2.0; // modulo pi
+            r.abs()
+        })
+        .fold(std::f64::consts::FRAC_PI_2, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn wall_residual_is_modulo_pi_per_direction() {
+        let dirs = [0.0, PI / 2.0];
+        assert!(wall_residual(0.05, &dirs) - 0.05 < 1e-12);
+        assert!((wall_residual(PI - 0.05, &dirs) - 0.05).abs() < 1e-12);
+        assert!((wall_residual(PI / 2.0 + 0.1, &dirs) - 0.1).abs() < 1e-12);
+        assert!((wall_residual(PI / 4.0, &dirs) - PI / 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_misread_keeps_p_misread_of_the_weight() {
+        let far = mixture_log_p(50.0, 0.5, 0.1);
+        assert!((far - 0.1f64.ln()).abs() < 1e-9);
+        assert!(mixture_log_p(0.0, 0.5, 0.1).abs() < 1e-12);
+    }
+}

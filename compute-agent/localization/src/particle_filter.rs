@@ -1,0 +1,904 @@
+//! Monte Carlo localization over (x, y, heading, floor): AMCL's structure (Thrun,
+//! Burgard & Fox, *Probabilistic Robotics*, ch. 8; ROS `amcl`) with Zhang et al.'s
+//! landmark and wall-angle corrections.
+//!
+//! One cycle:
+//! 1. [`ParticleFilter::predict`] accumulates odometry increments (and the IMU's yaw)
+//!    until the user has moved `update_min_distance_m` or turned `update_min_angle_rad`
+//!    (AMCL's `update_min_d` 0.25 m, `update_min_a` 0.2 rad);
+//! 2. [`ParticleFilter::correct`] then moves every particle by a noisy draw of the
+//!    accumulated motion and weights it by the scan's likelihood field, the landmarks
+//!    and the wall angles (a landmark forces a correction: they are rare);
+//! 3. when the effective sample size falls below half the particle count, low-variance
+//!    resampling draws a new set whose size follows the spread of the weights (a
+//!    KLD bound over occupied bins, see [`FilterConfig::kld_error`]);
+//! 4. augmented MCL: short- and long-term averages of how well the scan fits
+//!    (`w_fast`, `w_slow`) — when the short-term one drops well below the long-term one
+//!    (a dead band: [`FilterConfig::recovery_ratio`]), a fraction of the new set is
+//!    drawn uniformly in free space, so a wrong start, a kidnap or a belief dragged off
+//!    by a misread door is recovered from.
+//!
+//! Everything random comes from one seeded [`Rng`]: the same inputs and seed give the
+//! same particles, bit for bit.
+
+use serde::{Deserialize, Serialize};
+
+use crate::floor_model::FloorModel;
+use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
+use crate::motion::{sample_motion, MotionNoise, OdometryIncrement, RotTransRot};
+use crate::pose::{wrap_angle, Pose2};
+use crate::rng::Rng;
+use crate::scan::Scan;
+use crate::LocalizationError;
+
+/// How the filter behaves. Defaults are AMCL's unless a field says otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FilterConfig {
+    /// odometry (and IMU) noise
+    pub motion: MotionNoise,
+    /// landmark and wall-angle trust
+    pub landmarks: LandmarkConfig,
+    /// correct after this much walking, metres (`update_min_d`, 0.25)
+    pub update_min_distance_m: f64,
+    /// ... or this much turning, radians (`update_min_a`, 0.2)
+    pub update_min_angle_rad: f64,
+    /// beams used per scan, evenly spread (`laser_max_beams`, 30)
+    pub max_beams: usize,
+    /// exponent on the scan's likelihood: beams are correlated and the map is
+    /// imperfect, so the product over beams is far too confident. 1/3 keeps the 30-beam
+    /// product about as peaked as 10 independent beams (measured on the Intel log:
+    /// docs/localization.md). AMCL tempers with a sum of cubes instead.
+    pub scan_weight_exponent: f64,
+    /// fewest particles (`min_particles`, 500)
+    pub min_particles: usize,
+    /// most particles after a resampling (`max_particles`, 5000)
+    pub max_particles: usize,
+    /// particles of a global start (spread over all free space; the first resampling
+    /// brings the count within [min, max]). 40,000: on the Intel log, over ten seeds,
+    /// 10,000 converged after a median of ~55 updates (worst 689), 20,000 within 14
+    /// updates in 9 of 10 (the tenth: 603), 40,000 within 14 in all ten
+    /// (docs/localization.md). One update of 40,000 costs ~10 ms, once.
+    pub global_particles: usize,
+    /// KLD bound: allowed error between the sample and the true posterior (`kld_err`, 0.01)
+    pub kld_error: f64,
+    /// KLD bound: the normal quantile (`kld_z` as AMCL uses it, 0.99)
+    pub kld_z: f64,
+    /// KLD bin size in x and y, metres (AMCL: 0.5)
+    pub kld_bin_m: f64,
+    /// KLD bin size in heading, radians (AMCL: 10 degrees)
+    pub kld_bin_rad: f64,
+    /// resample when the effective sample size falls below this fraction of the count
+    pub resample_ess_fraction: f64,
+    /// long-term average rate (`recovery_alpha_slow`; AMCL suggests 0.001 when enabled:
+    /// a memory of ~1000 updates = 250 m. Ours is 0.01, ~25 m: a user's walks are short)
+    pub alpha_slow: f64,
+    /// short-term average rate (`recovery_alpha_fast`, 0.1 as AMCL suggests)
+    pub alpha_fast: f64,
+    /// at most this fraction of a resampled set is injected at random
+    pub max_inject_fraction: f64,
+    /// once the recovery has started, it keeps injecting at least
+    /// `recovery_hold_fraction` for this many updates even when the fit comes back: the
+    /// first place that fits after a kidnap is often a look-alike (in the kidnap test,
+    /// without the hold 7 seeds of 20 settled on one; docs/localization.md)
+    pub recovery_hold_updates: u32,
+    /// the fraction injected during the hold
+    pub recovery_hold_fraction: f64,
+    /// dead band of the recovery: particles are injected only when `w_fast / w_slow`
+    /// falls below this, a fraction `1 - (w_fast / w_slow) / recovery_ratio`. Thrun's
+    /// `1 - w_fast / w_slow` injects on every dip of an ordinary scan; on the Intel log
+    /// those few random particles, when one fit a corridor by chance while the true
+    /// cluster had a poor scan, took over a good track in 4 runs of 6
+    /// (docs/localization.md). 0.75: while tracking the Intel log the ratio stays
+    /// above ~0.9; at 0.6 a kidnapped filter stopped searching once it had found a
+    /// mirror image of the true place that fitted 60 % of the beams.
+    pub recovery_ratio: f64,
+    /// `Tracking` needs the larger position standard deviation below this, metres
+    pub tracking_max_std_m: f64,
+    /// ... and the heading standard deviation below this, radians
+    pub tracking_max_heading_std_rad: f64,
+    /// ... and (once a scan was seen) the short-term scan fit and the last scan's fit
+    /// at least this (on the Intel log a tracked scan fits 0.3 to 0.6)
+    pub tracking_min_fit: f64,
+    /// `Tracking` also needs this share of the weight in the main cluster
+    pub tracking_min_cluster_weight: f64,
+    /// `Lost` when the main cluster holds less than this share of the weight
+    pub lost_max_cluster_weight: f64,
+    /// the main cluster's radius, metres (see [`Estimate`])
+    pub cluster_radius_m: f64,
+    /// ... and its half-width in heading, radians
+    pub cluster_heading_rad: f64,
+    /// ... or the last scan's fit falls below this (likelihood collapse); `Lost` too
+    /// while the recovery injects (`w_fast < recovery_ratio * w_slow`: the scans fit far
+    /// worse than they have been)
+    pub lost_max_fit: f64,
+    /// odometry faster than this is refused, metres per second (a running person: 3)
+    pub max_speed_m_s: f64,
+    /// odometry turning faster than this is refused, radians per second
+    pub max_yaw_rate_rad_s: f64,
+}
+
+impl Default for FilterConfig {
+    fn default() -> Self {
+        Self {
+            motion: MotionNoise::default(),
+            landmarks: LandmarkConfig::default(),
+            update_min_distance_m: 0.25,
+            update_min_angle_rad: 0.2,
+            max_beams: 30,
+            scan_weight_exponent: 0.2,
+            min_particles: 500,
+            max_particles: 5000,
+            global_particles: 40_000,
+            kld_error: 0.01,
+            kld_z: 0.99,
+            kld_bin_m: 0.5,
+            kld_bin_rad: 10f64.to_radians(),
+            resample_ess_fraction: 0.5,
+            alpha_slow: 0.01,
+            alpha_fast: 0.1,
+            max_inject_fraction: 0.5,
+            recovery_hold_updates: 30,
+            recovery_hold_fraction: 0.1,
+            recovery_ratio: 0.75,
+            tracking_max_std_m: 0.5,
+            tracking_max_heading_std_rad: 10f64.to_radians(),
+            tracking_min_fit: 0.25,
+            tracking_min_cluster_weight: 0.8,
+            lost_max_cluster_weight: 0.25,
+            cluster_radius_m: 1.5,
+            cluster_heading_rad: 45f64.to_radians(),
+            lost_max_fit: 0.12,
+            max_speed_m_s: 3.0,
+            max_yaw_rate_rad_s: 6.0,
+        }
+    }
+}
+
+/// One hypothesis of where the user is.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Particle {
+    /// pose in the map frame of floor `level`
+    pub pose: Pose2,
+    /// the floor's level
+    pub level: i32,
+    /// normalised weight (the set sums to 1)
+    pub weight: f64,
+    /// index of the floor in the filter's floors
+    #[serde(skip)]
+    floor: u16,
+}
+
+/// How sure the filter is (thresholds in [`FilterConfig`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Status {
+    /// one tight cluster holding most of the weight that fits the scans: guidance may
+    /// rely on it
+    Tracking,
+    /// converging or spread out, but the scans still fit
+    Uncertain,
+    /// no dominant hypothesis, or the scans no longer fit (likelihood collapse)
+    Lost,
+}
+
+/// The filter's answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// weighted mean pose (circular mean heading) of the main cluster: the particles
+    /// within `cluster_radius_m` and `cluster_heading_rad` of the heaviest part of the
+    /// most likely floor
+    pub pose: Pose2,
+    /// the most likely floor's level
+    pub level: i32,
+    /// covariance of (x, y, heading) of the main cluster about its mean, m^2 / m rad / rad^2
+    pub covariance: [[f64; 3]; 3],
+    /// the main cluster's share of the weight (1: a single hypothesis)
+    pub cluster_weight: f64,
+    /// see [`Status`]
+    pub status: Status,
+    /// short-term scan fit in (0, 1]: weighted mean over particles of the mean, over
+    /// beams, of a beam's likelihood relative to a beam on a wall (how much of the scan
+    /// the map explains); 1 when no scan was seen
+    pub fit: f64,
+    /// number of particles
+    pub particles: usize,
+}
+
+impl Estimate {
+    /// Standard deviation along the covariance's major axis, metres.
+    pub fn position_std_m(&self) -> f64 {
+        let [[a, b, _], [_, d, _], _] = self.covariance;
+        let tr = a + d;
+        let disc = ((a - d) * (a - d) / 4.0 + b * b).sqrt();
+        (tr / 2.0 + disc).max(0.0).sqrt()
+    }
+
+    /// Standard deviation of the heading, radians.
+    pub fn heading_std_rad(&self) -> f64 {
+        self.covariance[2][2].max(0.0).sqrt()
+    }
+}
+
+/// What was refused or done, for the agent's counters and logs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Counters {
+    /// odometry increments refused (NaN, jumps)
+    pub odometry_rejected: u64,
+    /// landmarks refused (door number not on any floor, non-finite offsets)
+    pub landmarks_rejected: u64,
+    /// wall angles refused (non-finite)
+    pub wall_angles_rejected: u64,
+    /// beams skipped (NaN, non-positive, max range)
+    pub beams_unusable: u64,
+    /// corrections done
+    pub updates: u64,
+    /// resamplings done
+    pub resamples: u64,
+    /// particles drawn at random by recovery
+    pub particles_injected: u64,
+    /// corrections after which every weight was zero or non-finite (reset to uniform)
+    pub weight_collapses: u64,
+}
+
+/// What one correction did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Correction {
+    /// whether the particles were moved and weighted (false: not enough motion yet)
+    pub updated: bool,
+    /// whether they were resampled
+    pub resampled: bool,
+    /// particles injected at random
+    pub injected: usize,
+}
+
+/// Observations offered to [`ParticleFilter::correct`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Observations<'a> {
+    /// the latest range scan
+    pub scan: Option<&'a Scan>,
+    /// landmarks seen since the last call
+    pub landmarks: &'a [Landmark],
+    /// wall directions seen beside the user
+    pub wall_angles: &'a [WallAngle],
+}
+
+/// Why an input was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Rejected {
+    /// an odometry increment that cannot be a person's motion
+    #[error("odometry increment refused: {0}")]
+    Odometry(&'static str),
+    /// an IMU yaw rate that is not finite or too fast
+    #[error("IMU yaw rate refused: {0} rad/s")]
+    ImuYawRate(f64),
+}
+
+/// The particle filter. See the module documentation.
+#[derive(Clone, Debug)]
+pub struct ParticleFilter {
+    floors: Vec<FloorModel>,
+    config: FilterConfig,
+    rng: Rng,
+    particles: Vec<Particle>,
+    /// motion since the last correction, in the body frame at the last correction
+    pending: Pose2,
+    /// gyro yaw over the same interval, when every increment came with one
+    pending_imu_yaw: Option<f64>,
+    pending_dt_s: f64,
+    pending_increments: usize,
+    force_update: bool,
+    w_slow: f64,
+    w_fast: f64,
+    last_w_avg: f64,
+    scans_since_init: u64,
+    /// updates the recovery keeps injecting for
+    hold_left: u32,
+    scan_seen: bool,
+    estimate: Estimate,
+    counters: Counters,
+    // buffers reused across corrections
+    /// (sin, cos) of each particle's heading, as of the last motion
+    trig: Vec<(f64, f64)>,
+    log_w: Vec<f64>,
+    scan_fit: Vec<f64>,
+    endpoints: Vec<[f64; 2]>,
+    bins: Vec<(u64, f64)>,
+    next: Vec<Particle>,
+}
+
+impl ParticleFilter {
+    /// A filter over `floors` (at least one, levels unique), seeded with `seed`,
+    /// starting spread uniformly over their free space ([`Self::init_global`]).
+    pub fn new(floors: Vec<FloorModel>, config: FilterConfig, seed: u64) -> Result<Self, LocalizationError> {
+        if floors.is_empty() {
+            return Err(LocalizationError::NoFloors);
+        }
+        for (i, f) in floors.iter().enumerate() {
+            if floors[..i].iter().any(|g| g.level == f.level) {
+                return Err(LocalizationError::DuplicateFloor { level: f.level });
+            }
+        }
+        if floors.len() > u16::MAX as usize {
+            return Err(LocalizationError::TooManyFloors);
+        }
+        if !(config.min_particles >= 1 && config.min_particles <= config.max_particles) {
+            return Err(LocalizationError::BadConfig("need 1 <= min_particles <= max_particles".into()));
+        }
+        if config.max_particles > 1_000_000 || config.global_particles > 1_000_000 {
+            return Err(LocalizationError::BadConfig("max_particles or global_particles above 1,000,000".into()));
+        }
+        let mut f = Self {
+            floors,
+            config,
+            rng: Rng::new(seed),
+            particles: Vec::new(),
+            pending: Pose2::default(),
+            pending_imu_yaw: Some(0.0),
+            pending_dt_s: 0.0,
+            pending_increments: 0,
+            force_update: true,
+            w_slow: 0.0,
+            w_fast: 0.0,
+            last_w_avg: 0.0,
+            scans_since_init: 0,
+            hold_left: 0,
+            scan_seen: false,
+            estimate: Estimate {
+                pose: Pose2::default(),
+                level: 0,
+                covariance: [[0.0; 3]; 3],
+                cluster_weight: 0.0,
+                status: Status::Lost,
+                fit: 1.0,
+                particles: 0,
+            },
+            counters: Counters::default(),
+            trig: Vec::new(),
+            log_w: Vec::new(),
+            scan_fit: Vec::new(),
+            endpoints: Vec::new(),
+            bins: Vec::new(),
+            next: Vec::new(),
+        };
+        f.init_global();
+        Ok(f)
+    }
+
+    /// Forget everything: `global_particles` particles uniform over the free space of
+    /// all floors (in proportion to their free area), uniform heading.
+    pub fn init_global(&mut self) {
+        let n = self.config.global_particles.max(self.config.min_particles);
+        self.particles.clear();
+        for _ in 0..n {
+            let p = self.random_particle(1.0 / n as f64);
+            self.particles.push(p);
+        }
+        self.after_init();
+    }
+
+    /// Start near a known pose: `min_particles.max(1000).min(max_particles)` particles,
+    /// Gaussian around `pose` on floor `level`.
+    pub fn init_pose(
+        &mut self,
+        level: i32,
+        pose: Pose2,
+        sigma_xy_m: f64,
+        sigma_heading_rad: f64,
+    ) -> Result<(), LocalizationError> {
+        let floor = self.floor_index(level).ok_or(LocalizationError::UnknownFloor { level })?;
+        if ![pose.x_m, pose.y_m, pose.heading_rad, sigma_xy_m, sigma_heading_rad].iter().all(|v| v.is_finite()) {
+            return Err(LocalizationError::BadConfig("initial pose and spread must be finite".into()));
+        }
+        let n = self.config.min_particles.max(1000).min(self.config.max_particles);
+        self.particles.clear();
+        for _ in 0..n {
+            let p = Pose2::new(
+                pose.x_m + self.rng.normal(sigma_xy_m),
+                pose.y_m + self.rng.normal(sigma_xy_m),
+                pose.heading_rad + self.rng.normal(sigma_heading_rad),
+            );
+            self.particles.push(Particle { pose: p, level, weight: 1.0 / n as f64, floor: floor as u16 });
+        }
+        self.after_init();
+        Ok(())
+    }
+
+    fn after_init(&mut self) {
+        self.pending = Pose2::default();
+        self.pending_imu_yaw = Some(0.0);
+        self.pending_dt_s = 0.0;
+        self.pending_increments = 0;
+        self.force_update = true;
+        self.w_slow = 0.0;
+        self.w_fast = 0.0;
+        self.last_w_avg = 0.0;
+        self.scans_since_init = 0;
+        self.hold_left = 0;
+        self.scan_seen = false;
+        self.estimate.fit = 1.0;
+        self.fill_trig();
+        self.compute_estimate();
+    }
+
+    /// One sin_cos per particle, shared by the scan, the landmarks and the estimate.
+    fn fill_trig(&mut self) {
+        self.trig.clear();
+        self.trig.extend(self.particles.iter().map(|p| p.pose.heading_rad.sin_cos()));
+    }
+
+    fn floor_index(&self, level: i32) -> Option<usize> {
+        self.floors.iter().position(|f| f.level == level)
+    }
+
+    fn random_particle(&mut self, weight: f64) -> Particle {
+        let total: usize = self.floors.iter().map(|f| f.free_cells.len()).sum();
+        let mut k = self.rng.index(total);
+        let mut fi = 0;
+        while k >= self.floors[fi].free_cells.len() {
+            k -= self.floors[fi].free_cells.len();
+            fi += 1;
+        }
+        let f = &self.floors[fi];
+        let [cx, cy] = f.free_cells[k];
+        let half = f.cell_m / 2.0;
+        let pose = Pose2::new(
+            cx + self.rng.range(-half, half),
+            cy + self.rng.range(-half, half),
+            self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+        );
+        Particle { pose, level: f.level, weight, floor: fi as u16 }
+    }
+
+    /// Adds an odometry increment (and the IMU's yaw rate over the same interval, if
+    /// any). Implausible input is refused, counted, and changes nothing.
+    pub fn predict(&mut self, odometry: &OdometryIncrement, imu_yaw_rate_rad_s: Option<f64>) -> Result<(), Rejected> {
+        if let Some(why) = odometry.implausible(self.config.max_speed_m_s, self.config.max_yaw_rate_rad_s) {
+            self.counters.odometry_rejected += 1;
+            return Err(Rejected::Odometry(why));
+        }
+        if let Some(rate) = imu_yaw_rate_rad_s {
+            if !rate.is_finite() || rate.abs() > self.config.max_yaw_rate_rad_s {
+                self.counters.odometry_rejected += 1;
+                return Err(Rejected::ImuYawRate(rate));
+            }
+        }
+        let imu_yaw = imu_yaw_rate_rad_s.map(|r| r * odometry.dt_s);
+        let yaw = imu_yaw.unwrap_or(odometry.yaw_rad);
+        self.pending_imu_yaw = match (self.pending_imu_yaw, imu_yaw) {
+            (Some(a), Some(b)) => Some(a + b),
+            _ => None,
+        };
+        self.pending = self.pending.compose(odometry.forward_m, odometry.left_m, yaw);
+        self.pending_dt_s += odometry.dt_s;
+        self.pending_increments += 1;
+        Ok(())
+    }
+
+    /// Whether enough motion has accumulated for a correction.
+    pub fn update_due(&self) -> bool {
+        self.force_update
+            || self.pending.x_m.hypot(self.pending.y_m) >= self.config.update_min_distance_m
+            || self.pending.heading_rad.abs() >= self.config.update_min_angle_rad
+    }
+
+    /// Applies the accumulated motion and the observations, if an update is due (or a
+    /// landmark was seen); otherwise does nothing. Landmarks not on the map and
+    /// non-finite wall angles are refused and counted; the rest still apply.
+    pub fn correct(&mut self, obs: &Observations) -> Correction {
+        let has_landmark = !obs.landmarks.is_empty();
+        if !(self.update_due() || has_landmark) {
+            return Correction::default();
+        }
+        self.apply_motion();
+        self.fill_trig();
+        self.force_update = false;
+        self.counters.updates += 1;
+
+        let n = self.particles.len();
+        self.log_w.clear();
+        self.log_w.resize(n, 0.0);
+        let scan_used = match obs.scan {
+            Some(scan) => self.weigh_scan(scan),
+            None => false,
+        };
+        for lm in obs.landmarks {
+            self.weigh_landmark(lm);
+        }
+        for wall in obs.wall_angles {
+            self.weigh_wall(wall);
+        }
+
+        if scan_used {
+            // augmented MCL: the average fit under the predicted (prior-weighted) set
+            let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
+            // bias-corrected: the plain mean of the scans so far until there are 1/alpha
+            // of them, so the first scan (often a perfect fit at a known start) does
+            // not set the long-term level for hundreds of updates
+            self.scans_since_init += 1;
+            let n = self.scans_since_init as f64;
+            let slow = self.config.alpha_slow.max(1.0 / n);
+            let fast = self.config.alpha_fast.max(1.0 / n);
+            self.w_slow += slow * (w_avg - self.w_slow);
+            self.w_fast += fast * (w_avg - self.w_fast);
+            self.last_w_avg = w_avg;
+            self.scan_seen = true;
+        }
+
+        // posterior weights, in the log domain against the best
+        let max_lw = self.log_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
+        for (p, lw) in self.particles.iter_mut().zip(&self.log_w) {
+            p.weight *= (lw - max_lw).exp();
+            sum += p.weight;
+        }
+        if sum > 0.0 && sum.is_finite() {
+            for p in &mut self.particles {
+                p.weight /= sum;
+            }
+        } else {
+            self.counters.weight_collapses += 1;
+            for p in &mut self.particles {
+                p.weight = 1.0 / n as f64;
+            }
+        }
+        if self.scan_seen {
+            self.estimate.fit = self.w_fast;
+        }
+        self.compute_estimate();
+
+        let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
+        let inject_fraction = if self.scan_seen && self.w_slow > 0.0 {
+            let ratio = self.w_fast / self.w_slow;
+            (1.0 - ratio / self.config.recovery_ratio.max(1e-9)).clamp(0.0, self.config.max_inject_fraction)
+        } else {
+            0.0
+        };
+        let inject_fraction = if inject_fraction > 0.0 {
+            self.hold_left = self.config.recovery_hold_updates;
+            inject_fraction
+        } else if self.hold_left > 0 {
+            self.hold_left -= 1;
+            self.config.recovery_hold_fraction.min(self.config.max_inject_fraction)
+        } else {
+            0.0
+        };
+        let mut out = Correction { updated: true, ..Default::default() };
+        let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
+        if ess < self.config.resample_ess_fraction * n as f64 || inject_wanted {
+            out.injected = self.resample(inject_fraction);
+            out.resampled = true;
+        }
+        out
+    }
+
+    fn apply_motion(&mut self) {
+        if self.pending_increments == 0 {
+            return;
+        }
+        let (f, l, y) = (self.pending.x_m, self.pending.y_m, self.pending.heading_rad);
+        let motion = RotTransRot::from_motion(f, l, y);
+        let imu = self.pending_imu_yaw;
+        let dt = self.pending_dt_s;
+        for p in &mut self.particles {
+            p.pose = sample_motion(&p.pose, &motion, imu, dt, &self.config.motion, &mut self.rng);
+        }
+        self.pending = Pose2::default();
+        self.pending_imu_yaw = Some(0.0);
+        self.pending_dt_s = 0.0;
+        self.pending_increments = 0;
+    }
+
+    /// Adds the scan's tempered log-likelihood to every particle; fills `scan_fit`.
+    /// Returns false when the scan had no usable beam.
+    fn weigh_scan(&mut self, scan: &Scan) -> bool {
+        let unusable = scan.endpoints_into(self.config.max_beams, &mut self.endpoints);
+        self.counters.beams_unusable += unusable as u64;
+        let nb = self.endpoints.len();
+        if nb == 0 {
+            return false;
+        }
+        let k = self.config.scan_weight_exponent;
+        self.scan_fit.clear();
+        for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+            let field = &self.floors[p.floor as usize].field;
+            let (s, c) = p.pose.heading_rad.sin_cos();
+            let (ll, fit) = field.scan_log_p(p.pose.x_m, p.pose.y_m, c, s, &self.endpoints);
+            *lw += k * ll;
+            self.scan_fit.push(fit / nb as f64);
+        }
+        true
+    }
+
+    fn weigh_landmark(&mut self, lm: &Landmark) {
+        let (fwd, left) = lm.offset_m();
+        let cfg = self.config.landmarks;
+        if !(fwd.is_finite() && left.is_finite()) {
+            self.counters.landmarks_rejected += 1;
+            return;
+        }
+        match lm {
+            Landmark::Door { number, .. } => {
+                // the door on each floor, once per floor, not once per particle
+                let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
+                if doors.iter().all(Option::is_none) {
+                    self.counters.landmarks_rejected += 1;
+                    return;
+                }
+                let floor_miss = cfg.door_misread_probability.max(1e-6).ln();
+                for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+                    *lw += match doors[p.floor as usize] {
+                        Some([dx, dy]) => {
+                            let seen = p.pose.compose(fwd, left, 0.0);
+                            let d = (seen.x_m - dx).hypot(seen.y_m - dy);
+                            mixture_log_p(d, cfg.sigma_m, cfg.door_misread_probability)
+                        }
+                        None => floor_miss,
+                    };
+                }
+            }
+            Landmark::Corner { .. } => {
+                for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+                    let seen = p.pose.compose(fwd, left, 0.0);
+                    let d = self.floors[p.floor as usize]
+                        .corners
+                        .iter()
+                        .map(|[cx, cy]| (seen.x_m - cx).hypot(seen.y_m - cy))
+                        .fold(f64::INFINITY, f64::min);
+                    *lw += mixture_log_p(d, cfg.sigma_m, cfg.corner_false_probability);
+                }
+            }
+        }
+    }
+
+    fn weigh_wall(&mut self, wall: &WallAngle) {
+        if !wall.angle_rad.is_finite() {
+            self.counters.wall_angles_rejected += 1;
+            return;
+        }
+        let cfg = self.config.landmarks;
+        for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+            let dirs = &self.floors[p.floor as usize].wall_directions_rad;
+            let r = wall_residual(p.pose.heading_rad + wall.angle_rad, dirs);
+            *lw += mixture_log_p(r, cfg.wall_sigma_rad, cfg.wall_outlier_probability);
+        }
+    }
+
+    /// How many particles the current weights call for: the KLD bound (Fox 2003) on the
+    /// number of histogram bins that would receive a particle (a bin's weight at least
+    /// 1 / max_particles), clamped to [min, max]. Fox draws samples until the bound is
+    /// met; counting the bins of the weighted set before drawing is our simplification
+    /// (one pass, deterministic, no per-draw bookkeeping).
+    fn kld_count(&mut self) -> usize {
+        let (bm, br) = (self.config.kld_bin_m, self.config.kld_bin_rad);
+        self.bins.clear();
+        for p in &self.particles {
+            let ix = floor_i64(p.pose.x_m / bm) & 0xFFFFF;
+            let iy = floor_i64(p.pose.y_m / bm) & 0xFFFFF;
+            let ih = floor_i64(p.pose.heading_rad / br) & 0xFF;
+            let key = ((p.floor as u64) << 48) ^ ((ix as u64) << 28) ^ ((iy as u64) << 8) ^ ih as u64;
+            self.bins.push((key, p.weight));
+        }
+        self.bins.sort_unstable_by_key(|b| b.0);
+        let threshold = 1.0 / self.config.max_particles as f64;
+        let mut k = 0usize;
+        let mut i = 0;
+        while i < self.bins.len() {
+            let key = self.bins[i].0;
+            let mut w = 0.0;
+            while i < self.bins.len() && self.bins[i].0 == key {
+                w += self.bins[i].1;
+                i += 1;
+            }
+            if w >= threshold {
+                k += 1;
+            }
+        }
+        let n = if k <= 1 {
+            self.config.min_particles
+        } else {
+            let km1 = (k - 1) as f64;
+            let b = 2.0 / (9.0 * km1);
+            let x = 1.0 - b + b.sqrt() * self.config.kld_z;
+            (km1 / (2.0 * self.config.kld_error) * x * x * x).ceil() as usize
+        };
+        n.clamp(self.config.min_particles, self.config.max_particles)
+    }
+
+    /// Low-variance (systematic) resampling to the KLD count, a fraction of which is
+    /// drawn uniformly in free space. Returns how many were injected.
+    fn resample(&mut self, inject_fraction: f64) -> usize {
+        let n_new = self.kld_count();
+        let n_inject = ((inject_fraction * n_new as f64).round() as usize).min(n_new);
+        let n_draw = n_new - n_inject;
+        let w = 1.0 / n_new as f64;
+        self.next.clear();
+        if n_draw > 0 {
+            let step = 1.0 / n_draw as f64;
+            let r = self.rng.uniform() * step;
+            let mut c = self.particles[0].weight;
+            let mut i = 0;
+            let last = self.particles.len() - 1;
+            for m in 0..n_draw {
+                let u = r + m as f64 * step;
+                while u > c && i < last {
+                    i += 1;
+                    c += self.particles[i].weight;
+                }
+                self.next.push(Particle { weight: w, ..self.particles[i] });
+            }
+        }
+        for _ in 0..n_inject {
+            let p = self.random_particle(w);
+            self.next.push(p);
+        }
+        std::mem::swap(&mut self.particles, &mut self.next);
+        self.counters.resamples += 1;
+        self.counters.particles_injected += n_inject as u64;
+        self.estimate.particles = self.particles.len();
+        n_inject
+    }
+
+    /// Mean, covariance and status from the weighted particles: of the main cluster,
+    /// not of the whole set (a few particles injected across the map, or a second
+    /// hypothesis in a similar corridor, must not drag the mean into a wall). The main
+    /// cluster: on the most likely floor, the particles within `cluster_radius_m` and
+    /// `cluster_heading_rad` of the
+    /// weighted mean of the heaviest 3 x 3 m block of 1 m bins, the mean re-centred twice (AMCL reports
+    /// its heaviest cluster the same way).
+    fn compute_estimate(&mut self) {
+        let mut floor_w = vec![0.0; self.floors.len()];
+        for p in &self.particles {
+            floor_w[p.floor as usize] += p.weight;
+        }
+        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
+        // the heaviest 1 m bin
+        self.bins.clear();
+        for p in self.particles.iter().filter(|p| p.floor == fi) {
+            let ix = floor_i64(p.pose.x_m) as u64 & 0xFFFF_FFFF;
+            let iy = floor_i64(p.pose.y_m) as u64 & 0xFFFF_FFFF;
+            self.bins.push(((ix << 32) | iy, p.weight));
+        }
+        self.bins.sort_unstable_by_key(|b| b.0);
+        // bins and their weights, then the bin whose 3 x 3 neighbourhood is heaviest
+        // (a cluster straddling a bin corner must not lose to a compact wrong one)
+        let mut merged: Vec<(u64, f64)> = Vec::new();
+        let mut i = 0;
+        while i < self.bins.len() {
+            let key = self.bins[i].0;
+            let mut w = 0.0;
+            while i < self.bins.len() && self.bins[i].0 == key {
+                w += self.bins[i].1;
+                i += 1;
+            }
+            merged.push((key, w));
+        }
+        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
+        let (mut best_key, mut best_w) = (0u64, -1.0);
+        for &(key, _) in &merged {
+            let (ix, iy) = (key >> 32, key & 0xFFFF_FFFF);
+            let mut w = 0.0;
+            for dx in [0xFFFF_FFFFu64, 0, 1] {
+                for dy in [0xFFFF_FFFFu64, 0, 1] {
+                    w += weight_of((((ix + dx) & 0xFFFF_FFFF) << 32) | ((iy + dy) & 0xFFFF_FFFF));
+                }
+            }
+            if w > best_w {
+                (best_key, best_w) = (key, w);
+            }
+        }
+        let in_bin = |p: &Particle| {
+            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
+            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
+            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
+        };
+        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_bin(p)));
+        let r2 = self.config.cluster_radius_m * self.config.cluster_radius_m;
+        let max_dh = self.config.cluster_heading_rad;
+        let near = |c: &Pose2, p: &Particle| {
+            p.floor == fi
+                && (p.pose.x_m - c.x_m).powi(2) + (p.pose.y_m - c.y_m).powi(2) <= r2
+                && wrap_angle(p.pose.heading_rad - c.heading_rad).abs() <= max_dh
+        };
+        for _ in 0..2 {
+            let c = centre;
+            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| near(&c, p)));
+        }
+        let total: f64 = self.particles.iter().map(|p| p.weight).sum::<f64>().max(1e-300);
+        let mut cov = [[0.0; 3]; 3];
+        let mut wsum = 0.0;
+        for p in self.particles.iter().filter(|p| near(&centre, p)) {
+            let d =
+                [p.pose.x_m - centre.x_m, p.pose.y_m - centre.y_m, wrap_angle(p.pose.heading_rad - centre.heading_rad)];
+            for i in 0..3 {
+                for j in 0..3 {
+                    cov[i][j] += p.weight * d[i] * d[j];
+                }
+            }
+            wsum += p.weight;
+        }
+        for row in &mut cov {
+            for v in row {
+                *v /= wsum.max(1e-300);
+            }
+        }
+        self.estimate.pose = centre;
+        self.estimate.level = self.floors[fi as usize].level;
+        self.estimate.covariance = cov;
+        self.estimate.cluster_weight = wsum / total;
+        self.estimate.particles = self.particles.len();
+        let (std_m, std_h) = (self.estimate.position_std_m(), self.estimate.heading_std_rad());
+        let c = &self.config;
+        let (fit, share) = (self.estimate.fit, self.estimate.cluster_weight);
+        // the last scan's own fit reacts at once; w_fast only after a few scans
+        let now = self.last_w_avg;
+        let collapsed = self.scan_seen && (now < c.lost_max_fit || self.w_fast < c.recovery_ratio * self.w_slow);
+        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
+            Status::Lost
+        } else if share >= c.tracking_min_cluster_weight
+            && std_m <= c.tracking_max_std_m
+            && std_h <= c.tracking_max_heading_std_rad
+            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit)
+        {
+            Status::Tracking
+        } else {
+            Status::Uncertain
+        };
+    }
+
+    /// The current estimate: the last correction's, moved by the motion since.
+    pub fn estimate(&self) -> Estimate {
+        let mut e = self.estimate.clone();
+        e.pose = e.pose.compose(self.pending.x_m, self.pending.y_m, self.pending.heading_rad);
+        e
+    }
+
+    /// The particles (for monitors), as of the last correction.
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// The floors the filter knows.
+    pub fn floors(&self) -> &[FloorModel] {
+        &self.floors
+    }
+
+    /// Counts of refused inputs and of the filter's work.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &FilterConfig {
+        &self.config
+    }
+
+    /// Short- and long-term scan-fit averages (augmented MCL's `w_fast`, `w_slow`) and
+    /// the last correction's fit.
+    pub fn fit_averages(&self) -> (f64, f64, f64) {
+        (self.w_fast, self.w_slow, self.last_w_avg)
+    }
+}
+
+/// Weighted mean position and circular-mean heading (the origin for an empty set).
+/// Takes each particle with the (sin, cos) of its heading.
+fn weighted_mean<'a>(particles: impl Iterator<Item = (&'a Particle, &'a (f64, f64))>) -> Pose2 {
+    let (mut w, mut x, mut y, mut s, mut c) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (p, &(sin, cos)) in particles {
+        w += p.weight;
+        x += p.weight * p.pose.x_m;
+        y += p.weight * p.pose.y_m;
+        s += p.weight * sin;
+        c += p.weight * cos;
+    }
+    if w <= 0.0 {
+        return Pose2::default();
+    }
+    Pose2::new(x / w, y / w, s.atan2(c))
+}
+
+/// `v.floor() as i64` without the libm call (the bins of every particle, every update).
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    t - (v < t as f64) as i64
+}

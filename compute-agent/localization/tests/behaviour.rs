@@ -1,0 +1,315 @@
+//! Behaviours of the filter on synthetic floors: a misread door number does not
+//! teleport the estimate, a wall angle corrects a heading offset, a kidnap sends the
+//! status to `Lost` and recovery brings it back, bad input is refused and counted.
+
+#[allow(dead_code)]
+mod support;
+
+use localization::{
+    FilterConfig, FloorModel, Landmark, Observations, OdometryIncrement, ParticleFilter, Pose2, Rejected, Status,
+    WallAngle,
+};
+use map::{Door, OccupancyGrid, SemanticLayer};
+use support::sim::{cast, grid};
+
+/// A 30 x 3 m corridor (walls at y = 0.5 and 2.5) with alcoves at irregular places, so
+/// a scan tells where along it the user is. Doors 101 at x = 3 and 120 at x = 25.
+fn corridor() -> (OccupancyGrid, SemanticLayer) {
+    let alcoves = [(4.0, 5.0), (9.0, 11.5), (14.0, 14.6), (19.0, 21.0), (26.0, 27.5)];
+    let g = grid(30.0, 3.0, |x, y| {
+        let end = !(0.3..=29.7).contains(&x);
+        let south = y < 0.55;
+        let in_alcove = alcoves.iter().any(|&(a, b)| x > a && x < b);
+        let north = y > 2.45 && !(in_alcove && y < 2.95) || y > 2.95;
+        end || south || north
+    });
+    let door = |n: &str, x: f64| Door { number: n.into(), x, y: 0.55, floor: 0, normal: [0.0, 1.0] };
+    let semantic = SemanticLayer { doors: vec![door("101", 3.0), door("120", 25.0)], ..Default::default() };
+    (g, semantic)
+}
+
+fn corridor_filter(config: FilterConfig, seed: u64) -> (ParticleFilter, OccupancyGrid) {
+    let (g, s) = corridor();
+    let floor = FloorModel::new(0, &g, &s, &Default::default()).expect("floor");
+    (ParticleFilter::new(vec![floor], config, seed).expect("filter"), g)
+}
+
+/// One 0.3 m step forward along +x, exact odometry.
+const STEP: OdometryIncrement = OdometryIncrement { forward_m: 0.3, left_m: 0.0, yaw_rad: 0.0, dt_s: 0.3 };
+
+#[test]
+fn a_misread_door_number_does_not_teleport_the_estimate() {
+    let (mut pf, g) = corridor_filter(FilterConfig::default(), 5);
+    let mut truth = Pose2::new(2.0, 1.5, 0.0);
+    pf.init_pose(0, truth, 0.2, 0.05).expect("start");
+    let mut worst: f64 = 0.0;
+    for k in 0..30 {
+        truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+        pf.predict(&STEP, Some(0.0)).expect("plausible");
+        let scan = cast(&g, &truth, 61, 120f64.to_radians(), 8.0);
+        // at the tenth step the sign reader reads "120" (20 m away) beside the user
+        let misread = [Landmark::Door { number: "120".into(), forward_m: 0.0, left_m: -0.95 }];
+        let landmarks: &[Landmark] = if k == 10 { &misread } else { &[] };
+        pf.correct(&Observations { scan: Some(&scan), landmarks, ..Default::default() });
+        let e = pf.estimate();
+        worst = worst.max(e.pose.distance_m(&truth));
+    }
+    eprintln!("misread door: worst error {worst:.3} m");
+    assert!(worst < 0.5, "the estimate jumped: worst error {worst} m");
+    assert_eq!(pf.estimate().status, Status::Tracking);
+}
+
+#[test]
+fn a_door_number_localizes_and_a_misread_one_is_recovered_from() {
+    // no scans: only the door signs say where the user is along the corridor
+    let (mut pf, _) = corridor_filter(FilterConfig::default(), 6);
+    let truth = Pose2::new(3.0, 1.5, 0.0);
+    pf.init_pose(0, Pose2::new(15.0, 1.5, 0.0), 8.0, 0.05).expect("start");
+    let read = |n: &str| [Landmark::Door { number: n.into(), forward_m: 0.0, left_m: -0.95 }];
+    // one reading shifts belief by at most 1 / p_misread: it takes two to be sure
+    pf.correct(&Observations { landmarks: &read("101"), ..Default::default() });
+    let after_one = pf.estimate().pose.distance_m(&truth);
+    pf.correct(&Observations { landmarks: &read("101"), ..Default::default() });
+    let after_correct = pf.estimate().pose.distance_m(&truth);
+    // a misread of 120 now: belief must not move 22 m to the other door
+    pf.correct(&Observations { landmarks: &read("120"), ..Default::default() });
+    let after_misread = pf.estimate().pose.distance_m(&truth);
+    pf.correct(&Observations { landmarks: &read("101"), ..Default::default() });
+    let after_reread = pf.estimate().pose.distance_m(&truth);
+    eprintln!("door only (start 12 m off): after one 101 {after_one:.2} m, after two {after_correct:.2} m, after misread 120 {after_misread:.2} m, after 101 again {after_reread:.2} m");
+    // a door sign places the user within its sigma (0.5 m), not better
+    assert!(after_correct < 0.75, "{after_correct}");
+    assert!(after_misread < 0.75, "a misread teleported the estimate by {after_misread} m");
+    assert!(after_reread < 0.75, "{after_reread}");
+}
+
+#[test]
+fn a_wall_angle_corrects_a_heading_offset() {
+    // no scans: the heading comes from odometry, 12 degrees off, and the wall beside
+    // the user, measured at 0 degrees relative to the body (walking along the corridor)
+    let (mut pf, _) = corridor_filter(FilterConfig::default(), 7);
+    let truth_heading = 0.0f64;
+    pf.init_pose(0, Pose2::new(2.0, 1.5, 12f64.to_radians()), 0.1, 8f64.to_radians()).expect("start");
+    let walls = [WallAngle { angle_rad: 0.0 }];
+    for _ in 0..15 {
+        pf.predict(&STEP, None).expect("plausible");
+        pf.correct(&Observations { wall_angles: &walls, ..Default::default() });
+    }
+    let err = localization::wrap_angle(pf.estimate().pose.heading_rad - truth_heading).abs().to_degrees();
+    eprintln!("wall angle: heading error {err:.2} deg after 15 updates (started 12 deg off)");
+    assert!(err < 2.0, "heading still {err} deg off");
+}
+
+/// Two halves of one floor: a 10 x 10 m room with two boxes (x < 10) and a hall with
+/// boxes of different sizes scattered about and one corner cut off (x > 10.4; without
+/// them the hall was its own look-alike turned 180 degrees about its centre, and the
+/// filter tracked the mirror image with 60 % of the beams fitting), walled around. A scan from the hall never fits the
+/// room.
+fn room_and_hall() -> OccupancyGrid {
+    let hall = [
+        (11.5, 12.5, 1.0, 1.8),
+        (13.5, 14.0, 6.0, 9.0),
+        (15.5, 17.5, 2.5, 3.0),
+        (18.0, 19.0, 7.0, 7.6),
+        (12.0, 12.4, 7.5, 8.5),
+        (19.5, 20.0, 1.5, 4.0),
+        (16.0, 16.6, 8.0, 8.6),
+        // beside the walk along y = 4.95, at irregular places
+        (11.0, 11.8, 3.6, 4.2),
+        (13.0, 13.3, 5.7, 6.0),
+        (14.2, 15.4, 3.3, 4.1),
+        (16.8, 17.2, 5.8, 6.9),
+        (18.4, 18.7, 3.8, 4.3),
+        (19.6, 20.4, 5.9, 6.3),
+        // a corner cut off: a rectangular hall is its own look-alike turned 180 degrees
+        (18.5, 20.8, 8.0, 9.8),
+    ];
+    grid(21.0, 10.0, |x, y| {
+        let outer = !(0.2..=20.8).contains(&x) || !(0.2..=9.8).contains(&y);
+        let divider = (10.0..10.4).contains(&x);
+        let in_box = |&(x0, x1, y0, y1): &(f64, f64, f64, f64)| (x0..x1).contains(&x) && (y0..y1).contains(&y);
+        let room = [(1.0, 2.0, 7.5, 8.5), (7.8, 8.8, 0.8, 1.4)];
+        outer || divider || room.iter().any(in_box) || hall.iter().any(in_box)
+    })
+}
+
+/// Statuses and errors of a walk in the room, a kidnap into the hall at update 40, and
+/// a walk up and down the hall.
+fn kidnap_walk(seed: u64) -> (Vec<Status>, Vec<f64>, u64) {
+    let g = room_and_hall();
+    let floor = FloorModel::new(0, &g, &SemanticLayer::default(), &Default::default()).expect("floor");
+    let mut pf = ParticleFilter::new(vec![floor], FilterConfig::default(), seed).expect("filter");
+    // circles of 2.5 m radius about (5, 4.5) in the room
+    let mut truth = Pose2::new(5.0, 2.0, 0.0);
+    pf.init_pose(0, truth, 0.1, 0.05).expect("start");
+    let circle = OdometryIncrement { forward_m: 0.3, left_m: 0.0, yaw_rad: 0.12, dt_s: 0.3 };
+    let lane = OdometryIncrement { forward_m: 0.25, left_m: 0.0, yaw_rad: 0.0, dt_s: 0.3 };
+    let about_turn = OdometryIncrement { forward_m: 0.0, left_m: 0.0, yaw_rad: std::f64::consts::PI, dt_s: 1.0 };
+    let mut statuses = Vec::new();
+    let mut errors = Vec::new();
+    for k in 0..140 {
+        let step = if k < 40 {
+            circle
+        } else {
+            if k == 40 {
+                // kidnapped: carried into the hall without odometry
+                truth = Pose2::new(11.6, 4.95, 0.0);
+            }
+            // up and down the hall along y = 4.95, 7.5 m each way
+            if (k - 40) % 31 == 30 {
+                about_turn
+            } else {
+                lane
+            }
+        };
+        truth = truth.compose(step.forward_m, 0.0, step.yaw_rad);
+        // the gyro gives the turns (an about-turn from odometry alone spreads the
+        // heading by sqrt(alpha1) * 180 = 80 degrees)
+        pf.predict(&step, Some(step.yaw_rad / step.dt_s)).expect("plausible");
+        let scan = cast(&g, &truth, 61, 180f64.to_radians(), 8.0);
+        pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+        let e = pf.estimate();
+        statuses.push(e.status);
+        errors.push(e.pose.distance_m(&truth));
+    }
+    (statuses, errors, pf.counters().particles_injected)
+}
+
+/// The update (after the kidnap) at which the estimate is back within 0.5 m for ten
+/// updates and tracking.
+fn recovered_after(statuses: &[Status], errors: &[f64]) -> Option<usize> {
+    (40..errors.len() - 10)
+        .find(|&k| errors[k..k + 10].iter().all(|&e| e < 0.5) && statuses[k] == Status::Tracking)
+        .map(|k| k - 40)
+}
+
+#[test]
+#[ignore = "diagnostics: the kidnap over twenty seeds"]
+fn kidnap_seeds() {
+    let mut line = String::new();
+    for seed in 1..=20 {
+        let (st, er, _) = kidnap_walk(seed);
+        let lost = st[40..].iter().position(|s| *s == Status::Lost);
+        let wrong = st[40..].iter().zip(&er[40..]).filter(|(s, e)| **s == Status::Tracking && **e > 1.0).count();
+        line += &format!(" {:?}/{:?}/{wrong}", lost.unwrap_or(999), recovered_after(&st, &er).unwrap_or(999));
+    }
+    eprintln!("kidnap: lost after / back after (999: never) / tracking while > 1 m off, per seed:{line}");
+}
+
+/// A kidnap is a search: whether the injected particles land near the true place soon
+/// is luck, so this asserts over ten seeds rather than one. Measured over seeds 1 to 20
+/// (the `kidnap_seeds` diagnostic): lost at once in all 20; back within 0.5 m and
+/// tracking after 10 to 69 updates in 19, the 20th not within the 100-update walk.
+#[test]
+fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
+    let mut back = Vec::new();
+    for seed in 1..=10 {
+        let (statuses, errors, injected) = kidnap_walk(seed);
+        assert!(statuses[30..40].iter().all(|s| *s == Status::Tracking), "seed {seed}: not tracking before the kidnap");
+        assert!(errors[..40].iter().all(|&e| e < 0.3), "seed {seed}: inaccurate before the kidnap");
+        let lost_at = statuses[40..].iter().position(|s| *s == Status::Lost);
+        let back_at = recovered_after(&statuses, &errors);
+        eprintln!("kidnap into the hall, seed {seed}: lost after {lost_at:?} updates, back after {back_at:?}; {injected} injected");
+        assert!(lost_at.is_some_and(|k| k <= 5), "seed {seed}: lost after {lost_at:?} updates");
+        back.extend(back_at);
+    }
+    back.sort();
+    assert!(back.len() >= 9, "only {} of 10 seeds recovered", back.len());
+    assert!(back[back.len() / 2] <= 40, "median recovery {} updates", back[back.len() / 2]);
+}
+
+/// On the Intel lab a kidnap does not collapse the likelihood: the office rows look
+/// alike and the scan fits the wrong place as well as the right one (measured:
+/// docs/localization.md). A diagnostic, not a requirement.
+#[test]
+#[ignore = "diagnostics: a kidnap on the Intel log"]
+fn intel_kidnap() {
+    let i = support::intel();
+    let mut pf = support::filter(FilterConfig::default(), 11);
+    pf.init_pose(0, i.lasers[0].pose, 0.1, 0.05).expect("start");
+    let inc = support::noisy_increments(0.1, 12);
+    // track the first 60 scans, then the user is carried to scan 400's place without
+    // odometry (a kidnap: the filter's belief is confidently wrong)
+    let mut statuses = Vec::new();
+    let mut errors = Vec::new();
+    for k in (0..60).chain(400..520) {
+        if k != 0 && k != 400 {
+            let _ = pf.predict(&inc[k - 1], None);
+        }
+        pf.correct(&Observations { scan: Some(&i.scans[k]), ..Default::default() });
+        let e = pf.estimate();
+        statuses.push(e.status);
+        errors.push(e.pose.distance_m(&i.lasers[k].pose));
+        if k >= 55 && k < 62 || k >= 400 && k < 440 {
+            let (f, s, raw) = pf.fit_averages();
+            eprintln!(
+                "{k}: err {:.2} fit {raw:.3} fast {f:.3} fast/slow {:.2} cluster {:.2} std {:.2} {:?}",
+                errors.last().unwrap(),
+                f / s,
+                e.cluster_weight,
+                e.position_std_m(),
+                e.status
+            );
+        }
+    }
+    eprintln!(
+        "statuses: {:?}",
+        statuses.iter().map(|s| format!("{s:?}").chars().next().unwrap_or('?')).collect::<String>()
+    );
+    let tracking_before = statuses[..60].iter().filter(|s| **s == Status::Tracking).count();
+    assert!(tracking_before >= 45, "tracking in {tracking_before} of 60 updates before the kidnap");
+    assert!(statuses[50..60].iter().all(|s| *s != Status::Lost), "lost before the kidnap");
+    let lost_at = statuses[60..].iter().position(|s| *s == Status::Lost).map(|k| k + 60);
+    let back_at = lost_at.and_then(|l| {
+        (l..errors.len().saturating_sub(10))
+            .find(|&k| errors[k..k + 10].iter().all(|&e| e < 0.5) && statuses[k] == Status::Tracking)
+    });
+    eprintln!(
+        "kidnap: lost after {:?} updates, back within 0.5 m and tracking after {:?} updates; {} particles injected",
+        lost_at.map(|k| k - 60),
+        back_at.map(|k| k - 60),
+        pf.counters().particles_injected
+    );
+}
+
+#[test]
+fn bad_input_is_refused_counted_and_not_applied() {
+    let (mut pf, _) = corridor_filter(FilterConfig::default(), 9);
+    pf.init_pose(0, Pose2::new(2.0, 1.5, 0.0), 0.1, 0.05).expect("start");
+    let before = pf.estimate().pose;
+    let jump = OdometryIncrement { forward_m: 5.0, left_m: 0.0, yaw_rad: 0.0, dt_s: 0.03 };
+    assert!(matches!(pf.predict(&jump, None), Err(Rejected::Odometry(_))));
+    let nan = OdometryIncrement { forward_m: f64::NAN, ..STEP };
+    assert!(pf.predict(&nan, None).is_err());
+    assert!(matches!(pf.predict(&STEP, Some(f64::INFINITY)), Err(Rejected::ImuYawRate(_))));
+    assert_eq!(pf.counters().odometry_rejected, 3);
+    assert_eq!(pf.estimate().pose, before);
+    // a door that is on no floor, a NaN corner, a NaN wall angle
+    let lms = [
+        Landmark::Door { number: "999".into(), forward_m: 0.0, left_m: -1.0 },
+        Landmark::Corner { forward_m: f64::NAN, left_m: 0.0 },
+    ];
+    let walls = [WallAngle { angle_rad: f64::NAN }];
+    pf.correct(&Observations { landmarks: &lms, wall_angles: &walls, ..Default::default() });
+    assert_eq!(pf.counters().landmarks_rejected, 2);
+    assert_eq!(pf.counters().wall_angles_rejected, 1);
+    assert!(pf.estimate().pose.distance_m(&before) < 0.05);
+}
+
+#[test]
+fn same_seed_same_particles() {
+    let run = |seed| {
+        let (mut pf, g) = corridor_filter(FilterConfig::default(), seed);
+        pf.init_global();
+        let mut truth = Pose2::new(2.0, 1.5, 0.0);
+        for _ in 0..10 {
+            truth = truth.compose(0.3, 0.0, 0.0);
+            pf.predict(&STEP, None).expect("plausible");
+            let scan = cast(&g, &truth, 61, 120f64.to_radians(), 8.0);
+            pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+        }
+        pf.particles().to_vec()
+    };
+    assert_eq!(run(3), run(3));
+    assert_ne!(run(3), run(4));
+}

@@ -1,0 +1,3 @@
+//! Test helpers shared by the integration tests and the bench.
+
+pub mod floor;
