@@ -3,6 +3,7 @@
 
 mod codec_cmd;
 mod demo;
+mod fuzz;
 mod perceive;
 
 use clap::{Parser, Subcommand};
@@ -33,6 +34,9 @@ enum Command {
     /// than the user's reaction time before), or with one felt in time. A line per walk
     /// goes to stderr as it ends.
     Course(study::CourseArgs),
+    /// Feed millions of mutated and random inputs to every decoder of outside input
+    /// (wire, depth codec, PCD, PNG, LZF, scene TOML) and report outcomes and panics.
+    Fuzz(fuzz::FuzzArgs),
 }
 
 /// Log filter of `wearnav course` when `RUST_LOG` is unset: a line per walk. The
@@ -52,5 +56,6 @@ fn main() -> anyhow::Result<()> {
         Command::Perceive(args) => perceive::run(&args),
         Command::Codec(args) => codec_cmd::run(&args),
         Command::Course(args) => study::run(&args),
+        Command::Fuzz(args) => fuzz::run(&args),
     }
 }

@@ -3,13 +3,14 @@
 //! and random bytes must give a value or a named error: never a panic, never an
 //! allocation beyond the decoder's own size limits, never a hang.
 //!
-//! CI runs a bounded number of cases (`CASES`, about 10 s for this file in the dev
+//! CI runs a bounded number of cases (`CASES`, about 8 s for this file in the dev
 //! profile, see `docs/fuzzing.md`); `wearnav fuzz` runs millions on demand. A failure
-//! prints the shrunk input; `PROPTEST_CASES=100000` runs more.
+//! prints the shrunk input; `PROPTEST_CASES=N` sets the cases per property.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::fmt::Debug;
+use std::sync::LazyLock;
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
@@ -224,6 +225,9 @@ fn wire_seeds() -> Vec<Vec<u8>> {
     seeds
 }
 
+/// Seeds are made once: encoding them took most of a case's time.
+static WIRE_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(wire_seeds);
+
 /// Every kind `WireError::kind` names.
 const WIRE_KINDS: [&str; 8] =
     ["unknown_schema", "unknown_version", "wrong_schema", "too_large", "truncated", "malformed", "invalid", "corrupt"];
@@ -296,21 +300,23 @@ fn schema_of(seed: &[u8]) -> SchemaId {
     SchemaId::from_u16(header.schema).expect("seeds have known schemas")
 }
 
-/// Cases per property in CI: about 30 s for this file and the sensor agent's, dev
+/// Cases per property in CI: 18 s for this file and the sensor agent's together, dev
 /// profile, 2 cores (measured numbers in `docs/fuzzing.md`).
-const CASES: u32 = 4000;
+const CASES: u32 = 100_000;
 
+/// `cases` per property, or `PROPTEST_CASES` when set (to run more, or fewer).
 fn config(cases: u32) -> ProptestConfig {
+    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(cases);
     ProptestConfig { cases, failure_persistence: None, ..ProptestConfig::default() }
 }
 
 #[test]
 fn every_seed_decodes_and_every_schema_has_one() {
-    let seeds = wire_seeds();
+    let seeds = &*WIRE_SEEDS;
     for schema in SchemaId::ALL {
         assert!(seeds.iter().any(|s| schema_of(s) == schema), "no seed for {}", schema.name());
     }
-    for seed in &seeds {
+    for seed in seeds {
         assert_eq!(check_schema(schema_of(seed), seed), Ok("ok"));
     }
 }
@@ -326,7 +332,7 @@ proptest! {
         reseal in prop::bool::weighted(0.9),
         as_schema in any::<Index>(),
     ) {
-        let seeds = wire_seeds();
+        let seeds = &*WIRE_SEEDS;
         let mut bytes = seeds[seed.index(seeds.len())].clone();
         for m in &mutations {
             mutate(&mut bytes, m, &seeds);
@@ -367,7 +373,7 @@ proptest! {
     /// refused, whatever the byte (a flip in schema or version is named as such).
     #[test]
     fn a_single_bit_flip_in_a_sealed_payload_is_always_refused(seed in any::<Index>(), bit in any::<Index>()) {
-        let seeds = wire_seeds();
+        let seeds = &*WIRE_SEEDS;
         let original = &seeds[seed.index(seeds.len())];
         let mut bytes = original.clone();
         let bit = bit.index(bytes.len() * 8);
@@ -380,7 +386,7 @@ proptest! {
 #[test]
 fn every_single_bit_flip_of_every_seed_is_refused() {
     // Exhaustive over the seeds' bits, where the property test samples.
-    let seeds = wire_seeds();
+    let seeds = &*WIRE_SEEDS;
     let bits: usize = seeds.iter().map(|s| s.len() * 8).sum();
     eprintln!("{bits} single-bit flips of {} seed payloads", seeds.len());
     for seed in seeds {
@@ -445,6 +451,13 @@ fn codec_seeds() -> Vec<(Vec<u8>, u32, u32, DepthEncoding)> {
     seeds.push((data, 8, 5, DepthEncoding::Lossless));
     seeds
 }
+
+/// The codec's seeds, made once, and their payloads alone (for splices).
+static CODEC_SEEDS: LazyLock<(Vec<(Vec<u8>, u32, u32, DepthEncoding)>, Vec<Vec<u8>>)> = LazyLock::new(|| {
+    let seeds = codec_seeds();
+    let payloads = seeds.iter().map(|s| s.0.clone()).collect();
+    (seeds, payloads)
+});
 
 /// Largest single allocation a depth decode may make for `pixels` pixels: the output
 /// (2 bytes a pixel) or the side stream, which the decoder bounds at 8 bytes a pixel
@@ -511,12 +524,11 @@ proptest! {
         height in dimension(),
         other_mode in prop::option::weighted(0.1, any_mode()),
     ) {
-        let seeds = codec_seeds();
+        let (seeds, payloads) = &*CODEC_SEEDS;
         let (data, w, h, mode) = &seeds[seed.index(seeds.len())];
-        let payloads: Vec<Vec<u8>> = seeds.iter().map(|s| s.0.clone()).collect();
         let mut data = data.clone();
         for m in &mutations {
-            mutate(&mut data, m, &payloads);
+            mutate(&mut data, m, payloads);
         }
         let outcome = check_codec(&data, width.unwrap_or(*w), height.unwrap_or(*h), other_mode.unwrap_or(*mode));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);

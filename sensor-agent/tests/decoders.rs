@@ -7,10 +7,11 @@
 //! The seeds are made here (small PCD files of every body kind, 16-bit PNGs, LZF
 //! streams with back-references) or built in (the worlds' scene text). CI runs a
 //! bounded number of cases (`CASES`, see `docs/fuzzing.md`); `wearnav fuzz` runs
-//! millions on demand. `PROPTEST_CASES=100000` runs more here.
+//! millions on demand. `PROPTEST_CASES=N` sets the cases per property.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
+use std::sync::LazyLock;
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
@@ -205,11 +206,13 @@ fn mutated(seeds: &[Vec<u8>], seed: &Index, mutations: &[Mutation]) -> Vec<u8> {
     bytes
 }
 
-/// Cases per property in CI: about 30 s for this file and the schemas', dev profile,
+/// Cases per property in CI: 18 s for this file and the schemas' together, dev profile,
 /// 2 cores (measured numbers in `docs/fuzzing.md`).
-const CASES: u32 = 25_000;
+const CASES: u32 = 200_000;
 
+/// `cases` per property, or `PROPTEST_CASES` when set (to run more, or fewer).
 fn config(cases: u32) -> ProptestConfig {
+    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(cases);
     ProptestConfig { cases, failure_persistence: None, ..ProptestConfig::default() }
 }
 
@@ -348,6 +351,13 @@ fn scene_seeds() -> Vec<Vec<u8>> {
     BUILTIN_WORLDS.iter().map(|(_, text)| text.as_bytes().to_vec()).collect()
 }
 
+/// Seeds are made once: making them took most of a case's time.
+static PCD_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(pcd_seeds);
+static PNG_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(png_seeds);
+static LZF_SEEDS: LazyLock<Vec<(Vec<u8>, usize)>> = LazyLock::new(lzf_seeds);
+static LZF_STREAMS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(|| LZF_SEEDS.iter().map(|s| s.0.clone()).collect());
+static SCENE_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(scene_seeds);
+
 #[test]
 fn every_seed_is_valid() {
     for (i, seed) in pcd_seeds().iter().enumerate() {
@@ -449,7 +459,7 @@ proptest! {
         seed in any::<Index>(),
         mutations in prop::collection::vec(mutation(), 1..6),
     ) {
-        let bytes = mutated(&pcd_seeds(), &seed, &mutations);
+        let bytes = mutated(&PCD_SEEDS, &seed, &mutations);
         let outcome = check_pcd(&bytes);
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
     }
@@ -470,7 +480,7 @@ proptest! {
         seed in any::<Index>(),
         mutations in prop::collection::vec(mutation(), 1..6),
     ) {
-        let bytes = mutated(&png_seeds(), &seed, &mutations);
+        let bytes = mutated(&PNG_SEEDS, &seed, &mutations);
         let outcome = check_png(&bytes);
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
     }
@@ -481,10 +491,8 @@ proptest! {
         mutations in prop::collection::vec(mutation(), 1..6),
         announced in prop_oneof![Just(None), (0..4096usize).prop_map(Some)],
     ) {
-        let seeds = lzf_seeds();
-        let (_, len) = seeds[seed.index(seeds.len())];
-        let streams: Vec<Vec<u8>> = seeds.iter().map(|s| s.0.clone()).collect();
-        let stream = mutated(&streams, &seed, &mutations);
+        let (_, len) = LZF_SEEDS[seed.index(LZF_SEEDS.len())];
+        let stream = mutated(&LZF_STREAMS, &seed, &mutations);
         let outcome = check_lzf(&stream, announced.unwrap_or(len));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
     }
@@ -503,7 +511,7 @@ proptest! {
         seed in any::<Index>(),
         mutations in prop::collection::vec(mutation(), 1..6),
     ) {
-        let bytes = mutated(&scene_seeds(), &seed, &mutations);
+        let bytes = mutated(&SCENE_SEEDS, &seed, &mutations);
         let outcome = check_scene(&bytes);
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
     }
