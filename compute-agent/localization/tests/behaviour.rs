@@ -2,7 +2,6 @@
 //! teleport the estimate, a wall angle corrects a heading offset, a kidnap sends the
 //! status to `Lost` and recovery brings it back, bad input is refused and counted.
 
-#[allow(dead_code)]
 mod support;
 
 use localization::{
@@ -240,7 +239,7 @@ fn intel_kidnap() {
         let e = pf.estimate();
         statuses.push(e.status);
         errors.push(e.pose.distance_m(&i.lasers[k].pose));
-        if k >= 55 && k < 62 || k >= 400 && k < 440 {
+        if (55..62).contains(&k) || (400..440).contains(&k) {
             let (f, s, raw) = pf.fit_averages();
             eprintln!(
                 "{k}: err {:.2} fit {raw:.3} fast {f:.3} fast/slow {:.2} cluster {:.2} std {:.2} {:?}",
