@@ -102,6 +102,10 @@ pub struct FilterConfig {
     pub tracking_min_fit: f64,
     /// `Tracking` also needs this share of the weight in the main cluster
     pub tracking_min_cluster_weight: f64,
+    /// ... and all of the above for this many corrections in a row: a look-alike found
+    /// after a global start or a kidnap fits for a few updates before it fails
+    /// (docs/localization.md: "Tracking while > 1 m off")
+    pub tracking_min_updates: u32,
     /// `Lost` when the main cluster holds less than this share of the weight
     pub lost_max_cluster_weight: f64,
     /// the main cluster's radius, metres (see [`Estimate`])
@@ -145,6 +149,7 @@ impl Default for FilterConfig {
             tracking_max_heading_std_rad: 10f64.to_radians(),
             tracking_min_fit: 0.25,
             tracking_min_cluster_weight: 0.8,
+            tracking_min_updates: 5,
             lost_max_cluster_weight: 0.25,
             cluster_radius_m: 1.5,
             cluster_heading_rad: 45f64.to_radians(),
@@ -172,8 +177,8 @@ pub struct Particle {
 /// How sure the filter is (thresholds in [`FilterConfig`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Status {
-    /// one tight cluster holding most of the weight that fits the scans: guidance may
-    /// rely on it
+    /// one tight cluster holding most of the weight that fits the scans, for
+    /// `tracking_min_updates` corrections in a row: guidance may rely on it
     Tracking,
     /// converging or spread out, but the scans still fit
     Uncertain,
@@ -293,6 +298,8 @@ pub struct ParticleFilter {
     scans_since_init: u64,
     /// updates the recovery keeps injecting for
     hold_left: u32,
+    /// corrections in a row that met the `Tracking` conditions
+    tracking_streak: u32,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -342,6 +349,7 @@ impl ParticleFilter {
             last_w_avg: 0.0,
             scans_since_init: 0,
             hold_left: 0,
+            tracking_streak: 0,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -418,6 +426,11 @@ impl ParticleFilter {
         self.estimate.fit = 1.0;
         self.fill_trig();
         self.compute_estimate();
+        // a start is a claim, not an observation: `Tracking` comes from corrections
+        self.tracking_streak = 0;
+        if self.estimate.status == Status::Tracking {
+            self.estimate.status = Status::Uncertain;
+        }
     }
 
     /// One sin_cos per particle, shared by the scan, the landmarks and the estimate.
@@ -832,13 +845,14 @@ impl ParticleFilter {
         // the last scan's own fit reacts at once; w_fast only after a few scans
         let now = self.last_w_avg;
         let collapsed = self.scan_seen && (now < c.lost_max_fit || self.w_fast < c.recovery_ratio * self.w_slow);
-        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
-            Status::Lost
-        } else if share >= c.tracking_min_cluster_weight
+        let tracking_now = share >= c.tracking_min_cluster_weight
             && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
-            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit)
-        {
+            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit);
+        self.tracking_streak = if tracking_now && !collapsed { self.tracking_streak.saturating_add(1) } else { 0 };
+        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
+            Status::Lost
+        } else if self.tracking_streak >= c.tracking_min_updates {
             Status::Tracking
         } else {
             Status::Uncertain
