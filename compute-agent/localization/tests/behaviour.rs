@@ -8,7 +8,7 @@ use localization::{
     FilterConfig, FloorModel, Landmark, Observations, OdometryIncrement, ParticleFilter, Pose2, Rejected, Status,
     WallAngle,
 };
-use map::{Door, OccupancyGrid, SemanticLayer};
+use map::{Corner, Door, OccupancyGrid, SemanticLayer};
 use support::sim::{cast, grid};
 
 /// A 30 x 3 m corridor (walls at y = 0.5 and 2.5) with alcoves at irregular places, so
@@ -23,7 +23,12 @@ fn corridor() -> (OccupancyGrid, SemanticLayer) {
         end || south || north
     });
     let door = |n: &str, x: f64| Door { number: n.into(), x, y: 0.55, floor: 0, normal: [0.0, 1.0] };
-    let semantic = SemanticLayer { doors: vec![door("101", 3.0), door("120", 25.0)], ..Default::default() };
+    let corner = |x: f64, y: f64| Corner { x, y, floor: 0 };
+    let semantic = SemanticLayer {
+        doors: vec![door("101", 3.0), door("120", 25.0)],
+        corners: vec![corner(0.3, 0.55), corner(0.3, 2.45), corner(29.7, 0.55), corner(29.7, 2.45)],
+        ..Default::default()
+    };
     (g, semantic)
 }
 
@@ -80,6 +85,24 @@ fn a_door_number_localizes_and_a_misread_one_is_recovered_from() {
     assert!(after_correct < 0.75, "{after_correct}");
     assert!(after_misread < 0.75, "a misread teleported the estimate by {after_misread} m");
     assert!(after_reread < 0.75, "{after_reread}");
+}
+
+#[test]
+fn corners_are_matched_to_the_nearest_one() {
+    // no scans; facing west 0.7 m from the corridor's west end, a corner ahead-right.
+    // Corners are not unique: the reading is matched to whichever map corner is
+    // nearest each particle's prediction, so only places near a corridor end, facing
+    // it, gain weight.
+    let (mut pf, _) = corridor_filter(FilterConfig::default(), 8);
+    let truth = Pose2::new(1.0, 1.5, std::f64::consts::PI);
+    pf.init_pose(0, Pose2::new(8.0, 1.5, std::f64::consts::PI), 5.0, 0.05).expect("start");
+    let seen = [Landmark::Corner { forward_m: 0.7, left_m: -0.95 }];
+    for _ in 0..3 {
+        pf.correct(&Observations { landmarks: &seen, ..Default::default() });
+    }
+    let e = pf.estimate();
+    eprintln!("corner: error {:.2} m after three readings (start 7 m off)", e.pose.distance_m(&truth));
+    assert!(e.pose.distance_m(&truth) < 0.75, "{:?}", e.pose);
 }
 
 #[test]
