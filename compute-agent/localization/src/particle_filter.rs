@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::floor_model::FloorModel;
 use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
 use crate::motion::{sample_motion, MotionNoise, OdometryIncrement, RotTransRot};
-use crate::pose::{wrap_angle, Pose2};
+use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
 use crate::rng::Rng;
 use crate::scan::Scan;
 use crate::LocalizationError;
@@ -436,7 +436,7 @@ impl ParticleFilter {
     /// One sin_cos per particle, shared by the scan, the landmarks and the estimate.
     fn fill_trig(&mut self) {
         self.trig.clear();
-        self.trig.extend(self.particles.iter().map(|p| p.pose.heading_rad.sin_cos()));
+        self.trig.extend(self.particles.iter().map(|p| fast_sin_cos(p.pose.heading_rad)));
     }
 
     fn floor_index(&self, level: i32) -> Option<usize> {
