@@ -21,6 +21,7 @@
 //! Everything random comes from one seeded [`Rng`]: the same inputs and seed give the
 //! same particles, bit for bit.
 
+use map::Gateway;
 use serde::{Deserialize, Serialize};
 
 use crate::floor_model::FloorModel;
@@ -108,6 +109,9 @@ pub struct FilterConfig {
     pub tracking_min_updates: u32,
     /// `Lost` when the main cluster holds less than this share of the weight
     pub lost_max_cluster_weight: f64,
+    /// how far from a gateway's stop a particle may be and still be taken through it by
+    /// [`ParticleFilter::take_gateway`], metres (a lift lobby)
+    pub gateway_radius_m: f64,
     /// the main cluster's radius, metres (see [`Estimate`])
     pub cluster_radius_m: f64,
     /// ... and its half-width in heading, radians
@@ -151,6 +155,7 @@ impl Default for FilterConfig {
             tracking_min_cluster_weight: 0.8,
             tracking_min_updates: 5,
             lost_max_cluster_weight: 0.25,
+            gateway_radius_m: 3.0,
             cluster_radius_m: 1.5,
             cluster_heading_rad: 45f64.to_radians(),
             lost_max_fit: 0.12,
@@ -460,6 +465,76 @@ impl ParticleFilter {
             self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
         );
         Particle { pose, level: f.level, weight, floor: fi as u16 }
+    }
+
+    /// The user took `gateway` (lift, stairs, ramp) to floor `to_level`: the agent saw
+    /// a lift ride or a climb (barometer, the user's words). Odometry cannot say it, so
+    /// it is an event. Particles within `gateway_radius_m` of the gateway's stop on their
+    /// own floor move to its stop on `to_level`, keeping their offset from the stop and
+    /// their heading (with 0.3 rad of noise: one turns in a lift); the others (the belief
+    /// that the user was elsewhere) are dropped, the moved ones resampled by weight to
+    /// the same count. When no particle was near, all are drawn around the destination
+    /// stop (`gateway_radius_m / 2`, any heading). Returns how many were near. `Tracking`
+    /// must be earned again by corrections.
+    pub fn take_gateway(&mut self, gateway: &Gateway, to_level: i32) -> Result<usize, LocalizationError> {
+        let to_floor = self.floor_index(to_level).ok_or(LocalizationError::UnknownFloor { level: to_level })?;
+        let dest = gateway
+            .stop(to_level)
+            .ok_or_else(|| LocalizationError::GatewayNotOnFloor { gateway: gateway.name.clone(), level: to_level })?;
+        let (dx0, dy0) = (dest.x, dest.y);
+        let r = self.config.gateway_radius_m;
+        let n = self.particles.len().max(1);
+        // moved copies of the particles near a stop, with their weights
+        self.next.clear();
+        for p in &self.particles {
+            let Some(stop) = gateway.stop(p.level) else { continue };
+            let (ox, oy) = (p.pose.x_m - stop.x, p.pose.y_m - stop.y);
+            if ox * ox + oy * oy <= r * r {
+                let pose = Pose2::new(dx0 + ox, dy0 + oy, p.pose.heading_rad);
+                self.next.push(Particle { pose, level: to_level, weight: p.weight, floor: to_floor as u16 });
+            }
+        }
+        let near = self.next.len();
+        let mut fresh = Vec::with_capacity(n);
+        if near > 0 {
+            let total: f64 = self.next.iter().map(|p| p.weight).sum();
+            let step = total / n as f64;
+            let mut u = self.rng.uniform() * step;
+            let (mut i, mut c) = (0, self.next[0].weight);
+            for _ in 0..n {
+                while u > c && i + 1 < near {
+                    i += 1;
+                    c += self.next[i].weight;
+                }
+                let mut p = self.next[i];
+                p.pose = Pose2::new(p.pose.x_m, p.pose.y_m, p.pose.heading_rad + self.rng.normal(0.3));
+                p.weight = 1.0 / n as f64;
+                fresh.push(p);
+                u += step;
+            }
+        } else {
+            for _ in 0..n {
+                let pose = Pose2::new(
+                    dx0 + self.rng.normal(r / 2.0),
+                    dy0 + self.rng.normal(r / 2.0),
+                    self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+                );
+                fresh.push(Particle { pose, level: to_level, weight: 1.0 / n as f64, floor: to_floor as u16 });
+            }
+        }
+        self.particles = fresh;
+        self.pending = Pose2::default();
+        self.pending_imu_yaw = Some(0.0);
+        self.pending_dt_s = 0.0;
+        self.pending_increments = 0;
+        self.force_update = true;
+        self.fill_trig();
+        self.compute_estimate();
+        self.tracking_streak = 0;
+        if self.estimate.status == Status::Tracking {
+            self.estimate.status = Status::Uncertain;
+        }
+        Ok(near)
     }
 
     /// Adds an odometry increment (and the IMU's yaw rate over the same interval, if

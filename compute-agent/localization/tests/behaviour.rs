@@ -335,3 +335,64 @@ fn same_seed_same_particles() {
     assert_eq!(run(3), run(3));
     assert_ne!(run(3), run(4));
 }
+
+#[test]
+fn a_lift_ride_moves_the_belief_to_the_other_floor() {
+    use map::{Gateway, GatewayKind, GatewayStop};
+    // two floors: the corridor on 0 and the room-and-hall on 1; a lift at the
+    // corridor's x = 5 and at (5, 5) on floor 1
+    let (g0, s0) = corridor();
+    let g1 = room_and_hall();
+    let floors = vec![
+        FloorModel::new(0, &g0, &s0, &Default::default()).expect("floor 0"),
+        FloorModel::new(1, &g1, &SemanticLayer::default(), &Default::default()).expect("floor 1"),
+    ];
+    let lift = Gateway {
+        name: "lift".into(),
+        kind: GatewayKind::Elevator,
+        stops: vec![GatewayStop { floor: 0, x: 5.0, y: 1.5 }, GatewayStop { floor: 1, x: 5.0, y: 5.0 }],
+    };
+    let mut pf = ParticleFilter::new(floors, FilterConfig::default(), 21).expect("filter");
+    pf.init_pose(0, Pose2::new(4.6, 1.5, 0.0), 0.1, 0.05).expect("start");
+    let near = pf.take_gateway(&lift, 1).expect("the lift serves floor 1");
+    assert_eq!(near, pf.particles().len());
+    let e = pf.estimate();
+    assert_eq!(e.level, 1);
+    assert!(e.pose.distance_m(&Pose2::new(4.6, 5.0, 0.0)) < 0.2, "{:?}", e.pose);
+    assert_ne!(e.status, Status::Tracking, "a ride is a claim; scans must confirm it");
+    // walking on floor 1 with its scans: tracked there
+    let mut truth = Pose2::new(4.6, 5.0, 0.0);
+    for _ in 0..12 {
+        truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+        pf.predict(&STEP, Some(0.0)).expect("plausible");
+        let scan = cast(&g1, &truth, 61, 180f64.to_radians(), 8.0);
+        pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+    }
+    let e = pf.estimate();
+    assert_eq!((e.level, e.status), (1, Status::Tracking));
+    assert!(e.pose.distance_m(&truth) < 0.3, "{:?} vs {truth:?}", e.pose);
+    let missing = Gateway { stops: vec![GatewayStop { floor: 0, x: 5.0, y: 1.5 }], ..lift };
+    assert!(pf.take_gateway(&missing, 1).is_err());
+    assert!(pf.take_gateway(&missing, 7).is_err());
+}
+
+#[test]
+fn door_numbers_pick_the_floor_of_a_global_start() {
+    let (g0, s0) = corridor();
+    let g1 = room_and_hall();
+    let floors = vec![
+        FloorModel::new(1, &g1, &SemanticLayer::default(), &Default::default()).expect("floor 1"),
+        FloorModel::new(0, &g0, &s0, &Default::default()).expect("floor 0"),
+    ];
+    let mut pf = ParticleFilter::new(floors, FilterConfig::default(), 22).expect("filter");
+    let start_share: f64 = pf.particles().iter().filter(|p| p.level == 0).map(|p| p.weight).sum();
+    let read = [Landmark::Door { number: "101".into(), forward_m: 0.0, left_m: -0.95 }];
+    for _ in 0..3 {
+        pf.correct(&Observations { landmarks: &read, ..Default::default() });
+    }
+    let e = pf.estimate();
+    eprintln!("two floors, global start: floor 0 held {start_share:.2} of the weight; after three readings of 101: floor {} at {:?}", e.level, e.pose);
+    assert_eq!(e.level, 0);
+    // at the door, facing along the corridor with the door on the right
+    assert!((e.pose.x_m - 3.0).abs() < 1.0 && (e.pose.y_m - 1.5).abs() < 1.0, "{:?}", e.pose);
+}
