@@ -48,8 +48,10 @@ pub struct FilterConfig {
     pub max_beams: usize,
     /// exponent on the scan's likelihood: beams are correlated and the map is
     /// imperfect, so the product over beams is far too confident. 1/3 keeps the 30-beam
-    /// product about as peaked as 10 independent beams (measured on the Intel log:
-    /// docs/localization.md). AMCL tempers with a sum of cubes instead.
+    /// product about as peaked as 10 independent beams. On the Intel log, over six
+    /// seeds, 1/3 gave a position RMSE of 0.112-0.150 m against 0.127-0.155 m for 0.2,
+    /// and global starts converged as fast; 1/2 lost tracks (docs/localization.md).
+    /// AMCL tempers with a sum of cubes instead.
     pub scan_weight_exponent: f64,
     /// fewest particles (`min_particles`, 500)
     pub min_particles: usize,
@@ -134,7 +136,7 @@ impl Default for FilterConfig {
             update_min_distance_m: 0.25,
             update_min_angle_rad: 0.2,
             max_beams: 30,
-            scan_weight_exponent: 0.2,
+            scan_weight_exponent: 1.0 / 3.0,
             min_particles: 500,
             max_particles: 5000,
             global_particles: 40_000,

@@ -221,7 +221,8 @@ fn kidnap_seeds() {
 /// A kidnap is a search: whether the injected particles land near the true place soon
 /// is luck, so this asserts over ten seeds rather than one. Measured over seeds 1 to 20
 /// (the `kidnap_seeds` diagnostic): lost at once in all 20; back within 0.5 m and
-/// tracking after 10 to 69 updates in 19, the 20th not within the 100-update walk.
+/// tracking after 12 to 82 updates in 19 (median 27), the 20th not within the
+/// 100-update walk.
 #[test]
 fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
     let mut back = Vec::new();
@@ -237,7 +238,7 @@ fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
     }
     back.sort();
     assert!(back.len() >= 9, "only {} of 10 seeds recovered", back.len());
-    assert!(back[back.len() / 2] <= 40, "median recovery {} updates", back[back.len() / 2]);
+    assert!(back[back.len() / 2] <= 50, "median recovery {} updates", back[back.len() / 2]);
 }
 
 /// On the Intel lab a kidnap does not collapse the likelihood: the office rows look
