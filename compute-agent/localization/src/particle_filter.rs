@@ -248,6 +248,8 @@ pub struct Counters {
     pub resamples: u64,
     /// particles drawn at random by recovery
     pub particles_injected: u64,
+    /// particles drawn where a door reading puts the user (sensor resetting)
+    pub particles_at_doors: u64,
     /// corrections after which every weight was zero or non-finite (reset to uniform)
     pub weight_collapses: u64,
 }
@@ -261,6 +263,8 @@ pub struct Correction {
     pub resampled: bool,
     /// particles injected at random
     pub injected: usize,
+    /// particles drawn where a door reading puts the user
+    pub at_doors: usize,
 }
 
 /// Observations offered to [`ParticleFilter::correct`].
@@ -318,6 +322,8 @@ pub struct ParticleFilter {
     endpoints: Vec<[f64; 2]>,
     bins: Vec<(u64, f64)>,
     next: Vec<Particle>,
+    /// door readings few particles agreed with: (floor index, door, body-frame offset)
+    door_resets: Vec<(u16, [f64; 2], [f64; 2])>,
 }
 
 impl ParticleFilter {
@@ -374,6 +380,7 @@ impl ParticleFilter {
             endpoints: Vec::new(),
             bins: Vec::new(),
             next: Vec::new(),
+            door_resets: Vec::new(),
         };
         f.init_global();
         Ok(f)
@@ -585,6 +592,7 @@ impl ParticleFilter {
         self.counters.updates += 1;
 
         let n = self.particles.len();
+        self.door_resets.clear();
         self.log_w.clear();
         self.log_w.resize(n, 0.0);
         let scan_used = match obs.scan {
@@ -654,8 +662,10 @@ impl ParticleFilter {
         };
         let mut out = Correction { updated: true, ..Default::default() };
         let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
-        if ess < self.config.resample_ess_fraction * n as f64 || inject_wanted {
-            out.injected = self.resample(inject_fraction);
+        let door_fraction = if self.door_resets.is_empty() { 0.0 } else { self.config.landmarks.door_reset_fraction };
+        let door_wanted = door_fraction * self.config.min_particles as f64 >= 1.0;
+        if ess < self.config.resample_ess_fraction * n as f64 || inject_wanted || door_wanted {
+            (out.injected, out.at_doors) = self.resample(inject_fraction, door_fraction);
             out.resampled = true;
         }
         out
@@ -715,15 +725,24 @@ impl ParticleFilter {
                     return;
                 }
                 let floor_miss = cfg.door_misread_probability.max(1e-6).ln();
+                let mut support = 0.0;
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
                     *lw += match doors[p.floor as usize] {
                         Some([dx, dy]) => {
                             let seen = p.pose.compose(fwd, left, 0.0);
                             let d = (seen.x_m - dx).hypot(seen.y_m - dy);
+                            support += p.weight * (-d * d / (2.0 * cfg.sigma_m * cfg.sigma_m)).exp();
                             mixture_log_p(d, cfg.sigma_m, cfg.door_misread_probability)
                         }
                         None => floor_miss,
                     };
+                }
+                if support < cfg.door_reset_below_support {
+                    for (fi, door) in doors.iter().enumerate() {
+                        if let Some(xy) = door {
+                            self.door_resets.push((fi as u16, *xy, [fwd, left]));
+                        }
+                    }
                 }
             }
             Landmark::Corner { .. } => {
@@ -795,11 +814,13 @@ impl ParticleFilter {
     }
 
     /// Low-variance (systematic) resampling to the KLD count, a fraction of which is
-    /// drawn uniformly in free space. Returns how many were injected.
-    fn resample(&mut self, inject_fraction: f64) -> usize {
+    /// drawn uniformly in free space and a fraction where unsupported door readings put
+    /// the user. Returns how many of each.
+    fn resample(&mut self, inject_fraction: f64, door_fraction: f64) -> (usize, usize) {
         let n_new = self.kld_count();
         let n_inject = ((inject_fraction * n_new as f64).round() as usize).min(n_new);
-        let n_draw = n_new - n_inject;
+        let n_door = ((door_fraction * n_new as f64).round() as usize).min(n_new - n_inject);
+        let n_draw = n_new - n_inject - n_door;
         let w = 1.0 / n_new as f64;
         self.next.clear();
         if n_draw > 0 {
@@ -821,11 +842,26 @@ impl ParticleFilter {
             let p = self.random_particle(w);
             self.next.push(p);
         }
+        let sigma = self.config.landmarks.sigma_m;
+        for _ in 0..n_door {
+            let (fi, [dx, dy], [fwd, left]) = self.door_resets[self.rng.index(self.door_resets.len())];
+            // the door fixes where, not which way: the heading comes from the belief
+            // (IMU, wall angles), uniform when that is uniform
+            let h = self.particles[self.rng.index(self.particles.len())].pose.heading_rad + self.rng.normal(0.1);
+            let (s, c) = fast_sin_cos(h);
+            let pose = Pose2::new(
+                dx - (c * fwd - s * left) + self.rng.normal(sigma),
+                dy - (s * fwd + c * left) + self.rng.normal(sigma),
+                h,
+            );
+            self.next.push(Particle { pose, level: self.floors[fi as usize].level, weight: w, floor: fi });
+        }
         std::mem::swap(&mut self.particles, &mut self.next);
         self.counters.resamples += 1;
         self.counters.particles_injected += n_inject as u64;
+        self.counters.particles_at_doors += n_door as u64;
         self.estimate.particles = self.particles.len();
-        n_inject
+        (n_inject, n_door)
     }
 
     /// Mean, covariance and status from the weighted particles: of the main cluster,
