@@ -607,59 +607,16 @@ impl ParticleFilter {
         }
 
         if scan_used {
-            // augmented MCL: the average fit under the predicted (prior-weighted) set
-            let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
-            // bias-corrected: the plain mean of the scans so far until there are 1/alpha
-            // of them, so the first scan (often a perfect fit at a known start) does
-            // not set the long-term level for hundreds of updates
-            self.scans_since_init += 1;
-            let n = self.scans_since_init as f64;
-            let slow = self.config.alpha_slow.max(1.0 / n);
-            let fast = self.config.alpha_fast.max(1.0 / n);
-            self.w_slow += slow * (w_avg - self.w_slow);
-            self.w_fast += fast * (w_avg - self.w_fast);
-            self.last_w_avg = w_avg;
-            self.scan_seen = true;
+            self.update_fit_averages();
         }
-
-        // posterior weights, in the log domain against the best
-        let max_lw = self.log_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        let mut sum = 0.0;
-        for (p, lw) in self.particles.iter_mut().zip(&self.log_w) {
-            p.weight *= (lw - max_lw).exp();
-            sum += p.weight;
-        }
-        if sum > 0.0 && sum.is_finite() {
-            for p in &mut self.particles {
-                p.weight /= sum;
-            }
-        } else {
-            self.counters.weight_collapses += 1;
-            for p in &mut self.particles {
-                p.weight = 1.0 / n as f64;
-            }
-        }
+        self.normalise_weights();
         if self.scan_seen {
             self.estimate.fit = self.w_fast;
         }
         self.compute_estimate();
 
         let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
-        let inject_fraction = if self.scan_seen && self.w_slow > 0.0 {
-            let ratio = self.w_fast / self.w_slow;
-            (1.0 - ratio / self.config.recovery_ratio.max(1e-9)).clamp(0.0, self.config.max_inject_fraction)
-        } else {
-            0.0
-        };
-        let inject_fraction = if inject_fraction > 0.0 {
-            self.hold_left = self.config.recovery_hold_updates;
-            inject_fraction
-        } else if self.hold_left > 0 {
-            self.hold_left -= 1;
-            self.config.recovery_hold_fraction.min(self.config.max_inject_fraction)
-        } else {
-            0.0
-        };
+        let inject_fraction = self.recovery_fraction();
         let mut out = Correction { updated: true, ..Default::default() };
         let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
         let door_fraction = if self.door_resets.is_empty() { 0.0 } else { self.config.landmarks.door_reset_fraction };
@@ -669,6 +626,65 @@ impl ParticleFilter {
             out.resampled = true;
         }
         out
+    }
+
+    /// Augmented MCL's averages of the scan fit under the predicted (prior-weighted)
+    /// set. Bias-corrected: the plain mean of the scans so far until there are 1/alpha
+    /// of them, so the first scan (often a perfect fit at a known start) does not set
+    /// the long-term level for hundreds of updates.
+    fn update_fit_averages(&mut self) {
+        let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
+        self.scans_since_init += 1;
+        let n = self.scans_since_init as f64;
+        let slow = self.config.alpha_slow.max(1.0 / n);
+        let fast = self.config.alpha_fast.max(1.0 / n);
+        self.w_slow += slow * (w_avg - self.w_slow);
+        self.w_fast += fast * (w_avg - self.w_fast);
+        self.last_w_avg = w_avg;
+        self.scan_seen = true;
+    }
+
+    /// Posterior weights from `log_w`, taken against the best so nothing underflows;
+    /// uniform again (and counted) if every weight vanished.
+    fn normalise_weights(&mut self) {
+        let max_lw = self.log_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
+        for (p, lw) in self.particles.iter_mut().zip(&self.log_w) {
+            p.weight *= (lw - max_lw).exp();
+            sum += p.weight;
+        }
+        let n = self.particles.len() as f64;
+        if sum > 0.0 && sum.is_finite() {
+            for p in &mut self.particles {
+                p.weight /= sum;
+            }
+        } else {
+            self.counters.weight_collapses += 1;
+            for p in &mut self.particles {
+                p.weight = 1.0 / n;
+            }
+        }
+    }
+
+    /// The share of the next set to draw at random: below the dead band
+    /// `1 - (w_fast / w_slow) / recovery_ratio`, then `recovery_hold_fraction` for
+    /// `recovery_hold_updates` more updates.
+    fn recovery_fraction(&mut self) -> f64 {
+        let below = if self.scan_seen && self.w_slow > 0.0 {
+            let ratio = self.w_fast / self.w_slow;
+            (1.0 - ratio / self.config.recovery_ratio.max(1e-9)).clamp(0.0, self.config.max_inject_fraction)
+        } else {
+            0.0
+        };
+        if below > 0.0 {
+            self.hold_left = self.config.recovery_hold_updates;
+            below
+        } else if self.hold_left > 0 {
+            self.hold_left -= 1;
+            self.config.recovery_hold_fraction.min(self.config.max_inject_fraction)
+        } else {
+            0.0
+        }
     }
 
     fn apply_motion(&mut self) {
@@ -866,73 +882,14 @@ impl ParticleFilter {
 
     /// Mean, covariance and status from the weighted particles: of the main cluster,
     /// not of the whole set (a few particles injected across the map, or a second
-    /// hypothesis in a similar corridor, must not drag the mean into a wall). The main
-    /// cluster: on the most likely floor, the particles within `cluster_radius_m` and
-    /// `cluster_heading_rad` of the
-    /// weighted mean of the heaviest 3 x 3 m block of 1 m bins, the mean re-centred twice (AMCL reports
-    /// its heaviest cluster the same way).
+    /// hypothesis in a similar corridor, must not drag the mean into a wall). AMCL
+    /// reports its heaviest cluster the same way.
     fn compute_estimate(&mut self) {
-        let mut floor_w = vec![0.0; self.floors.len()];
-        for p in &self.particles {
-            floor_w[p.floor as usize] += p.weight;
-        }
-        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
-        // the heaviest 1 m bin
-        self.bins.clear();
-        for p in self.particles.iter().filter(|p| p.floor == fi) {
-            let ix = floor_i64(p.pose.x_m) as u64 & 0xFFFF_FFFF;
-            let iy = floor_i64(p.pose.y_m) as u64 & 0xFFFF_FFFF;
-            self.bins.push(((ix << 32) | iy, p.weight));
-        }
-        self.bins.sort_unstable_by_key(|b| b.0);
-        // bins and their weights, then the bin whose 3 x 3 neighbourhood is heaviest
-        // (a cluster straddling a bin corner must not lose to a compact wrong one)
-        let mut merged: Vec<(u64, f64)> = Vec::new();
-        let mut i = 0;
-        while i < self.bins.len() {
-            let key = self.bins[i].0;
-            let mut w = 0.0;
-            while i < self.bins.len() && self.bins[i].0 == key {
-                w += self.bins[i].1;
-                i += 1;
-            }
-            merged.push((key, w));
-        }
-        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
-        let (mut best_key, mut best_w) = (0u64, -1.0);
-        for &(key, _) in &merged {
-            let (ix, iy) = (key >> 32, key & 0xFFFF_FFFF);
-            let mut w = 0.0;
-            for dx in [0xFFFF_FFFFu64, 0, 1] {
-                for dy in [0xFFFF_FFFFu64, 0, 1] {
-                    w += weight_of((((ix + dx) & 0xFFFF_FFFF) << 32) | ((iy + dy) & 0xFFFF_FFFF));
-                }
-            }
-            if w > best_w {
-                (best_key, best_w) = (key, w);
-            }
-        }
-        let in_bin = |p: &Particle| {
-            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
-            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
-            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
-        };
-        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_bin(p)));
-        let r2 = self.config.cluster_radius_m * self.config.cluster_radius_m;
-        let max_dh = self.config.cluster_heading_rad;
-        let near = |c: &Pose2, p: &Particle| {
-            p.floor == fi
-                && (p.pose.x_m - c.x_m).powi(2) + (p.pose.y_m - c.y_m).powi(2) <= r2
-                && wrap_angle(p.pose.heading_rad - c.heading_rad).abs() <= max_dh
-        };
-        for _ in 0..2 {
-            let c = centre;
-            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| near(&c, p)));
-        }
+        let (fi, centre) = self.main_cluster();
         let total: f64 = self.particles.iter().map(|p| p.weight).sum::<f64>().max(1e-300);
         let mut cov = [[0.0; 3]; 3];
         let mut wsum = 0.0;
-        for p in self.particles.iter().filter(|p| near(&centre, p)) {
+        for p in self.particles.iter().filter(|p| self.in_cluster(fi, &centre, p)) {
             let d =
                 [p.pose.x_m - centre.x_m, p.pose.y_m - centre.y_m, wrap_angle(p.pose.heading_rad - centre.heading_rad)];
             for i in 0..3 {
@@ -952,6 +909,79 @@ impl ParticleFilter {
         self.estimate.covariance = cov;
         self.estimate.cluster_weight = wsum / total;
         self.estimate.particles = self.particles.len();
+        self.update_status();
+    }
+
+    /// The main cluster's floor and weighted mean: on the most likely floor, the
+    /// particles within `cluster_radius_m` and `cluster_heading_rad` of the weighted
+    /// mean of the heaviest 3 x 3 m block of 1 m bins, re-centred twice.
+    fn main_cluster(&mut self) -> (u16, Pose2) {
+        let mut floor_w = vec![0.0; self.floors.len()];
+        for p in &self.particles {
+            floor_w[p.floor as usize] += p.weight;
+        }
+        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
+        let (bx, by) = self.heaviest_block(fi);
+        let in_block = |p: &Particle| {
+            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(bx) & 0xFFFF_FFFF;
+            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(by) & 0xFFFF_FFFF;
+            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
+        };
+        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_block(p)));
+        for _ in 0..2 {
+            let c = centre;
+            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| self.in_cluster(fi, &c, p)));
+        }
+        (fi, centre)
+    }
+
+    /// The 1 m bin (x, y, each as a wrapped u32) on floor `fi` whose 3 x 3 neighbourhood
+    /// holds the most weight (a cluster straddling a bin corner must not lose to a
+    /// compact wrong one).
+    fn heaviest_block(&mut self, fi: u16) -> (u64, u64) {
+        const MASK: u64 = 0xFFFF_FFFF;
+        self.bins.clear();
+        for p in self.particles.iter().filter(|p| p.floor == fi) {
+            let ix = floor_i64(p.pose.x_m) as u64 & MASK;
+            let iy = floor_i64(p.pose.y_m) as u64 & MASK;
+            self.bins.push(((ix << 32) | iy, p.weight));
+        }
+        self.bins.sort_unstable_by_key(|b| b.0);
+        let mut merged: Vec<(u64, f64)> = Vec::new();
+        for &(key, w) in &self.bins {
+            match merged.last_mut() {
+                Some((k, sum)) if *k == key => *sum += w,
+                _ => merged.push((key, w)),
+            }
+        }
+        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
+        let (mut best_key, mut best_w) = (0u64, -1.0);
+        for &(key, _) in &merged {
+            let (ix, iy) = (key >> 32, key & MASK);
+            let mut w = 0.0;
+            for dx in [MASK, 0, 1] {
+                for dy in [MASK, 0, 1] {
+                    w += weight_of((((ix + dx) & MASK) << 32) | ((iy + dy) & MASK));
+                }
+            }
+            if w > best_w {
+                (best_key, best_w) = (key, w);
+            }
+        }
+        (best_key >> 32, best_key & MASK)
+    }
+
+    /// Whether `p` belongs to the cluster about `centre` on floor `fi`.
+    fn in_cluster(&self, fi: u16, centre: &Pose2, p: &Particle) -> bool {
+        let r = self.config.cluster_radius_m;
+        p.floor == fi
+            && (p.pose.x_m - centre.x_m).powi(2) + (p.pose.y_m - centre.y_m).powi(2) <= r * r
+            && wrap_angle(p.pose.heading_rad - centre.heading_rad).abs() <= self.config.cluster_heading_rad
+    }
+
+    /// `Lost`, `Uncertain` or `Tracking` from the estimate and the fit (thresholds in
+    /// [`FilterConfig`]).
+    fn update_status(&mut self) {
         let (std_m, std_h) = (self.estimate.position_std_m(), self.estimate.heading_std_rad());
         let c = &self.config;
         let (fit, share) = (self.estimate.fit, self.estimate.cluster_weight);
