@@ -65,6 +65,16 @@ pub struct LandmarkConfig {
     pub door_misread_probability: f64,
     /// probability that a detected corner is not a map corner (clutter, an open door)
     pub corner_false_probability: f64,
+    /// sensor resetting (Lenser & Veloso 2000; Zhang et al.'s first stage fixes the
+    /// pose from unique landmarks): when the particles that agree with a door reading
+    /// hold less than `door_reset_below_support` of the weight, this fraction of the
+    /// next set is drawn where the reading puts the user (around the door, with
+    /// headings drawn from the current particles). A misread puts them at the wrong
+    /// door, where the scans drop them; the estimate follows the heaviest cluster, so
+    /// they never move it on their own.
+    pub door_reset_fraction: f64,
+    /// see `door_reset_fraction`
+    pub door_reset_below_support: f64,
     /// standard deviation of a measured wall angle, radians (3 degrees: a plane fit to
     /// a metre of wall in a depth image)
     pub wall_sigma_rad: f64,
@@ -78,6 +88,8 @@ impl Default for LandmarkConfig {
             sigma_m: 0.5,
             door_misread_probability: 0.1,
             corner_false_probability: 0.2,
+            door_reset_fraction: 0.1,
+            door_reset_below_support: 0.1,
             wall_sigma_rad: 3f64.to_radians(),
             wall_outlier_probability: 0.1,
         }

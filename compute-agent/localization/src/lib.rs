@@ -76,6 +76,14 @@ pub enum LocalizationError {
         /// the level
         level: i32,
     },
+    /// a gateway without a stop on the floor asked for
+    #[error("gateway '{gateway}' has no stop on floor {level}")]
+    GatewayNotOnFloor {
+        /// the gateway's name
+        gateway: String,
+        /// the level
+        level: i32,
+    },
     /// a configuration that cannot work
     #[error("bad localization configuration: {0}")]
     BadConfig(String),

@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::pose::{wrap_angle, Pose2};
+use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
 use crate::rng::Rng;
 
 /// One odometry increment, in the body frame at the start of the interval.
@@ -152,7 +152,7 @@ pub fn sample_motion(
         }
     };
     // = pose.compose(0, 0, rot1_hat).compose(trans_hat, 0, total - rot1_hat), one sin_cos
-    let (s, c) = (pose.heading_rad + rot1_hat).sin_cos();
+    let (s, c) = fast_sin_cos(pose.heading_rad + rot1_hat);
     Pose2::new(pose.x_m + trans_hat * c, pose.y_m + trans_hat * s, pose.heading_rad + total)
 }
 

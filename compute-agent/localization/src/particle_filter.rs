@@ -21,12 +21,13 @@
 //! Everything random comes from one seeded [`Rng`]: the same inputs and seed give the
 //! same particles, bit for bit.
 
+use map::Gateway;
 use serde::{Deserialize, Serialize};
 
 use crate::floor_model::FloorModel;
 use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
 use crate::motion::{sample_motion, MotionNoise, OdometryIncrement, RotTransRot};
-use crate::pose::{wrap_angle, Pose2};
+use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
 use crate::rng::Rng;
 use crate::scan::Scan;
 use crate::LocalizationError;
@@ -47,8 +48,10 @@ pub struct FilterConfig {
     pub max_beams: usize,
     /// exponent on the scan's likelihood: beams are correlated and the map is
     /// imperfect, so the product over beams is far too confident. 1/3 keeps the 30-beam
-    /// product about as peaked as 10 independent beams (measured on the Intel log:
-    /// docs/localization.md). AMCL tempers with a sum of cubes instead.
+    /// product about as peaked as 10 independent beams. On the Intel log, over six
+    /// seeds, 1/3 gave a position RMSE of 0.112-0.150 m against 0.127-0.155 m for 0.2,
+    /// and global starts converged as fast; 1/2 lost tracks (docs/localization.md).
+    /// AMCL tempers with a sum of cubes instead.
     pub scan_weight_exponent: f64,
     /// fewest particles (`min_particles`, 500)
     pub min_particles: usize,
@@ -56,9 +59,9 @@ pub struct FilterConfig {
     pub max_particles: usize,
     /// particles of a global start (spread over all free space; the first resampling
     /// brings the count within [min, max]). 40,000: on the Intel log, over ten seeds,
-    /// 10,000 converged after a median of ~55 updates (worst 689), 20,000 within 14
-    /// updates in 9 of 10 (the tenth: 603), 40,000 within 14 in all ten
-    /// (docs/localization.md). One update of 40,000 costs ~10 ms, once.
+    /// 10,000 needed up to 578 updates (settling on look-alikes meanwhile), 20,000 up to
+    /// 570 on one seed, 40,000 at most 13 (docs/localization.md). One update of 40,000
+    /// costs ~10 ms, once.
     pub global_particles: usize,
     /// KLD bound: allowed error between the sample and the true posterior (`kld_err`, 0.01)
     pub kld_error: f64,
@@ -102,8 +105,15 @@ pub struct FilterConfig {
     pub tracking_min_fit: f64,
     /// `Tracking` also needs this share of the weight in the main cluster
     pub tracking_min_cluster_weight: f64,
+    /// ... and all of the above for this many corrections in a row: a look-alike found
+    /// after a global start or a kidnap fits for a few updates before it fails
+    /// (docs/localization.md: "Tracking while > 1 m off")
+    pub tracking_min_updates: u32,
     /// `Lost` when the main cluster holds less than this share of the weight
     pub lost_max_cluster_weight: f64,
+    /// how far from a gateway's stop a particle may be and still be taken through it by
+    /// [`ParticleFilter::take_gateway`], metres (a lift lobby)
+    pub gateway_radius_m: f64,
     /// the main cluster's radius, metres (see [`Estimate`])
     pub cluster_radius_m: f64,
     /// ... and its half-width in heading, radians
@@ -126,7 +136,7 @@ impl Default for FilterConfig {
             update_min_distance_m: 0.25,
             update_min_angle_rad: 0.2,
             max_beams: 30,
-            scan_weight_exponent: 0.2,
+            scan_weight_exponent: 1.0 / 3.0,
             min_particles: 500,
             max_particles: 5000,
             global_particles: 40_000,
@@ -145,7 +155,9 @@ impl Default for FilterConfig {
             tracking_max_heading_std_rad: 10f64.to_radians(),
             tracking_min_fit: 0.25,
             tracking_min_cluster_weight: 0.8,
+            tracking_min_updates: 5,
             lost_max_cluster_weight: 0.25,
+            gateway_radius_m: 3.0,
             cluster_radius_m: 1.5,
             cluster_heading_rad: 45f64.to_radians(),
             lost_max_fit: 0.12,
@@ -172,8 +184,8 @@ pub struct Particle {
 /// How sure the filter is (thresholds in [`FilterConfig`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Status {
-    /// one tight cluster holding most of the weight that fits the scans: guidance may
-    /// rely on it
+    /// one tight cluster holding most of the weight that fits the scans, for
+    /// `tracking_min_updates` corrections in a row: guidance may rely on it
     Tracking,
     /// converging or spread out, but the scans still fit
     Uncertain,
@@ -236,6 +248,8 @@ pub struct Counters {
     pub resamples: u64,
     /// particles drawn at random by recovery
     pub particles_injected: u64,
+    /// particles drawn where a door reading puts the user (sensor resetting)
+    pub particles_at_doors: u64,
     /// corrections after which every weight was zero or non-finite (reset to uniform)
     pub weight_collapses: u64,
 }
@@ -249,6 +263,8 @@ pub struct Correction {
     pub resampled: bool,
     /// particles injected at random
     pub injected: usize,
+    /// particles drawn where a door reading puts the user
+    pub at_doors: usize,
 }
 
 /// Observations offered to [`ParticleFilter::correct`].
@@ -293,6 +309,8 @@ pub struct ParticleFilter {
     scans_since_init: u64,
     /// updates the recovery keeps injecting for
     hold_left: u32,
+    /// corrections in a row that met the `Tracking` conditions
+    tracking_streak: u32,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -304,6 +322,8 @@ pub struct ParticleFilter {
     endpoints: Vec<[f64; 2]>,
     bins: Vec<(u64, f64)>,
     next: Vec<Particle>,
+    /// door readings few particles agreed with: (floor index, door, body-frame offset)
+    door_resets: Vec<(u16, [f64; 2], [f64; 2])>,
 }
 
 impl ParticleFilter {
@@ -342,6 +362,7 @@ impl ParticleFilter {
             last_w_avg: 0.0,
             scans_since_init: 0,
             hold_left: 0,
+            tracking_streak: 0,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -359,6 +380,7 @@ impl ParticleFilter {
             endpoints: Vec::new(),
             bins: Vec::new(),
             next: Vec::new(),
+            door_resets: Vec::new(),
         };
         f.init_global();
         Ok(f)
@@ -418,12 +440,17 @@ impl ParticleFilter {
         self.estimate.fit = 1.0;
         self.fill_trig();
         self.compute_estimate();
+        // a start is a claim, not an observation: `Tracking` comes from corrections
+        self.tracking_streak = 0;
+        if self.estimate.status == Status::Tracking {
+            self.estimate.status = Status::Uncertain;
+        }
     }
 
     /// One sin_cos per particle, shared by the scan, the landmarks and the estimate.
     fn fill_trig(&mut self) {
         self.trig.clear();
-        self.trig.extend(self.particles.iter().map(|p| p.pose.heading_rad.sin_cos()));
+        self.trig.extend(self.particles.iter().map(|p| fast_sin_cos(p.pose.heading_rad)));
     }
 
     fn floor_index(&self, level: i32) -> Option<usize> {
@@ -447,6 +474,76 @@ impl ParticleFilter {
             self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
         );
         Particle { pose, level: f.level, weight, floor: fi as u16 }
+    }
+
+    /// The user took `gateway` (lift, stairs, ramp) to floor `to_level`: the agent saw
+    /// a lift ride or a climb (barometer, the user's words). Odometry cannot say it, so
+    /// it is an event. Particles within `gateway_radius_m` of the gateway's stop on their
+    /// own floor move to its stop on `to_level`, keeping their offset from the stop and
+    /// their heading (with 0.3 rad of noise: one turns in a lift); the others (the belief
+    /// that the user was elsewhere) are dropped, the moved ones resampled by weight to
+    /// the same count. When no particle was near, all are drawn around the destination
+    /// stop (`gateway_radius_m / 2`, any heading). Returns how many were near. `Tracking`
+    /// must be earned again by corrections.
+    pub fn take_gateway(&mut self, gateway: &Gateway, to_level: i32) -> Result<usize, LocalizationError> {
+        let to_floor = self.floor_index(to_level).ok_or(LocalizationError::UnknownFloor { level: to_level })?;
+        let dest = gateway
+            .stop(to_level)
+            .ok_or_else(|| LocalizationError::GatewayNotOnFloor { gateway: gateway.name.clone(), level: to_level })?;
+        let (dx0, dy0) = (dest.x, dest.y);
+        let r = self.config.gateway_radius_m;
+        let n = self.particles.len().max(1);
+        // moved copies of the particles near a stop, with their weights
+        self.next.clear();
+        for p in &self.particles {
+            let Some(stop) = gateway.stop(p.level) else { continue };
+            let (ox, oy) = (p.pose.x_m - stop.x, p.pose.y_m - stop.y);
+            if ox * ox + oy * oy <= r * r {
+                let pose = Pose2::new(dx0 + ox, dy0 + oy, p.pose.heading_rad);
+                self.next.push(Particle { pose, level: to_level, weight: p.weight, floor: to_floor as u16 });
+            }
+        }
+        let near = self.next.len();
+        let mut fresh = Vec::with_capacity(n);
+        if near > 0 {
+            let total: f64 = self.next.iter().map(|p| p.weight).sum();
+            let step = total / n as f64;
+            let mut u = self.rng.uniform() * step;
+            let (mut i, mut c) = (0, self.next[0].weight);
+            for _ in 0..n {
+                while u > c && i + 1 < near {
+                    i += 1;
+                    c += self.next[i].weight;
+                }
+                let mut p = self.next[i];
+                p.pose = Pose2::new(p.pose.x_m, p.pose.y_m, p.pose.heading_rad + self.rng.normal(0.3));
+                p.weight = 1.0 / n as f64;
+                fresh.push(p);
+                u += step;
+            }
+        } else {
+            for _ in 0..n {
+                let pose = Pose2::new(
+                    dx0 + self.rng.normal(r / 2.0),
+                    dy0 + self.rng.normal(r / 2.0),
+                    self.rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+                );
+                fresh.push(Particle { pose, level: to_level, weight: 1.0 / n as f64, floor: to_floor as u16 });
+            }
+        }
+        self.particles = fresh;
+        self.pending = Pose2::default();
+        self.pending_imu_yaw = Some(0.0);
+        self.pending_dt_s = 0.0;
+        self.pending_increments = 0;
+        self.force_update = true;
+        self.fill_trig();
+        self.compute_estimate();
+        self.tracking_streak = 0;
+        if self.estimate.status == Status::Tracking {
+            self.estimate.status = Status::Uncertain;
+        }
+        Ok(near)
     }
 
     /// Adds an odometry increment (and the IMU's yaw rate over the same interval, if
@@ -495,6 +592,7 @@ impl ParticleFilter {
         self.counters.updates += 1;
 
         let n = self.particles.len();
+        self.door_resets.clear();
         self.log_w.clear();
         self.log_w.resize(n, 0.0);
         let scan_used = match obs.scan {
@@ -509,28 +607,53 @@ impl ParticleFilter {
         }
 
         if scan_used {
-            // augmented MCL: the average fit under the predicted (prior-weighted) set
-            let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
-            // bias-corrected: the plain mean of the scans so far until there are 1/alpha
-            // of them, so the first scan (often a perfect fit at a known start) does
-            // not set the long-term level for hundreds of updates
-            self.scans_since_init += 1;
-            let n = self.scans_since_init as f64;
-            let slow = self.config.alpha_slow.max(1.0 / n);
-            let fast = self.config.alpha_fast.max(1.0 / n);
-            self.w_slow += slow * (w_avg - self.w_slow);
-            self.w_fast += fast * (w_avg - self.w_fast);
-            self.last_w_avg = w_avg;
-            self.scan_seen = true;
+            self.update_fit_averages();
         }
+        self.normalise_weights();
+        if self.scan_seen {
+            self.estimate.fit = self.w_fast;
+        }
+        self.compute_estimate();
 
-        // posterior weights, in the log domain against the best
+        let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
+        let inject_fraction = self.recovery_fraction();
+        let mut out = Correction { updated: true, ..Default::default() };
+        let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
+        let door_fraction = if self.door_resets.is_empty() { 0.0 } else { self.config.landmarks.door_reset_fraction };
+        let door_wanted = door_fraction * self.config.min_particles as f64 >= 1.0;
+        if ess < self.config.resample_ess_fraction * n as f64 || inject_wanted || door_wanted {
+            (out.injected, out.at_doors) = self.resample(inject_fraction, door_fraction);
+            out.resampled = true;
+        }
+        out
+    }
+
+    /// Augmented MCL's averages of the scan fit under the predicted (prior-weighted)
+    /// set. Bias-corrected: the plain mean of the scans so far until there are 1/alpha
+    /// of them, so the first scan (often a perfect fit at a known start) does not set
+    /// the long-term level for hundreds of updates.
+    fn update_fit_averages(&mut self) {
+        let w_avg: f64 = self.particles.iter().zip(&self.scan_fit).map(|(p, f)| p.weight * f).sum();
+        self.scans_since_init += 1;
+        let n = self.scans_since_init as f64;
+        let slow = self.config.alpha_slow.max(1.0 / n);
+        let fast = self.config.alpha_fast.max(1.0 / n);
+        self.w_slow += slow * (w_avg - self.w_slow);
+        self.w_fast += fast * (w_avg - self.w_fast);
+        self.last_w_avg = w_avg;
+        self.scan_seen = true;
+    }
+
+    /// Posterior weights from `log_w`, taken against the best so nothing underflows;
+    /// uniform again (and counted) if every weight vanished.
+    fn normalise_weights(&mut self) {
         let max_lw = self.log_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         let mut sum = 0.0;
         for (p, lw) in self.particles.iter_mut().zip(&self.log_w) {
             p.weight *= (lw - max_lw).exp();
             sum += p.weight;
         }
+        let n = self.particles.len() as f64;
         if sum > 0.0 && sum.is_finite() {
             for p in &mut self.particles {
                 p.weight /= sum;
@@ -538,37 +661,30 @@ impl ParticleFilter {
         } else {
             self.counters.weight_collapses += 1;
             for p in &mut self.particles {
-                p.weight = 1.0 / n as f64;
+                p.weight = 1.0 / n;
             }
         }
-        if self.scan_seen {
-            self.estimate.fit = self.w_fast;
-        }
-        self.compute_estimate();
+    }
 
-        let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
-        let inject_fraction = if self.scan_seen && self.w_slow > 0.0 {
+    /// The share of the next set to draw at random: below the dead band
+    /// `1 - (w_fast / w_slow) / recovery_ratio`, then `recovery_hold_fraction` for
+    /// `recovery_hold_updates` more updates.
+    fn recovery_fraction(&mut self) -> f64 {
+        let below = if self.scan_seen && self.w_slow > 0.0 {
             let ratio = self.w_fast / self.w_slow;
             (1.0 - ratio / self.config.recovery_ratio.max(1e-9)).clamp(0.0, self.config.max_inject_fraction)
         } else {
             0.0
         };
-        let inject_fraction = if inject_fraction > 0.0 {
+        if below > 0.0 {
             self.hold_left = self.config.recovery_hold_updates;
-            inject_fraction
+            below
         } else if self.hold_left > 0 {
             self.hold_left -= 1;
             self.config.recovery_hold_fraction.min(self.config.max_inject_fraction)
         } else {
             0.0
-        };
-        let mut out = Correction { updated: true, ..Default::default() };
-        let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
-        if ess < self.config.resample_ess_fraction * n as f64 || inject_wanted {
-            out.injected = self.resample(inject_fraction);
-            out.resampled = true;
         }
-        out
     }
 
     fn apply_motion(&mut self) {
@@ -625,15 +741,24 @@ impl ParticleFilter {
                     return;
                 }
                 let floor_miss = cfg.door_misread_probability.max(1e-6).ln();
+                let mut support = 0.0;
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
                     *lw += match doors[p.floor as usize] {
                         Some([dx, dy]) => {
                             let seen = p.pose.compose(fwd, left, 0.0);
                             let d = (seen.x_m - dx).hypot(seen.y_m - dy);
+                            support += p.weight * (-d * d / (2.0 * cfg.sigma_m * cfg.sigma_m)).exp();
                             mixture_log_p(d, cfg.sigma_m, cfg.door_misread_probability)
                         }
                         None => floor_miss,
                     };
+                }
+                if support < cfg.door_reset_below_support {
+                    for (fi, door) in doors.iter().enumerate() {
+                        if let Some(xy) = door {
+                            self.door_resets.push((fi as u16, *xy, [fwd, left]));
+                        }
+                    }
                 }
             }
             Landmark::Corner { .. } => {
@@ -705,11 +830,13 @@ impl ParticleFilter {
     }
 
     /// Low-variance (systematic) resampling to the KLD count, a fraction of which is
-    /// drawn uniformly in free space. Returns how many were injected.
-    fn resample(&mut self, inject_fraction: f64) -> usize {
+    /// drawn uniformly in free space and a fraction where unsupported door readings put
+    /// the user. Returns how many of each.
+    fn resample(&mut self, inject_fraction: f64, door_fraction: f64) -> (usize, usize) {
         let n_new = self.kld_count();
         let n_inject = ((inject_fraction * n_new as f64).round() as usize).min(n_new);
-        let n_draw = n_new - n_inject;
+        let n_door = ((door_fraction * n_new as f64).round() as usize).min(n_new - n_inject);
+        let n_draw = n_new - n_inject - n_door;
         let w = 1.0 / n_new as f64;
         self.next.clear();
         if n_draw > 0 {
@@ -731,82 +858,38 @@ impl ParticleFilter {
             let p = self.random_particle(w);
             self.next.push(p);
         }
+        let sigma = self.config.landmarks.sigma_m;
+        for _ in 0..n_door {
+            let (fi, [dx, dy], [fwd, left]) = self.door_resets[self.rng.index(self.door_resets.len())];
+            // the door fixes where, not which way: the heading comes from the belief
+            // (IMU, wall angles), uniform when that is uniform
+            let h = self.particles[self.rng.index(self.particles.len())].pose.heading_rad + self.rng.normal(0.1);
+            let (s, c) = fast_sin_cos(h);
+            let pose = Pose2::new(
+                dx - (c * fwd - s * left) + self.rng.normal(sigma),
+                dy - (s * fwd + c * left) + self.rng.normal(sigma),
+                h,
+            );
+            self.next.push(Particle { pose, level: self.floors[fi as usize].level, weight: w, floor: fi });
+        }
         std::mem::swap(&mut self.particles, &mut self.next);
         self.counters.resamples += 1;
         self.counters.particles_injected += n_inject as u64;
+        self.counters.particles_at_doors += n_door as u64;
         self.estimate.particles = self.particles.len();
-        n_inject
+        (n_inject, n_door)
     }
 
     /// Mean, covariance and status from the weighted particles: of the main cluster,
     /// not of the whole set (a few particles injected across the map, or a second
-    /// hypothesis in a similar corridor, must not drag the mean into a wall). The main
-    /// cluster: on the most likely floor, the particles within `cluster_radius_m` and
-    /// `cluster_heading_rad` of the
-    /// weighted mean of the heaviest 3 x 3 m block of 1 m bins, the mean re-centred twice (AMCL reports
-    /// its heaviest cluster the same way).
+    /// hypothesis in a similar corridor, must not drag the mean into a wall). AMCL
+    /// reports its heaviest cluster the same way.
     fn compute_estimate(&mut self) {
-        let mut floor_w = vec![0.0; self.floors.len()];
-        for p in &self.particles {
-            floor_w[p.floor as usize] += p.weight;
-        }
-        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
-        // the heaviest 1 m bin
-        self.bins.clear();
-        for p in self.particles.iter().filter(|p| p.floor == fi) {
-            let ix = floor_i64(p.pose.x_m) as u64 & 0xFFFF_FFFF;
-            let iy = floor_i64(p.pose.y_m) as u64 & 0xFFFF_FFFF;
-            self.bins.push(((ix << 32) | iy, p.weight));
-        }
-        self.bins.sort_unstable_by_key(|b| b.0);
-        // bins and their weights, then the bin whose 3 x 3 neighbourhood is heaviest
-        // (a cluster straddling a bin corner must not lose to a compact wrong one)
-        let mut merged: Vec<(u64, f64)> = Vec::new();
-        let mut i = 0;
-        while i < self.bins.len() {
-            let key = self.bins[i].0;
-            let mut w = 0.0;
-            while i < self.bins.len() && self.bins[i].0 == key {
-                w += self.bins[i].1;
-                i += 1;
-            }
-            merged.push((key, w));
-        }
-        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
-        let (mut best_key, mut best_w) = (0u64, -1.0);
-        for &(key, _) in &merged {
-            let (ix, iy) = (key >> 32, key & 0xFFFF_FFFF);
-            let mut w = 0.0;
-            for dx in [0xFFFF_FFFFu64, 0, 1] {
-                for dy in [0xFFFF_FFFFu64, 0, 1] {
-                    w += weight_of((((ix + dx) & 0xFFFF_FFFF) << 32) | ((iy + dy) & 0xFFFF_FFFF));
-                }
-            }
-            if w > best_w {
-                (best_key, best_w) = (key, w);
-            }
-        }
-        let in_bin = |p: &Particle| {
-            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(best_key >> 32) & 0xFFFF_FFFF;
-            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(best_key & 0xFFFF_FFFF) & 0xFFFF_FFFF;
-            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
-        };
-        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_bin(p)));
-        let r2 = self.config.cluster_radius_m * self.config.cluster_radius_m;
-        let max_dh = self.config.cluster_heading_rad;
-        let near = |c: &Pose2, p: &Particle| {
-            p.floor == fi
-                && (p.pose.x_m - c.x_m).powi(2) + (p.pose.y_m - c.y_m).powi(2) <= r2
-                && wrap_angle(p.pose.heading_rad - c.heading_rad).abs() <= max_dh
-        };
-        for _ in 0..2 {
-            let c = centre;
-            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| near(&c, p)));
-        }
+        let (fi, centre) = self.main_cluster();
         let total: f64 = self.particles.iter().map(|p| p.weight).sum::<f64>().max(1e-300);
         let mut cov = [[0.0; 3]; 3];
         let mut wsum = 0.0;
-        for p in self.particles.iter().filter(|p| near(&centre, p)) {
+        for p in self.particles.iter().filter(|p| self.in_cluster(fi, &centre, p)) {
             let d =
                 [p.pose.x_m - centre.x_m, p.pose.y_m - centre.y_m, wrap_angle(p.pose.heading_rad - centre.heading_rad)];
             for i in 0..3 {
@@ -826,19 +909,93 @@ impl ParticleFilter {
         self.estimate.covariance = cov;
         self.estimate.cluster_weight = wsum / total;
         self.estimate.particles = self.particles.len();
+        self.update_status();
+    }
+
+    /// The main cluster's floor and weighted mean: on the most likely floor, the
+    /// particles within `cluster_radius_m` and `cluster_heading_rad` of the weighted
+    /// mean of the heaviest 3 x 3 m block of 1 m bins, re-centred twice.
+    fn main_cluster(&mut self) -> (u16, Pose2) {
+        let mut floor_w = vec![0.0; self.floors.len()];
+        for p in &self.particles {
+            floor_w[p.floor as usize] += p.weight;
+        }
+        let fi = (0..floor_w.len()).max_by(|&a, &b| floor_w[a].total_cmp(&floor_w[b])).unwrap_or(0) as u16;
+        let (bx, by) = self.heaviest_block(fi);
+        let in_block = |p: &Particle| {
+            let dx = (floor_i64(p.pose.x_m) as u64).wrapping_sub(bx) & 0xFFFF_FFFF;
+            let dy = (floor_i64(p.pose.y_m) as u64).wrapping_sub(by) & 0xFFFF_FFFF;
+            p.floor == fi && (dx <= 1 || dx == 0xFFFF_FFFF) && (dy <= 1 || dy == 0xFFFF_FFFF)
+        };
+        let mut centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| in_block(p)));
+        for _ in 0..2 {
+            let c = centre;
+            centre = weighted_mean(self.particles.iter().zip(&self.trig).filter(|(p, _)| self.in_cluster(fi, &c, p)));
+        }
+        (fi, centre)
+    }
+
+    /// The 1 m bin (x, y, each as a wrapped u32) on floor `fi` whose 3 x 3 neighbourhood
+    /// holds the most weight (a cluster straddling a bin corner must not lose to a
+    /// compact wrong one).
+    fn heaviest_block(&mut self, fi: u16) -> (u64, u64) {
+        const MASK: u64 = 0xFFFF_FFFF;
+        self.bins.clear();
+        for p in self.particles.iter().filter(|p| p.floor == fi) {
+            let ix = floor_i64(p.pose.x_m) as u64 & MASK;
+            let iy = floor_i64(p.pose.y_m) as u64 & MASK;
+            self.bins.push(((ix << 32) | iy, p.weight));
+        }
+        self.bins.sort_unstable_by_key(|b| b.0);
+        let mut merged: Vec<(u64, f64)> = Vec::new();
+        for &(key, w) in &self.bins {
+            match merged.last_mut() {
+                Some((k, sum)) if *k == key => *sum += w,
+                _ => merged.push((key, w)),
+            }
+        }
+        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
+        let (mut best_key, mut best_w) = (0u64, -1.0);
+        for &(key, _) in &merged {
+            let (ix, iy) = (key >> 32, key & MASK);
+            let mut w = 0.0;
+            for dx in [MASK, 0, 1] {
+                for dy in [MASK, 0, 1] {
+                    w += weight_of((((ix + dx) & MASK) << 32) | ((iy + dy) & MASK));
+                }
+            }
+            if w > best_w {
+                (best_key, best_w) = (key, w);
+            }
+        }
+        (best_key >> 32, best_key & MASK)
+    }
+
+    /// Whether `p` belongs to the cluster about `centre` on floor `fi`.
+    fn in_cluster(&self, fi: u16, centre: &Pose2, p: &Particle) -> bool {
+        let r = self.config.cluster_radius_m;
+        p.floor == fi
+            && (p.pose.x_m - centre.x_m).powi(2) + (p.pose.y_m - centre.y_m).powi(2) <= r * r
+            && wrap_angle(p.pose.heading_rad - centre.heading_rad).abs() <= self.config.cluster_heading_rad
+    }
+
+    /// `Lost`, `Uncertain` or `Tracking` from the estimate and the fit (thresholds in
+    /// [`FilterConfig`]).
+    fn update_status(&mut self) {
         let (std_m, std_h) = (self.estimate.position_std_m(), self.estimate.heading_std_rad());
         let c = &self.config;
         let (fit, share) = (self.estimate.fit, self.estimate.cluster_weight);
         // the last scan's own fit reacts at once; w_fast only after a few scans
         let now = self.last_w_avg;
         let collapsed = self.scan_seen && (now < c.lost_max_fit || self.w_fast < c.recovery_ratio * self.w_slow);
-        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
-            Status::Lost
-        } else if share >= c.tracking_min_cluster_weight
+        let tracking_now = share >= c.tracking_min_cluster_weight
             && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
-            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit)
-        {
+            && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit);
+        self.tracking_streak = if tracking_now && !collapsed { self.tracking_streak.saturating_add(1) } else { 0 };
+        self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
+            Status::Lost
+        } else if self.tracking_streak >= c.tracking_min_updates {
             Status::Tracking
         } else {
             Status::Uncertain

@@ -2,14 +2,13 @@
 //! teleport the estimate, a wall angle corrects a heading offset, a kidnap sends the
 //! status to `Lost` and recovery brings it back, bad input is refused and counted.
 
-#[allow(dead_code)]
 mod support;
 
 use localization::{
     FilterConfig, FloorModel, Landmark, Observations, OdometryIncrement, ParticleFilter, Pose2, Rejected, Status,
     WallAngle,
 };
-use map::{Door, OccupancyGrid, SemanticLayer};
+use map::{Corner, Door, OccupancyGrid, SemanticLayer};
 use support::sim::{cast, grid};
 
 /// A 30 x 3 m corridor (walls at y = 0.5 and 2.5) with alcoves at irregular places, so
@@ -24,7 +23,12 @@ fn corridor() -> (OccupancyGrid, SemanticLayer) {
         end || south || north
     });
     let door = |n: &str, x: f64| Door { number: n.into(), x, y: 0.55, floor: 0, normal: [0.0, 1.0] };
-    let semantic = SemanticLayer { doors: vec![door("101", 3.0), door("120", 25.0)], ..Default::default() };
+    let corner = |x: f64, y: f64| Corner { x, y, floor: 0 };
+    let semantic = SemanticLayer {
+        doors: vec![door("101", 3.0), door("120", 25.0)],
+        corners: vec![corner(0.3, 0.55), corner(0.3, 2.45), corner(29.7, 0.55), corner(29.7, 2.45)],
+        ..Default::default()
+    };
     (g, semantic)
 }
 
@@ -81,6 +85,24 @@ fn a_door_number_localizes_and_a_misread_one_is_recovered_from() {
     assert!(after_correct < 0.75, "{after_correct}");
     assert!(after_misread < 0.75, "a misread teleported the estimate by {after_misread} m");
     assert!(after_reread < 0.75, "{after_reread}");
+}
+
+#[test]
+fn corners_are_matched_to_the_nearest_one() {
+    // no scans; facing west 0.7 m from the corridor's west end, a corner ahead-right.
+    // Corners are not unique: the reading is matched to whichever map corner is
+    // nearest each particle's prediction, so only places near a corridor end, facing
+    // it, gain weight.
+    let (mut pf, _) = corridor_filter(FilterConfig::default(), 8);
+    let truth = Pose2::new(1.0, 1.5, std::f64::consts::PI);
+    pf.init_pose(0, Pose2::new(8.0, 1.5, std::f64::consts::PI), 5.0, 0.05).expect("start");
+    let seen = [Landmark::Corner { forward_m: 0.7, left_m: -0.95 }];
+    for _ in 0..3 {
+        pf.correct(&Observations { landmarks: &seen, ..Default::default() });
+    }
+    let e = pf.estimate();
+    eprintln!("corner: error {:.2} m after three readings (start 7 m off)", e.pose.distance_m(&truth));
+    assert!(e.pose.distance_m(&truth) < 0.75, "{:?}", e.pose);
 }
 
 #[test]
@@ -199,7 +221,8 @@ fn kidnap_seeds() {
 /// A kidnap is a search: whether the injected particles land near the true place soon
 /// is luck, so this asserts over ten seeds rather than one. Measured over seeds 1 to 20
 /// (the `kidnap_seeds` diagnostic): lost at once in all 20; back within 0.5 m and
-/// tracking after 10 to 69 updates in 19, the 20th not within the 100-update walk.
+/// tracking after 12 to 82 updates in 19 (median 27), the 20th not within the
+/// 100-update walk.
 #[test]
 fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
     let mut back = Vec::new();
@@ -215,7 +238,7 @@ fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
     }
     back.sort();
     assert!(back.len() >= 9, "only {} of 10 seeds recovered", back.len());
-    assert!(back[back.len() / 2] <= 40, "median recovery {} updates", back[back.len() / 2]);
+    assert!(back[back.len() / 2] <= 50, "median recovery {} updates", back[back.len() / 2]);
 }
 
 /// On the Intel lab a kidnap does not collapse the likelihood: the office rows look
@@ -240,7 +263,7 @@ fn intel_kidnap() {
         let e = pf.estimate();
         statuses.push(e.status);
         errors.push(e.pose.distance_m(&i.lasers[k].pose));
-        if k >= 55 && k < 62 || k >= 400 && k < 440 {
+        if (55..62).contains(&k) || (400..440).contains(&k) {
             let (f, s, raw) = pf.fit_averages();
             eprintln!(
                 "{k}: err {:.2} fit {raw:.3} fast {f:.3} fast/slow {:.2} cluster {:.2} std {:.2} {:?}",
@@ -312,4 +335,113 @@ fn same_seed_same_particles() {
     };
     assert_eq!(run(3), run(3));
     assert_ne!(run(3), run(4));
+}
+
+#[test]
+fn a_lift_ride_moves_the_belief_to_the_other_floor() {
+    use map::{Gateway, GatewayKind, GatewayStop};
+    // two floors: the corridor on 0 and the room-and-hall on 1; a lift at the
+    // corridor's x = 5 and at (5, 5) on floor 1
+    let (g0, s0) = corridor();
+    let g1 = room_and_hall();
+    let floors = vec![
+        FloorModel::new(0, &g0, &s0, &Default::default()).expect("floor 0"),
+        FloorModel::new(1, &g1, &SemanticLayer::default(), &Default::default()).expect("floor 1"),
+    ];
+    let lift = Gateway {
+        name: "lift".into(),
+        kind: GatewayKind::Elevator,
+        stops: vec![GatewayStop { floor: 0, x: 5.0, y: 1.5 }, GatewayStop { floor: 1, x: 5.0, y: 5.0 }],
+    };
+    let mut pf = ParticleFilter::new(floors, FilterConfig::default(), 21).expect("filter");
+    pf.init_pose(0, Pose2::new(4.6, 1.5, 0.0), 0.1, 0.05).expect("start");
+    let near = pf.take_gateway(&lift, 1).expect("the lift serves floor 1");
+    assert_eq!(near, pf.particles().len());
+    let e = pf.estimate();
+    assert_eq!(e.level, 1);
+    assert!(e.pose.distance_m(&Pose2::new(4.6, 5.0, 0.0)) < 0.2, "{:?}", e.pose);
+    assert_ne!(e.status, Status::Tracking, "a ride is a claim; scans must confirm it");
+    // walking on floor 1 with its scans: tracked there
+    let mut truth = Pose2::new(4.6, 5.0, 0.0);
+    for _ in 0..12 {
+        truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+        pf.predict(&STEP, Some(0.0)).expect("plausible");
+        let scan = cast(&g1, &truth, 61, 180f64.to_radians(), 8.0);
+        pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+    }
+    let e = pf.estimate();
+    assert_eq!((e.level, e.status), (1, Status::Tracking));
+    assert!(e.pose.distance_m(&truth) < 0.3, "{:?} vs {truth:?}", e.pose);
+    let missing = Gateway { stops: vec![GatewayStop { floor: 0, x: 5.0, y: 1.5 }], ..lift };
+    assert!(pf.take_gateway(&missing, 1).is_err());
+    assert!(pf.take_gateway(&missing, 7).is_err());
+}
+
+#[test]
+fn door_numbers_pick_the_floor_of_a_global_start() {
+    let (g0, s0) = corridor();
+    let g1 = room_and_hall();
+    let floors = vec![
+        FloorModel::new(1, &g1, &SemanticLayer::default(), &Default::default()).expect("floor 1"),
+        FloorModel::new(0, &g0, &s0, &Default::default()).expect("floor 0"),
+    ];
+    let mut pf = ParticleFilter::new(floors, FilterConfig::default(), 22).expect("filter");
+    let start_share: f64 = pf.particles().iter().filter(|p| p.level == 0).map(|p| p.weight).sum();
+    let read = [Landmark::Door { number: "101".into(), forward_m: 0.0, left_m: -0.95 }];
+    for _ in 0..3 {
+        pf.correct(&Observations { landmarks: &read, ..Default::default() });
+    }
+    let e = pf.estimate();
+    eprintln!("two floors, global start: floor 0 held {start_share:.2} of the weight; after three readings of 101: floor {} at {:?}", e.level, e.pose);
+    assert_eq!(e.level, 0);
+    // at the door, facing along the corridor with the door on the right
+    assert!((e.pose.x_m - 3.0).abs() < 1.0 && (e.pose.y_m - 1.5).abs() < 1.0, "{:?}", e.pose);
+}
+
+/// Walk east along the corridor with scans; at step 10 the user is carried 11 m east
+/// without odometry (a wrong start, a kidnap; the corridor looks alike enough that the
+/// scans do not notice); at steps 22 and 26 the door sign "120" is read ahead. Returns
+/// the steps after the first reading until the estimate is within 0.5 m for good (None:
+/// not within the walk).
+fn corridor_kidnap_then_door(config: FilterConfig, seed: u64) -> Option<usize> {
+    let (mut pf, g) = corridor_filter(config, seed);
+    let mut truth = Pose2::new(2.0, 1.5, 0.0);
+    pf.init_pose(0, truth, 0.1, 0.05).expect("start");
+    let mut errors = Vec::new();
+    for k in 0..40 {
+        if k == 10 {
+            truth = Pose2::new(16.0, 1.5, 0.0);
+        }
+        truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+        pf.predict(&STEP, Some(0.0)).expect("plausible");
+        let scan = cast(&g, &truth, 61, 120f64.to_radians(), 8.0);
+        let sign = [Landmark::Door { number: "120".into(), forward_m: 25.0 - truth.x_m, left_m: -0.95 }];
+        // the sign reader sees it twice on the way (one reading moves belief by at most
+        // 1 / p_misread; Zhang et al. fix the pose from two unique landmarks)
+        let landmarks: &[Landmark] = if k == 22 || k == 26 { &sign } else { &[] };
+        pf.correct(&Observations { scan: Some(&scan), landmarks, ..Default::default() });
+        errors.push(pf.estimate().pose.distance_m(&truth));
+    }
+    let last_bad = errors.iter().rposition(|&e| e >= 0.5)?;
+    (last_bad + 1 < errors.len()).then(|| (last_bad + 1).saturating_sub(22))
+}
+
+#[test]
+fn a_door_reading_recovers_a_kidnapped_user_within_5_m() {
+    let mut with = Vec::new();
+    let mut without = Vec::new();
+    for seed in 1..=5 {
+        with.push(corridor_kidnap_then_door(FilterConfig::default(), seed));
+        let mut no_reset = FilterConfig::default();
+        no_reset.landmarks.door_reset_fraction = 0.0;
+        without.push(corridor_kidnap_then_door(no_reset, seed));
+    }
+    eprintln!(
+        "kidnap in the corridor, steps of 0.3 m after the first reading of door 120 until within 0.5 m for good: \
+         with sensor resetting {with:?}, without {without:?}"
+    );
+    for (seed, w) in (1..).zip(&with) {
+        // 5 m of walking = 16 steps of 0.3 m (the issue's figure for a misread door)
+        assert!(w.is_some_and(|s| s <= 16), "seed {seed}: {w:?}");
+    }
 }

@@ -69,12 +69,12 @@ pub fn noisy_increments(alpha: f64, seed: u64) -> Vec<OdometryIncrement> {
             let m = RotTransRot::from_motion(f, l, y);
             let noisy = sample_motion(&Pose2::default(), &m, None, 0.0, &noise, &mut rng);
             let (f, l, y) = Pose2::default().between(&noisy);
-            OdometryIncrement {
-                forward_m: f,
-                left_m: l,
-                yaw_rad: y,
-                dt_s: (w[1].timestamp_s - w[0].timestamp_s).max(0.0),
-            }
+            // the corrected log's stamps go backwards 4 times and advance 10-20 ms over
+            // a 1 m step 6 times (the scan matcher's reordering): take the interval as at
+            // least the time at 1 m/s and 1 rad/s, or the filter rightly refuses the step
+            let logged = w[1].timestamp_s - w[0].timestamp_s;
+            let dt_s = logged.max(f.hypot(l)).max(y.abs());
+            OdometryIncrement { forward_m: f, left_m: l, yaw_rad: y, dt_s }
         })
         .collect()
 }
@@ -109,8 +109,8 @@ pub fn run(pf: &mut ParticleFilter, increments: &[OdometryIncrement]) -> Run {
         if i > 0 {
             let inc = &increments[i - 1];
             walked += inc.forward_m.hypot(inc.left_m);
-            // the log's increments are ~1 m apart; a walking person's are not jumps
-            let _ = pf.predict(inc, None);
+            // every increment of the log is plausible: none may be dropped silently
+            pf.predict(inc, None).unwrap_or_else(|e| panic!("increment {} refused: {e}", i - 1));
         }
         pf.correct(&Observations { scan: Some(&intel.scans[i]), ..Default::default() });
         out.update_ms.push(t0.elapsed().as_secs_f64() * 1e3);
