@@ -15,6 +15,7 @@
 
 pub mod compare;
 pub mod contacts;
+pub mod floor_plan;
 pub mod hands;
 pub mod oracle;
 pub mod study;
