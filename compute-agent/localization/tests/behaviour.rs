@@ -206,7 +206,8 @@ fn recovered_after(statuses: &[Status], errors: &[f64]) -> Option<usize> {
 }
 
 #[test]
-#[ignore = "diagnostics: the kidnap over twenty seeds"]
+// diagnostics (the kidnap over twenty seeds): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn kidnap_seeds() {
     let mut line = String::new();
     for seed in 1..=20 {
@@ -245,7 +246,8 @@ fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {
 /// alike and the scan fits the wrong place as well as the right one (measured:
 /// docs/localization.md). A diagnostic, not a requirement.
 #[test]
-#[ignore = "diagnostics: a kidnap on the Intel log"]
+// diagnostics (a kidnap on the Intel log): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn intel_kidnap() {
     let i = support::intel();
     let mut pf = support::filter(FilterConfig::default(), 11);

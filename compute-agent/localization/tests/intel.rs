@@ -71,7 +71,8 @@ fn tracks_the_intel_log_from_the_known_start() {
 }
 
 #[test]
-#[ignore = "diagnostics: prints the run scan by scan"]
+// diagnostics (prints the run scan by scan): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn trace_known_start() {
     let i = intel();
     let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
@@ -122,7 +123,8 @@ fn converges_on_the_intel_log_from_a_global_start() {
 }
 
 #[test]
-#[ignore = "diagnostics: variants of the configuration"]
+// diagnostics (variants of the configuration): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn variants() {
     for (n, k) in [(5000, 1.0 / 3.0), (5000, 0.2), (5000, 0.5), (10000, 0.2)] {
         for seed in [2, 3, 4] {
@@ -149,7 +151,8 @@ fn variants() {
 }
 
 #[test]
-#[ignore = "diagnostics: recovery variants on the known start"]
+// diagnostics (recovery variants on the known start): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn recovery_variants() {
     let variants: Vec<(&str, FilterConfig)> = vec![
         ("default", FilterConfig::default()),
@@ -173,7 +176,8 @@ fn recovery_variants() {
 }
 
 #[test]
-#[ignore = "diagnostics: where heading errors are large"]
+// diagnostics (where heading errors are large): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn trace_heading() {
     let i = intel();
     let mut pf = filter(FilterConfig::default(), 1);
@@ -197,7 +201,8 @@ fn trace_heading() {
 }
 
 #[test]
-#[ignore = "diagnostics: global start over ten seeds"]
+// diagnostics (global start over ten seeds): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
 fn global_seeds() {
     for n in [10_000, 20_000, 40_000] {
         let mut line = String::new();
