@@ -335,7 +335,7 @@ proptest! {
         let seeds = &*WIRE_SEEDS;
         let mut bytes = seeds[seed.index(seeds.len())].clone();
         for m in &mutations {
-            mutate(&mut bytes, m, &seeds);
+            mutate(&mut bytes, m, seeds);
         }
         if reseal {
             wire::reseal(&mut bytes);
@@ -390,7 +390,7 @@ fn every_single_bit_flip_of_every_seed_is_refused() {
     let bits: usize = seeds.iter().map(|s| s.len() * 8).sum();
     eprintln!("{bits} single-bit flips of {} seed payloads", seeds.len());
     for seed in seeds {
-        let schema = schema_of(&seed);
+        let schema = schema_of(seed);
         for bit in 0..seed.len() * 8 {
             let mut bytes = seed.clone();
             bytes[bit / 8] ^= 1 << (bit % 8);
@@ -412,11 +412,11 @@ fn depth_image(w: u32, h: u32, seed: u64) -> Vec<u16> {
             x ^= x >> 7;
             x ^= x << 17;
             let (c, r) = (i % w, i / w);
-            if x % 13 == 0 || (c > w * 2 / 3 && r < h / 4) {
+            if x.is_multiple_of(13) || (c > w * 2 / 3 && r < h / 4) {
                 0
             } else if (w / 4..w / 2).contains(&c) && (h / 3..h * 2 / 3).contains(&r) {
                 800 + (x % 3) as u16
-            } else if x % 97 == 0 {
+            } else if x.is_multiple_of(97) {
                 (x >> 20) as u16 | 1
             } else {
                 4000u16.saturating_sub(r as u16 * 60) + c as u16 * 3 + (x % 5) as u16
@@ -426,7 +426,7 @@ fn depth_image(w: u32, h: u32, seed: u64) -> Vec<u16> {
 }
 
 /// (payload, width, height, mode) of valid encodings: odd shapes, every mode.
-fn codec_seeds() -> Vec<(Vec<u8>, u32, u32, DepthEncoding)> {
+fn codec_seeds() -> Vec<CodecSeed> {
     let shapes = [(1, 1), (4, 3), (13, 9), (32, 24), (64, 48), (3, 40)];
     let modes = [
         DepthEncoding::Raw,
@@ -452,8 +452,11 @@ fn codec_seeds() -> Vec<(Vec<u8>, u32, u32, DepthEncoding)> {
     seeds
 }
 
+/// A packed depth image: (payload, width, height, mode).
+type CodecSeed = (Vec<u8>, u32, u32, DepthEncoding);
+
 /// The codec's seeds, made once, and their payloads alone (for splices).
-static CODEC_SEEDS: LazyLock<(Vec<(Vec<u8>, u32, u32, DepthEncoding)>, Vec<Vec<u8>>)> = LazyLock::new(|| {
+static CODEC_SEEDS: LazyLock<(Vec<CodecSeed>, Vec<Vec<u8>>)> = LazyLock::new(|| {
     let seeds = codec_seeds();
     let payloads = seeds.iter().map(|s| s.0.clone()).collect();
     (seeds, payloads)
