@@ -757,6 +757,9 @@ impl DepthDecoder {
     }
 
     fn decode_packed(&mut self, data: &[u8], width: usize, out: &mut [u16]) -> Result<(), CodecError> {
+        // A side stream of one repeated byte (its model certain) is never longer than this:
+        // models, counts and runs make any real side stream several distinct bytes.
+        const CERTAIN_SIDE_MAX: usize = 4096;
         let mut cur = Cursor::new(data);
         if cur.byte() != Some(FORMAT_TAG) {
             return Err(corrupt("unknown format tag (not a version 3 payload)"));
@@ -770,6 +773,12 @@ impl DepthDecoder {
             .ok_or_else(|| corrupt("truncated side model"))?
             .map_err(|_| corrupt("bad side model"))?;
         cur.words(&mut self.side_words).ok_or_else(|| corrupt("truncated side words"))?;
+        // A length the words cannot carry is forged, and would cost a second of decoding
+        // nothing for a 4096x4096 frame claimed in 27 bytes (docs/fuzzing.md).
+        let carried = side_model.most_symbols(self.side_words.len()).unwrap_or(CERTAIN_SIDE_MAX);
+        if side_len > carried {
+            return Err(corrupt("side stream longer than its words can carry"));
+        }
         cur.words(&mut self.quad_words).ok_or_else(|| corrupt("truncated quad words"))?;
         cur.words(&mut self.exception_words).ok_or_else(|| corrupt("truncated exception words"))?;
         if cur.pos != data.len() {

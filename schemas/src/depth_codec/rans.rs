@@ -119,6 +119,19 @@ impl Model {
         slots
     }
 
+    /// The most symbols `words` 16-bit words of a stream can carry under this model:
+    /// each costs at least log2(scale / largest frequency) bits, and the words hold all
+    /// the stream's information (the lanes' states included). `None` when one symbol is
+    /// certain: it costs nothing, so the words bound nothing.
+    pub fn most_symbols(&self, words: usize) -> Option<usize> {
+        let largest = self.freq.iter().copied().max().unwrap_or(0).max(1) as f64;
+        if largest >= PROB_SCALE as f64 {
+            return None;
+        }
+        let bits_each = (PROB_SCALE as f64 / largest).log2();
+        Some(((16 * words) as f64 / bits_each).ceil() as usize + 64)
+    }
+
     /// Appends the model: the count of symbols up to the last used one, then each
     /// frequency as a varint.
     pub fn write(&self, out: &mut Vec<u8>) {
