@@ -23,10 +23,33 @@ use crate::messages::*;
 /// 1280x720 raw one 1.8 MB. Nothing on the bus should come close to this.
 pub const MAX_PAYLOAD_BYTES: usize = 8 * 1024 * 1024;
 
-type WireConfig = bincode::config::Configuration<LittleEndian, Fixint, Limit<MAX_PAYLOAD_BYTES>>;
+type Config<const N: usize> = bincode::config::Configuration<LittleEndian, Fixint, Limit<N>>;
 
-fn config() -> WireConfig {
-    bincode::config::legacy().with_limit::<MAX_PAYLOAD_BYTES>()
+fn config<const N: usize>() -> Config<N> {
+    bincode::config::legacy().with_limit::<N>()
+}
+
+/// The most a decode of a `len`-byte payload may let a length prefix reserve: the
+/// smallest tier at least 8 times the payload (a string's or container's claim is at
+/// most a few times the bytes that encode it), so a forged length in a 50-byte intent
+/// reserves 1 KiB, not the global limit. Payloads over 512 KiB keep the global limit.
+pub fn claim_limit(len: usize) -> usize {
+    CLAIM_TIERS.into_iter().find(|&t| t >= 8 * len).unwrap_or(MAX_PAYLOAD_BYTES)
+}
+
+const CLAIM_TIERS: [usize; 4] = [1 << 10, 16 << 10, 256 << 10, 4 << 20];
+
+/// bincode decode of `T` from `bytes` under [`claim_limit`] of `payload_len`.
+fn decode_limited<T: DeserializeOwned>(bytes: &[u8], payload_len: usize) -> Result<(T, usize), WireError> {
+    let limit = claim_limit(payload_len);
+    let decoded = match limit {
+        l if l == CLAIM_TIERS[0] => bincode::serde::decode_from_slice(bytes, config::<{ 1 << 10 }>()),
+        l if l == CLAIM_TIERS[1] => bincode::serde::decode_from_slice(bytes, config::<{ 16 << 10 }>()),
+        l if l == CLAIM_TIERS[2] => bincode::serde::decode_from_slice(bytes, config::<{ 256 << 10 }>()),
+        l if l == CLAIM_TIERS[3] => bincode::serde::decode_from_slice(bytes, config::<{ 4 << 20 }>()),
+        _ => bincode::serde::decode_from_slice(bytes, config::<MAX_PAYLOAD_BYTES>()),
+    };
+    decoded.map_err(|e| map_decode_error(e, payload_len, limit))
 }
 
 /// Numeric schema ids: stable forever, never reused.
@@ -181,7 +204,7 @@ pub enum WireError {
         got: u16,
     },
     /// Larger than the schema allows.
-    #[error("payload of {len} bytes exceeds the {max}-byte limit")]
+    #[error("payload of {len} bytes is, or claims to hold, more than the {max}-byte limit")]
     TooLarge {
         /// Payload length.
         len: usize,
@@ -223,11 +246,12 @@ impl WireError {
     }
 }
 
-fn map_decode_error(err: bincode::error::DecodeError, len: usize) -> WireError {
+fn map_decode_error(err: bincode::error::DecodeError, len: usize, limit: usize) -> WireError {
     use bincode::error::DecodeError as D;
     match err {
         D::UnexpectedEnd { .. } => WireError::Truncated,
-        D::LimitExceeded => WireError::TooLarge { len, max: MAX_PAYLOAD_BYTES },
+        // a length prefix claims more than the payload could hold
+        D::LimitExceeded => WireError::TooLarge { len, max: limit },
         other => WireError::Malformed(other.to_string()),
     }
 }
@@ -316,9 +340,7 @@ pub fn decode_header(bytes: &[u8]) -> Result<(Header, usize), WireError> {
     }
     check_schema_version(bytes)?;
     let bytes = verified(bytes)?;
-    let (header, used): (Header, usize) =
-        bincode::serde::decode_from_slice(bytes, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
-    Ok((header, used))
+    decode_limited(bytes, bytes.len())
 }
 
 /// Decode and validate a payload of schema `M`.
@@ -332,8 +354,7 @@ pub fn decode<M: Message>(bytes: &[u8]) -> Result<(Header, M), WireError> {
     }
     let (header, used) = decode_header(bytes)?;
     let rest = &bytes[used..bytes.len() - CHECKSUM_BYTES];
-    let (body, body_used): (M, usize) =
-        bincode::serde::decode_from_slice(rest, config()).map_err(|e| map_decode_error(e, bytes.len()))?;
+    let (body, body_used): (M, usize) = decode_limited(rest, bytes.len())?;
     if body_used != rest.len() {
         return Err(WireError::Malformed(format!(
             "{} trailing bytes after the {} body",

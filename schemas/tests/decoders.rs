@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 use proptest::sample::Index;
 use schemas::depth_codec::{self, CodecError, MAX_PIXELS};
-use schemas::wire::{self, CHECKSUM_BYTES, MAX_PAYLOAD_BYTES};
+use schemas::wire::{self, CHECKSUM_BYTES};
 use schemas::*;
 
 // ---------------------------------------------------------------------------------
@@ -232,13 +232,12 @@ static WIRE_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(wire_seeds);
 const WIRE_KINDS: [&str; 8] =
     ["unknown_schema", "unknown_version", "wrong_schema", "too_large", "truncated", "malformed", "invalid", "corrupt"];
 
-/// Largest single allocation a decode of schema `M` may make. Not `M::MAX_BYTES`:
-/// bincode sizes a string (every header has one) for the length its prefix claims
-/// before reading it, up to the wire's global limit, and serde preallocates other
-/// sequences up to 1 MiB; so a forged length in a 50-byte payload of any schema can
-/// reserve up to `MAX_PAYLOAD_BYTES` (8 MiB), never more.
-fn wire_allocation_bound<M: Message>() -> usize {
-    M::MAX_BYTES.max(MAX_PAYLOAD_BYTES) + 4096
+/// Largest single allocation a decode of a `len`-byte payload may make: bincode sizes a
+/// string (every header has one) for the length its prefix claims before reading it,
+/// up to the wire's claim limit for that size (`wire::claim_limit`: at least 8 times the
+/// payload, 1 KiB for an intent), and serde preallocates other sequences up to 1 MiB.
+fn wire_allocation_bound(len: usize) -> usize {
+    wire::claim_limit(len).max(1 << 20) + 4096
 }
 
 /// Decodes `bytes` as `M` and checks what a decoder must do with anything: a known
@@ -247,7 +246,7 @@ fn wire_allocation_bound<M: Message>() -> usize {
 /// "ok" or the error kind.
 fn check_decode<M: Message + PartialEq + Debug>(bytes: &[u8]) -> Result<&'static str, String> {
     let (result, largest, took) = measured(|| decode::<M>(bytes));
-    if largest > wire_allocation_bound::<M>() {
+    if largest > wire_allocation_bound(bytes.len()) {
         return Err(format!("{} decode allocated {largest} bytes at once", M::SCHEMA.name()));
     }
     if took > MAX_CASE_TIME {
