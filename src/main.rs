@@ -4,7 +4,9 @@
 mod codec_cmd;
 mod demo;
 mod fuzz;
+mod map_cmd;
 mod perceive;
+mod plan_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +39,12 @@ enum Command {
     /// Feed millions of mutated and random inputs to every decoder of outside input
     /// (wire, depth codec, PCD, PNG, LZF, scene TOML) and report outcomes and panics.
     Fuzz(fuzz::FuzzArgs),
+    /// Write a simulated world's floor plan (walls, doors, rooms, gateways; no
+    /// furniture) as ROS map_server maps and semantic layers, one per floor.
+    Map(map_cmd::MapArgs),
+    /// Plan routes: every scenario of a Moving AI benchmark against its optimal
+    /// lengths, or one route on a ROS map_server floor map to a point or a label.
+    Plan(plan_cmd::PlanArgs),
 }
 
 /// Log filter of `wearnav course` when `RUST_LOG` is unset: a line per walk. The
@@ -57,5 +65,7 @@ fn main() -> anyhow::Result<()> {
         Command::Codec(args) => codec_cmd::run(&args),
         Command::Course(args) => study::run(&args),
         Command::Fuzz(args) => fuzz::run(&args),
+        Command::Map(args) => map_cmd::run(&args),
+        Command::Plan(args) => plan_cmd::run(&args),
     }
 }

@@ -13,8 +13,8 @@ use schemas::{HealthStats, Keys, RejectCount, StreamStats};
 use tokio::task::JoinHandle;
 use zenoh::Session;
 
-use schemas::guard::Clocks;
 use crate::{now_ns, stream::Lane, Publisher, Shutdown, Subscriber};
+use schemas::guard::Clocks;
 
 /// Latency samples kept per stream per reporting period (older ones are dropped).
 const MAX_LATENCY_SAMPLES: usize = 8192;

@@ -12,8 +12,8 @@ pub mod shutdown;
 pub mod stream;
 
 pub use clock::now_ns;
-pub use schemas::guard::{self, Freshness, InputError};
 pub use health::{Health, HealthTask, StreamCounter};
+pub use schemas::guard::{self, Freshness, InputError};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;
 pub use stream::{Lane, Publisher, Received, Subscriber};

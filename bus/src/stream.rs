@@ -20,8 +20,8 @@ use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
-use schemas::guard::{Freshness, Guard};
 use crate::{clock, Health, StreamCounter};
+use schemas::guard::{Freshness, Guard};
 
 /// Quality of service of a stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
