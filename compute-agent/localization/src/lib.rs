@@ -29,6 +29,7 @@ pub mod carmen;
 pub mod floor_model;
 pub mod landmarks;
 pub mod likelihood_field;
+pub mod log_run;
 pub mod mapping;
 pub mod motion;
 pub mod particle_filter;
@@ -87,4 +88,7 @@ pub enum LocalizationError {
     /// a configuration that cannot work
     #[error("bad localization configuration: {0}")]
     BadConfig(String),
+    /// a recorded log that cannot be replayed ([`log_run`])
+    #[error("cannot replay the log: {0}")]
+    BadLog(String),
 }

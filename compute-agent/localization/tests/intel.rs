@@ -91,11 +91,6 @@ fn trace_known_start() {
     }
 }
 
-/// The first scan from which the error stays below `bound_m` for `hold` scans.
-fn converged_at(r: &support::Run, bound_m: f64, hold: usize) -> Option<usize> {
-    let e = &r.position_error_m;
-    (0..e.len().saturating_sub(hold)).find(|&k| e[k..k + hold].iter().all(|&x| x < bound_m))
-}
 
 /// Updates a global start may take to be within 0.5 m (and stay there for 20 updates).
 /// Measured with 40,000 global particles: seeds 1 to 10 all within 14 updates (the
@@ -108,7 +103,7 @@ fn converges_on_the_intel_log_from_a_global_start() {
         let mut pf = filter(FilterConfig::default(), seed);
         pf.init_global();
         let r = run(&mut pf, &noisy_increments(0.1, seed + 5));
-        let c = converged_at(&r, 0.5, 20);
+        let c = r.converged_at(0.5, 20);
         eprintln!(
             "global start, seed {seed}: within 0.5 m for 20 updates from update {c:?} ({:.1} m walked)",
             c.map(|k| r.walked_m[k]).unwrap_or(f64::NAN)
@@ -132,7 +127,7 @@ fn variants() {
             let mut pf = filter(cfg.clone(), seed);
             pf.init_global();
             let r = run(&mut pf, &noisy_increments(0.1, seed + 5));
-            let c = converged_at(&r, 0.5, 20);
+            let c = r.converged_at(0.5, 20);
             let wrong =
                 r.status.iter().zip(&r.position_error_m).filter(|(s, e)| **s == Status::Tracking && **e > 1.0).count();
             let after = c.map(|c| (quantile(&r.position_error_m[c..], 0.5), quantile(&r.position_error_m[c..], 0.95)));
@@ -210,7 +205,7 @@ fn global_seeds() {
             let mut pf = filter(FilterConfig { global_particles: n, ..Default::default() }, seed);
             pf.init_global();
             let r = run(&mut pf, &noisy_increments(0.1, seed + 5));
-            let c = converged_at(&r, 0.5, 20);
+            let c = r.converged_at(0.5, 20);
             let wrong =
                 r.status.iter().zip(&r.position_error_m).filter(|(s, e)| **s == Status::Tracking && **e > 1.0).count();
             line += &format!(" {c:?}/{wrong}");
