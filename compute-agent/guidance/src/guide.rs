@@ -1,0 +1,603 @@
+//! The guide: from the route and the user's pose, at most one instruction per step.
+//!
+//! Progress along a leg is the nearest of the current segment and the next two (never
+//! backwards, except when the user rejoins the route behind), so a route that doubles
+//! back does not make the guide jump ahead. The checks run in this order each step,
+//! and the first that has something to say wins:
+//!
+//! 1. localization not confident: say so once, then nothing (no turns on a guess);
+//! 2. the floor: the gateway's destination floor starts the next leg, any other floor
+//!    asks for a replan;
+//! 3. off the route (hysteresis `off_route_m` / `on_route_m`): where to rejoin
+//!    ([`planning::Route::rejoin`], ISANA's O(1) recovery) or a replan request;
+//! 4. the start of a leg: length and first heading;
+//! 5. arrival (exempt from spacing) or "you are at the elevator";
+//! 6. the next turn: "turn right now" within `turn_now_m`, "in 6 metres, turn right" within
+//!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing);
+//! 7. a gateway ahead.
+//!
+//! Everything spontaneous waits for `min_spacing_ms` after the previous one (arrival
+//! excepted); an instruction that has to wait is tried again next step, with the
+//! distances of then.
+
+use map::SemanticLayer;
+use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
+
+use crate::instruction::{ttl_ms, Instruction, InstructionKind};
+use crate::profile::GuidanceProfile;
+use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
+use crate::where_am_i::where_am_i;
+
+/// Where the user is, as localization says.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UserPose {
+    /// map frame of `floor`, metres
+    pub x_m: f64,
+    /// map frame of `floor`, metres
+    pub y_m: f64,
+    /// the direction the user faces, map frame, radians counter-clockwise from +x
+    pub heading_rad: f64,
+    /// floor level
+    pub floor: i32,
+    /// localization trusts this pose (converged, small covariance)
+    pub confident: bool,
+}
+
+/// Where the user is along the current leg.
+#[derive(Clone, Copy, Debug)]
+struct Progress {
+    /// segment index (waypoint `segment` to `segment + 1`)
+    segment: usize,
+    /// distance from the user to that segment, metres
+    lateral_m: f64,
+    /// along the route from the user's projection to the segment's end waypoint
+    to_next_m: f64,
+    /// along the route from the projection to the leg's end
+    remaining_m: f64,
+}
+
+/// Turns route and pose into instructions. Pure: time is the `now_ms` argument.
+#[derive(Clone, Debug)]
+pub struct Guide {
+    profile: GuidanceProfile,
+    destination: String,
+    semantic: SemanticLayer,
+    legs: Vec<Leg>,
+    /// bumped by every new route, so dedup keys of an old route never silence the new one
+    generation: u64,
+    leg: usize,
+    /// the waypoint ahead on the current leg
+    target: usize,
+    started_leg: Option<usize>,
+    announced: Option<(usize, usize)>,
+    said_now: Option<(usize, usize)>,
+    gateway_ahead_said: Option<usize>,
+    at_gateway_said: Option<usize>,
+    arrived: bool,
+    off_route: bool,
+    deviation_said_ms: Option<u64>,
+    uncertain_said: bool,
+    last_spontaneous_ms: Option<u64>,
+    last: Option<Instruction>,
+    serial: u64,
+}
+
+impl Guide {
+    /// A guide along `legs` (walking order) to `destination` ("room 214"; empty when it
+    /// has no name). `semantic` answers "where am I" (any floors; filtered by the pose's).
+    pub fn new(legs: Vec<Leg>, destination: &str, semantic: SemanticLayer, profile: GuidanceProfile) -> Self {
+        let mut g = Self {
+            profile,
+            destination: destination.trim().to_string(),
+            semantic,
+            legs: Vec::new(),
+            generation: 0,
+            leg: 0,
+            target: 1,
+            started_leg: None,
+            announced: None,
+            said_now: None,
+            gateway_ahead_said: None,
+            at_gateway_said: None,
+            arrived: false,
+            off_route: false,
+            deviation_said_ms: None,
+            uncertain_said: false,
+            last_spontaneous_ms: None,
+            last: None,
+            serial: 0,
+        };
+        g.set_legs(legs);
+        g
+    }
+
+    /// A guide along a route on one floor.
+    pub fn single_floor(route: Route, destination: &str, semantic: SemanticLayer, profile: GuidanceProfile) -> Self {
+        Self::new(vec![Leg { route, end: LegEnd::Goal }], destination, semantic, profile)
+    }
+
+    /// A guide along a route across floors.
+    pub fn building(
+        route: BuildingRoute,
+        destination: &str,
+        semantic: SemanticLayer,
+        profile: GuidanceProfile,
+    ) -> Self {
+        Self::new(route.legs, destination, semantic, profile)
+    }
+
+    /// Replaces the route (after a replan): guidance starts again on its first leg; the
+    /// spacing clock and the last instruction (for "repeat") are kept.
+    pub fn set_route(&mut self, route: BuildingRoute) {
+        self.set_legs(route.legs);
+    }
+
+    fn set_legs(&mut self, legs: Vec<Leg>) {
+        self.legs = legs;
+        self.generation += 1;
+        self.leg = 0;
+        self.started_leg = None;
+        self.announced = None;
+        self.said_now = None;
+        self.gateway_ahead_said = None;
+        self.at_gateway_said = None;
+        self.arrived = false;
+        self.off_route = false;
+        self.deviation_said_ms = None;
+        self.target = self.first_target();
+    }
+
+    /// The profile in use.
+    pub fn profile(&self) -> &GuidanceProfile {
+        &self.profile
+    }
+
+    /// True once "you have arrived" was said.
+    pub fn arrived(&self) -> bool {
+        self.arrived
+    }
+
+    /// Index of the leg being walked.
+    pub fn leg(&self) -> usize {
+        self.leg
+    }
+
+    /// The floor the current leg is on, if there is a route.
+    pub fn floor(&self) -> Option<i32> {
+        self.legs.get(self.leg).map(|l| l.route.floor)
+    }
+
+    /// The last instruction given (spontaneous or asked for; repeats excluded).
+    pub fn last(&self) -> Option<&Instruction> {
+        self.last.as_ref()
+    }
+
+    /// The user said they reached `floor` (ISANA: the map switches when the user
+    /// confirms the floor). Starts the next leg when the current one ends at a gateway
+    /// to that floor; false otherwise.
+    pub fn floor_confirmed(&mut self, floor: i32) -> bool {
+        match self.legs.get(self.leg).map(|l| &l.end) {
+            Some(LegEnd::Gateway { to_floor, .. }) if *to_floor == floor && self.leg + 1 < self.legs.len() => {
+                self.enter_leg(self.leg + 1);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// One step: the user's pose at `now_ms`; `graph` is the navigation graph of the
+    /// pose's floor, for rejoining (without it, leaving the route asks for a replan).
+    pub fn step(&mut self, pose: &UserPose, now_ms: u64, graph: Option<&NavGraph>) -> Option<Instruction> {
+        if self.arrived || self.legs.is_empty() {
+            return None;
+        }
+        if !pose.confident {
+            if self.uncertain_said {
+                return None;
+            }
+            let text = "Position uncertain: no turn instructions until I know where you are again.";
+            let i = self.issue(InstructionKind::PositionUncertain, text.into(), "uncertain", now_ms, Pace::Spaced);
+            self.uncertain_said = i.is_some();
+            return i;
+        }
+        self.uncertain_said = false;
+        if pose.floor != self.legs[self.leg].route.floor {
+            if let LegEnd::Gateway { to_floor, .. } = self.legs[self.leg].end {
+                if to_floor == pose.floor && self.leg + 1 < self.legs.len() {
+                    self.enter_leg(self.leg + 1);
+                }
+            }
+            if pose.floor != self.legs[self.leg].route.floor {
+                return self.replan(pose, now_ms);
+            }
+        }
+        if self.at_gateway_said == Some(self.leg) {
+            // waiting at the gateway for the floor to change
+            return None;
+        }
+        let pr = self.progress(pose);
+        if self.off_route {
+            if pr.lateral_m <= self.profile.on_route_m {
+                self.off_route = false;
+                self.deviation_said_ms = None;
+            }
+        } else if pr.lateral_m > self.profile.off_route_m {
+            self.off_route = true;
+        }
+        if self.off_route {
+            return self.deviation(pose, now_ms, graph);
+        }
+        self.target = self.target.max(pr.segment + 1);
+        if self.started_leg != Some(self.leg) {
+            return self.start(pose, &pr, now_ms);
+        }
+        let n = self.waypoints().len();
+        let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
+        let at_end = self.target + 1 >= n && dist([pose.x_m, pose.y_m], end) <= self.profile.arrival_radius_m;
+        let leg_end = self.legs[self.leg].end.clone();
+        match (&leg_end, at_end) {
+            (LegEnd::Goal, true) if self.leg + 1 >= self.legs.len() => {
+                let text = match self.destination.as_str() {
+                    "" => "You have arrived.".to_string(),
+                    d => format!("You have arrived at {d}."),
+                };
+                let i = self.issue(InstructionKind::Arrived, text, "arrived", now_ms, Pace::Exempt);
+                self.arrived = i.is_some();
+                return i;
+            }
+            (LegEnd::Gateway { kind, to_floor, .. }, true) => {
+                let (name, it) = gateway_words(*kind);
+                let text =
+                    format!("You are at the {name}. Take {it} to floor {to_floor}, then tell me when you are there.");
+                let key = format!("leg{}/at-gateway", self.leg);
+                let i = self.issue(InstructionKind::AtGateway { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
+                if i.is_some() {
+                    self.at_gateway_said = Some(self.leg);
+                }
+                return i;
+            }
+            _ => {}
+        }
+        if let Some(i) = self.turn(&pr, now_ms) {
+            return Some(i);
+        }
+        if let LegEnd::Gateway { kind, to_floor, .. } = leg_end {
+            if pr.remaining_m <= self.profile.announce_turn_m && self.gateway_ahead_said != Some(self.leg) {
+                let (name, it) = gateway_words(kind);
+                let text =
+                    format!("{} ahead; take {it} to floor {to_floor}; tell me when you are there.", capitalised(name));
+                let key = format!("leg{}/gateway-ahead", self.leg);
+                let i = self.issue(InstructionKind::GatewayAhead { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
+                if i.is_some() {
+                    self.gateway_ahead_said = Some(self.leg);
+                }
+                return i;
+            }
+        }
+        None
+    }
+
+    /// The answer to "where am I": the areas around the pose and the nearest door.
+    pub fn where_am_i(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
+        let text = if pose.confident {
+            where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m)
+        } else {
+            "Position uncertain: I do not know where you are.".to_string()
+        };
+        self.answer(InstructionKind::WhereAmI, text, "where-am-i", now_ms, true)
+    }
+
+    /// The answer to "repeat": the last instruction again, except that a turn is said
+    /// with the distance of now (or, once passed, how far to go straight on), never a
+    /// stale "turn right now".
+    pub fn repeat(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
+        let Some(last) = self.last.clone() else {
+            return self.answer(
+                InstructionKind::NothingToRepeat,
+                "Nothing to repeat yet.".into(),
+                "repeat",
+                now_ms,
+                false,
+            );
+        };
+        if let InstructionKind::TurnAhead { leg, waypoint, .. } | InstructionKind::TurnNow { leg, waypoint, .. } =
+            last.kind
+        {
+            if !pose.confident {
+                let text = "Position uncertain: no turn instructions until I know where you are again.";
+                return self.answer(InstructionKind::PositionUncertain, text.into(), "repeat", now_ms, false);
+            }
+            if leg == self.leg && waypoint == self.target && pose.floor == self.legs[leg].route.floor {
+                let pr = self.progress(pose);
+                let (kind, text) = self.turn_words(pr.to_next_m, waypoint);
+                return self.answer(kind, text, "repeat", now_ms, false);
+            }
+            let pr = self.progress(pose);
+            let ahead = self.straight_on_m(&pr);
+            let text = format!("Go straight on for {}.", distance_phrase(ahead, &self.profile));
+            return self.answer(InstructionKind::Continue, text, "repeat", now_ms, false);
+        }
+        self.serial += 1;
+        Instruction {
+            dedup_key: format!("{}/repeat/{}", last.dedup_key, self.serial),
+            vibrate_first: false,
+            issued_ms: now_ms,
+            ..last
+        }
+    }
+
+    fn enter_leg(&mut self, leg: usize) {
+        self.leg = leg;
+        self.target = self.first_target();
+        self.off_route = false;
+        self.deviation_said_ms = None;
+    }
+
+    fn first_target(&self) -> usize {
+        let n = self.legs.get(self.leg).map_or(0, |l| l.route.waypoints.len());
+        1.min(n.saturating_sub(1))
+    }
+
+    fn route(&self) -> &Route {
+        &self.legs[self.leg].route
+    }
+
+    fn waypoints(&self) -> &[[f64; 2]] {
+        &self.legs[self.leg].route.waypoints
+    }
+
+    /// The nearest of the current segment and the next two (ties to the later one).
+    fn progress(&self, pose: &UserPose) -> Progress {
+        let w = self.waypoints();
+        let p = [pose.x_m, pose.y_m];
+        if w.len() < 2 {
+            let d = w.first().map_or(0.0, |&q| dist(p, q));
+            return Progress { segment: 0, lateral_m: d, to_next_m: d, remaining_m: d };
+        }
+        let first = self.target.saturating_sub(1).min(w.len() - 2);
+        let last = (first + 2).min(w.len() - 2);
+        let mut best = (f64::INFINITY, first, w[first]);
+        for s in first..=last {
+            let (d, q) = closest_on_segment(p, w[s], w[s + 1]);
+            if d <= best.0 + 1e-9 {
+                best = (d, s, q);
+            }
+        }
+        let (lateral_m, segment, q) = best;
+        let to_next_m = dist(q, w[segment + 1]);
+        Progress {
+            segment,
+            lateral_m,
+            to_next_m,
+            remaining_m: to_next_m + self.route().remaining_from_waypoint_m(segment + 1),
+        }
+    }
+
+    /// Degrees to the right the route bends at waypoint `w` (0 at the ends).
+    fn bend_right_deg(&self, w: usize) -> f64 {
+        let p = self.waypoints();
+        if w == 0 || w + 1 >= p.len() {
+            return 0.0;
+        }
+        let a_in = (p[w][1] - p[w - 1][1]).atan2(p[w][0] - p[w - 1][0]);
+        let a_out = (p[w + 1][1] - p[w][1]).atan2(p[w + 1][0] - p[w][0]);
+        wrap_deg(-(a_out - a_in).to_degrees())
+    }
+
+    /// Metres along the route to the next waypoint that is not straight on, or the leg's end.
+    fn straight_on_m(&self, pr: &Progress) -> f64 {
+        let n = self.waypoints().len();
+        let mut d = pr.to_next_m;
+        let mut w = pr.segment + 1;
+        while w + 1 < n && Turn::of(self.bend_right_deg(w), &self.profile) == Turn::Straight {
+            d += dist(self.waypoints()[w], self.waypoints()[w + 1]);
+            w += 1;
+        }
+        d
+    }
+
+    /// "Turn right now." within `turn_now_m` of the turn, else "In 6 metres, turn right."
+    fn turn_words(&self, to_turn_m: f64, w: usize) -> (InstructionKind, String) {
+        let right = self.bend_right_deg(w);
+        let turn = Turn::of(right, &self.profile);
+        let phrase = turn_phrase(turn, right, &self.profile);
+        if to_turn_m <= self.profile.turn_now_m {
+            (InstructionKind::TurnNow { leg: self.leg, waypoint: w, turn }, format!("{} now.", capitalised(&phrase)))
+        } else {
+            let text = format!("In {}, {phrase}.", distance_phrase(to_turn_m, &self.profile));
+            (InstructionKind::TurnAhead { leg: self.leg, waypoint: w, turn }, text)
+        }
+    }
+
+    fn turn(&mut self, pr: &Progress, now_ms: u64) -> Option<Instruction> {
+        let w = self.target;
+        if w + 1 >= self.waypoints().len() || pr.segment + 1 != w {
+            return None;
+        }
+        if Turn::of(self.bend_right_deg(w), &self.profile) == Turn::Straight {
+            return None;
+        }
+        let p = &self.profile;
+        let d = pr.to_next_m;
+        let key_of = |kind: &str| format!("leg{}/turn{w}/{kind}", self.leg);
+        if d <= p.turn_now_m {
+            if self.said_now == Some((self.leg, w)) {
+                return None;
+            }
+            let (kind, text) = self.turn_words(d, w);
+            let i = self.issue(kind, text, &key_of("now"), now_ms, Pace::Spaced);
+            if i.is_some() {
+                self.said_now = Some((self.leg, w));
+                self.announced = Some((self.leg, w));
+            }
+            return i;
+        }
+        // an announcement that "now" would follow within the spacing is left out
+        let floor_m = p.turn_now_m + p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
+        if d <= p.announce_turn_m && d > floor_m && self.announced != Some((self.leg, w)) {
+            let (kind, text) = self.turn_words(d, w);
+            let i = self.issue(kind, text, &key_of("ahead"), now_ms, Pace::Spaced);
+            if i.is_some() {
+                self.announced = Some((self.leg, w));
+            }
+            return i;
+        }
+        None
+    }
+
+    fn start(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
+        let total: f64 = pr.remaining_m + self.legs[self.leg + 1..].iter().map(|l| l.route.length_m).sum::<f64>();
+        let total = distance_phrase(total, &self.profile);
+        let head = match (self.leg, self.destination.as_str()) {
+            (0, "") => format!("Route: {total}."),
+            (0, d) => format!("Route to {d}: {total}."),
+            (_, "") => format!("Floor {}: {total} to go.", self.route().floor),
+            (_, d) => format!("Floor {}: {total} to {d}.", self.route().floor),
+        };
+        let ahead = self.waypoints().get(self.target).copied().unwrap_or([pose.x_m, pose.y_m]);
+        let right = relative_right_deg(pose, ahead);
+        let turn = Turn::of(right, &self.profile);
+        let how = match turn {
+            Turn::Straight => "Go straight on.".to_string(),
+            t => format!("{}, then go straight on.", capitalised(&turn_phrase(t, right, &self.profile))),
+        };
+        let key = format!("leg{}/start", self.leg);
+        let i =
+            self.issue(InstructionKind::Start { leg: self.leg }, format!("{head} {how}"), &key, now_ms, Pace::Spaced);
+        if i.is_some() {
+            self.started_leg = Some(self.leg);
+        }
+        i
+    }
+
+    fn deviation(&mut self, pose: &UserPose, now_ms: u64, graph: Option<&NavGraph>) -> Option<Instruction> {
+        if self.deviation_said_ms.is_some_and(|t| now_ms < t.saturating_add(self.profile.deviation_repeat_ms)) {
+            return None;
+        }
+        let rejoin = graph.and_then(|g| self.route().rejoin(g, pose.x_m, pose.y_m, self.profile.rejoin_radius_m));
+        let Some(r) = rejoin else {
+            return self.replan(pose, now_ms);
+        };
+        let node = self.route().points[r.node];
+        let right = relative_right_deg(pose, node);
+        let behind = wrap_deg(right).abs() >= self.profile.normal_max_deg;
+        let text = format!(
+            "Off the route: {}the route is {} away, {}.",
+            if behind { "turn back; " } else { "" },
+            distance_phrase(r.distance_m, &self.profile),
+            bearing_phrase(right, &self.profile)
+        );
+        self.serial += 1;
+        let key = format!("off-route/{}", self.serial);
+        let i = self.issue(InstructionKind::OffRoute { rejoin: r }, text, &key, now_ms, Pace::Spaced)?;
+        self.deviation_said_ms = Some(now_ms);
+        self.rejoin_at(r);
+        Some(i)
+    }
+
+    /// Progress restarts from where the user rejoins: turns from there on are said again.
+    fn rejoin_at(&mut self, r: Rejoin) {
+        let n = self.waypoints().len();
+        let mut t = r.next_waypoint.clamp(1, n.saturating_sub(1).max(1));
+        if self.route().waypoint_nodes.get(t) == Some(&r.node) && t + 1 < n {
+            t += 1;
+        }
+        self.target = t;
+        let leg = self.leg;
+        let forget = |m: &mut Option<(usize, usize)>| {
+            if m.is_some_and(|(l, w)| l == leg && w >= t) {
+                *m = None;
+            }
+        };
+        forget(&mut self.announced);
+        forget(&mut self.said_now);
+    }
+
+    fn replan(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {
+        if self.deviation_said_ms.is_some_and(|t| now_ms < t.saturating_add(self.profile.deviation_repeat_ms)) {
+            return None;
+        }
+        let text = if pose.floor != self.route().floor {
+            format!("You are on floor {}, which this route does not take: finding a new route.", pose.floor)
+        } else {
+            "Off the route: finding a new route.".to_string()
+        };
+        self.serial += 1;
+        let key = format!("replan/{}", self.serial);
+        let i = self.issue(InstructionKind::Replan, text, &key, now_ms, Pace::Spaced)?;
+        self.deviation_said_ms = Some(now_ms);
+        Some(i)
+    }
+
+    /// Issues a spontaneous instruction unless the spacing forbids it now.
+    fn issue(
+        &mut self,
+        kind: InstructionKind,
+        text: String,
+        key: &str,
+        now_ms: u64,
+        pace: Pace,
+    ) -> Option<Instruction> {
+        if pace == Pace::Spaced
+            && self.last_spontaneous_ms.is_some_and(|t| now_ms < t.saturating_add(self.profile.min_spacing_ms))
+        {
+            return None;
+        }
+        let i = Instruction {
+            ttl_ms: ttl_ms(&kind),
+            kind,
+            text,
+            dedup_key: format!("guidance/r{}/{key}", self.generation),
+            vibrate_first: self.profile.vibrate_before,
+            issued_ms: now_ms,
+        };
+        self.last_spontaneous_ms = Some(now_ms);
+        self.last = Some(i.clone());
+        Some(i)
+    }
+
+    /// An answer the user asked for: never held back by the spacing, and it does not
+    /// delay the next spontaneous instruction; no vibration (the user is listening).
+    fn answer(&mut self, kind: InstructionKind, text: String, key: &str, now_ms: u64, remember: bool) -> Instruction {
+        self.serial += 1;
+        let i = Instruction {
+            ttl_ms: ttl_ms(&kind),
+            kind,
+            text,
+            dedup_key: format!("guidance/{key}/{}", self.serial),
+            vibrate_first: false,
+            issued_ms: now_ms,
+        };
+        if remember {
+            self.last = Some(i.clone());
+        }
+        i
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pace {
+    /// waits for `min_spacing_ms` after the previous spontaneous instruction
+    Spaced,
+    /// said at once (arrival)
+    Exempt,
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// Distance from `p` to the segment `a`-`b` and the closest point on it.
+fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, [f64; 2]) {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let q = [a[0] + t * dx, a[1] + t * dy];
+    (dist(p, q), q)
+}
+
+/// Degrees to the right of the user's heading at which `target` lies.
+fn relative_right_deg(pose: &UserPose, target: [f64; 2]) -> f64 {
+    let bearing = (target[1] - pose.y_m).atan2(target[0] - pose.x_m);
+    wrap_deg(-(bearing - pose.heading_rad).to_degrees())
+}

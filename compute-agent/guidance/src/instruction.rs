@@ -1,0 +1,114 @@
+//! One thing the guide says, and how it goes to the feedback agent: always a
+//! [`SpeechIntent`] at [`Priority::Message`], never `Important` (obstacle warnings
+//! pre-empt guidance; guidance never talks over a warning, ARCHITECTURE.md safety rule 3).
+
+use planning::Rejoin;
+use schemas::{Priority, SpeechIntent};
+
+use crate::utterance::Turn;
+
+/// What an instruction is about.
+#[derive(Clone, Debug, PartialEq)]
+pub enum InstructionKind {
+    /// the route begins (or a new floor's leg begins): length and first heading
+    Start {
+        /// leg index
+        leg: usize,
+    },
+    /// a turn ahead, announced at the profile's distance
+    TurnAhead {
+        /// leg index
+        leg: usize,
+        /// waypoint index of the turn on that leg
+        waypoint: usize,
+        /// its category
+        turn: Turn,
+    },
+    /// the turn is here
+    TurnNow {
+        /// leg index
+        leg: usize,
+        /// waypoint index of the turn on that leg
+        waypoint: usize,
+        /// its category
+        turn: Turn,
+    },
+    /// an elevator, stairs or ramp ahead, to be taken to another floor
+    GatewayAhead {
+        /// leg index
+        leg: usize,
+    },
+    /// at the gateway: take it, then confirm the floor
+    AtGateway {
+        /// leg index
+        leg: usize,
+    },
+    /// within the arrival radius of the goal; guidance ends
+    Arrived,
+    /// off the route, and the route is near: where to rejoin it
+    OffRoute {
+        /// where the route is joined again
+        rejoin: Rejoin,
+    },
+    /// off the route with no route near (or on a floor the route does not use): the
+    /// caller should replan from the user's position and call [`crate::Guide::set_route`]
+    Replan,
+    /// localization is not confident: no turn instructions until it is
+    PositionUncertain,
+    /// the answer to "where am I"
+    WhereAmI,
+    /// "go straight on for 8 metres": the answer to "repeat" once a repeated turn has
+    /// been passed
+    Continue,
+    /// the user asked for a repeat and there was nothing to repeat
+    NothingToRepeat,
+}
+
+/// One utterance from the guide.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instruction {
+    /// what it is about
+    pub kind: InstructionKind,
+    /// the words
+    pub text: String,
+    /// utterances with the same key are not said twice within the feedback agent's
+    /// dedup window; a repeat gets a key of its own
+    pub dedup_key: String,
+    /// drop it if it cannot start within this long of `issued_ms`
+    pub ttl_ms: u32,
+    /// ask for a short vibration before it (the profile's device has one; only for
+    /// instructions the user did not ask for). The feedback agent renders it as a
+    /// pattern of its own, never as an obstacle rumble.
+    pub vibrate_first: bool,
+    /// when the guide issued it, the caller's clock, ms
+    pub issued_ms: u64,
+}
+
+impl Instruction {
+    /// The speech intent for the feedback agent: `Message` priority, no interrupt.
+    pub fn speech(&self) -> SpeechIntent {
+        SpeechIntent {
+            text: self.text.clone(),
+            priority: Priority::Message,
+            interrupt: false,
+            ttl_ms: self.ttl_ms,
+            dedup_key: self.dedup_key.clone(),
+        }
+    }
+
+    /// True when the caller should plan a new route from the user's position.
+    pub fn needs_replan(&self) -> bool {
+        self.kind == InstructionKind::Replan
+    }
+}
+
+/// How long each kind may wait for the speaker, ms (our choice: a "now" said later
+/// than 1.5 s is said past the corner at walking pace; an announcement is good for
+/// about half its 6 m; answers and arrival for 5 s).
+pub fn ttl_ms(kind: &InstructionKind) -> u32 {
+    match kind {
+        InstructionKind::TurnNow { .. } => 1500,
+        InstructionKind::TurnAhead { .. } | InstructionKind::OffRoute { .. } | InstructionKind::Continue => 3000,
+        _ => 5000,
+    }
+}
