@@ -4,6 +4,7 @@
 mod codec_cmd;
 mod demo;
 mod fuzz;
+mod localize_cmd;
 mod map_cmd;
 mod perceive;
 mod plan_cmd;
@@ -39,6 +40,9 @@ enum Command {
     /// Feed millions of mutated and random inputs to every decoder of outside input
     /// (wire, depth codec, PCD, PNG, LZF, scene TOML) and report outcomes and panics.
     Fuzz(fuzz::FuzzArgs),
+    /// Localize with the particle filter on a recorded laser log (CARMEN) and report the
+    /// errors against its poses: RMSE, convergence from a global start, update time.
+    Localize(localize_cmd::LocalizeArgs),
     /// Write a simulated world's floor plan (walls, doors, rooms, gateways; no
     /// furniture) as ROS map_server maps and semantic layers, one per floor.
     Map(map_cmd::MapArgs),
@@ -65,6 +69,7 @@ fn main() -> anyhow::Result<()> {
         Command::Codec(args) => codec_cmd::run(&args),
         Command::Course(args) => study::run(&args),
         Command::Fuzz(args) => fuzz::run(&args),
+        Command::Localize(args) => localize_cmd::run(&args),
         Command::Map(args) => map_cmd::run(&args),
         Command::Plan(args) => plan_cmd::run(&args),
     }

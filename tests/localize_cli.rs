@@ -1,0 +1,57 @@
+//! `wearnav localize` as a user runs it, on the Intel Research Lab log in the repository.
+
+use std::path::Path;
+use std::process::Command;
+
+fn localize(args: &[&str]) -> (bool, String, String) {
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("compute-agent/localization/tests/data/intel-corrected.log.gz");
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["localize", "--carmen", log.to_str().unwrap()])
+        .args(args)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("wearnav runs");
+    (out.status.success(), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn report(out: &str) -> serde_json::Value {
+    serde_json::from_str(out).unwrap_or_else(|e| panic!("{e}: {out}"))
+}
+
+#[test]
+fn from_the_known_start_the_position_rmse_is_within_the_issues_figure() {
+    let (ok, out, err) = localize(&["--json"]);
+    assert!(ok, "{err}");
+    let r = report(&out);
+    assert_eq!(r["scans"], 910);
+    let rmse = r["position_rmse_m"].as_f64().unwrap();
+    // issue 30: odometry noise 0.1 on all four terms, position RMSE <= 0.15 m
+    assert!(rmse <= 0.15, "position RMSE {rmse} m");
+    assert!(r["heading_rmse_deg"].as_f64().unwrap() < 6.0, "{}", r["heading_rmse_deg"]);
+    assert!(r["update_ms_median"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn from_nothing_it_converges_within_half_a_metre() {
+    let (ok, out, err) = localize(&["--global", "--seed", "2", "--json"]);
+    assert!(ok, "{err}");
+    let r = report(&out);
+    let walked = r["converge_walked_m"].as_f64().expect("converged");
+    assert!(walked < 20.0, "converged only after {walked} m");
+    assert!(r["position_rmse_m"].as_f64().unwrap() <= 0.2, "{}", r["position_rmse_m"]);
+}
+
+#[test]
+fn bad_input_is_refused_with_its_reason() {
+    let (ok, _, err) = localize(&["--odom-noise", "0.1,0.2"]);
+    assert!(!ok && err.contains("four numbers"), "{err}");
+    let (ok, _, err) = localize(&["--particles", "5"]);
+    assert!(!ok && err.contains("between 100"), "{err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["localize", "--carmen", "/nonexistent/run.log"])
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("/nonexistent/run.log"), "{err}");
+}
