@@ -10,7 +10,7 @@
 //!    asks for a replan;
 //! 3. off the route (hysteresis `off_route_m` / `on_route_m`): where to rejoin
 //!    ([`planning::Route::rejoin`], ISANA's O(1) recovery) or a replan request;
-//! 4. the start of a leg: length and first heading;
+//! 4. the start of a leg, or coming back to the route: length and which way to face;
 //! 5. arrival (exempt from spacing) or "you are at the elevator";
 //! 6. the next turn: "turn right now" within `turn_now_m`, "in 6 metres, turn right" within
 //!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing);
@@ -75,6 +75,8 @@ pub struct Guide {
     at_gateway_said: Option<usize>,
     arrived: bool,
     off_route: bool,
+    /// came back to the route after a deviation: say which way to face
+    back_on_route: bool,
     deviation_said_ms: Option<u64>,
     uncertain_said: bool,
     last_spontaneous_ms: Option<u64>,
@@ -101,6 +103,7 @@ impl Guide {
             at_gateway_said: None,
             arrived: false,
             off_route: false,
+            back_on_route: false,
             deviation_said_ms: None,
             uncertain_said: false,
             last_spontaneous_ms: None,
@@ -143,6 +146,7 @@ impl Guide {
         self.at_gateway_said = None;
         self.arrived = false;
         self.off_route = false;
+        self.back_on_route = false;
         self.deviation_said_ms = None;
         self.target = self.first_target();
     }
@@ -219,6 +223,7 @@ impl Guide {
         if self.off_route {
             if pr.lateral_m <= self.profile.on_route_m {
                 self.off_route = false;
+                self.back_on_route = self.deviation_said_ms.is_some();
                 self.deviation_said_ms = None;
             }
         } else if pr.lateral_m > self.profile.off_route_m {
@@ -228,12 +233,14 @@ impl Guide {
             return self.deviation(pose, now_ms, graph);
         }
         self.target = self.target.max(pr.segment + 1);
-        if self.started_leg != Some(self.leg) {
+        if self.started_leg != Some(self.leg) || self.back_on_route {
             return self.start(pose, &pr, now_ms);
         }
-        let n = self.waypoints().len();
         let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
-        let at_end = self.target + 1 >= n && dist([pose.x_m, pose.y_m], end) <= self.profile.arrival_radius_m;
+        // both along the route and as the crow flies, so a goal behind a wall or a route that
+        // loops back past its goal does not end guidance early
+        let radius = self.profile.arrival_radius_m;
+        let at_end = pr.remaining_m <= radius && dist([pose.x_m, pose.y_m], end) <= radius;
         let leg_end = self.legs[self.leg].end.clone();
         match (&leg_end, at_end) {
             (LegEnd::Goal, true) if self.leg + 1 >= self.legs.len() => {
@@ -448,7 +455,9 @@ impl Guide {
     fn start(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
         let total: f64 = pr.remaining_m + self.legs[self.leg + 1..].iter().map(|l| l.route.length_m).sum::<f64>();
         let total = distance_phrase(total, &self.profile);
+        let back = self.back_on_route && self.started_leg == Some(self.leg);
         let head = match (self.leg, self.destination.as_str()) {
+            _ if back => "Back on the route.".to_string(),
             (0, "") => format!("Route: {total}."),
             (0, d) => format!("Route to {d}: {total}."),
             (_, "") => format!("Floor {}: {total} to go.", self.route().floor),
@@ -461,11 +470,13 @@ impl Guide {
             Turn::Straight => "Go straight on.".to_string(),
             t => format!("{}, then go straight on.", capitalised(&turn_phrase(t, right, &self.profile))),
         };
-        let key = format!("leg{}/start", self.leg);
+        self.serial += 1;
+        let key = if back { format!("leg{}/back/{}", self.leg, self.serial) } else { format!("leg{}/start", self.leg) };
         let i =
             self.issue(InstructionKind::Start { leg: self.leg }, format!("{head} {how}"), &key, now_ms, Pace::Spaced);
         if i.is_some() {
             self.started_leg = Some(self.leg);
+            self.back_on_route = false;
         }
         i
     }

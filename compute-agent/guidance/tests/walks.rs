@@ -1,0 +1,491 @@
+//! Guided walks on planned routes: a virtual walker follows the route at 1 m/s, one pose
+//! every 100 ms, and every instruction the guide gives is checked word for word, with
+//! where and when it was given.
+//!
+//! The floor: a corridor 2 m wide along y 10.5..12.5 from x 0.5 to 26.5, and a corridor
+//! down from it at x 18.5..20.5 to y 0.5. Walking east from the west end and down is a
+//! straight corridor, then a right turn.
+
+use std::path::Path;
+
+use guidance::{DirectionStyle, DistanceUnits, GuidanceProfile, Guide, Instruction, InstructionKind, UserPose};
+use map::{Building, Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
+use planning::{BuildingPlanner, FloorPoint, NavGraphConfig, Planner, Route, UserProfile};
+use schemas::Priority;
+
+const RES_M: f64 = 0.05;
+const TICK_MS: u64 = 100;
+const STEP_M: f64 = 0.1;
+
+fn corridor_floor() -> OccupancyGrid {
+    let (w, h) = ((27.0 / RES_M) as usize, (13.0 / RES_M) as usize);
+    let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+    let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
+    for r in 0..h {
+        for c in 0..w {
+            let (x, y) = g.cell_center(c, r);
+            let across = (0.5..=26.5).contains(&x) && (10.5..=12.5).contains(&y);
+            let down = (18.5..=20.5).contains(&x) && (0.5..=12.5).contains(&y);
+            if across || down {
+                g.set(c, r, Cell::Free);
+            }
+        }
+    }
+    g
+}
+
+fn planner() -> Planner {
+    Planner::new(0, &corridor_floor(), &NavGraphConfig::default())
+}
+
+const LAYER: &str = r#"
+[[door]]
+number = "214"
+x = 10.0
+y = 12.5
+floor = 0
+normal = [0.0, -1.0]
+
+[[area]]
+name = "east wing"
+floor = 0
+polygon = [[0.0, 0.0], [27.0, 0.0], [27.0, 13.0], [0.0, 13.0]]
+
+[[area]]
+name = "corridor"
+floor = 0
+parent = "east wing"
+polygon = [[0.5, 10.5], [26.5, 10.5], [26.5, 12.5], [0.5, 12.5]]
+"#;
+
+fn layer() -> SemanticLayer {
+    SemanticLayer::parse(LAYER, Path::new("corridor.toml")).unwrap()
+}
+
+/// The straight-then-right route: from the west end of the corridor to the foot of the
+/// corridor down.
+fn l_route(planner: &mut Planner) -> Route {
+    planner.plan([1.5, 11.5], [19.5, 1.5]).unwrap()
+}
+
+/// Poses every `STEP_M` along `path`, facing along the segment being walked.
+fn poses_along(path: &[[f64; 2]]) -> Vec<([f64; 2], f64)> {
+    let mut out = Vec::new();
+    for s in path.windows(2) {
+        let (a, b) = (s[0], s[1]);
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let heading = (b[1] - a[1]).atan2(b[0] - a[0]);
+        let n = (len / STEP_M).round().max(1.0) as usize;
+        for k in 0..n {
+            let t = k as f64 / n as f64;
+            out.push(([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])], heading));
+        }
+    }
+    if let (Some(&last), Some(&(_, h))) = (path.last(), out.last()) {
+        out.push((last, h));
+    }
+    out
+}
+
+/// One instruction as the walker heard it.
+#[derive(Debug)]
+struct Said {
+    t_ms: u64,
+    at: [f64; 2],
+    instruction: Instruction,
+}
+
+/// Walks the poses from `t0_ms`, one per tick, and collects what the guide said.
+fn walk(
+    guide: &mut Guide,
+    poses: &[([f64; 2], f64)],
+    floor: i32,
+    t0_ms: u64,
+    planner: Option<&Planner>,
+    confident: impl Fn(usize) -> bool,
+) -> Vec<Said> {
+    let mut said = Vec::new();
+    for (k, &(at, heading)) in poses.iter().enumerate() {
+        let t_ms = t0_ms + k as u64 * TICK_MS;
+        let pose = UserPose { x_m: at[0], y_m: at[1], heading_rad: heading, floor, confident: confident(k) };
+        if let Some(i) = guide.step(&pose, t_ms, planner.map(|p| p.graph())) {
+            said.push(Said { t_ms, at, instruction: i });
+        }
+    }
+    said
+}
+
+fn texts(said: &[Said]) -> Vec<&str> {
+    said.iter().map(|s| s.instruction.text.as_str()).collect()
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+fn pose(at: [f64; 2], heading_rad: f64) -> UserPose {
+    UserPose { x_m: at[0], y_m: at[1], heading_rad, floor: 0, confident: true }
+}
+
+/// Every instruction goes out at Message priority, never interrupting, with a key.
+fn assert_message_priority(said: &[Said]) {
+    for s in said {
+        let speech = s.instruction.speech();
+        assert_eq!(speech.priority, Priority::Message, "{s:?}");
+        assert!(!speech.interrupt, "{s:?}");
+        assert!(!speech.dedup_key.is_empty() && speech.ttl_ms > 0, "{s:?}");
+    }
+}
+
+/// No two instructions closer than the spacing, except arrival.
+fn assert_spaced(said: &[Said], min_ms: u64) {
+    for w in said.windows(2) {
+        if w[1].instruction.kind != InstructionKind::Arrived {
+            assert!(w[1].t_ms - w[0].t_ms >= min_ms, "{:?} then {:?}", w[0], w[1]);
+        }
+    }
+}
+
+#[test]
+fn the_l_route_is_a_straight_corridor_then_a_right_turn() {
+    let mut p = planner();
+    let r = l_route(&mut p);
+    let corner = r.waypoints[1];
+    // one right turn; any other bend smoothing left is below the straight-on threshold
+    let p = GuidanceProfile::default();
+    let bends: Vec<guidance::Turn> = r
+        .waypoints
+        .windows(3)
+        .map(|w| {
+            let a = (w[1][1] - w[0][1]).atan2(w[1][0] - w[0][0]);
+            let b = (w[2][1] - w[1][1]).atan2(w[2][0] - w[1][0]);
+            guidance::Turn::of(-(b - a).to_degrees(), &p)
+        })
+        .collect();
+    assert_eq!(bends[0], guidance::Turn::Normal(guidance::Side::Right), "{:?}", r.waypoints);
+    assert!(bends[1..].iter().all(|&t| t == guidance::Turn::Straight), "{:?}", r.waypoints);
+    assert!((18.5..19.5).contains(&corner[0]) && (10.5..11.5).contains(&corner[1]), "{corner:?}");
+}
+
+#[test]
+fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let corner = route.waypoints[1];
+    let goal = route.goal();
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to the stairs: 25 metres. Go straight on.",
+            "In 6 metres, turn right.",
+            "Turn right now.",
+            "You have arrived at the stairs."
+        ],
+        "{said:#?}"
+    );
+    assert_eq!(said[0].t_ms, 0);
+    // announced at the first pose within 6 m of the corner, "now" at the first within 1.5 m
+    let d_ahead = dist(said[1].at, corner);
+    assert!(d_ahead <= 6.0 && d_ahead > 6.0 - STEP_M - 1e-9, "{d_ahead}");
+    let d_now = dist(said[2].at, corner);
+    assert!(d_now <= 1.5 && d_now > 1.5 - STEP_M - 1e-9, "{d_now}");
+    // at 1 m/s, the times follow from the distances walked
+    let first_leg = dist(route.waypoints[0], corner);
+    let expect_ms = |d: f64| ((first_leg - d) / STEP_M).ceil() as u64 * TICK_MS;
+    assert!(said[1].t_ms.abs_diff(expect_ms(6.0)) <= TICK_MS, "{} vs {}", said[1].t_ms, expect_ms(6.0));
+    assert!(said[2].t_ms.abs_diff(expect_ms(1.5)) <= TICK_MS, "{} vs {}", said[2].t_ms, expect_ms(1.5));
+    // arrival at the first pose within the 1 m radius, and nothing after it
+    let d_goal = dist(said[3].at, goal);
+    assert!(d_goal <= 1.0 && d_goal > 1.0 - STEP_M - 1e-9, "{d_goal}");
+    assert!(guide.arrived());
+    assert_eq!(said[3].instruction.kind, InstructionKind::Arrived);
+    match said[1].instruction.kind {
+        InstructionKind::TurnAhead { leg: 0, waypoint: 1, .. } => {}
+        ref k => panic!("{k:?}"),
+    }
+    assert_message_priority(&said);
+    assert_spaced(&said, 3000);
+    assert!(said.iter().all(|s| s.instruction.vibrate_first));
+    // a "now" is dropped if it cannot be said within 1.5 s
+    assert_eq!(said[2].instruction.speech().ttl_ms, 1500);
+}
+
+#[test]
+fn clock_directions_say_the_hour() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let profile = GuidanceProfile { directions: DirectionStyle::Clock, ..GuidanceProfile::default() };
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), profile);
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to the stairs: 25 metres. Go straight on.",
+            "In 6 metres, turn to 3 o'clock.",
+            "Turn to 3 o'clock now.",
+            "You have arrived at the stairs."
+        ]
+    );
+}
+
+#[test]
+fn steps_use_the_stride_length() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let profile = GuidanceProfile { units: DistanceUnits::Steps, stride_m: 0.75, ..GuidanceProfile::default() };
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), profile);
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    // 6 m / 0.75 m = 8 steps; the route's 26.6 m are 35 steps (rounded to 5)
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to the stairs: 35 steps. Go straight on.",
+            "In 8 steps, turn right.",
+            "Turn right now.",
+            "You have arrived at the stairs."
+        ]
+    );
+}
+
+#[test]
+fn spacing_drops_an_announcement_that_now_would_crowd_and_arrival_is_exempt() {
+    // start 7 m before the corner, end 2.4 m after it
+    let mut p = planner();
+    let route = p.plan([12.5, 11.5], [19.5, 8.5]).unwrap();
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    // the announcement fell due at 6 m (t = 0.x s), had to wait for the spacing until 3 s
+    // (4 m before the corner), and then "now" would have followed within the spacing
+    assert_eq!(
+        texts(&said),
+        ["Route to the stairs: 9 metres. Go straight on.", "Turn right now.", "You have arrived at the stairs."],
+        "{said:#?}"
+    );
+    assert!(said[1].t_ms >= 3000);
+    // arrival came sooner than the spacing after "now", and was said anyway
+    assert!(said[2].t_ms - said[1].t_ms < 3000, "{said:#?}");
+    assert_spaced(&said, 3000);
+}
+
+#[test]
+fn overshooting_the_corner_prompts_to_turn_back_then_says_which_way_to_face() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let corner = route.waypoints[1];
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    // walk east past the corner for 3 m, then come back to it and go down
+    let past = [corner[0] + 3.0, corner[1]];
+    let mut path = vec![route.waypoints[0], corner, past];
+    path.extend_from_slice(&route.waypoints[1..]);
+    let said = walk(&mut guide, &poses_along(&path), 0, 0, Some(&p), |_| true);
+    let t = texts(&said);
+    assert_eq!(
+        t,
+        [
+            "Route to the stairs: 25 metres. Go straight on.",
+            "In 6 metres, turn right.",
+            "Turn right now.",
+            "Off the route: turn back; the route is 1 metre away, behind you to the right.",
+            "Back on the route. Turn left, then go straight on.",
+            "You have arrived at the stairs."
+        ],
+        "{said:#?}"
+    );
+    match &said[3].instruction.kind {
+        InstructionKind::OffRoute { rejoin } => assert!(rejoin.distance_m <= 4.0, "{rejoin:?}"),
+        k => panic!("{k:?}"),
+    }
+    // off the route once farther than 1.5 m from it
+    let off = dist(said[3].at, corner);
+    assert!(off > 1.5 && off < 1.5 + 2.0 * STEP_M, "{off}");
+    assert_spaced(&said, 3000);
+}
+
+#[test]
+fn far_off_the_route_asks_for_a_replan_and_a_new_route_starts_afresh() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let start = guide.step(&pose(route.waypoints[0], 0.0), 0, Some(p.graph())).unwrap();
+    assert_eq!(start.kind, InstructionKind::Start { leg: 0 });
+    // localization puts the user 7 m past the corner: no route node within 4 m
+    let far = pose([26.0, 11.5], 0.0);
+    let i = guide.step(&far, 5000, Some(p.graph())).unwrap();
+    assert_eq!(i.text, "Off the route: finding a new route.");
+    assert!(i.needs_replan());
+    assert_eq!(i.speech().priority, Priority::Message);
+    // not again before the repeat interval, again after it
+    assert_eq!(guide.step(&far, 9000, Some(p.graph())), None);
+    let again = guide.step(&far, 13000, Some(p.graph())).unwrap();
+    assert!(again.needs_replan());
+    assert_ne!(again.dedup_key, i.dedup_key);
+    // without a graph, any deviation is a replan request
+    let mut blind = Guide::single_floor(route.clone(), "", layer(), GuidanceProfile::default());
+    blind.step(&pose(route.waypoints[0], 0.0), 0, None).unwrap();
+    assert!(blind.step(&pose([10.0, 8.0], 0.0), 5000, None).unwrap().needs_replan());
+    // the caller replans and hands the new route over
+    let new = p.replan(&route, [26.0, 11.5]).unwrap();
+    let mut building = planning::BuildingRoute { legs: Vec::new(), walk_length_m: new.length_m, cost_m: new.length_m };
+    building.legs.push(planning::Leg { route: new, end: planning::LegEnd::Goal });
+    guide.set_route(building);
+    let restart = guide.step(&far, 16000, Some(p.graph())).unwrap();
+    assert_eq!(restart.text, "Route to the stairs: 15 metres. Turn around, then go straight on.");
+}
+
+#[test]
+fn unconfident_pose_is_said_once_and_silences_turns() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let poses = poses_along(&route.waypoints);
+    let corner_k = poses.iter().position(|(at, _)| dist(*at, route.waypoints[1]) < 1e-6).unwrap();
+    // confident for the first metre, then unsure from 10 m before the corner until 2 m past it
+    let unsure = |k: usize| k >= 10 && k < corner_k + 20;
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |k| !unsure(k));
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to the stairs: 25 metres. Go straight on.",
+            "Position uncertain: no turn instructions until I know where you are again.",
+            "You have arrived at the stairs."
+        ],
+        "{said:#?}"
+    );
+    assert!(said
+        .iter()
+        .all(|s| !matches!(s.instruction.kind, InstructionKind::TurnAhead { .. } | InstructionKind::TurnNow { .. })));
+    assert_message_priority(&said);
+}
+
+#[test]
+fn where_am_i_names_the_corridor_the_wing_and_the_door() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), GuidanceProfile::default());
+    let i = guide.where_am_i(&pose([10.5, 11.5], 0.0), 1000);
+    assert_eq!(i.text, "In the corridor, east wing, near door 214.");
+    assert_eq!(i.kind, InstructionKind::WhereAmI);
+    assert!(!i.vibrate_first, "the user asked: no vibration");
+    assert_eq!(i.speech().priority, Priority::Message);
+    assert_eq!(guide.where_am_i(&pose([19.5, 5.0], 0.0), 2000).text, "In the east wing.");
+    let unsure = UserPose { confident: false, ..pose([10.5, 11.5], 0.0) };
+    assert_eq!(guide.where_am_i(&unsure, 3000).text, "Position uncertain: I do not know where you are.");
+}
+
+#[test]
+fn repeat_says_a_turn_with_the_distance_of_now_and_never_a_passed_turn() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let corner = route.waypoints[1];
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    assert_eq!(guide.repeat(&pose(route.waypoints[0], 0.0), 0).text, "Nothing to repeat yet.");
+    let start = guide.step(&pose(route.waypoints[0], 0.0), 0, Some(p.graph())).unwrap();
+    let again = guide.repeat(&pose(route.waypoints[0], 0.0), 500);
+    assert_eq!(again.text, start.text);
+    assert_ne!(again.dedup_key, start.dedup_key, "a repeat must not be deduplicated away");
+    assert!(!again.vibrate_first);
+    // walk to 6 m before the corner: the announcement
+    let at6 = [corner[0] - 6.0, corner[1]];
+    let ahead = guide.step(&pose(at6, 0.0), 10_000, Some(p.graph())).unwrap();
+    assert_eq!(ahead.text, "In 6 metres, turn right.");
+    // 2 m on, "repeat" gives the distance of now
+    let at4 = [corner[0] - 4.0, corner[1]];
+    assert_eq!(guide.step(&pose(at4, 0.0), 12_000, Some(p.graph())), None);
+    assert_eq!(guide.repeat(&pose(at4, 0.0), 12_100).text, "In 4 metres, turn right.");
+    // after the turn, "repeat" says how far to go straight on, not "turn right"
+    let now = guide.step(&pose([corner[0] - 1.0, corner[1]], 0.0), 15_000, Some(p.graph())).unwrap();
+    assert_eq!(now.text, "Turn right now.");
+    let below = [corner[0], corner[1] - 3.0];
+    assert_eq!(guide.step(&pose(below, -std::f64::consts::FRAC_PI_2), 18_000, Some(p.graph())), None);
+    let passed = guide.repeat(&pose(below, -std::f64::consts::FRAC_PI_2), 18_100);
+    let left = dist(below, route.goal());
+    assert_eq!(passed.text, format!("Go straight on for {} metres.", left.round()));
+    assert_eq!(passed.kind, InstructionKind::Continue);
+    // asking does not hold back guidance: the spacing counts spontaneous instructions only
+    assert_eq!(guide.last().map(|i| i.text.as_str()), Some("Turn right now."));
+}
+
+const ELEVATOR: &str = r#"
+[[gateway]]
+name = "main elevator"
+type = "elevator"
+stops = [ { floor = 0, x = 19.5, y = 1.5 }, { floor = 1, x = 19.5, y = 1.5 } ]
+"#;
+
+#[test]
+fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor() {
+    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
+    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
+    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let from = FloorPoint { floor: 0, x: 1.5, y: 11.5 };
+    let to = FloorPoint { floor: 1, x: 1.5, y: 11.5 };
+    let route = bp.plan(from, to).unwrap();
+    assert_eq!(route.legs.len(), 2);
+    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
+    let mut guide = Guide::building(route, "room 214", layer.clone(), GuidanceProfile::default());
+
+    let p0 = bp.floor(0).unwrap();
+    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(p0), |_| true);
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to room 214: 55 metres. Go straight on.",
+            "In 6 metres, turn right.",
+            "Turn right now.",
+            "Elevator ahead; take it to floor 1; tell me when you are there.",
+            "You are at the elevator. Take it to floor 1, then tell me when you are there."
+        ],
+        "{said:#?}"
+    );
+    let ahead_at = said[3].at;
+    let left = dist(ahead_at, legs[0].goal());
+    assert!(left <= 6.0 && left > 6.0 - STEP_M - 1e-9, "{left}");
+    assert_eq!(said[3].instruction.kind, InstructionKind::GatewayAhead { leg: 0 });
+    // waiting at the elevator: nothing more on floor 0
+    let end0 = legs[0].goal();
+    assert_eq!(guide.step(&pose(end0, -1.57), 60_000, Some(p0.graph())), None);
+    // a wrong floor is not confirmation
+    assert!(!guide.floor_confirmed(2));
+    assert!(guide.floor_confirmed(1));
+    assert_eq!(guide.floor(), Some(1));
+    let p1 = bp.floor(1).unwrap();
+    let t1 = 70_000;
+    let mut poses1 = poses_along(&legs[1].waypoints);
+    // out of the elevator still facing down the corridor, as the user rode in
+    poses1[0].1 = -std::f64::consts::FRAC_PI_2;
+    let said1 = walk(&mut guide, &poses1, 1, t1, Some(p1), |_| true);
+    assert_eq!(
+        texts(&said1),
+        [
+            "Floor 1: 25 metres to room 214. Turn around, then go straight on.",
+            "In 6 metres, turn left.",
+            "Turn left now.",
+            "You have arrived at room 214."
+        ],
+        "{said1:#?}"
+    );
+    let all: Vec<Said> = said.into_iter().chain(said1).collect();
+    assert_message_priority(&all);
+    assert_spaced(&all, 3000);
+}
+
+#[test]
+fn reaching_the_next_floor_without_saying_so_starts_its_leg_too() {
+    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
+    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
+    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 19.5, y: 5.0 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let up = UserPose { x_m: 19.5, y_m: 1.5, heading_rad: std::f64::consts::FRAC_PI_2, floor: 1, confident: true };
+    let first = guide.step(&up, 0, None).unwrap();
+    assert_eq!(first.text, "Floor 1: 25 metres to room 214. Go straight on.");
+    // a floor the route does not use asks for a replan
+    let lost = UserPose { floor: 3, ..up };
+    let i = guide.step(&lost, 5000, None).unwrap();
+    assert_eq!(i.text, "You are on floor 3, which this route does not take: finding a new route.");
+    assert!(i.needs_replan());
+}
