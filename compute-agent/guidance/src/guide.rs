@@ -39,7 +39,8 @@ pub struct UserPose {
     pub heading_rad: f64,
     /// floor level
     pub floor: i32,
-    /// localization trusts this pose (converged, small covariance)
+    /// localization trusts this pose (converged, small covariance); a pose with a
+    /// non-finite coordinate or heading is taken as not confident
     pub confident: bool,
 }
 
@@ -195,7 +196,9 @@ impl Guide {
         if self.arrived || self.legs.is_empty() {
             return None;
         }
-        if !pose.confident {
+        // a pose with a non-finite number is no pose: treated as not confident
+        let finite = pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
+        if !(pose.confident && finite) {
             if self.uncertain_said {
                 return None;
             }
@@ -286,7 +289,7 @@ impl Guide {
 
     /// The answer to "where am I": the areas around the pose and the nearest door.
     pub fn where_am_i(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
-        let text = if pose.confident {
+        let text = if pose.confident && pose.x_m.is_finite() && pose.y_m.is_finite() {
             where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m)
         } else {
             "Position uncertain: I do not know where you are.".to_string()

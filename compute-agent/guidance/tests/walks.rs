@@ -489,3 +489,46 @@ fn reaching_the_next_floor_without_saying_so_starts_its_leg_too() {
     assert_eq!(i.text, "You are on floor 3, which this route does not take: finding a new route.");
     assert!(i.needs_replan());
 }
+
+#[test]
+fn a_pose_with_nan_is_no_pose() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    guide.step(&pose(route.waypoints[0], 0.0), 0, Some(p.graph())).unwrap();
+    let corner = route.waypoints[1];
+    let nan = pose([corner[0] - 1.0, f64::NAN], 0.0);
+    let i = guide.step(&nan, 10_000, Some(p.graph())).unwrap();
+    assert_eq!(i.kind, InstructionKind::PositionUncertain);
+    assert_eq!(guide.step(&pose([corner[0] - 1.0, corner[1]], f64::NAN), 20_000, Some(p.graph())), None);
+    assert_eq!(guide.where_am_i(&nan, 20_100).text, "Position uncertain: I do not know where you are.");
+    // a finite pose again: the turn is said
+    let back = guide.step(&pose([corner[0] - 1.0, corner[1]], 0.0), 30_000, Some(p.graph())).unwrap();
+    assert_eq!(back.text, "Turn right now.");
+}
+
+#[test]
+fn answers_to_the_user_neither_wait_for_nor_delay_guidance() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let poses = poses_along(&route.waypoints);
+    let mut quiet = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let expected = walk(&mut quiet, &poses, 0, 0, Some(&p), |_| true);
+    // the same walk, with "where am I" asked every 700 ms, answered at once every time
+    let mut asked = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    let mut said = Vec::new();
+    for (k, &(at, heading)) in poses.iter().enumerate() {
+        let t_ms = k as u64 * TICK_MS;
+        let here = UserPose { heading_rad: heading, ..pose(at, 0.0) };
+        if let Some(i) = asked.step(&here, t_ms, Some(p.graph())) {
+            said.push((t_ms, i.text));
+        }
+        if t_ms.is_multiple_of(700) && !asked.arrived() {
+            let a = asked.where_am_i(&here, t_ms);
+            assert_eq!(a.issued_ms, t_ms);
+            assert!(a.text.starts_with("In the ") || a.text.starts_with("Near door"), "{}", a.text);
+        }
+    }
+    let expected: Vec<(u64, String)> = expected.into_iter().map(|s| (s.t_ms, s.instruction.text)).collect();
+    assert_eq!(said, expected);
+}
