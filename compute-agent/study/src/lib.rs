@@ -17,6 +17,7 @@ pub mod compare;
 pub mod contacts;
 pub mod floor_plan;
 pub mod hands;
+pub mod localize_walk;
 pub mod oracle;
 pub mod study;
 pub mod virtual_user;

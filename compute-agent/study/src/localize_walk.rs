@@ -1,0 +1,441 @@
+//! Localization on a simulated walk (issue 30, `wearnav localize --world`): the virtual
+//! user walks the world's route with the cane camera sweeping; the compute agent's own
+//! frame step perceives every frame; its nearest-point scan, the simulator's visual
+//! odometry (never the truth) and a body-worn gyro drive the particle filter on the
+//! world's exported floor plan (walls only, what a user's device would have); each
+//! estimate is compared with the simulator's truth at that frame.
+//!
+//! The scan lives in the camera's floor frame, which turns with the sweep; the filter
+//! tracks the body. Each scan goes in with the camera's place on the body at capture
+//! (its offset and its yaw relative to the body, the sweep angle, which a cane IMU
+//! gives; here taken from the simulator, so exact), and the odometry of the camera's
+//! floor frame is turned into the body's with the sweep at both ends of the interval.
+//!
+//! The walk is run first (recording its frames); the recorded frames are then replayed
+//! through a fresh copy of the same frame step to get the scans (the walk keeps its
+//! perception to itself; the step is deterministic, and every replayed hazard is
+//! checked against the recorded one), then the filter runs frame by frame.
+
+use localization::log_run::{quantile, rmse};
+use localization::{
+    wrap_angle, Beam, FilterConfig, FloorModel, LikelihoodFieldConfig, LocalizationError, Observations,
+    OdometryIncrement, ParticleFilter, Pose2, Scan, Status,
+};
+use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
+use sensor_agent::sim::{CaneMount, SimRng, UserPose, World};
+
+use crate::floor_plan::{self, FloorPlanError};
+use crate::walk::{BodyGyro, FedFrame, GuideKind, TraceRow, Walk, WalkConfig};
+
+/// What a localized walk is made of.
+#[derive(Debug, Clone)]
+pub struct LocalizeWalkConfig {
+    /// The walk (the world's route by default, see [`Default`]).
+    pub walk: WalkConfig,
+    /// The particle filter (AMCL's defaults, [`FilterConfig::default`]).
+    pub filter: FilterConfig,
+    /// The likelihood field of the floor plan.
+    pub field: LikelihoodFieldConfig,
+    /// Floor plan resolution, metres per cell.
+    pub resolution_m: f64,
+    /// Known start: the filter starts at the true pose plus an error drawn with this
+    /// standard deviation per axis, metres, and is told this spread.
+    pub start_sigma_m: f64,
+    /// ... and this heading standard deviation, degrees.
+    pub start_sigma_heading_deg: f64,
+    /// Feed the body-worn gyro's yaw rate ([`BodyGyro`]) to the motion model (it then
+    /// replaces the odometry's heading change).
+    pub imu: bool,
+    /// The walk ends this close to the route's last point on the start floor, metres
+    /// (the goal, or the foot of the stairs in `building`: the user takes no stairs).
+    pub end_radius_m: f64,
+    /// ... or when the user has moved less than 0.2 m in this many seconds (stuck).
+    pub stuck_s: f64,
+}
+
+impl Default for LocalizeWalkConfig {
+    /// The study's default walk kept on the world's route, 120 s at most; AMCL's filter;
+    /// a 0.1 m / 2° known start; the gyro on.
+    fn default() -> Self {
+        Self {
+            walk: WalkConfig { guide: GuideKind::Route, timeout_s: 120.0, ..WalkConfig::default() },
+            filter: FilterConfig::default(),
+            field: LikelihoodFieldConfig::default(),
+            resolution_m: floor_plan::DEFAULT_RESOLUTION_M,
+            start_sigma_m: 0.1,
+            start_sigma_heading_deg: 2.0,
+            imu: true,
+            end_radius_m: 0.5,
+            stuck_s: 10.0,
+        }
+    }
+}
+
+/// Why a walk could not be localized.
+#[derive(Debug, thiserror::Error)]
+pub enum LocalizeWalkError {
+    /// The world's floor plan could not be made.
+    #[error("the floor plan: {0}")]
+    FloorPlan(#[from] FloorPlanError),
+    /// The filter refused its map or its start.
+    #[error("the filter: {0}")]
+    Filter(#[from] LocalizationError),
+    /// The start floor is not in the floor plan.
+    #[error("world `{world}`: floor {level} of the start is not in its floor plan")]
+    NoStartFloor {
+        /// world name
+        world: String,
+        /// the start's floor
+        level: i32,
+    },
+    /// The walk gave no camera frame.
+    #[error("world `{0}`: the walk gave no camera frame")]
+    NoFrames(String),
+}
+
+/// One camera frame of the walk and the filter's answer to it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FrameLocalization {
+    /// Seconds into the walk.
+    pub t_s: f64,
+    /// The simulator's truth: x, y (metres), heading (degrees).
+    pub truth: [f64; 3],
+    /// The filter's estimate: x, y (metres), heading (degrees).
+    pub estimate: [f64; 3],
+    /// Distance between them, metres.
+    pub position_error_m: f64,
+    /// Heading error, degrees (absolute).
+    pub heading_error_deg: f64,
+    /// The filter's status.
+    pub status: Status,
+    /// The filter corrected with this frame's scan (AMCL updates after 0.25 m or 0.2 rad).
+    pub updated: bool,
+    /// Usable beams in the scan (a hit short of the range limit).
+    pub beams: usize,
+    /// Median distance of the scan's end points, placed at the true pose, from the
+    /// floor plan's nearest wall, metres (what the scan would fit if the filter were
+    /// right: clutter and people that are not on the plan make it larger). NaN
+    /// without beams.
+    pub truth_fit_m: f64,
+    /// Prediction and correction, milliseconds, by the caller's clock.
+    pub update_ms: f64,
+}
+
+/// The figures of a localized walk.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LocalizeSummary {
+    /// Camera frames.
+    pub frames: usize,
+    /// Filter updates (corrections with a scan).
+    pub updates: u64,
+    /// Seconds walked.
+    pub duration_s: f64,
+    /// Metres walked (truth).
+    pub walked_m: f64,
+    /// Position error: root mean square, median, 95th percentile, largest, metres.
+    pub position_rmse_m: f64,
+    /// Median position error, metres.
+    pub position_median_m: f64,
+    /// 95th percentile of the position error, metres.
+    pub position_p95_m: f64,
+    /// Largest position error, metres.
+    pub position_max_m: f64,
+    /// Heading error, root mean square, degrees.
+    pub heading_rmse_deg: f64,
+    /// Share of frames with status `Tracking`.
+    pub tracking_fraction: f64,
+    /// Frames with status `Tracking` while more than 1 m off.
+    pub tracking_over_1m: usize,
+    /// Median share of a frame's beams that are usable.
+    pub beams_median: f64,
+    /// Median of [`FrameLocalization::truth_fit_m`] over frames with beams, metres.
+    pub truth_fit_median_m: f64,
+    /// Median time of an update (frames that corrected), milliseconds.
+    pub update_ms_median: f64,
+    /// Odometry increments or gyro rates the filter refused.
+    pub odometry_rejected: u64,
+    /// Replayed frames whose hazard differed from the walk's (0: the replay is exact).
+    pub replay_mismatches: usize,
+}
+
+/// A localized walk: every frame and the figures.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct WalkLocalization {
+    /// World name.
+    pub world: String,
+    /// Seed of the walk and the filter.
+    pub seed: u64,
+    /// The figures.
+    pub summary: LocalizeSummary,
+    /// Every camera frame.
+    pub frames: Vec<FrameLocalization>,
+}
+
+impl WalkLocalization {
+    /// The figures in one line per group, for a terminal.
+    pub fn summary_text(&self) -> String {
+        let s = &self.summary;
+        format!(
+            "world {} seed {}: {} frames, {:.1} s, {:.1} m walked, {} updates\n\
+             position RMSE {:.3} m, median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
+             tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
+             scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose\n",
+            self.world,
+            self.seed,
+            s.frames,
+            s.duration_s,
+            s.walked_m,
+            s.updates,
+            s.position_rmse_m,
+            s.position_median_m,
+            s.position_p95_m,
+            s.position_max_m,
+            s.heading_rmse_deg,
+            100.0 * s.tracking_fraction,
+            s.tracking_over_1m,
+            s.update_ms_median,
+            s.beams_median,
+            s.truth_fit_median_m,
+        )
+    }
+}
+
+/// Walks `world` with `seed` and localizes the walk (see the module doc); `clock_ms`
+/// times each update (e.g. `Instant` elapsed in ms; a constant gives 0).
+pub fn localize_walk(
+    world: &World,
+    seed: u64,
+    config: &LocalizeWalkConfig,
+    mut clock_ms: impl FnMut() -> f64,
+) -> Result<WalkLocalization, LocalizeWalkError> {
+    let level = world.start().floor;
+    let building = floor_plan::export(world, config.resolution_m)?;
+    let floor = building
+        .floor(level)
+        .ok_or_else(|| LocalizeWalkError::NoStartFloor { world: world.name().to_string(), level })?;
+    let model = FloorModel::new(level, &floor.grid, &floor.semantic, &config.field)?;
+    let walls = map::DistanceField::to_occupied(&floor.grid);
+
+    let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
+    if trace.is_empty() || trace.len() != scans.len() {
+        return Err(LocalizeWalkError::NoFrames(world.name().to_string()));
+    }
+
+    let mut pf = ParticleFilter::new(vec![model], config.filter.clone(), seed)?;
+    let mut rng = SimRng::seed_from(seed ^ 0x10ca_112e);
+    let mut gyro = config.imu.then(|| BodyGyro::new(rng.fork()));
+    let first = truth_of(&trace[0]);
+    let sigma_heading = config.start_sigma_heading_deg.to_radians();
+    let start = Pose2::new(
+        first.x_m + rng.gaussian() * config.start_sigma_m,
+        first.y_m + rng.gaussian() * config.start_sigma_m,
+        first.heading_rad + rng.gaussian() * sigma_heading,
+    );
+    pf.init_pose(level, start, config.start_sigma_m.max(0.01), sigma_heading.max(0.2f64.to_radians()))?;
+
+    let mount = config.walk.mount;
+    let mut frames = Vec::with_capacity(trace.len());
+    let mut walked_m = 0.0;
+    let mut ends = Vec::new();
+    for (k, row) in trace.iter().enumerate() {
+        let truth = truth_of(row);
+        let sweep_rad = row.sweep_deg.to_radians();
+        let scan = body_scan(&scans[k], &mount, sweep_rad, level);
+        let rate = gyro.as_mut().and_then(|g| {
+            g.read(row.t_s, truth.heading_rad, row.speed_m_s / config.walk.user.walk_speed_m_s.max(1e-6))
+        });
+        let t0 = clock_ms();
+        if k > 0 {
+            let prev = &trace[k - 1];
+            walked_m += (row.x_m - prev.x_m).hypot(row.y_m - prev.y_m);
+            let inc = body_increment(&odometry[k], &mount, prev.sweep_deg.to_radians(), sweep_rad, level);
+            let inc = OdometryIncrement { dt_s: row.t_s - prev.t_s, ..inc };
+            // a refusal is counted by the filter and shows in the summary
+            let _ = pf.predict(&inc, rate.map(f64::from));
+        }
+        let c = pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+        let update_ms = clock_ms() - t0;
+        let e = pf.estimate();
+        scan.endpoints_into(usize::MAX, &mut ends);
+        let beams = ends.len();
+        let truth_fit_m = {
+            let (s, c) = truth.heading_rad.sin_cos();
+            let d: Vec<f64> = ends
+                .iter()
+                .map(|&[x, y]| {
+                    floor
+                        .grid
+                        .world_to_cell(truth.x_m + c * x - s * y, truth.y_m + s * x + c * y)
+                        .and_then(|(col, row)| walls.get(col, row))
+                        .map_or(f64::INFINITY, f64::from)
+                })
+                .collect();
+            quantile(&d, 0.5)
+        };
+        frames.push(FrameLocalization {
+            t_s: row.t_s,
+            truth: [truth.x_m, truth.y_m, truth.heading_rad.to_degrees()],
+            estimate: [e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()],
+            position_error_m: e.pose.distance_m(&truth),
+            heading_error_deg: wrap_angle(e.pose.heading_rad - truth.heading_rad).abs().to_degrees(),
+            status: e.status,
+            updated: c.updated,
+            beams,
+            truth_fit_m,
+            update_ms,
+        });
+    }
+    let summary = summarize(&frames, walked_m, pf.counters(), replay_mismatches);
+    Ok(WalkLocalization { world: world.name().to_string(), seed, summary, frames })
+}
+
+/// The truth pose of a trace row.
+fn truth_of(row: &TraceRow) -> Pose2 {
+    Pose2::new(row.x_m, row.y_m, row.yaw_deg.to_radians())
+}
+
+/// The camera's floor frame in the body frame with the cane swept by `sweep_rad`.
+fn camera_on_body(mount: &CaneMount, sweep_rad: f64, level: i32) -> Pose2 {
+    let camera = mount.camera_pose(&UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: level }, sweep_rad);
+    Pose2::new(camera.position_m.x, camera.position_m.y, camera.yaw_rad())
+}
+
+/// The perception's scan (camera floor frame, 1-degree bins) as a body-frame scan.
+fn body_scan(scan: &Option<schemas::Scan>, mount: &CaneMount, sweep_rad: f64, level: i32) -> Scan {
+    let on_body = camera_on_body(mount, sweep_rad, level);
+    let (beams, max_range_m) = match scan {
+        Some(s) => (
+            (0..s.ranges_m.len())
+                .map(|i| Beam {
+                    angle_rad: f64::from(s.angle_min_deg + i as f32 * s.angle_increment_deg).to_radians(),
+                    range_m: f64::from(s.ranges_m[i]),
+                })
+                .collect(),
+            f64::from(s.range_max_m),
+        ),
+        // a refused frame: an empty scan, nothing to weigh
+        None => (Vec::new(), 1.0),
+    };
+    Scan {
+        beams,
+        max_range_m,
+        sensor_forward_m: on_body.x_m,
+        sensor_left_m: on_body.y_m,
+        sensor_yaw_rad: on_body.heading_rad,
+    }
+}
+
+/// The body's motion between two frames from the camera floor frame's odometry over the
+/// same interval and the sweep at both ends: body1 = body0 * cam0 * odometry * cam1^-1.
+fn body_increment(
+    odometry: &[schemas::OdomIncrement],
+    mount: &CaneMount,
+    sweep0_rad: f64,
+    sweep1_rad: f64,
+    level: i32,
+) -> OdometryIncrement {
+    let cam0 = camera_on_body(mount, sweep0_rad, level);
+    let cam1 = camera_on_body(mount, sweep1_rad, level);
+    let camera_then =
+        odometry.iter().fold(cam0, |p, o| p.compose(f64::from(o.forward_m), f64::from(o.left_m), f64::from(o.yaw_rad)));
+    // undo the camera's place on the body at the end
+    let (s, c) = cam1.heading_rad.sin_cos();
+    let back = (-(c * cam1.x_m + s * cam1.y_m), s * cam1.x_m - c * cam1.y_m, -cam1.heading_rad);
+    let body1 = camera_then.compose(back.0, back.1, back.2);
+    let (forward_m, left_m, yaw_rad) = Pose2::default().between(&body1);
+    OdometryIncrement { forward_m, left_m, yaw_rad, dt_s: 0.0 }
+}
+
+/// Camera frames of one walk: the trace row (truth, sweep), the perception's scan
+/// (`None` when the frame was refused) and the odometry since the previous frame; and
+/// how many replayed hazards differed from the walk's.
+type Perceived = (Vec<TraceRow>, Vec<Option<schemas::Scan>>, Vec<Vec<schemas::OdomIncrement>>, usize);
+
+/// Runs the walk (to the goal, the route's last point on the start floor, stuck, or the
+/// time limit) and replays its frames through a fresh frame step for the scans.
+fn walk_and_perceive(world: &World, seed: u64, config: &LocalizeWalkConfig) -> Perceived {
+    let walk_config = WalkConfig { trace: true, ..config.walk.clone() };
+    let start = world.start();
+    let end = world
+        .walker()
+        .and_then(|w| w.waypoints.last().copied())
+        .filter(|_| world.goal().floor != start.floor)
+        .unwrap_or([world.goal().x_m, world.goal().y_m]);
+    let mut w = Walk::new(world, &walk_config, seed);
+    w.record_frames();
+    let dt = 1.0 / crate::walk::PHYSICS_HZ as f64;
+    let stuck_steps = (config.stuck_s / dt).ceil() as usize;
+    let mut recent: std::collections::VecDeque<[f64; 2]> = std::collections::VecDeque::new();
+    while w.step() {
+        let p = w.pose();
+        if p.floor != start.floor || (p.x_m - end[0]).hypot(p.y_m - end[1]) <= config.end_radius_m {
+            break;
+        }
+        recent.push_back([p.x_m, p.y_m]);
+        if recent.len() > stuck_steps {
+            recent.pop_front();
+            let a = recent[0];
+            if recent.iter().all(|q| (q[0] - a[0]).hypot(q[1] - a[1]) < 0.2) {
+                break;
+            }
+        }
+    }
+    let mut step = ComputeStep::new(walk_config.perception.clone(), walk_config.cue.clone());
+    let fed: &[FedFrame] = w.fed_frames();
+    let mut scans = Vec::with_capacity(fed.len());
+    let mut odometry = Vec::with_capacity(fed.len());
+    let mut mismatches = 0;
+    for f in fed {
+        for inc in &f.odometry {
+            // the walk fed these same increments; a refusal there is a refusal here
+            let _ = step.add_odometry(inc);
+        }
+        let input = FrameIn {
+            data: FrameData::Wire(&f.frame),
+            seq: f.seq,
+            capture_ns: f.capture_ns,
+            body_yaw_rate_rad_s: None,
+        };
+        let (scan, hazard) = match step.process(input, &mut NoTimer) {
+            StepOutput::Perceived { perception, hazard, .. } => (Some(perception.scan), Some(hazard)),
+            StepOutput::Refused { .. } => (None, None),
+        };
+        mismatches += usize::from(hazard != f.hazard);
+        scans.push(scan);
+        odometry.push(f.odometry.clone());
+    }
+    let trace = w.finish().trace;
+    (trace, scans, odometry, mismatches)
+}
+
+fn summarize(
+    frames: &[FrameLocalization],
+    walked_m: f64,
+    counters: &localization::Counters,
+    replay_mismatches: usize,
+) -> LocalizeSummary {
+    let pos: Vec<f64> = frames.iter().map(|f| f.position_error_m).collect();
+    let head: Vec<f64> = frames.iter().map(|f| f.heading_error_deg).collect();
+    let beams: Vec<f64> = frames.iter().map(|f| f.beams as f64).collect();
+    let fit: Vec<f64> = frames.iter().map(|f| f.truth_fit_m).filter(|d| d.is_finite()).collect();
+    let updates: Vec<f64> = frames.iter().filter(|f| f.updated).map(|f| f.update_ms).collect();
+    let tracking = frames.iter().filter(|f| f.status == Status::Tracking).count();
+    LocalizeSummary {
+        frames: frames.len(),
+        updates: counters.updates,
+        duration_s: frames.last().map_or(0.0, |f| f.t_s) - frames.first().map_or(0.0, |f| f.t_s),
+        walked_m,
+        position_rmse_m: rmse(&pos),
+        position_median_m: quantile(&pos, 0.5),
+        position_p95_m: quantile(&pos, 0.95),
+        position_max_m: pos.iter().copied().fold(0.0, f64::max),
+        heading_rmse_deg: rmse(&head),
+        tracking_fraction: tracking as f64 / frames.len().max(1) as f64,
+        tracking_over_1m: frames.iter().filter(|f| f.status == Status::Tracking && f.position_error_m > 1.0).count(),
+        beams_median: quantile(&beams, 0.5),
+        truth_fit_median_m: quantile(&fit, 0.5),
+        update_ms_median: quantile(&updates, 0.5),
+        odometry_rejected: counters.odometry_rejected,
+        replay_mismatches,
+    }
+}
