@@ -46,6 +46,8 @@ pub struct LocalizeWalkConfig {
     /// Feed the body-worn gyro's yaw rate ([`BodyGyro`]) to the motion model (it then
     /// replaces the odometry's heading change).
     pub imu: bool,
+    /// What of the scans the filter is corrected with.
+    pub scans: ScanUse,
     /// The walk ends this close to the route's last point on the start floor, metres
     /// (the goal, or the foot of the stairs in `building`: the user takes no stairs).
     pub end_radius_m: f64,
@@ -65,10 +67,25 @@ impl Default for LocalizeWalkConfig {
             start_sigma_m: 0.1,
             start_sigma_heading_deg: 2.0,
             imu: true,
+            scans: ScanUse::Frame,
             end_radius_m: 0.5,
             stuck_s: 10.0,
         }
     }
+}
+
+/// What of the cane camera's scans corrects the filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum ScanUse {
+    /// None: odometry and gyro alone (dead reckoning, the baseline).
+    None,
+    /// The frame's own scan at each update (AMCL's way: one scan per update, the
+    /// frames between updates unused). The camera sees ~58° of a sweeping cane.
+    Frame,
+    /// Every frame's scan since the previous update, moved into the body frame of
+    /// this one by the odometry between them: the sweep's frames together see ~120°.
+    Sweep,
 }
 
 /// Why a walk could not be localized.
@@ -106,6 +123,10 @@ pub struct FrameLocalization {
     pub position_error_m: f64,
     /// Heading error, degrees (absolute).
     pub heading_error_deg: f64,
+    /// Position error along the true heading, metres (positive: the estimate ahead).
+    pub along_error_m: f64,
+    /// Position error across the true heading, metres (positive: to the left).
+    pub across_error_m: f64,
     /// The filter's status.
     pub status: Status,
     /// The filter corrected with this frame's scan (AMCL updates after 0.25 m or 0.2 rad).
@@ -142,6 +163,10 @@ pub struct LocalizeSummary {
     pub position_max_m: f64,
     /// Heading error, root mean square, degrees.
     pub heading_rmse_deg: f64,
+    /// Position error along the true heading, root mean square, metres.
+    pub along_rmse_m: f64,
+    /// Position error across the true heading, root mean square, metres.
+    pub across_rmse_m: f64,
     /// Share of frames with status `Tracking`.
     pub tracking_fraction: f64,
     /// Frames with status `Tracking` while more than 1 m off.
@@ -177,7 +202,7 @@ impl WalkLocalization {
         let s = &self.summary;
         format!(
             "world {} seed {}: {} frames, {:.1} s, {:.1} m walked, {} updates\n\
-             position RMSE {:.3} m, median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
+             position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
              tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose\n",
             self.world,
@@ -187,6 +212,8 @@ impl WalkLocalization {
             s.walked_m,
             s.updates,
             s.position_rmse_m,
+            s.along_rmse_m,
+            s.across_rmse_m,
             s.position_median_m,
             s.position_p95_m,
             s.position_max_m,
@@ -237,10 +264,16 @@ pub fn localize_walk(
     let mut frames = Vec::with_capacity(trace.len());
     let mut walked_m = 0.0;
     let mut ends = Vec::new();
+    // with `ScanUse::Sweep`: the end points of the frames since the last update, in the
+    // body frame at the last update, and the body's pose there by odometry
+    let mut swept: Vec<[f64; 2]> = Vec::new();
+    let mut since_update = Pose2::default();
+    let mut merged = Scan::default();
     for (k, row) in trace.iter().enumerate() {
         let truth = truth_of(row);
         let sweep_rad = row.sweep_deg.to_radians();
         let scan = body_scan(&scans[k], &mount, sweep_rad, level);
+        scan.endpoints_into(usize::MAX, &mut ends);
         let rate = gyro.as_mut().and_then(|g| {
             g.read(row.t_s, truth.heading_rad, row.speed_m_s / config.walk.user.walk_speed_m_s.max(1e-6))
         });
@@ -251,33 +284,55 @@ pub fn localize_walk(
             let inc = body_increment(&odometry[k], &mount, prev.sweep_deg.to_radians(), sweep_rad, level);
             let inc = OdometryIncrement { dt_s: row.t_s - prev.t_s, ..inc };
             // a refusal is counted by the filter and shows in the summary
-            let _ = pf.predict(&inc, rate.map(f64::from));
+            if pf.predict(&inc, rate.map(f64::from)).is_ok() {
+                since_update = since_update.compose(inc.forward_m, inc.left_m, inc.yaw_rad);
+            }
         }
-        let c = pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+        let (s0, c0) = since_update.heading_rad.sin_cos();
+        swept.extend(
+            ends.iter().map(|&[x, y]| [since_update.x_m + c0 * x - s0 * y, since_update.y_m + s0 * x + c0 * y]),
+        );
+        let observed = match config.scans {
+            ScanUse::None => None,
+            ScanUse::Frame => Some(&scan),
+            ScanUse::Sweep => {
+                if pf.update_due() {
+                    merge_into(&swept, &since_update, &mut merged);
+                }
+                Some(&merged)
+            }
+        };
+        let c = pf.correct(&Observations { scan: observed, ..Default::default() });
+        if c.updated || config.scans != ScanUse::Sweep {
+            swept.clear();
+            since_update = Pose2::default();
+        }
         let update_ms = clock_ms() - t0;
         let e = pf.estimate();
-        scan.endpoints_into(usize::MAX, &mut ends);
         let beams = ends.len();
+        let (st, ct) = truth.heading_rad.sin_cos();
         let truth_fit_m = {
-            let (s, c) = truth.heading_rad.sin_cos();
             let d: Vec<f64> = ends
                 .iter()
                 .map(|&[x, y]| {
                     floor
                         .grid
-                        .world_to_cell(truth.x_m + c * x - s * y, truth.y_m + s * x + c * y)
+                        .world_to_cell(truth.x_m + ct * x - st * y, truth.y_m + st * x + ct * y)
                         .and_then(|(col, row)| walls.get(col, row))
                         .map_or(f64::INFINITY, f64::from)
                 })
                 .collect();
             quantile(&d, 0.5)
         };
+        let (dx, dy) = (e.pose.x_m - truth.x_m, e.pose.y_m - truth.y_m);
         frames.push(FrameLocalization {
             t_s: row.t_s,
             truth: [truth.x_m, truth.y_m, truth.heading_rad.to_degrees()],
             estimate: [e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()],
             position_error_m: e.pose.distance_m(&truth),
             heading_error_deg: wrap_angle(e.pose.heading_rad - truth.heading_rad).abs().to_degrees(),
+            along_error_m: ct * dx + st * dy,
+            across_error_m: -st * dx + ct * dy,
             status: e.status,
             updated: c.updated,
             beams,
@@ -287,6 +342,21 @@ pub fn localize_walk(
     }
     let summary = summarize(&frames, walked_m, pf.counters(), replay_mismatches);
     Ok(WalkLocalization { world: world.name().to_string(), seed, summary, frames })
+}
+
+/// End points gathered in the body frame of the last update, as a scan from the body
+/// frame of now (`now`: where the body is, by odometry, in that frame).
+fn merge_into(points: &[[f64; 2]], now: &Pose2, out: &mut Scan) {
+    let (s, c) = now.heading_rad.sin_cos();
+    out.beams.clear();
+    out.beams.extend(points.iter().map(|&[x, y]| {
+        let (dx, dy) = (x - now.x_m, y - now.y_m);
+        let (fx, fy) = (c * dx + s * dy, -s * dx + c * dy);
+        Beam { angle_rad: fy.atan2(fx), range_m: fx.hypot(fy) }
+    }));
+    // every point is a hit: nothing is at the range limit
+    out.max_range_m = f64::INFINITY;
+    (out.sensor_forward_m, out.sensor_left_m, out.sensor_yaw_rad) = (0.0, 0.0, 0.0);
 }
 
 /// The truth pose of a trace row.
@@ -415,6 +485,8 @@ fn summarize(
     replay_mismatches: usize,
 ) -> LocalizeSummary {
     let pos: Vec<f64> = frames.iter().map(|f| f.position_error_m).collect();
+    let along: Vec<f64> = frames.iter().map(|f| f.along_error_m).collect();
+    let across: Vec<f64> = frames.iter().map(|f| f.across_error_m).collect();
     let head: Vec<f64> = frames.iter().map(|f| f.heading_error_deg).collect();
     let beams: Vec<f64> = frames.iter().map(|f| f.beams as f64).collect();
     let fit: Vec<f64> = frames.iter().map(|f| f.truth_fit_m).filter(|d| d.is_finite()).collect();
@@ -430,6 +502,8 @@ fn summarize(
         position_p95_m: quantile(&pos, 0.95),
         position_max_m: pos.iter().copied().fold(0.0, f64::max),
         heading_rmse_deg: rmse(&head),
+        along_rmse_m: rmse(&along),
+        across_rmse_m: rmse(&across),
         tracking_fraction: tracking as f64 / frames.len().max(1) as f64,
         tracking_over_1m: frames.iter().filter(|f| f.status == Status::Tracking && f.position_error_m > 1.0).count(),
         beams_median: quantile(&beams, 0.5),
