@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
+use guidance::{GuidanceProfile, Guide, UserPose};
 use map::SemanticLayer;
 use planning::movingai::{self, MovingAiMap};
 use planning::{NavGraphConfig, Planner};
@@ -141,11 +142,14 @@ fn route(args: &PlanArgs, map_path: &Path) -> anyhow::Result<()> {
     let started = Instant::now();
     let route = planner.plan(from, to).with_context(|| format!("planning on {}", map_path.display()))?;
     let plan_ms = started.elapsed().as_secs_f64() * 1e3;
+    let destination = to_name.clone().unwrap_or_else(|| format!("{:.1}, {:.1}", to[0], to[1]));
+    let spoken = walk_the_route(&route, &destination, semantic.unwrap_or_default(), planner.graph());
     if args.json {
         let out = json!({
             "map": map_path, "from": from, "to": to, "to_label": to_name,
             "length_m": route.length_m, "graph_length_m": route.graph_length_m,
             "snapped_m": route.snapped_m, "waypoints": route.waypoints,
+            "instructions": spoken.iter().map(|(at_m, text)| json!({ "at_m": at_m, "text": text })).collect::<Vec<_>>(),
             "graph_ms": built_ms, "plan_ms": plan_ms,
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
@@ -162,6 +166,10 @@ fn route(args: &PlanArgs, map_path: &Path) -> anyhow::Result<()> {
                 "start moved {:.2} m, goal {:.2} m, to the nearest place {:.2} m clear of walls",
                 route.snapped_m[0], route.snapped_m[1], args.clearance
             );
+        }
+        println!("what a walker at 1 m/s would hear (default guidance profile):");
+        for (at_m, text) in &spoken {
+            println!("  {at_m:6.1} m  {text}");
         }
         println!("graph {built_ms:.1} ms, route {plan_ms:.2} ms");
     }
@@ -188,4 +196,46 @@ fn unknown_place(semantic: &SemanticLayer, asked: &str) -> anyhow::Error {
     } else {
         anyhow!("no place called {asked:?}; places: {}", close.join(", "))
     }
+}
+
+/// Walks the smoothed route at 1 m/s, facing along it, with a confident pose, and
+/// returns each instruction the guide gives with the metres walked when it came.
+fn walk_the_route(
+    route: &planning::Route,
+    destination: &str,
+    semantic: SemanticLayer,
+    graph: &planning::NavGraph,
+) -> Vec<(f64, String)> {
+    const STEP_M: f64 = 0.05;
+    let mut guide = Guide::single_floor(route.clone(), destination, semantic, GuidanceProfile::default());
+    let mut heard = Vec::new();
+    let mut walked = 0.0;
+    let mut facing = 0.0;
+    for pair in route.waypoints.windows(2) {
+        let ([x0, y0], [x1, y1]) = (pair[0], pair[1]);
+        let length = (x1 - x0).hypot(y1 - y0);
+        let heading_rad = (y1 - y0).atan2(x1 - x0);
+        facing = heading_rad;
+        let steps = (length / STEP_M).ceil().max(1.0) as usize;
+        for k in 0..steps {
+            let f = k as f64 / steps as f64;
+            let pose =
+                UserPose { x_m: x0 + f * (x1 - x0), y_m: y0 + f * (y1 - y0), heading_rad, floor: 0, confident: true };
+            let at = walked + f * length;
+            if let Some(i) = guide.step(&pose, (at * 1000.0) as u64, Some(graph)) {
+                heard.push((at, i.text));
+            }
+        }
+        walked += length;
+    }
+    if let Some(&[x, y]) = route.waypoints.last() {
+        // standing at the goal for a moment: arrival is said there
+        let pose = UserPose { x_m: x, y_m: y, heading_rad: facing, floor: 0, confident: true };
+        for extra_ms in [0, 1000, 2000] {
+            if let Some(i) = guide.step(&pose, (walked * 1000.0) as u64 + extra_ms, Some(graph)) {
+                heard.push((walked, i.text));
+            }
+        }
+    }
+    heard
 }

@@ -63,6 +63,12 @@ fn a_world_exported_by_map_is_planned_on_by_label_and_unknown_places_are_named()
     let length = route["length_m"].as_f64().unwrap();
     // the straight line is 13.1 m; the route keeps 0.3 m from the walls
     assert!((13.0..14.5).contains(&length), "{length} m");
+    // what a walker would hear along it, from the guidance crate
+    let heard: Vec<&str> =
+        route["instructions"].as_array().unwrap().iter().map(|i| i["text"].as_str().unwrap()).collect();
+    assert!(heard.first().is_some_and(|t| t.starts_with("Route to stair hall")), "{heard:?}");
+    assert_eq!(heard.last(), Some(&"You have arrived at stair hall."), "{heard:?}");
+    assert!(heard.iter().any(|t| t.contains("turn slightly left")), "{heard:?}");
     let (ok, _, err) = plan("room 999");
     assert!(!ok);
     assert!(err.contains("no place called \"room 999\"") && err.contains("stair hall"), "{err}");
