@@ -1,7 +1,10 @@
-//! `wearnav localize --carmen`: the particle filter on a recorded 2-D laser log, as the
-//! localization figures are measured: the map from the logged scans at the logged
-//! (scan-matched) poses, the odometry increments between scans perturbed with seeded
-//! noise, and the filter's estimate at every scan compared with the logged pose.
+//! `wearnav localize`: the particle filter measured against a reference. `--carmen`: on
+//! a recorded 2-D laser log, the map from the logged scans at the logged (scan-matched)
+//! poses, the odometry increments between scans perturbed with seeded noise, the
+//! estimate at every scan compared with the logged pose. `--world`: on a simulated
+//! walk, the floor plan of the world, the simulator's odometry and body gyro and the
+//! cane camera's nearest-point scan, compared with the simulator's truth
+//! (`study::localize_walk`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -13,19 +16,32 @@ use localization::mapping::MappingConfig;
 use localization::{FilterConfig, Status};
 use serde_json::json;
 
-/// Localize on a CARMEN laser log and report the errors against its poses.
+/// Localize on a CARMEN laser log or a simulated walk and report the errors.
 #[derive(Debug, Args)]
-#[command(after_help = "Example (the Intel Research Lab log, in the repository):\n  \
-    wearnav localize --carmen compute-agent/localization/tests/data/intel-corrected.log.gz --global")]
+#[command(after_help = "Examples:\n  \
+    wearnav localize --carmen compute-agent/localization/tests/data/intel-corrected.log.gz --global\n  \
+    wearnav localize --world corridor --seed 2 --scans sweep")]
 pub struct LocalizeArgs {
     /// A CARMEN log (`FLASER` and `ODOM` lines), plain or gzip-compressed. Its poses are
     /// the reference: use a scan-matched ("corrected") log.
-    #[arg(long, value_name = "FILE")]
-    carmen: PathBuf,
-    /// Odometry noise, AMCL's alpha1..alpha4 (rotation from rotation, rotation from
-    /// translation, translation from translation, translation from rotation).
-    #[arg(long, value_name = "A1,A2,A3,A4", default_value = "0.1,0.1,0.1,0.1", value_parser = parse_alpha)]
-    odom_noise: [f64; 4],
+    #[arg(long, value_name = "FILE", required_unless_present = "world", conflicts_with = "world")]
+    carmen: Option<PathBuf>,
+    /// A simulated world (built-in name or scene file): the walk's user is localized on
+    /// the world's floor plan from a known start (0.1 m, 2 degrees off).
+    #[arg(long, value_name = "WORLD")]
+    world: Option<String>,
+    /// With `--world`: which scans correct the filter (`none`: odometry and gyro alone;
+    /// `frame`: each frame's scan; `sweep`: the frames of a cane sweep merged).
+    #[arg(long, value_enum, default_value = "frame", requires = "world")]
+    scans: study::localize_walk::ScanUse,
+    /// With `--world`: do not use the body gyro's yaw rate.
+    #[arg(long, requires = "world")]
+    no_imu: bool,
+    /// With `--carmen`: odometry noise, AMCL's alpha1..alpha4 (rotation from rotation,
+    /// rotation from translation, translation from translation, translation from
+    /// rotation); default 0.1 each. A simulated walk has the simulator's own.
+    #[arg(long, value_name = "A1,A2,A3,A4", value_parser = parse_alpha, conflicts_with = "world")]
+    odom_noise: Option<[f64; 4]>,
     /// Most particles while tracking (a global start begins with more, spread over the
     /// whole map; see `FilterConfig::global_particles`).
     #[arg(long, value_name = "N", default_value_t = FilterConfig::default().max_particles)]
@@ -35,7 +51,7 @@ pub struct LocalizeArgs {
     seed: u64,
     /// Start from nothing (particles over all free space) instead of near the first
     /// logged pose; reports when the estimate came within 0.5 m to stay.
-    #[arg(long)]
+    #[arg(long, requires = "carmen")]
     global: bool,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -43,9 +59,11 @@ pub struct LocalizeArgs {
 }
 
 fn parse_alpha(s: &str) -> Result<[f64; 4], String> {
-    let values: Vec<f64> = s.split(',').map(|v| v.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| {
-        format!("{s:?}: {e} (four numbers, e.g. 0.1,0.1,0.1,0.1)")
-    })?;
+    let values: Vec<f64> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s:?}: {e} (four numbers, e.g. 0.1,0.1,0.1,0.1)"))?;
     match values[..] {
         [a, b, c, d] if values.iter().all(|v| v.is_finite() && (0.0..=2.0).contains(v)) => Ok([a, b, c, d]),
         _ => Err(format!("{s:?}: give four numbers between 0 and 2 (AMCL's alpha1..alpha4)")),
@@ -62,9 +80,37 @@ pub fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     if args.particles < 100 || args.particles > 1_000_000 {
         bail!("--particles {}: give between 100 and 1,000,000", args.particles);
     }
-    let log = localization::carmen::read_log(&args.carmen)?;
+    match (&args.carmen, &args.world) {
+        (Some(log), _) => on_log(args, log),
+        (None, Some(world)) => on_world(args, world),
+        (None, None) => bail!("give --carmen FILE or --world WORLD (see --help)"),
+    }
+}
+
+fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
+    use study::localize_walk::{localize_walk, LocalizeWalkConfig};
+    let world = sensor_agent::sim::World::load(name).with_context(|| format!("cannot load world {name:?}"))?;
+    let defaults = LocalizeWalkConfig::default();
+    let filter = FilterConfig {
+        max_particles: args.particles,
+        min_particles: defaults.filter.min_particles.min(args.particles),
+        ..defaults.filter.clone()
+    };
+    let config = LocalizeWalkConfig { filter, scans: args.scans, imu: !args.no_imu, ..defaults };
+    let clock = Instant::now();
+    let r = localize_walk(&world, args.seed, &config, || clock.elapsed().as_secs_f64() * 1e3)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r.summary)?);
+    } else {
+        println!("{}", r.summary_text());
+    }
+    Ok(())
+}
+
+fn on_log(args: &LocalizeArgs, path: &std::path::Path) -> anyhow::Result<()> {
+    let log = localization::carmen::read_log(path)?;
     let logged = LoggedRun::new(&log, &MappingConfig::default())
-        .with_context(|| format!("cannot localize on {}", args.carmen.display()))?;
+        .with_context(|| format!("cannot localize on {}", path.display()))?;
     let defaults = FilterConfig::default();
     let config = FilterConfig {
         max_particles: args.particles,
@@ -78,7 +124,8 @@ pub fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     } else {
         pf.init_pose(0, first, 0.1, 0.05)?;
     }
-    let increments = logged.noisy_increments(args.odom_noise, args.seed + 5);
+    let odom_noise = args.odom_noise.unwrap_or([0.1; 4]);
+    let increments = logged.noisy_increments(odom_noise, args.seed + 5);
     let clock = Instant::now();
     let run = logged.run(&mut pf, &increments, || clock.elapsed().as_secs_f64() * 1e3)?;
 
@@ -95,8 +142,8 @@ pub fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     let g = &logged.grid;
     if args.json {
         let out = json!({
-            "log": args.carmen, "scans": logged.lasers.len(), "global": args.global, "seed": args.seed,
-            "odom_noise": args.odom_noise, "particles": args.particles,
+            "log": path, "scans": logged.lasers.len(), "global": args.global, "seed": args.seed,
+            "odom_noise": odom_noise, "particles": args.particles,
             "map": { "width": g.width(), "height": g.height(), "resolution_m": g.resolution_m() },
             "position_rmse_m": rmse(position), "position_median_m": quantile(position, 0.5),
             "position_p95_m": quantile(position, 0.95), "heading_rmse_deg": rmse(&heading_deg),
@@ -108,13 +155,13 @@ pub fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "{}: {} scans, map {}x{} cells at {} m; {} start, odometry noise {:?}, seed {}",
-            args.carmen.display(),
+            path.display(),
             logged.lasers.len(),
             g.width(),
             g.height(),
             g.resolution_m(),
             if args.global { "global" } else { "known" },
-            args.odom_noise,
+            odom_noise,
             args.seed
         );
         match (converged, args.global) {

@@ -51,7 +51,8 @@ enum Command {
     Plan(plan_cmd::PlanArgs),
 }
 
-/// Log filter of `wearnav course` when `RUST_LOG` is unset: a line per walk. The
+/// Log filter of `wearnav course` (and `localize`, whose `--world` walks the same way)
+/// when `RUST_LOG` is unset: a line per walk. The
 /// simulated user's devices (detection offline and back, speech) are the walks' own
 /// business, counted in their table; `RUST_LOG=info` shows them too.
 const COURSE_LOG: &str = "info,zenoh=warn,feedback_agent=error";
@@ -59,7 +60,7 @@ const COURSE_LOG: &str = "info,zenoh=warn,feedback_agent=error";
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Course(_) => bus::logging::init_with(COURSE_LOG),
+        Command::Course(_) | Command::Localize(_) => bus::logging::init_with(COURSE_LOG),
         _ => bus::logging::init(),
     }
     let runtime = tokio::runtime::Runtime::new()?;

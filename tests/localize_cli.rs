@@ -4,7 +4,8 @@ use std::path::Path;
 use std::process::Command;
 
 fn localize(args: &[&str]) -> (bool, String, String) {
-    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("compute-agent/localization/tests/data/intel-corrected.log.gz");
+    let log =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("compute-agent/localization/tests/data/intel-corrected.log.gz");
     let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
         .args(["localize", "--carmen", log.to_str().unwrap()])
         .args(args)
@@ -54,4 +55,26 @@ fn bad_input_is_refused_with_its_reason() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("/nonexistent/run.log"), "{err}");
+}
+
+#[test]
+fn on_a_simulated_walk_the_scan_holds_the_user_on_the_floor_plan() {
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["localize", "--world", "building", "--seed", "1", "--json"])
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("wearnav runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let with_scan = report(&String::from_utf8_lossy(&out.stdout));
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["localize", "--world", "building", "--seed", "1", "--scans", "none", "--json"])
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("wearnav runs");
+    let dead_reckoning = report(&String::from_utf8_lossy(&out.stdout));
+    let rmse = |r: &serde_json::Value| r["position_rmse_m"].as_f64().unwrap();
+    // measured 0.239 m with the scan, 0.801 m on odometry and gyro alone (docs/localization.md)
+    assert!(rmse(&with_scan) < 0.35, "{with_scan}");
+    assert!(rmse(&dead_reckoning) > 2.0 * rmse(&with_scan), "{dead_reckoning}");
+    assert_eq!(with_scan["tracking_over_1m"], 0, "said Tracking while more than 1 m off");
 }

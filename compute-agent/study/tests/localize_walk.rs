@@ -58,37 +58,3 @@ fn building_ground_floor_walk_is_tracked_and_dead_reckoning_is_not() {
     assert!(dead.summary.position_rmse_m > 2.0 * s.position_rmse_m, "{}", dead.summary_text());
     assert!(dead.summary.heading_rmse_deg > 1.5 * s.heading_rmse_deg, "{}", dead.summary_text());
 }
-
-/// The table of docs/localization.md ("Simulated walks"): three seeds per world, the
-/// scan modes and the gyro on and off. About 2 minutes:
-/// `cargo test -p study --test localize_walk -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn simulated_walks_table() {
-    for name in ["corridor", "building"] {
-        for seed in 1..=3 {
-            for (scans, imu) in
-                [(ScanUse::None, true), (ScanUse::Frame, true), (ScanUse::Frame, false), (ScanUse::Sweep, true)]
-            {
-                let r = run_with(name, seed, &LocalizeWalkConfig { scans, imu, ..Default::default() });
-                let s = &r.summary;
-                let along_mean = r.frames.iter().map(|f| f.along_error_m).sum::<f64>() / r.frames.len() as f64;
-                println!(
-                    "| {name} | {seed} | {scans:?} | {} | {:.1} | {:.3} | {:.3} | {:.3} | {:+.3} | {:.3} | {:.3} | {:.2} | {:.0} % | {} | {:.2} |",
-                    if imu { "on" } else { "off" },
-                    s.walked_m,
-                    s.position_rmse_m,
-                    s.along_rmse_m,
-                    s.across_rmse_m,
-                    along_mean,
-                    s.position_median_m,
-                    s.position_p95_m,
-                    s.heading_rmse_deg,
-                    100.0 * s.tracking_fraction,
-                    s.tracking_over_1m,
-                    s.update_ms_median
-                );
-            }
-        }
-    }
-}
