@@ -25,6 +25,10 @@ use crate::pgm::{decode_pgm, encode_pgm, GrayImage};
 /// Files larger than this are refused before they are read (a 64 M-cell 16-bit PGM is 128 MiB).
 pub const MAX_FILE_BYTES: u64 = 256 * 1024 * 1024;
 
+/// The most bytes deflate (a PNG's compression) can pack into one: 258-byte matches
+/// coded in about 2 bits each (RFC 1951; zlib's technical details say 1032:1).
+pub const MAX_DEFLATE_RATIO: u64 = 1032;
+
 /// How pixel values become cells (map_server's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -75,11 +79,19 @@ struct RawYaml {
     mode: Option<MapMode>,
 }
 
+/// Flow collections (`[`, `{`) nested deeper than this are refused before the YAML
+/// parser sees them: its time grows with the square of the depth (100,000 nested `{a: `,
+/// 400 KB, took 29 s), and a map YAML nests one level (`origin: [x, y, yaw]`).
+pub const MAX_YAML_NESTING: usize = 64;
+
 /// Parses and checks a map YAML's text; `file` names it in errors.
 pub fn parse_map_yaml(text: &str, file: &Path) -> Result<MapMetadata, MapError> {
+    check_nesting(text, file)?;
     let raw: RawYaml = serde_yaml_ng::from_str(text).map_err(|e| MapError::Yaml {
         file: file.to_path_buf(),
-        line: e.location().map_or(0, |l| l.line()),
+        // the YAML parser puts the end of a text without a final newline on the line
+        // after it: that is the last line
+        line: e.location().map_or(0, |l| l.line().min(crate::error::line_of(text, text.len()))),
         message: e.to_string(),
     })?;
     let bad = |field: &'static str, message: String| MapError::BadField { file: file.to_path_buf(), field, message };
@@ -110,6 +122,27 @@ pub fn parse_map_yaml(text: &str, file: &Path) -> Result<MapMetadata, MapError> 
         negate,
         mode: raw.mode.unwrap_or(MapMode::Trinary),
     })
+}
+
+/// Refuses text whose brackets open more than [`MAX_YAML_NESTING`] deep (brackets in
+/// quotes and comments count too: a map YAML has none to spare).
+fn check_nesting(text: &str, file: &Path) -> Result<(), MapError> {
+    let mut depth = 0usize;
+    for (i, b) in text.bytes().enumerate() {
+        match b {
+            b'[' | b'{' => depth += 1,
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        if depth > MAX_YAML_NESTING {
+            return Err(MapError::Yaml {
+                file: file.to_path_buf(),
+                line: crate::error::line_of(text, i),
+                message: format!("brackets nested more than {MAX_YAML_NESTING} deep: a map YAML is flat"),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Reads a whole file after checking its size against [`MAX_FILE_BYTES`].
@@ -159,6 +192,18 @@ pub fn decode_png(bytes: &[u8], file: &Path) -> Result<GrayImage, MapError> {
     let mut reader = decoder.read_info().map_err(png_err)?;
     let (width, height) = (reader.info().width as u64, reader.info().height as u64);
     check_size(file, width, height)?;
+    // a forged IHDR must not size the buffer: deflate packs at most MAX_DEFLATE_RATIO
+    // bytes into one, so the file must be large enough for the rows it declares
+    let raw = reader.info().raw_bytes() as u64;
+    if raw > MAX_DEFLATE_RATIO * bytes.len() as u64 {
+        return Err(MapError::Png {
+            file: file.to_path_buf(),
+            message: format!(
+                "{width} x {height} pixels cannot fit in {} bytes (a PNG compresses at most {MAX_DEFLATE_RATIO} to 1)",
+                bytes.len()
+            ),
+        });
+    }
     let mut buf = vec![0u8; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(png_err)?;
     let (channels, has_alpha) = match info.color_type {

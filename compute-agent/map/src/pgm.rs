@@ -84,7 +84,9 @@ pub fn decode_pgm(bytes: &[u8], file: &Path) -> Result<GrayImage, MapError> {
     }
     let n = (width * height) as usize;
     let scale = |v: u64| -> u8 { ((v.min(maxval) * 255 + maxval / 2) / maxval) as u8 };
-    let mut pixels = Vec::with_capacity(n);
+    // the pixels are allocated only once the file is known to hold them: a forged
+    // header must not reserve MAX_CELLS bytes for a file of a few bytes
+    let mut pixels = Vec::new();
     if binary {
         // exactly one whitespace byte separates maxval from the raster
         match bytes.get(h.pos) {
@@ -103,6 +105,7 @@ pub fn decode_pgm(bytes: &[u8], file: &Path) -> Result<GrayImage, MapError> {
                 found: found as u64,
             });
         }
+        pixels.reserve_exact(n);
         if per == 1 {
             if maxval == 255 {
                 pixels.extend_from_slice(raster);
@@ -113,6 +116,18 @@ pub fn decode_pgm(bytes: &[u8], file: &Path) -> Result<GrayImage, MapError> {
             pixels.extend(raster.chunks_exact(2).map(|p| scale(u16::from_be_bytes([p[0], p[1]]) as u64)));
         }
     } else {
+        // an ASCII value takes at least two bytes (a digit and a separator), the last one
+        let room = bytes.len().saturating_sub(h.pos).div_ceil(2) as u64;
+        if room < n as u64 {
+            return Err(MapError::SizeMismatch {
+                file: file.to_path_buf(),
+                width,
+                height,
+                expected: n as u64,
+                found: count_values(&bytes[h.pos..]),
+            });
+        }
+        pixels.reserve_exact(n);
         for i in 0..n {
             h.skip_space();
             if h.pos >= bytes.len() {
@@ -147,6 +162,11 @@ pub fn decode_pgm(bytes: &[u8], file: &Path) -> Result<GrayImage, MapError> {
         }
     }
     Ok(GrayImage { width: width as usize, height: height as usize, pixels, alpha: Vec::new() })
+}
+
+/// The whitespace-separated words of an ASCII raster (what a truncated P2 holds).
+fn count_values(raster: &[u8]) -> u64 {
+    raster.split(u8::is_ascii_whitespace).filter(|w| !w.is_empty()).count() as u64
 }
 
 /// Encodes a binary P5 PGM (maxval 255) with one comment line, as map_saver does.

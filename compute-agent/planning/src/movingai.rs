@@ -114,10 +114,12 @@ impl MovingAiMap {
         let (Some(width), Some(height)) = (width, height) else {
             return Err(err(1, "missing or invalid width / height".into()));
         };
-        if width == 0 || height == 0 || (width as u64) * (height as u64) > map::MAX_CELLS {
+        // checked: two forged 2^33 sizes overflowed the product (a panic in debug builds)
+        if width == 0 || height == 0 || (width as u64).saturating_mul(height as u64) > map::MAX_CELLS {
             return Err(err(1, format!("map size {width} x {height} is empty or too large")));
         }
-        let mut passable = Vec::with_capacity(width * height);
+        // a forged size must not reserve MAX_CELLS: every cell is a byte of the text
+        let mut passable = Vec::with_capacity((width * height).min(text.len()));
         let mut rows = 0;
         for (i, line) in lines {
             let line = line.trim_end_matches('\r');
