@@ -1,10 +1,12 @@
 //! `wearnav fuzz`: millions of damaged and random inputs through every decoder of
 //! outside input, on stable Rust (nightly's `cargo fuzz` is not needed). CI runs a
 //! bounded number of property-test cases (`schemas/tests/decoders.rs`,
-//! `sensor-agent/tests/decoders.rs`); this runs as many as you have time for.
+//! `sensor-agent/tests/decoders.rs`, and `tests/decoders.rs` of the map, planning and
+//! localization crates); this runs as many as you have time for.
 //!
 //! Each case starts from a valid seed (the golden wire vectors, depth images packed in
-//! every mode, small PCD and PNG files, LZF streams, the built-in worlds' scenes) or
+//! every mode, small PCD and PNG files, LZF streams, the built-in worlds' scenes, the
+//! ROS map_saver map, semantic layers, CARMEN logs, Moving AI maps and scenarios) or
 //! from random bytes, and applies a few seeded mutations: bit flips, byte overwrites,
 //! truncations, random tails, overwritten runs, 0xff length fields, inserted tokens,
 //! removed ranges and splices of another seed. Wire payloads are mostly resealed
@@ -14,12 +16,22 @@
 //! Beyond "no panic", a case fails when a decoder breaks its contract: a wire payload
 //! that decodes but does not re-encode to the same bytes, a sealed payload with one
 //! flipped bit that decodes, a depth image or cloud that is not the size it declares,
-//! LZF output past its announced length. Results and how to reproduce: `docs/fuzzing.md`.
+//! LZF output past its announced length, a graymap or benchmark map without as many
+//! cells as it declares, an accepted map YAML with thresholds out of order, a semantic
+//! layer that does not read back as itself, a scan past `MAX_BEAMS` or with a negative
+//! range. Results and how to reproduce: `docs/fuzzing.md`.
 
 use std::collections::BTreeMap;
 use std::fmt::Debug;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
 use std::time::{Duration, Instant};
+
+use localization::carmen::{self, CarmenError};
+use map::map_server::parse_map_yaml;
+use map::pgm::decode_pgm;
+use map::{MapError, SemanticLayer};
+use planning::movingai::{parse_scenarios, MovingAiError, MovingAiMap};
 
 use schemas::depth_codec::{self, CodecError};
 use schemas::wire;
@@ -45,15 +57,39 @@ pub enum Target {
     Lzf,
     /// Scene TOML (simulated worlds).
     Scene,
+    /// ROS map_server YAML (`map::map_server::parse_map_yaml`).
+    MapYaml,
+    /// Map graymaps: PGM P5 8 and 16 bit, P2 (`map::pgm::decode_pgm`).
+    Pgm,
+    /// Semantic layer TOML (`map::SemanticLayer::parse`).
+    Semantic,
+    /// CARMEN logs, plain text (`localization::carmen::parse_log`).
+    Carmen,
+    /// Moving AI benchmark maps and scenarios (`planning::movingai`).
+    #[value(name = "movingai")]
+    MovingAi,
 }
 
 /// Every target `all` runs.
-const TARGETS: [Target; 6] = [Target::Wire, Target::DepthCodec, Target::Pcd, Target::Png, Target::Lzf, Target::Scene];
+const TARGETS: [Target; 11] = [
+    Target::Wire,
+    Target::DepthCodec,
+    Target::Pcd,
+    Target::Png,
+    Target::Lzf,
+    Target::Scene,
+    Target::MapYaml,
+    Target::Pgm,
+    Target::Semantic,
+    Target::Carmen,
+    Target::MovingAi,
+];
 
 /// Arguments of `wearnav fuzz`.
 #[derive(Debug, clap::Args)]
 #[command(long_about = "Feed millions of mutated and random inputs to every decoder of outside input \
-(wire envelope and schemas, depth codec, PCD, depth PNG, LZF, scene TOML), catching panics.\n\n\
+(wire envelope and schemas, depth codec, PCD, depth PNG, LZF, scene TOML, map YAML, PGM, semantic \
+layer, CARMEN log, Moving AI map and scenarios), catching panics.\n\n\
 Prints per target the cases run, cases per second, the outcomes by error kind (`ok` when the input \
 decoded), the slowest case, and every panic or broken contract with the seed and case number that \
 replay it (`--seed S --case N`). Exits non-zero if any case panicked or broke a contract.\n\n\
@@ -203,6 +239,102 @@ fn fuzz_case(target: Target, seeds: &Seeds, rng: &mut Rng) -> Result<&'static st
                 Err(SceneError::UnknownWorld { .. }) => "unknown_world",
             })
         }
+        Target::MapYaml => {
+            let bytes = input(&seeds.map_yaml, rng);
+            match parse_map_yaml(&String::from_utf8_lossy(&bytes), Path::new("fuzz.yaml")) {
+                Err(e) => Ok(map_kind(&e)),
+                Ok(m)
+                    if m.free_thresh < 0.0
+                        || m.free_thresh >= m.occupied_thresh
+                        || m.occupied_thresh > 1.0
+                        || !(m.resolution_m > 0.0 && m.resolution_m <= map::MAX_RESOLUTION_M)
+                        || ![m.origin.x_m, m.origin.y_m, m.origin.yaw_rad].iter().all(|v| v.is_finite()) =>
+                {
+                    Err(format!("accepted {m:?}"))
+                }
+                Ok(_) => Ok("ok"),
+            }
+        }
+        Target::Pgm => {
+            let bytes = input(&seeds.pgm, rng);
+            match decode_pgm(&bytes, Path::new("fuzz.pgm")) {
+                Err(e) => Ok(map_kind(&e)),
+                Ok(i) if i.pixels.len() != i.width * i.height => {
+                    Err(format!("{}x{} graymap of {} pixels", i.width, i.height, i.pixels.len()))
+                }
+                Ok(_) => Ok("ok"),
+            }
+        }
+        Target::Semantic => {
+            let bytes = input(&seeds.semantic, rng);
+            let file = Path::new("fuzz.toml");
+            match SemanticLayer::parse(&String::from_utf8_lossy(&bytes), file) {
+                Err(e) => Ok(map_kind(&e)),
+                // what was accepted writes out and reads back (normals are normalised again)
+                Ok(layer) => match SemanticLayer::parse(&layer.to_toml(), file) {
+                    Ok(again) if again.labels == layer.labels && again.areas == layer.areas => Ok("ok"),
+                    other => Err(format!("{layer:?} reads back as {other:?}")),
+                },
+            }
+        }
+        Target::Carmen => {
+            let bytes = input(&seeds.carmen, rng);
+            match carmen::parse_log(bytes.as_slice(), Path::new("fuzz.log")) {
+                Err(CarmenError::Io { .. }) => Ok("io"),
+                Err(CarmenError::Parse { .. }) => Ok("parse"),
+                Err(CarmenError::TooLarge { .. }) => Ok("too_large"),
+                Ok(log)
+                    if log.lasers().any(|l| {
+                        l.ranges_m.len() > carmen::MAX_BEAMS || l.ranges_m.iter().any(|r| !(r.is_finite() && *r >= 0.0))
+                    }) =>
+                {
+                    Err("a scan past MAX_BEAMS or with a range that is negative or not finite".into())
+                }
+                Ok(_) => Ok("ok"),
+            }
+        }
+        Target::MovingAi => {
+            let moving_ai = |e: MovingAiError| match e {
+                MovingAiError::Io { .. } => "io",
+                MovingAiError::Format { .. } => "format",
+            };
+            if rng.below(2) == 0 {
+                let bytes = input(&seeds.movingai_maps, rng);
+                match MovingAiMap::parse(&String::from_utf8_lossy(&bytes), Path::new("fuzz.map")) {
+                    Err(e) => Ok(moving_ai(e)),
+                    Ok(m) if m.passable.len() != m.width * m.height => {
+                        Err(format!("{}x{} map of {} cells", m.width, m.height, m.passable.len()))
+                    }
+                    Ok(_) => Ok("ok map"),
+                }
+            } else {
+                let bytes = input(&seeds.movingai_scenarios, rng);
+                match parse_scenarios(&String::from_utf8_lossy(&bytes), Path::new("fuzz.scen")) {
+                    Err(e) => Ok(moving_ai(e)),
+                    Ok(_) => Ok("ok scenarios"),
+                }
+            }
+        }
+    }
+}
+
+/// The kind of a map reader's error.
+fn map_kind(e: &MapError) -> &'static str {
+    match e {
+        MapError::Io { .. } => "io",
+        MapError::FileTooLarge { .. } => "file_too_large",
+        MapError::Yaml { .. } => "yaml",
+        MapError::BadField { .. } => "bad_field",
+        MapError::Thresholds { .. } => "thresholds",
+        MapError::Resolution { .. } => "resolution",
+        MapError::UnknownImageFormat { .. } => "unknown_image_format",
+        MapError::Pgm { .. } => "pgm",
+        MapError::Png { .. } => "png",
+        MapError::Empty { .. } => "empty",
+        MapError::TooLarge { .. } => "too_large",
+        MapError::SizeMismatch { .. } => "size_mismatch",
+        MapError::Semantic { .. } => "semantic",
+        MapError::Building { .. } => "building",
     }
 }
 
@@ -455,6 +587,12 @@ struct Seeds {
     /// (stream, decompressed length)
     lzf: Vec<(Vec<u8>, usize)>,
     scene: Vec<Vec<u8>>,
+    map_yaml: Vec<Vec<u8>>,
+    pgm: Vec<Vec<u8>>,
+    semantic: Vec<Vec<u8>>,
+    carmen: Vec<Vec<u8>>,
+    movingai_maps: Vec<Vec<u8>>,
+    movingai_scenarios: Vec<Vec<u8>>,
 }
 
 /// The golden vectors (`schemas/vectors`, kept current by `schemas/tests/golden.rs`):
@@ -508,9 +646,102 @@ impl Seeds {
             png: png_seeds(),
             lzf: lzf_seeds(),
             scene: BUILTIN_WORLDS.iter().map(|(_, text)| text.as_bytes().to_vec()).collect(),
+            map_yaml: texts(&MAP_YAMLS),
+            pgm: pgm_seeds(),
+            semantic: texts(&SEMANTIC_LAYERS),
+            carmen: carmen_seeds(),
+            movingai_maps: texts(&MOVINGAI_MAPS),
+            movingai_scenarios: texts(&MOVINGAI_SCENARIOS),
         }
     }
 }
+
+fn texts(texts: &[&str]) -> Vec<Vec<u8>> {
+    texts.iter().map(|t| t.as_bytes().to_vec()).collect()
+}
+
+/// ROS map_saver's YAML for the TurtleBot3 world, and one of every other mode.
+const MAP_YAMLS: [&str; 4] = [
+    include_str!("../compute-agent/map/tests/data/map.yaml"),
+    "image: m.png\nmode: raw\nresolution: 0.1\norigin: [0.5, -2.25, 1.5707963]\nnegate: true\n\
+     occupied_thresh: 0.9\nfree_thresh: 0.1\n",
+    "# a comment\nimage: \"floor 2/map.pgm\"\nresolution: 5e-2\norigin:\n  - -1.0\n  - 2\n  - 0\n\
+     negate: 1\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: scale\n",
+    "{image: m.pgm, resolution: 1, origin: [0, 0, 0], negate: 0, occupied_thresh: 1, free_thresh: 0}\n",
+];
+
+/// The ROS map_saver graymap (384 x 384), small P5 ones of 8 and 16 bits and an odd
+/// maxval, P2 ones with comments.
+fn pgm_seeds() -> Vec<Vec<u8>> {
+    let mut p5 = b"P5\n# CREATOR: map_saver.cpp 0.050 m/pix\n6 4\n255\n".to_vec();
+    p5.extend((0..24).map(|i| [254, 0, 205][i % 3]));
+    let mut p5_16 = b"P5 3 2 65535\n".to_vec();
+    p5_16.extend([0u16, 65535, 1000, 40000, 205 * 257, 7].iter().flat_map(|v| v.to_be_bytes()));
+    let mut p5_15 = b"P5\n2 3\n15\n".to_vec();
+    p5_15.extend([0, 15, 7, 3, 15, 0]);
+    vec![
+        include_bytes!("../compute-agent/map/tests/data/map.pgm").to_vec(),
+        p5,
+        p5_16,
+        p5_15,
+        b"P2\n# a comment\n4 3 # trailing\n# another\n255\n254 0 205 254\n 0 0 254\n205 254 254 0 1\n".to_vec(),
+        b"P2 2 2 65535 0 65535 300 40000\n".to_vec(),
+    ]
+}
+
+/// The semantic layer of `map::semantic`'s documentation, and smaller ones.
+const SEMANTIC_LAYERS: [&str; 3] = [
+    "[[label]]\nname = \"room 214\"\nx = 12.5\ny = 3.0\nfloor = 2\n\n\
+     [[door]]\nnumber = \"214\"\nx = 12.0\ny = 2.0\nfloor = 2\nnormal = [0.0, 2.0]\n\n\
+     [[corner]]\nx = 20.0\ny = 2.0\nfloor = 2\n\n\
+     [[area]]\nname = \"east wing\"\nfloor = 2\npolygon = [[10.0, 0.0], [30.0, 0.0], [30.0, 20.0], [10.0, 20.0]]\n\n\
+     [[area]]\nname = \"room 214\"\nfloor = 2\nparent = \"east wing\"\n\
+     polygon = [[11.0, 2.0], [14.0, 2.0], [14.0, 5.0], [11.0, 5.0]]\n\n\
+     [[gateway]]\nname = \"main elevator\"\ntype = \"elevator\"\n\
+     stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]\n",
+    "label = [{ name = \"toilets\", x = 1, y = 2.5, floor = 0 }]\ncorner = [{ x = -3.0, y = 4e1, floor = 0 }]\n",
+    "[[gateway]]\nname = \"stairs A\"\ntype = \"stairs\"\n\
+     stops = [{ floor = -1, x = 0.0, y = 0.0 }, { floor = 0, x = 0.5, y = 0.0 }, { floor = 1, x = 1.0, y = 0.0 }]\n\
+     [[door]]\nnumber = 'B1.07'\nx = 1.0\ny = 1.0\nfloor = -1\nnormal = [1e-3, -1e-3]\n",
+];
+
+/// Logs in the Intel lab log's shape (its header, `ODOM` lines, 180-beam `FLASER` scans
+/// with `NEFF` after each; the property tests read the real log's first 10 KB), and a
+/// small one with CRLF lines and the messages the reader skips.
+fn carmen_seeds() -> Vec<Vec<u8>> {
+    let mut intel = String::from(
+        "# message formats defined: PARAM SYNC ODOM FLASER RLASER TRUEPOS \n# PARAM param_name param_value\n\
+         PARAM robot_frontlaser_offset 0.0 nohost 0\nPARAM robot_rearlaser_offset 0.0 nohost 0\n",
+    );
+    for k in 0..4 {
+        let t = 0.2 * k as f64;
+        intel.push_str(&format!("ODOM 0 0 0 0 0 0 {t:.6} pippo {t:.6}\n"));
+        let ranges: Vec<String> = (0..180).map(|i| format!("{}", 1.09 + 0.01 * ((i + k) % 37) as f64)).collect();
+        intel.push_str(&format!(
+            "FLASER 180 {} 0.0{k} 0 0 0.0{k} 0 0 {t:.6} nohost {t:.6}\nNEFF 30\n",
+            ranges.join(" ")
+        ));
+    }
+    let small = "# comment\r\nPARAM robot_frontlaser_offset 0.0 nohost 0\r\nODOM 1 2 0.5 0.1 0.2 0 10.5 pippo 10.5\r\n\
+                 FLASER 3 1.0 2.0 3.0 0.5 -0.5 0.1 0.5 -0.5 0.1 11.0 pippo 11.0\r\nNEFF 15\r\n\r\n\
+                 FLASER 0 0 0 0 0 0 0 12 h 12\nRLASER 1 2 3\nODOM -1e3 2E-2 3.14 0 0 0 13 h 13";
+    vec![intel.into_bytes(), small.as_bytes().to_vec()]
+}
+
+/// Moving AI benchmark maps (`compute-agent/planning/tests/data`) and small ones.
+const MOVINGAI_MAPS: [&str; 4] = [
+    include_str!("../compute-agent/planning/tests/data/arena.map"),
+    include_str!("../compute-agent/planning/tests/data/den312d.map"),
+    "type octile\r\nheight 2\r\nwidth 3\r\nmap\r\n.@G\r\nS.T\r\n",
+    "type octile\nwidth 5\nheight 3\nmap\n..W..\nT@.GS\n.....\ncited: Sturtevant 2012\n",
+];
+
+/// Their scenario files, and a small one.
+const MOVINGAI_SCENARIOS: [&str; 3] = [
+    include_str!("../compute-agent/planning/tests/data/arena.map.scen"),
+    include_str!("../compute-agent/planning/tests/data/den312d.map.scen"),
+    "version 1\r\n0\tm.map\t3\t2\t0\t1\t2\t0\t2.41421356\r\ncitation line\n3\tm.map\t3\t2\t2\t1\t0\t0\t1e0\n",
+];
 
 /// A synthetic depth image: a floor ramp, a box, holes, noise and far outliers.
 fn depth_image(w: u32, h: u32, seed: u64) -> Vec<u16> {
