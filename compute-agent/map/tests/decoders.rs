@@ -12,116 +12,23 @@
 //! see `docs/fuzzing.md`); `wearnav fuzz` runs millions on demand. `PROPTEST_CASES=N`
 //! sets the cases per property.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::LazyLock;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
+use decoder_props::{config, measured, mutated, mutation_with, within, LargestAllocation};
 use map::map_server::{decode_png, parse_map_yaml, MAX_DEFLATE_RATIO};
 use map::pgm::decode_pgm;
 use map::{load_map, Building, MapError, SemanticLayer, MAX_CELLS};
 use proptest::prelude::*;
 use proptest::sample::Index;
 
-// ---------------------------------------------------------------------------------
-// The largest single allocation a case makes, and how long it takes.
-
-/// Wraps the system allocator to record the largest single request made on this
-/// thread while tracking is on (proptest runs each test's cases on its own thread).
-struct LargestAllocation;
-
-thread_local! {
-    static TRACKING: Cell<bool> = const { Cell::new(false) };
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-}
-
-fn note(size: usize) {
-    // `try_with`: the allocator also serves threads being torn down.
-    let _ = TRACKING.try_with(|on| {
-        if on.get() {
-            LARGEST.with(|l| l.set(l.get().max(size)));
-        }
-    });
-}
-
-unsafe impl GlobalAlloc for LargestAllocation {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note(new_size);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
 static ALLOCATOR: LargestAllocation = LargestAllocation;
 
-/// Longest any one case may take: generous, a hang is seconds to forever.
-const MAX_CASE_TIME: Duration = Duration::from_secs(2);
-
-/// Runs `f`, returning its result, the largest single allocation it made and its time.
-fn measured<T>(f: impl FnOnce() -> T) -> (T, usize, Duration) {
-    LARGEST.with(|l| l.set(0));
-    TRACKING.with(|t| t.set(true));
-    let start = Instant::now();
-    let out = f();
-    let took = start.elapsed();
-    TRACKING.with(|t| t.set(false));
-    (out, LARGEST.with(Cell::get), took)
-}
-
-/// Fails if it allocated more than `bound` at once or took longer than [`MAX_CASE_TIME`].
-fn within(what: &str, largest: usize, bound: usize, took: Duration) -> Result<(), String> {
-    if largest > bound {
-        return Err(format!("{what}: allocated {largest} bytes at once (bound {bound})"));
-    }
-    if took > MAX_CASE_TIME {
-        return Err(format!("{what}: took {took:?}"));
-    }
-    Ok(())
-}
-
-// ---------------------------------------------------------------------------------
-// Mutations of a valid input (as in `sensor-agent/tests/decoders.rs`).
-
-/// One change to a byte string, at positions scaled to its length.
-#[derive(Debug, Clone)]
-enum Mutation {
-    /// Flip one bit.
-    FlipBit(Index, u8),
-    /// Overwrite one byte.
-    SetByte(Index, u8),
-    /// Cut the input there.
-    Truncate(Index),
-    /// Append random bytes.
-    Tail(Vec<u8>),
-    /// Overwrite a run of bytes with one value.
-    Run(Index, u8, u8),
-    /// Overwrite 1..=8 bytes with 0xff: a forged length or count.
-    FfLength(Index, u8),
-    /// Insert random bytes.
-    Insert(Index, Vec<u8>),
-    /// Remove a run of bytes.
-    Remove(Index, u8),
-    /// Overwrite from there with a piece of another seed.
-    Splice(Index, Index, Index),
-    /// Insert text a reader may trip on: a huge or odd number, a keyword.
-    Token(Index, &'static str),
-}
-
 /// Text that header, YAML and TOML parsers meet with edge cases.
-const TOKENS: [&str; 20] = [
+static TOKENS: [&str; 20] = [
     "4294967295",
     "18446744073709551615",
     "99999999999999999999",
@@ -144,84 +51,8 @@ const TOKENS: [&str; 20] = [
     "\nP2 ",
 ];
 
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        3 => (any::<Index>(), 0..8u8).prop_map(|(i, b)| Mutation::FlipBit(i, b)),
-        2 => (any::<Index>(), any::<u8>()).prop_map(|(i, v)| Mutation::SetByte(i, v)),
-        1 => any::<Index>().prop_map(Mutation::Truncate),
-        1 => prop::collection::vec(any::<u8>(), 1..32).prop_map(Mutation::Tail),
-        1 => (any::<Index>(), 1..64u8, any::<u8>()).prop_map(|(i, n, v)| Mutation::Run(i, n, v)),
-        2 => (any::<Index>(), 1..=8u8).prop_map(|(i, n)| Mutation::FfLength(i, n)),
-        1 => (any::<Index>(), prop::collection::vec(any::<u8>(), 1..16)).prop_map(|(i, v)| Mutation::Insert(i, v)),
-        1 => (any::<Index>(), 1..32u8).prop_map(|(i, n)| Mutation::Remove(i, n)),
-        1 => (any::<Index>(), any::<Index>(), any::<Index>()).prop_map(|(s, f, t)| Mutation::Splice(s, f, t)),
-        2 => (any::<Index>(), prop::sample::select(TOKENS.to_vec())).prop_map(|(i, t)| Mutation::Token(i, t)),
-    ]
-}
-
-fn mutate(bytes: &mut Vec<u8>, m: &Mutation, seeds: &[Vec<u8>]) {
-    let at = |i: &Index, len: usize| if len == 0 { 0 } else { i.index(len) };
-    match m {
-        Mutation::FlipBit(i, b) if !bytes.is_empty() => {
-            let i = at(i, bytes.len());
-            bytes[i] ^= 1 << b;
-        }
-        Mutation::SetByte(i, v) if !bytes.is_empty() => {
-            let i = at(i, bytes.len());
-            bytes[i] = *v;
-        }
-        Mutation::Truncate(i) => bytes.truncate(at(i, bytes.len() + 1)),
-        Mutation::Tail(tail) => bytes.extend_from_slice(tail),
-        Mutation::Run(i, n, v) => {
-            let start = at(i, bytes.len() + 1);
-            let end = (start + *n as usize).min(bytes.len());
-            bytes[start..end].fill(*v);
-        }
-        Mutation::FfLength(i, n) => {
-            let start = at(i, bytes.len() + 1);
-            let end = (start + *n as usize).min(bytes.len());
-            bytes[start..end].fill(0xff);
-        }
-        Mutation::Insert(i, v) => {
-            let start = at(i, bytes.len() + 1);
-            bytes.splice(start..start, v.iter().copied());
-        }
-        Mutation::Remove(i, n) => {
-            let start = at(i, bytes.len() + 1);
-            let end = (start + *n as usize).min(bytes.len());
-            bytes.drain(start..end);
-        }
-        Mutation::Splice(s, f, t) => {
-            let other = &seeds[s.index(seeds.len())];
-            let from = at(f, other.len() + 1);
-            let to = at(t, bytes.len() + 1);
-            bytes.truncate(to);
-            bytes.extend_from_slice(&other[from..]);
-        }
-        Mutation::Token(i, token) => {
-            let start = at(i, bytes.len() + 1);
-            bytes.splice(start..start, token.bytes());
-        }
-        Mutation::FlipBit(..) | Mutation::SetByte(..) => {}
-    }
-}
-
-fn mutated(seeds: &[Vec<u8>], seed: &Index, mutations: &[Mutation]) -> Vec<u8> {
-    let mut bytes = seeds[seed.index(seeds.len())].clone();
-    for m in mutations {
-        mutate(&mut bytes, m, seeds);
-    }
-    bytes
-}
-
 /// Cases per property in CI (measured numbers in `docs/fuzzing.md`).
 const CASES: u32 = 50_000;
-
-/// `cases` per property, or `PROPTEST_CASES` when set (to run more, or fewer).
-fn config(cases: u32) -> ProptestConfig {
-    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(cases);
-    ProptestConfig { cases, failure_persistence: None, ..ProptestConfig::default() }
-}
 
 // ---------------------------------------------------------------------------------
 // Seeds.
@@ -636,7 +467,7 @@ proptest! {
     #[test]
     fn mutated_map_yaml_parses_or_is_refused_with_its_line(
         seed in any::<Index>(),
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
     ) {
         let outcome = check_yaml(&mutated(&YAML_SEEDS, &seed, &mutations));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
@@ -645,7 +476,7 @@ proptest! {
     #[test]
     fn mutated_pgms_decode_to_their_size_or_are_refused(
         seed in any::<Index>(),
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
     ) {
         let outcome = check_pgm(&mutated(&PGM_SEEDS, &seed, &mutations));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
@@ -654,7 +485,7 @@ proptest! {
     #[test]
     fn mutated_pngs_decode_to_their_size_or_are_refused(
         seed in any::<Index>(),
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
     ) {
         let outcome = check_png(&mutated(&PNG_SEEDS, &seed, &mutations));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
@@ -663,7 +494,7 @@ proptest! {
     #[test]
     fn mutated_semantic_layers_parse_and_read_back_or_are_refused(
         seed in any::<Index>(),
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
     ) {
         let outcome = check_semantic(&mutated(&SEMANTIC_SEEDS, &seed, &mutations));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);
@@ -679,8 +510,8 @@ proptest! {
     fn mutated_maps_on_disk_load_or_are_refused_naming_the_file(
         yaml_seed in any::<Index>(),
         image_seed in any::<Index>(),
-        yaml_mutations in prop::collection::vec(mutation(), 0..3),
-        image_mutations in prop::collection::vec(mutation(), 0..4),
+        yaml_mutations in prop::collection::vec(mutation_with(&TOKENS), 0..3),
+        image_mutations in prop::collection::vec(mutation_with(&TOKENS), 0..4),
     ) {
         let image = mutated(&IMAGE_SEEDS, &image_seed, &image_mutations);
         let name = if image.starts_with(b"P") { "map.pgm" } else { "map.png" };
@@ -692,7 +523,7 @@ proptest! {
     #[test]
     fn mutated_building_manifests_load_or_are_refused(
         seed in any::<Index>(),
-        mutations in prop::collection::vec(mutation(), 1..6),
+        mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
     ) {
         let outcome = check_building(&mutated(&MANIFEST_SEEDS, &seed, &mutations));
         prop_assert!(outcome.is_ok(), "{:?}", outcome);

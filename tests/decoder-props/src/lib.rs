@@ -123,7 +123,13 @@ pub const TOKENS: [&str; 16] = [
     "\nDATA binary\n",
 ];
 
+/// A mutation, inserting [`TOKENS`] among others.
 pub fn mutation() -> impl Strategy<Value = Mutation> {
+    mutation_with(&TOKENS)
+}
+
+/// A mutation, inserting the caller's `tokens` (a format's own keywords and edge cases).
+pub fn mutation_with(tokens: &'static [&'static str]) -> impl Strategy<Value = Mutation> {
     prop_oneof![
         3 => (any::<Index>(), 0..8u8).prop_map(|(i, b)| Mutation::FlipBit(i, b)),
         2 => (any::<Index>(), any::<u8>()).prop_map(|(i, v)| Mutation::SetByte(i, v)),
@@ -134,7 +140,7 @@ pub fn mutation() -> impl Strategy<Value = Mutation> {
         1 => (any::<Index>(), prop::collection::vec(any::<u8>(), 1..16)).prop_map(|(i, v)| Mutation::Insert(i, v)),
         1 => (any::<Index>(), 1..32u8).prop_map(|(i, n)| Mutation::Remove(i, n)),
         1 => (any::<Index>(), any::<Index>(), any::<Index>()).prop_map(|(s, f, t)| Mutation::Splice(s, f, t)),
-        2 => (any::<Index>(), prop::sample::select(TOKENS.to_vec())).prop_map(|(i, t)| Mutation::Token(i, t)),
+        2 => (any::<Index>(), prop::sample::select(tokens.to_vec())).prop_map(|(i, t)| Mutation::Token(i, t)),
     ]
 }
 
