@@ -174,8 +174,15 @@ pub fn parse_scenarios(text: &str, file: &Path) -> Result<Vec<Scenario>, MovingA
         };
         let n = |k: usize, what: &str| f[k].trim().parse::<usize>().map_err(|_| bad(what));
         let optimal = f[8].trim().parse::<f64>().map_err(|_| bad("optimal_length"))?;
+        if !(optimal.is_finite() && optimal >= 0.0) {
+            return Err(MovingAiError::Format {
+                file: file.to_path_buf(),
+                line: i + 1,
+                message: format!("optimal_length {optimal} is not a length in {line:?}"),
+            });
+        }
         out.push(Scenario {
-            bucket: n(0, "bucket")? as u32,
+            bucket: f[0].trim().parse::<u32>().map_err(|_| bad("bucket"))?,
             start: (n(4, "start_x")?, n(5, "start_y")?),
             goal: (n(6, "goal_x")?, n(7, "goal_y")?),
             optimal,
@@ -247,5 +254,15 @@ mod tests {
         assert!(e.to_string().contains("octile"), "{e}");
         let e = parse_scenarios("0\tm\t1\t1\tx\t0\t0\t0\t1.0\n", Path::new("s.scen")).unwrap_err();
         assert!(e.to_string().starts_with("s.scen:1:"), "{e}");
+        // an optimum that is no length, and a bucket past u32, are refused, not kept
+        for (line, what) in [
+            ("0\tm\t1\t1\t0\t0\t0\t0\tnan", "optimal_length"),
+            ("0\tm\t1\t1\t0\t0\t0\t0\tinf", "optimal_length"),
+            ("0\tm\t1\t1\t0\t0\t0\t0\t-1", "optimal_length"),
+            ("4294967296\tm\t1\t1\t0\t0\t0\t0\t1", "bucket"),
+        ] {
+            let e = parse_scenarios(&format!("version 1\n{line}\n"), Path::new("s.scen")).unwrap_err();
+            assert!(e.to_string().starts_with("s.scen:2:") && e.to_string().contains(what), "{line}: {e}");
+        }
     }
 }
