@@ -344,41 +344,8 @@ pub fn point_in_polygon(polygon: &[[f64; 2]], x: f64, y: f64) -> bool {
 mod tests {
     use super::*;
 
-    const SAMPLE: &str = r#"
-[[label]]
-name = "room 214"
-x = 12.5
-y = 3.0
-floor = 2
-
-[[door]]
-number = "214"
-x = 12.0
-y = 2.0
-floor = 2
-normal = [0.0, 2.0]
-
-[[corner]]
-x = 20.0
-y = 2.0
-floor = 2
-
-[[area]]
-name = "east wing"
-floor = 2
-polygon = [[10.0, 0.0], [30.0, 0.0], [30.0, 20.0], [10.0, 20.0]]
-
-[[area]]
-name = "room 214"
-floor = 2
-parent = "east wing"
-polygon = [[11.0, 2.0], [14.0, 2.0], [14.0, 5.0], [11.0, 5.0]]
-
-[[gateway]]
-name = "main elevator"
-type = "elevator"
-stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]
-"#;
+    /// The layer of the module documentation (also a seed of the decoder tests).
+    const SAMPLE: &str = include_str!("../tests/data/sample.semantic.toml");
 
     fn parse(text: &str) -> Result<SemanticLayer, MapError> {
         SemanticLayer::parse(text, Path::new("floor.toml"))

@@ -126,41 +126,7 @@ fn png_seeds() -> Vec<Vec<u8>> {
 /// The layer of the module's documentation, and smaller ones.
 fn semantic_seeds() -> Vec<Vec<u8>> {
     [
-        r#"
-[[label]]
-name = "room 214"
-x = 12.5
-y = 3.0
-floor = 2
-
-[[door]]
-number = "214"
-x = 12.0
-y = 2.0
-floor = 2
-normal = [0.0, 2.0]
-
-[[corner]]
-x = 20.0
-y = 2.0
-floor = 2
-
-[[area]]
-name = "east wing"
-floor = 2
-polygon = [[10.0, 0.0], [30.0, 0.0], [30.0, 20.0], [10.0, 20.0]]
-
-[[area]]
-name = "room 214"
-floor = 2
-parent = "east wing"
-polygon = [[11.0, 2.0], [14.0, 2.0], [14.0, 5.0], [11.0, 5.0]]
-
-[[gateway]]
-name = "main elevator"
-type = "elevator"
-stops = [ { floor = 0, x = 5.0, y = 5.0 }, { floor = 2, x = 5.0, y = 5.2 } ]
-"#,
+        include_str!("data/sample.semantic.toml"),
         "label = [{ name = \"toilets\", x = 1, y = 2.5, floor = 0 }]\n\
          corner = [{ x = -3.0, y = 4e1, floor = 0 }]\n",
         "[[gateway]]\nname = \"stairs A\"\ntype = \"stairs\"\n\
