@@ -4,6 +4,7 @@
     python3 schemas/python/send.py --user alice speech "door on your left" --priority important
     python3 schemas/python/send.py --user alice cmd destination kitchen
     python3 schemas/python/send.py --user alice cmd mute off
+    python3 schemas/python/send.py --user alice cmd floor 1
     python3 schemas/python/send.py --user alice --dry-run cmd where-am-i
 
 Encodes with wearnav_schemas (the same bytes a Rust agent would send), then puts it
@@ -56,6 +57,9 @@ def parse(argv):
     verbs.add_parser("mute", help="mute speech (warnings still sound)").add_argument(
         "state", nargs="?", choices=["on", "off"], default="on")
     verbs.add_parser("repeat", help="repeat the last instruction")
+    verbs.add_parser("cancel", help="stop guidance")
+    verbs.add_parser("floor", help="say which floor I am on (after an elevator or stairs)").add_argument(
+        "floor", type=int)
 
     args = parser.parse_args(argv)
     if args.what == "speech" and not args.text.strip():
@@ -82,6 +86,8 @@ def message(args):
         "where-am-i": lambda: "WhereAmI",
         "mute": lambda: {"Mute": {"muted": args.state == "on"}},
         "repeat": lambda: "Repeat",
+        "cancel": lambda: "Cancel",
+        "floor": lambda: {"Floor": {"floor": args.floor}},
     }
     return keys.cmd(args.verb), "command", commands[args.verb]()
 

@@ -161,7 +161,8 @@ impl Keys {
         format!("{}/phone/speech", self.prefix)
     }
 
-    /// One user command verb (`destination`, `where-am-i`, `mute`, `repeat`).
+    /// One user command verb (`destination`, `where-am-i`, `mute`, `repeat`, `cancel`,
+    /// `floor`).
     pub fn cmd(&self, verb: &str) -> String {
         format!("{}/cmd/{verb}", self.prefix)
     }

@@ -271,6 +271,19 @@ pub struct Pose {
     pub floor: i32,
     /// Row-major 3x3 covariance of (x, y, yaw).
     pub covariance: [f32; 9],
+    /// How far the estimate can be trusted.
+    pub status: LocalizationStatus,
+}
+
+/// How far a [`Pose`] can be trusted: guidance acts on `Tracking` only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LocalizationStatus {
+    /// The estimate is one tight cluster: position known to a few decimetres.
+    Tracking,
+    /// Several hypotheses or a wide one: walking on narrows it down.
+    Converging,
+    /// The map no longer explains what the sensors see: recovery is running.
+    Lost,
 }
 
 /// A point on the map.
@@ -295,6 +308,32 @@ pub struct RouteState {
     pub distance_left_m: f32,
     /// The instruction last given ("turn left in 3 metres").
     pub instruction: String,
+    /// Floor the next waypoint is on (the user's floor when no route is active).
+    pub floor: i32,
+    /// Where guidance stands.
+    pub status: RouteStatus,
+    /// The route still ahead, from the user's place to the destination, smoothed (the
+    /// points where the walk turns, and every gateway stop).
+    pub route: Vec<MapPoint>,
+}
+
+/// Where route guidance stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RouteStatus {
+    /// No destination.
+    Idle,
+    /// A destination is set, but the position is not known well enough to guide.
+    WaitingForPosition,
+    /// Guiding along the route.
+    Guiding,
+    /// At a gateway (elevator, stairs): waiting for the user to confirm the floor.
+    WaitingForFloor,
+    /// The destination is reached.
+    Arrived,
+    /// No way to the destination from here.
+    Unreachable,
+    /// A route planned on request (`query/route`), not being followed.
+    Preview,
 }
 
 /// Shape of a haptic cue.
@@ -435,6 +474,13 @@ pub enum Command {
     },
     /// Repeat the last instruction.
     Repeat,
+    /// Stop guidance (the destination is forgotten).
+    Cancel,
+    /// The user says which floor they are on (after an elevator or stairs).
+    Floor {
+        /// Floor index.
+        floor: i32,
+    },
 }
 
 impl Command {
@@ -445,8 +491,26 @@ impl Command {
             Command::WhereAmI => "where-am-i",
             Command::Mute { .. } => "mute",
             Command::Repeat => "repeat",
+            Command::Cancel => "cancel",
+            Command::Floor { .. } => "floor",
         }
     }
+}
+
+/// A place guidance can take the user to (`query/destinations`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Destination {
+    /// Label the user says or picks ("room 204").
+    pub label: String,
+    /// Where it is.
+    pub at: MapPoint,
+}
+
+/// Every destination of the loaded map, sorted by floor then label.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Destinations {
+    /// The destinations.
+    pub destinations: Vec<Destination>,
 }
 
 /// Counters of one stream an agent publishes or subscribes.

@@ -82,11 +82,13 @@ pub enum SchemaId {
     Command = 12,
     /// [`HealthStats`]
     HealthStats = 13,
+    /// [`Destinations`]
+    Destinations = 14,
 }
 
 impl SchemaId {
     /// Every schema, in id order.
-    pub const ALL: [SchemaId; 13] = [
+    pub const ALL: [SchemaId; 14] = [
         SchemaId::DepthFrame,
         SchemaId::ImuBatch,
         SchemaId::OdomIncrement,
@@ -100,6 +102,7 @@ impl SchemaId {
         SchemaId::Applied,
         SchemaId::Command,
         SchemaId::HealthStats,
+        SchemaId::Destinations,
     ];
 
     /// The schema with this numeric id.
@@ -123,16 +126,18 @@ impl SchemaId {
             SchemaId::Applied => "applied",
             SchemaId::Command => "command",
             SchemaId::HealthStats => "health_stats",
+            SchemaId::Destinations => "destinations",
         }
     }
 
     /// The version of this schema's layout this build speaks (and writes); receivers
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
     /// `turn_ahead` and `body_turn_deg_s`; every schema went up one when the envelope
-    /// gained the sender's `session` and the checksum trailer.
+    /// gained the sender's `session` and the checksum trailer; `pose` v3 added `status`,
+    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`.
     pub const fn version(self) -> u16 {
         match self {
-            SchemaId::Hazard => 3,
+            SchemaId::Hazard | SchemaId::Pose | SchemaId::RouteState | SchemaId::Command => 3,
             _ => 2,
         }
     }
@@ -463,6 +468,11 @@ impl Message for Pose {
 
 impl Message for RouteState {
     const SCHEMA: SchemaId = SchemaId::RouteState;
+    fn validate(&self) -> Result<(), String> {
+        finite("distance left", &[self.distance_left_m])?;
+        let points = self.route.iter().chain(self.next_waypoint.iter());
+        finite("route", &points.flat_map(|p| [p.x_m, p.y_m]).collect::<Vec<_>>())
+    }
 }
 
 impl Message for HapticIntent {
@@ -500,6 +510,14 @@ impl Message for Applied {
 
 impl Message for Command {
     const SCHEMA: SchemaId = SchemaId::Command;
+}
+
+impl Message for Destinations {
+    const SCHEMA: SchemaId = SchemaId::Destinations;
+    const MAX_BYTES: usize = 256 * 1024;
+    fn validate(&self) -> Result<(), String> {
+        finite("destinations", &self.destinations.iter().flat_map(|d| [d.at.x_m, d.at.y_m]).collect::<Vec<_>>())
+    }
 }
 
 impl Message for HealthStats {
@@ -541,7 +559,7 @@ mod tests {
         // schema u16, version u16, sender (u64 len + bytes), session u64, seq u64,
         // capture u64, variant u32, then the CRC-32 of all that.
         assert_eq!(&bytes[0..2], &12u16.to_le_bytes());
-        assert_eq!(&bytes[2..4], &2u16.to_le_bytes());
+        assert_eq!(&bytes[2..4], &3u16.to_le_bytes());
         assert_eq!(&bytes[4..12], &2u64.to_le_bytes());
         assert_eq!(&bytes[12..14], b"ab");
         assert_eq!(&bytes[14..22], &9u64.to_le_bytes());
@@ -579,9 +597,10 @@ mod tests {
             let mut b = bytes.clone();
             b[bit / 8] ^= 1 << (bit % 8);
             let err = decode::<HapticIntent>(&b).unwrap_err();
-            // a flip in schema or version is named as such; anywhere else it is damage
+            // a flip in schema or version is named as such (another schema may have
+            // another version); anywhere else it is damage
             let want = match bit / 8 {
-                0 | 1 => ["unknown_schema", "wrong_schema"].as_slice(),
+                0 | 1 => ["unknown_schema", "wrong_schema", "unknown_version"].as_slice(),
                 2 | 3 => &["unknown_version"],
                 _ => &["corrupt"],
             };

@@ -25,7 +25,7 @@ static ALLOCATOR: LargestAllocation = LargestAllocation;
 
 /// Every golden vector (`schemas/vectors`, kept current by `tests/golden.rs`):
 /// representative values of every message, as `encode` writes them.
-const GOLDEN: [&[u8]; 35] = [
+const GOLDEN: [&[u8]; 40] = [
     include_bytes!("../vectors/applied_device_status.bin"),
     include_bytes!("../vectors/applied_offline_warning.bin"),
     include_bytes!("../vectors/applied_rumble.bin"),
@@ -33,10 +33,13 @@ const GOLDEN: [&[u8]; 35] = [
     include_bytes!("../vectors/applied_speech_finished.bin"),
     include_bytes!("../vectors/applied_speech_interrupted.bin"),
     include_bytes!("../vectors/applied_speech_started.bin"),
+    include_bytes!("../vectors/command_cancel.bin"),
     include_bytes!("../vectors/command_destination.bin"),
+    include_bytes!("../vectors/command_floor.bin"),
     include_bytes!("../vectors/command_mute.bin"),
     include_bytes!("../vectors/command_repeat.bin"),
     include_bytes!("../vectors/command_where_am_i.bin"),
+    include_bytes!("../vectors/destinations.bin"),
     include_bytes!("../vectors/depth_frame_bounded.bin"),
     include_bytes!("../vectors/depth_frame_lossless.bin"),
     include_bytes!("../vectors/depth_frame_raw.bin"),
@@ -52,8 +55,10 @@ const GOLDEN: [&[u8]; 35] = [
     include_bytes!("../vectors/imu_batch_empty.bin"),
     include_bytes!("../vectors/odom_increment.bin"),
     include_bytes!("../vectors/pose.bin"),
+    include_bytes!("../vectors/pose_lost.bin"),
     include_bytes!("../vectors/route_state_active.bin"),
     include_bytes!("../vectors/route_state_idle.bin"),
+    include_bytes!("../vectors/route_state_preview.bin"),
     include_bytes!("../vectors/scan.bin"),
     include_bytes!("../vectors/scan_empty.bin"),
     include_bytes!("../vectors/speech_intent_important.bin"),
@@ -152,6 +157,7 @@ fn check_schema(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::Applied => check_decode::<Applied>(bytes),
         SchemaId::Command => check_decode::<Command>(bytes),
         SchemaId::HealthStats => check_decode::<HealthStats>(bytes),
+        SchemaId::Destinations => check_decode::<Destinations>(bytes),
     }
 }
 

@@ -272,6 +272,23 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
     ]
 }
 
+/// A route state with `status`, to exercise every status.
+fn route_with_status(name: &str, seq: u64, status: RouteStatus) -> [Golden; 2] {
+    vector(
+        name,
+        seq,
+        RouteState {
+            destination: "room 204".into(),
+            next_waypoint: None,
+            distance_left_m: 12.0,
+            instruction: String::new(),
+            floor: 1,
+            status,
+            route: vec![],
+        },
+    )
+}
+
 fn localization_vectors() -> Vec<[Golden; 2]> {
     vec![
         vector(
@@ -283,6 +300,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 yaw_rad: -0.5,
                 floor: 2,
                 covariance: [0.04, 0.001, 0.0, 0.001, 0.04, 0.0, 0.0, 0.0, 0.01],
+                status: LocalizationStatus::Tracking,
             },
         ),
         vector(
@@ -293,6 +311,9 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 next_waypoint: Some(MapPoint { x_m: 14.0, y_m: 3.0, floor: 2 }),
                 distance_left_m: 23.5,
                 instruction: "turn left in 3 metres".into(),
+                floor: 2,
+                status: RouteStatus::Guiding,
+                route: vec![MapPoint { x_m: 14.0, y_m: 3.0, floor: 2 }, MapPoint { x_m: 14.0, y_m: 12.5, floor: 2 }],
             },
         ),
         vector(
@@ -303,6 +324,48 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 next_waypoint: None,
                 distance_left_m: 0.0,
                 instruction: String::new(),
+                floor: 0,
+                status: RouteStatus::Idle,
+                route: vec![],
+            },
+        ),
+        vector(
+            "pose_lost",
+            18,
+            Pose {
+                x_m: 0.0,
+                y_m: 0.0,
+                yaw_rad: 0.0,
+                floor: 0,
+                covariance: [25.0, 0.0, 0.0, 0.0, 25.0, 0.0, 0.0, 0.0, 3.0],
+                status: LocalizationStatus::Lost,
+            },
+        ),
+        vector(
+            "pose_converging",
+            19,
+            Pose {
+                x_m: 3.0,
+                y_m: 4.0,
+                yaw_rad: 1.5,
+                floor: 1,
+                covariance: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.5],
+                status: LocalizationStatus::Converging,
+            },
+        ),
+        route_with_status("route_state_waiting_for_position", 40, RouteStatus::WaitingForPosition),
+        route_with_status("route_state_waiting_for_floor", 41, RouteStatus::WaitingForFloor),
+        route_with_status("route_state_arrived", 42, RouteStatus::Arrived),
+        route_with_status("route_state_unreachable", 43, RouteStatus::Unreachable),
+        route_with_status("route_state_preview", 44, RouteStatus::Preview),
+        vector(
+            "destinations",
+            17,
+            Destinations {
+                destinations: vec![
+                    Destination { label: "entrance".into(), at: MapPoint { x_m: 1.5, y_m: 5.0, floor: 0 } },
+                    Destination { label: "room 204".into(), at: MapPoint { x_m: 15.0, y_m: 3.5, floor: 1 } },
+                ],
             },
         ),
     ]
@@ -388,6 +451,8 @@ fn command_and_health_vectors() -> Vec<[Golden; 2]> {
         vector("command_where_am_i", 32, Command::WhereAmI),
         vector("command_mute", 33, Command::Mute { muted: true }),
         vector("command_repeat", 34, Command::Repeat),
+        vector("command_cancel", 37, Command::Cancel),
+        vector("command_floor", 38, Command::Floor { floor: -1 }),
         vector(
             "health_stats",
             35,
@@ -483,6 +548,9 @@ fn reject_vectors() -> Vec<Golden> {
             next_waypoint: None,
             distance_left_m: 0.0,
             instruction: String::new(),
+            floor: 0,
+            status: RouteStatus::Idle,
+            route: vec![],
         },
     );
     let scan_bytes = encode(
@@ -630,6 +698,8 @@ fn key_vectors() -> Golden {
         ("WhereAmI", Command::WhereAmI.verb()),
         ("Mute", Command::Mute { muted: false }.verb()),
         ("Repeat", Command::Repeat.verb()),
+        ("Cancel", Command::Cancel.verb()),
+        ("Floor", Command::Floor { floor: 0 }.verb()),
     ];
     let table = KeysJson { user: "alice", cases, command_verbs };
     Golden::plain("keys.json".into(), json_text(&table))

@@ -111,7 +111,8 @@ class Keys:
         return f"{self._prefix}/phone/speech"
 
     def cmd(self, verb):
-        """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``)."""
+        """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``,
+        ``cancel``, ``floor``)."""
         return f"{self._prefix}/cmd/{verb}"
 
     def cmd_any(self):
@@ -147,6 +148,8 @@ COMMAND_VERBS = {
     "WhereAmI": "where-am-i",
     "Mute": "mute",
     "Repeat": "repeat",
+    "Cancel": "cancel",
+    "Floor": "floor",
 }
 
 

@@ -93,9 +93,34 @@ HAZARD = Struct(
     latency=Seq(STAGE_LATENCY),
 )
 
-POSE = Struct("Pose", x_m=F32, y_m=F32, yaw_rad=F32, floor=I32, covariance=Array(F32, 9))
+LOCALIZATION_STATUS = Enum(
+    "LocalizationStatus", {"Tracking": None, "Converging": None, "Lost": None}
+)
+
+POSE = Struct(
+    "Pose",
+    x_m=F32,
+    y_m=F32,
+    yaw_rad=F32,
+    floor=I32,
+    covariance=Array(F32, 9),
+    status=LOCALIZATION_STATUS,
+)
 
 MAP_POINT = Struct("MapPoint", x_m=F32, y_m=F32, floor=I32)
+
+ROUTE_STATUS = Enum(
+    "RouteStatus",
+    {
+        "Idle": None,
+        "WaitingForPosition": None,
+        "Guiding": None,
+        "WaitingForFloor": None,
+        "Arrived": None,
+        "Unreachable": None,
+        "Preview": None,
+    },
+)
 
 ROUTE_STATE = Struct(
     "RouteState",
@@ -103,7 +128,14 @@ ROUTE_STATE = Struct(
     next_waypoint=Optional(MAP_POINT),
     distance_left_m=F32,
     instruction=STRING,
+    floor=I32,
+    status=ROUTE_STATUS,
+    route=Seq(MAP_POINT),
 )
+
+DESTINATION = Struct("Destination", label=STRING, at=MAP_POINT)
+
+DESTINATIONS = Struct("Destinations", destinations=Seq(DESTINATION))
 
 HAPTIC_PATTERN = Enum(
     "HapticPattern", {"Steady": None, "Pulses": {"period_ms": U32, "duty": F32}}
@@ -139,7 +171,14 @@ APPLIED = Struct(
 
 COMMAND = Enum(
     "Command",
-    {"Destination": {"label": STRING}, "WhereAmI": None, "Mute": {"muted": BOOL}, "Repeat": None},
+    {
+        "Destination": {"label": STRING},
+        "WhereAmI": None,
+        "Mute": {"muted": BOOL},
+        "Repeat": None,
+        "Cancel": None,
+        "Floor": {"floor": I32},
+    },
 )
 
 STREAM_STATS = Struct(
@@ -194,11 +233,15 @@ SCHEMAS = (
     Schema(5, "scan", SCAN),
     # v2 added turn_ahead and body_turn_deg_s
     Schema(6, "hazard", HAZARD, version=3),
-    Schema(7, "pose", POSE),
-    Schema(8, "route_state", ROUTE_STATE),
+    # v3 added status
+    Schema(7, "pose", POSE, version=3),
+    # v3 added floor, status and route
+    Schema(8, "route_state", ROUTE_STATE, version=3),
     Schema(9, "haptic_intent", HAPTIC_INTENT, 256),
     Schema(10, "speech_intent", SPEECH_INTENT, 16 * 1024),
     Schema(11, "applied", APPLIED),
-    Schema(12, "command", COMMAND),
+    # v3 added Cancel and Floor
+    Schema(12, "command", COMMAND, version=3),
     Schema(13, "health_stats", HEALTH_STATS, 256 * 1024),
+    Schema(14, "destinations", DESTINATIONS, 256 * 1024),
 )

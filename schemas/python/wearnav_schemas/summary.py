@@ -71,13 +71,23 @@ def _hazard(b):
 
 def _pose(b):
     yaw = math.degrees(b["yaw_rad"])
-    return f"x {b['x_m']:.2f} y {b['y_m']:.2f} yaw {yaw:.0f} deg floor {b['floor']}"
+    status, _ = _variant(b["status"])
+    return f"{status} x {b['x_m']:.2f} y {b['y_m']:.2f} yaw {yaw:.0f} deg floor {b['floor']}"
 
 
 def _route_state(b):
+    status, _ = _variant(b["status"])
     if not b["destination"]:
-        return "no route"
-    return f"to {b['destination']!r}: {_m(b['distance_left_m'])} left, {b['instruction']!r}"
+        return f"{status}: no route"
+    return (
+        f"{status} to {b['destination']!r} (floor {b['floor']}): {_m(b['distance_left_m'])} "
+        f"left, {len(b['route'])} points, {b['instruction']!r}"
+    )
+
+
+def _destinations(b):
+    names = ", ".join(f"{d['label']!r} (floor {d['at']['floor']})" for d in b["destinations"])
+    return f"{len(b['destinations'])} destinations: {names}"
 
 
 def _haptic_intent(b):
@@ -113,6 +123,8 @@ def _command(b):
         return f"Destination {fields['label']!r}"
     if verb == "Mute":
         return "Mute on" if fields["muted"] else "Mute off"
+    if verb == "Floor":
+        return f"Floor {fields['floor']}"
     return verb
 
 
@@ -139,6 +151,7 @@ SUMMARIES = {
     "applied": _applied,
     "command": _command,
     "health_stats": _health_stats,
+    "destinations": _destinations,
 }
 
 
