@@ -57,6 +57,17 @@ struct Progress {
     remaining_m: f64,
 }
 
+/// What is left of a route ([`Guide::ahead`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ahead {
+    /// (floor, map point) in walking order: the next waypoint first, the goal last
+    pub points: Vec<(i32, [f64; 2])>,
+    /// along the route from the user to the goal, metres (gateway rides count 0)
+    pub distance_m: f64,
+    /// the user was told they are at the gateway and to confirm the floor
+    pub at_gateway: bool,
+}
+
 /// Turns route and pose into instructions. Pure: time is the `now_ms` argument.
 #[derive(Clone, Debug)]
 pub struct Guide {
@@ -175,6 +186,31 @@ impl Guide {
     /// The last instruction given (spontaneous or asked for; repeats excluded).
     pub fn last(&self) -> Option<&Instruction> {
         self.last.as_ref()
+    }
+
+    /// The route still ahead of `pose`: from the user's place on the current leg (its
+    /// start when the pose is on another floor) through every later leg, and the distance
+    /// along it. `None` without a route or once arrived.
+    pub fn ahead(&self, pose: &UserPose) -> Option<Ahead> {
+        if self.arrived || self.legs.is_empty() {
+            return None;
+        }
+        let leg = &self.legs[self.leg];
+        let w = &leg.route.waypoints;
+        let here = pose.floor == leg.route.floor && pose.x_m.is_finite() && pose.y_m.is_finite();
+        let (first, mut distance_m) = if here && w.len() >= 2 {
+            let pr = self.progress(pose);
+            (pr.segment + 1, pr.remaining_m)
+        } else {
+            (0, leg.route.length_m)
+        };
+        let mut points: Vec<(i32, [f64; 2])> = w[first.min(w.len())..].iter().map(|&p| (leg.route.floor, p)).collect();
+        for later in &self.legs[self.leg + 1..] {
+            points.extend(later.route.waypoints.iter().map(|&p| (later.route.floor, p)));
+            distance_m += later.route.length_m;
+        }
+        let at_gateway = self.at_gateway_said == Some(self.leg);
+        Some(Ahead { points, distance_m, at_gateway })
     }
 
     /// The user said they reached `floor` (ISANA: the map switches when the user

@@ -10,16 +10,19 @@
 //! | the step: turns, gateways, arrival, deviation, spacing, uncertainty | [`guide`] | ISANA (deviation recovery, gateways, speech priorities) |
 //! | "where am I" | [`where_am_i`] | ISANA (area tree); Zhang et al. (door numbers) |
 //! | what goes to the feedback agent | [`instruction`] | ARCHITECTURE.md safety rule 3 |
+//! | commands, planning, replanning, route state | [`navigator`] | ISANA (floor confirmed by the user) |
 //!
 //! Wording rules, thresholds and where each comes from: `docs/guidance.md`.
 
 pub mod guide;
 pub mod instruction;
+pub mod navigator;
 pub mod profile;
 pub mod utterance;
 pub mod where_am_i;
 
-pub use guide::{Guide, UserPose};
+pub use guide::{Ahead, Guide, UserPose};
 pub use instruction::{Instruction, InstructionKind};
+pub use navigator::{Navigator, Response};
 pub use profile::{DirectionStyle, DistanceUnits, GuidanceProfile};
 pub use utterance::{Side, Turn};

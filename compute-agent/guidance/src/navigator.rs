@@ -1,0 +1,342 @@
+//! The navigator: what the compute agent does with the user's commands (`cmd/destination`,
+//! `where-am-i`, `repeat`, `cancel`, `floor`), the pose localization gives, and the
+//! building's plan. It plans with [`planning::BuildingPlanner`], guides with a [`Guide`],
+//! replans when the guide asks, and says what it does: every utterance is a
+//! [`SpeechIntent`] at `Message` priority (never over a warning, safety rule 3).
+//!
+//! A destination given while the position is not known is kept and planned as soon as
+//! localization tracks: no route, and no "turn left", is ever given on a guess.
+
+use map::{Building, Label, SemanticLayer};
+use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
+use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
+
+use crate::guide::{Guide, UserPose};
+use crate::profile::GuidanceProfile;
+use crate::utterance::distance_phrase;
+use crate::where_am_i::where_am_i;
+
+/// How long an answer or an announcement of the navigator's own may wait for the
+/// speaker, ms (as the guide's answers).
+const ANSWER_TTL_MS: u32 = 5000;
+
+/// What a command changed beyond speech.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Response {
+    /// what to say, in order
+    pub speech: Vec<SpeechIntent>,
+    /// the user said they are on this floor: localization should move there
+    pub floor_confirmed: Option<i32>,
+}
+
+/// One trip: where to, and how far it got.
+#[derive(Clone, Debug)]
+struct Trip {
+    label: String,
+    goal: FloorPoint,
+    /// planned once the position is known
+    guide: Option<Guide>,
+    /// why there is no guide: waiting for the position, or no way there
+    held: RouteStatus,
+}
+
+/// Commands, pose and plan in; speech and route state out. Pure: time is an argument.
+#[derive(Clone, Debug)]
+pub struct Navigator {
+    planner: BuildingPlanner,
+    semantic: SemanticLayer,
+    profile: GuidanceProfile,
+    trip: Option<Trip>,
+    /// the navigator's own last utterance, for "repeat" without a route
+    last_said: Option<SpeechIntent>,
+    /// why the last plan failed, for the caller's log (the user hears the short form)
+    problem: Option<String>,
+    serial: u64,
+}
+
+impl Navigator {
+    /// A navigator over `building`, planning with the user's `route` preferences and
+    /// speaking with their `guidance` profile.
+    pub fn new(building: &Building, route: UserProfile, guidance: GuidanceProfile) -> Self {
+        let mut semantic = SemanticLayer::default();
+        for floor in building.floors() {
+            let s = &floor.semantic;
+            semantic.labels.extend(s.labels.iter().cloned());
+            semantic.doors.extend(s.doors.iter().cloned());
+            semantic.corners.extend(s.corners.iter().cloned());
+            semantic.areas.extend(s.areas.iter().cloned());
+        }
+        semantic.gateways = building.gateways().to_vec();
+        Self {
+            planner: BuildingPlanner::new(building, route),
+            semantic,
+            profile: guidance,
+            trip: None,
+            last_said: None,
+            problem: None,
+            serial: 0,
+        }
+    }
+
+    /// Every place the user can ask for, by floor then name.
+    pub fn destinations(&self) -> Destinations {
+        let mut destinations: Vec<Destination> = self
+            .semantic
+            .labels
+            .iter()
+            .map(|l| Destination {
+                label: l.name.clone(),
+                at: MapPoint { x_m: l.x as f32, y_m: l.y as f32, floor: l.floor },
+            })
+            .collect();
+        destinations.sort_by(|a, b| a.at.floor.cmp(&b.at.floor).then_with(|| a.label.cmp(&b.label)));
+        Destinations { destinations }
+    }
+
+    /// The place called `asked` (case and surrounding blanks ignored), or what to say
+    /// instead: that there is no such place, and the closest names.
+    pub fn find(&self, asked: &str) -> Result<&Label, String> {
+        let asked = asked.trim();
+        if let Some(l) = self.semantic.label(asked) {
+            return Ok(l);
+        }
+        let words = |s: &str| s.to_lowercase().split_whitespace().map(str::to_string).collect::<Vec<_>>();
+        let asked_words = words(asked);
+        let mut scored: Vec<(usize, &str)> = self
+            .semantic
+            .labels
+            .iter()
+            .map(|l| {
+                let shared = words(&l.name).iter().filter(|w| asked_words.contains(w)).count();
+                let prefix = usize::from(!asked.is_empty() && l.name.to_lowercase().starts_with(&asked.to_lowercase()));
+                (shared + prefix, l.name.as_str())
+            })
+            .collect();
+        scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(b.1)));
+        let close: Vec<&str> = scored.iter().take(3).map(|(_, n)| *n).collect();
+        Err(if close.is_empty() {
+            format!("I do not know a place called {asked}: this map has no named places.")
+        } else {
+            format!("I do not know a place called {asked}. Places with a similar name: {}.", close.join(", "))
+        })
+    }
+
+    /// Why the last plan failed, once: the planner's own words, for the log.
+    pub fn take_problem(&mut self) -> Option<String> {
+        self.problem.take()
+    }
+
+    /// The floor plan's planner (the guide rejoins on its graphs; obstacles go there).
+    pub fn planner(&self) -> &BuildingPlanner {
+        &self.planner
+    }
+
+    /// Handles one user command at `pose` (`confident: false` when localization does
+    /// not track). `Mute` is the feedback agent's: nothing here.
+    pub fn command(&mut self, command: &Command, pose: &UserPose, now_ms: u64) -> Response {
+        let mut out = Response::default();
+        match command {
+            Command::Destination { label } => match self.find(label) {
+                Err(text) => out.speech.push(self.say(text, "destination/unknown")),
+                Ok(place) => {
+                    let (name, goal) = (place.name.clone(), FloorPoint { floor: place.floor, x: place.x, y: place.y });
+                    self.trip =
+                        Some(Trip { label: name.clone(), goal, guide: None, held: RouteStatus::WaitingForPosition });
+                    if pose.confident {
+                        if let Some(s) = self.plan_trip(pose) {
+                            out.speech.push(s);
+                        }
+                    } else {
+                        let text = format!(
+                            "Going to {name}. I do not know where you are yet: walk on slowly, and I will tell you when I do."
+                        );
+                        out.speech.push(self.say(text, "destination/waiting"));
+                    }
+                }
+            },
+            Command::WhereAmI => {
+                let speech = match self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
+                    Some(guide) => guide.where_am_i(pose, now_ms).speech(),
+                    None if pose.confident => {
+                        let text = where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m);
+                        self.say(text, "where-am-i")
+                    }
+                    None => self.say("Position uncertain: I do not know where you are.".into(), "where-am-i"),
+                };
+                out.speech.push(speech);
+            }
+            Command::Repeat => {
+                let guided = self.trip.as_mut().and_then(|t| t.guide.as_mut()).filter(|g| g.last().is_some());
+                let speech = match (guided, self.last_said.clone()) {
+                    (Some(guide), _) => guide.repeat(pose, now_ms).speech(),
+                    (None, Some(last)) => {
+                        self.serial += 1;
+                        SpeechIntent { dedup_key: format!("{}/repeat/{}", last.dedup_key, self.serial), ..last }
+                    }
+                    (None, None) => self.say("Nothing to repeat yet.".into(), "repeat"),
+                };
+                out.speech.push(speech);
+            }
+            Command::Cancel => {
+                let text = match self.trip.take() {
+                    Some(t) => format!("Guidance to {} stopped.", t.label),
+                    None => "No guidance to stop.".to_string(),
+                };
+                out.speech.push(self.say(text, "cancel"));
+            }
+            Command::Floor { floor } => {
+                out.floor_confirmed = Some(*floor);
+                if let Some(guide) = self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
+                    // the guide starts the floor's leg and says its first instruction next step
+                    if guide.floor_confirmed(*floor) {
+                        return out;
+                    }
+                }
+                out.speech.push(self.say(format!("Floor {floor}."), "floor"));
+            }
+            Command::Mute { .. } => {}
+        }
+        out
+    }
+
+    /// One step with the pose of now: plans a held destination once the position is
+    /// known, then lets the guide speak; replans when it asks.
+    pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
+        let trip = self.trip.as_ref()?;
+        if trip.guide.is_none() {
+            if trip.held == RouteStatus::WaitingForPosition && pose.confident {
+                return self.plan_trip(pose);
+            }
+            return None;
+        }
+        let graph = self.planner.floor(pose.floor).map(|p| p.graph());
+        let guide = self.trip.as_mut()?.guide.as_mut()?;
+        let instruction = guide.step(pose, now_ms, graph)?;
+        if instruction.needs_replan() {
+            let goal = self.trip.as_ref()?.goal;
+            let from = FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m };
+            match self.planner.plan(from, goal) {
+                Ok(route) => {
+                    if let Some(g) = self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
+                        g.set_route(route);
+                    }
+                }
+                Err(e) => return Some(self.unreachable(&e.to_string())),
+            }
+        }
+        Some(instruction.speech())
+    }
+
+    /// Where guidance stands, for `route/state`.
+    pub fn state(&self, pose: &UserPose) -> RouteState {
+        state_of(self.trip.as_ref(), pose)
+    }
+
+    /// A route from `from` to the place called `to`, not followed (`query/route`).
+    pub fn preview(&mut self, from: &UserPose, to: &str) -> Result<RouteState, String> {
+        if !from.confident {
+            return Err("the position is not known yet".into());
+        }
+        let place = self.find(to)?.clone();
+        let goal = FloorPoint { floor: place.floor, x: place.x, y: place.y };
+        let route = self
+            .planner
+            .plan(FloorPoint { floor: from.floor, x: from.x_m, y: from.y_m }, goal)
+            .map_err(|e| format!("no way to {}: {e}", place.name))?;
+        let instruction = summary(&route, &self.profile);
+        let guide = Guide::building(route, &place.name, self.semantic.clone(), self.profile);
+        let trip = Trip { label: place.name, goal, guide: Some(guide), held: RouteStatus::Guiding };
+        Ok(RouteState { status: RouteStatus::Preview, instruction, ..state_of(Some(&trip), from) })
+    }
+
+    /// Plans the trip from `pose`; what to say when that fails (the guide says the
+    /// route's first instruction itself, next step).
+    fn plan_trip(&mut self, pose: &UserPose) -> Option<SpeechIntent> {
+        let trip = self.trip.as_ref()?;
+        let (goal, label) = (trip.goal, trip.label.clone());
+        match self.planner.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
+            Ok(route) => {
+                let guide = Guide::building(route, &label, self.semantic.clone(), self.profile);
+                if let Some(t) = self.trip.as_mut() {
+                    t.guide = Some(guide);
+                    t.held = RouteStatus::Guiding;
+                }
+                self.step(pose, 0)
+            }
+            Err(e) => Some(self.unreachable(&e.to_string())),
+        }
+    }
+
+    fn unreachable(&mut self, why: &str) -> SpeechIntent {
+        let label = match self.trip.as_mut() {
+            Some(t) => {
+                t.guide = None;
+                t.held = RouteStatus::Unreachable;
+                t.label.clone()
+            }
+            None => String::new(),
+        };
+        self.problem = Some(format!("no way to {label}: {why}"));
+        self.say(format!("I cannot find a way to {label} from here."), "destination/unreachable")
+    }
+
+    fn say(&mut self, text: String, key: &str) -> SpeechIntent {
+        self.serial += 1;
+        let s = SpeechIntent {
+            text,
+            priority: Priority::Message,
+            interrupt: false,
+            ttl_ms: ANSWER_TTL_MS,
+            dedup_key: format!("navigator/{key}/{}", self.serial),
+        };
+        self.last_said = Some(s.clone());
+        s
+    }
+}
+
+/// "25 metres, by the elevator to floor 1": a route in a few words.
+fn summary(route: &BuildingRoute, profile: &GuidanceProfile) -> String {
+    let mut text = distance_phrase(route.walk_length_m, profile);
+    for leg in &route.legs {
+        if let planning::LegEnd::Gateway { name, to_floor, .. } = &leg.end {
+            text.push_str(&format!(", by the {name} to floor {to_floor}"));
+        }
+    }
+    text
+}
+
+/// Where guidance along `trip` stands at `pose`.
+fn state_of(trip: Option<&Trip>, pose: &UserPose) -> RouteState {
+    let idle = RouteState {
+        destination: String::new(),
+        next_waypoint: None,
+        distance_left_m: 0.0,
+        instruction: String::new(),
+        floor: pose.floor,
+        status: RouteStatus::Idle,
+        route: Vec::new(),
+    };
+    let Some(trip) = trip else {
+        return idle;
+    };
+    let mut state = RouteState { destination: trip.label.clone(), status: trip.held, ..idle };
+    let Some(guide) = &trip.guide else {
+        return state;
+    };
+    state.instruction = guide.last().map(|i| i.text.clone()).unwrap_or_default();
+    if guide.arrived() {
+        state.status = RouteStatus::Arrived;
+        state.floor = trip.goal.floor;
+        return state;
+    }
+    let Some(ahead) = guide.ahead(pose) else {
+        return state;
+    };
+    let point = |&(floor, [x, y]): &(i32, [f64; 2])| MapPoint { x_m: x as f32, y_m: y as f32, floor };
+    state.route = ahead.points.iter().map(point).collect();
+    state.next_waypoint = state.route.first().copied();
+    state.floor = state.next_waypoint.map_or(pose.floor, |p| p.floor);
+    state.distance_left_m = ahead.distance_m as f32;
+    state.status = if ahead.at_gateway { RouteStatus::WaitingForFloor } else { RouteStatus::Guiding };
+    state
+}

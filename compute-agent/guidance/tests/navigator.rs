@@ -1,0 +1,242 @@
+//! The navigator as the compute agent drives it: commands in, speech and route state out,
+//! on a two-floor building (the corridor of `walks.rs` on both floors, an elevator at the
+//! foot of the corridor down, and a closed room no door leads into).
+
+use std::path::Path;
+
+use guidance::{GuidanceProfile, Navigator, UserPose};
+use map::{Building, Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
+use planning::UserProfile;
+use schemas::{Command, Priority, RouteStatus};
+
+const RES_M: f64 = 0.05;
+
+/// The corridor of `walks.rs` (y 10.5..12.5, x 0.5..26.5, and down x 18.5..20.5 to y 0.5),
+/// and a closed room at x 2..6, y 2..6.
+fn floor_grid() -> OccupancyGrid {
+    let (w, h) = ((27.0 / RES_M) as usize, (13.0 / RES_M) as usize);
+    let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+    let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
+    for r in 0..h {
+        for c in 0..w {
+            let (x, y) = g.cell_center(c, r);
+            let across = (0.5..=26.5).contains(&x) && (10.5..=12.5).contains(&y);
+            let down = (18.5..=20.5).contains(&x) && (0.5..=12.5).contains(&y);
+            let closed = (2.0..=6.0).contains(&x) && (2.0..=6.0).contains(&y);
+            if across || down || closed {
+                g.set(c, r, Cell::Free);
+            }
+        }
+    }
+    g
+}
+
+const LAYER: &str = r#"
+[[label]]
+name = "entrance"
+x = 1.5
+y = 11.5
+floor = 0
+
+[[label]]
+name = "room 214"
+x = 1.5
+y = 11.5
+floor = 1
+
+[[label]]
+name = "room 204"
+x = 25.5
+y = 11.5
+floor = 1
+
+[[label]]
+name = "store room"
+x = 4.0
+y = 4.0
+floor = 0
+
+[[area]]
+name = "corridor"
+floor = 0
+polygon = [[0.5, 10.5], [26.5, 10.5], [26.5, 12.5], [0.5, 12.5]]
+
+[[gateway]]
+name = "main elevator"
+type = "elevator"
+stops = [ { floor = 0, x = 19.5, y = 1.5 }, { floor = 1, x = 19.5, y = 1.5 } ]
+"#;
+
+fn navigator() -> Navigator {
+    let layer = SemanticLayer::parse(LAYER, Path::new("navigator.toml")).unwrap();
+    let floors = [0, 1].map(|level| Floor { level, grid: floor_grid(), semantic: layer.floor(level) });
+    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    Navigator::new(&building, UserProfile::default(), GuidanceProfile::default())
+}
+
+fn at(x: f64, y: f64, heading_rad: f64, floor: i32) -> UserPose {
+    UserPose { x_m: x, y_m: y, heading_rad, floor, confident: true }
+}
+
+fn go(label: &str) -> Command {
+    Command::Destination { label: label.into() }
+}
+
+fn texts(speech: &[schemas::SpeechIntent]) -> Vec<&str> {
+    speech.iter().map(|s| s.text.as_str()).collect()
+}
+
+/// Walks from `from` to `to` in 0.1 m steps, 100 ms apart, from `t_ms`; what was said.
+fn walk(nav: &mut Navigator, from: [f64; 2], to: [f64; 2], floor: i32, t_ms: &mut u64) -> Vec<String> {
+    let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+    let n = ((dx.hypot(dy)) / 0.1).ceil().max(1.0) as usize;
+    let heading = dy.atan2(dx);
+    let mut said = Vec::new();
+    for k in 0..=n {
+        let f = k as f64 / n as f64;
+        *t_ms += 100;
+        if let Some(s) = nav.step(&at(from[0] + f * dx, from[1] + f * dy, heading, floor), *t_ms) {
+            assert_eq!(s.priority, Priority::Message, "guidance never speaks over a warning");
+            said.push(s.text);
+        }
+    }
+    said
+}
+
+#[test]
+fn destinations_are_every_label_by_floor_then_name() {
+    let d = navigator().destinations();
+    let names: Vec<(i32, &str)> = d.destinations.iter().map(|d| (d.at.floor, d.label.as_str())).collect();
+    assert_eq!(names, [(0, "entrance"), (0, "store room"), (1, "room 204"), (1, "room 214")]);
+    assert_eq!((d.destinations[2].at.x_m, d.destinations[2].at.y_m), (25.5, 11.5));
+}
+
+#[test]
+fn an_unknown_destination_is_said_with_the_closest_names_and_starts_nothing() {
+    let mut nav = navigator();
+    let here = at(1.5, 11.5, 0.0, 0);
+    let r = nav.command(&go("room 241"), &here, 0);
+    assert_eq!(
+        texts(&r.speech),
+        ["I do not know a place called room 241. Places with a similar name: room 204, room 214, store room."]
+    );
+    assert_eq!(nav.state(&here).status, RouteStatus::Idle);
+    // case and blanks do not matter
+    assert!(nav.find("  ROOM 204 ").is_ok());
+}
+
+#[test]
+fn a_destination_waits_for_the_position_then_guides_across_floors_to_arrival() {
+    let mut nav = navigator();
+    let lost = UserPose { confident: false, ..at(1.5, 11.5, 0.0, 0) };
+    let r = nav.command(&go("room 214"), &lost, 0);
+    assert_eq!(
+        texts(&r.speech),
+        ["Going to room 214. I do not know where you are yet: walk on slowly, and I will tell you when I do."]
+    );
+    let waiting = nav.state(&lost);
+    assert_eq!(
+        (waiting.status, waiting.destination.as_str(), waiting.route.len()),
+        (RouteStatus::WaitingForPosition, "room 214", 0)
+    );
+    // nothing while the position is unknown: no route on a guess
+    assert_eq!(nav.step(&lost, 100), None);
+
+    let start = at(1.5, 11.5, 0.0, 0);
+    let first = nav.step(&start, 200).expect("planned once the position is known");
+    assert_eq!(first.text, "Route to room 214: 55 metres. Go straight on.");
+    let s = nav.state(&start);
+    assert_eq!(s.status, RouteStatus::Guiding);
+    // the smoothed route: 53.3 m, said rounded to 5
+    assert!((s.distance_left_m - 53.3).abs() < 0.5, "{}", s.distance_left_m);
+    let last = s.route.last().unwrap();
+    // the goal as the graph has it, a lattice point within a cell of the label
+    assert!((last.x_m - 1.5).abs() <= 0.05 && (last.y_m - 11.5).abs() <= 0.05 && last.floor == 1, "{last:?}");
+    assert!(s.route.iter().any(|p| p.floor == 0) && s.next_waypoint == s.route.first().copied());
+    assert_eq!(s.instruction, first.text);
+
+    let mut t = 200;
+    let mut said = walk(&mut nav, [1.5, 11.5], [19.5, 11.5], 0, &mut t);
+    said.extend(walk(&mut nav, [19.5, 11.5], [19.5, 1.5], 0, &mut t));
+    assert_eq!(
+        said,
+        [
+            "In 6 metres, turn right.",
+            "Turn right now.",
+            "Elevator ahead; take it to floor 1; tell me when you are there.",
+            "You are at the elevator. Take it to floor 1, then tell me when you are there."
+        ]
+    );
+    let at_lift = at(19.5, 1.5, -1.57, 0);
+    assert_eq!(nav.state(&at_lift).status, RouteStatus::WaitingForFloor);
+
+    // the user rides up and says so: localization is told, the guide starts floor 1
+    let r = nav.command(&Command::Floor { floor: 1 }, &at_lift, t + 10_000);
+    assert_eq!((r.floor_confirmed, r.speech.len()), (Some(1), 0));
+    let up = at(19.5, 1.5, std::f64::consts::FRAC_PI_2, 1);
+    let next = nav.step(&up, t + 11_000).unwrap();
+    assert_eq!(next.text, "Floor 1: 25 metres to room 214. Go straight on.");
+    assert_eq!(nav.state(&up).floor, 1);
+
+    let mut t = t + 11_000;
+    let mut said = walk(&mut nav, [19.5, 1.5], [19.5, 11.5], 1, &mut t);
+    said.extend(walk(&mut nav, [19.5, 11.5], [1.5, 11.5], 1, &mut t));
+    assert_eq!(said, ["In 6 metres, turn left.", "Turn left now.", "You have arrived at room 214."]);
+    let done = nav.state(&at(1.5, 11.5, 3.14, 1));
+    assert_eq!((done.status, done.distance_left_m, done.floor), (RouteStatus::Arrived, 0.0, 1));
+}
+
+#[test]
+fn cancel_repeat_and_where_am_i_answer_with_or_without_a_route() {
+    let mut nav = navigator();
+    let here = at(10.0, 11.5, 0.0, 0);
+    assert_eq!(texts(&nav.command(&Command::Repeat, &here, 0).speech), ["Nothing to repeat yet."]);
+    assert_eq!(texts(&nav.command(&Command::WhereAmI, &here, 0).speech), ["In the corridor."]);
+    let unsure = UserPose { confident: false, ..here };
+    assert_eq!(
+        texts(&nav.command(&Command::WhereAmI, &unsure, 0).speech),
+        ["Position uncertain: I do not know where you are."]
+    );
+    // "repeat" says the navigator's own last answer again, with a key of its own
+    let again = nav.command(&Command::Repeat, &here, 0).speech;
+    assert_eq!(texts(&again), ["Position uncertain: I do not know where you are."]);
+
+    let started = nav.command(&go("room 204"), &here, 1000);
+    assert_eq!(texts(&started.speech), ["Route to room 204: 35 metres. Go straight on."]);
+    let repeated = nav.command(&Command::Repeat, &here, 2000).speech;
+    assert_eq!(texts(&repeated), ["Route to room 204: 35 metres. Go straight on."]);
+    assert_ne!(repeated[0].dedup_key, started.speech[0].dedup_key, "a repeat is never deduplicated away");
+
+    assert_eq!(texts(&nav.command(&Command::Cancel, &here, 3000).speech), ["Guidance to room 204 stopped."]);
+    assert_eq!(nav.state(&here).status, RouteStatus::Idle);
+    assert_eq!(nav.step(&here, 4000), None);
+    assert_eq!(texts(&nav.command(&Command::Cancel, &here, 5000).speech), ["No guidance to stop."]);
+    // mute is the feedback agent's
+    assert_eq!(nav.command(&Command::Mute { muted: true }, &here, 6000), Default::default());
+}
+
+#[test]
+fn an_unreachable_destination_is_said_and_the_planner_reason_kept_for_the_log() {
+    let mut nav = navigator();
+    let here = at(1.5, 11.5, 0.0, 0);
+    let r = nav.command(&go("store room"), &here, 0);
+    assert_eq!(texts(&r.speech), ["I cannot find a way to store room from here."]);
+    assert_eq!(nav.state(&here).status, RouteStatus::Unreachable);
+    let why = nav.take_problem().unwrap();
+    assert!(why.starts_with("no way to store room: no walkable path"), "{why}");
+    assert_eq!(nav.take_problem(), None);
+}
+
+#[test]
+fn a_preview_plans_without_starting_guidance() {
+    let mut nav = navigator();
+    let here = at(1.5, 11.5, 0.0, 0);
+    let p = nav.preview(&here, "room 214").unwrap();
+    assert_eq!(p.status, RouteStatus::Preview);
+    assert_eq!(p.instruction, "55 metres, by the main elevator to floor 1");
+    assert!((p.distance_left_m - 53.3).abs() < 0.5, "{}", p.distance_left_m);
+    assert_eq!(nav.state(&here).status, RouteStatus::Idle);
+    assert!(nav.preview(&here, "kitchen").unwrap_err().starts_with("I do not know a place called kitchen"));
+    let unsure = UserPose { confident: false, ..here };
+    assert_eq!(nav.preview(&unsure, "room 214").unwrap_err(), "the position is not known yet");
+}
