@@ -8,6 +8,7 @@
 //! | likelihood field of a range scan | [`likelihood_field`] | AMCL `likelihood_field` |
 //! | door numbers, corners, wall angles | [`landmarks`] | Zhang et al., CCNY |
 //! | a floor ready for the filter | [`floor_model`] | |
+//! | the filter fed by the agent's streams: body odometry, swept-cane scan, floor confirmed | [`tracker`] | |
 //! | CARMEN log reader (real laser + odometry data) | [`carmen`] | CARMEN `FLASER`, `ODOM` |
 //! | occupancy grid from scans at known poses | [`mapping`] | ray casting, log-odds (Moravec & Elfes) |
 //!
@@ -36,6 +37,7 @@ pub mod particle_filter;
 pub mod pose;
 pub mod rng;
 pub mod scan;
+pub mod tracker;
 
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
@@ -47,6 +49,7 @@ pub use particle_filter::{
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;
 pub use scan::{Beam, Scan};
+pub use tracker::{CaneOnBody, Tracker, TrackerConfig};
 
 /// Why a filter could not be built or started.
 #[derive(Debug, thiserror::Error)]

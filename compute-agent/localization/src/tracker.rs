@@ -1,0 +1,420 @@
+//! The filter as the compute agent runs it: what arrives on the bus in (the body's
+//! odometry, the cane camera's nearest-point scan, the turn rates of the cane's and the
+//! body's IMUs, the floor the user says they reached), the pose out, and what to say when
+//! the position is found or lost.
+//!
+//! The scan comes from a camera on a swept cane: it looks `sweep` to the side of the
+//! body's heading, from a place ahead of the body. The sweep is not measured; it is the
+//! difference between the cane's and the body's turn rates, integrated and leaked back to
+//! zero with [`TrackerConfig::sweep_time_constant_s`] (a sweep averages out over its
+//! period; a gyro bias does not grow into a lasting angle). Without both rates the scan
+//! is read as looking straight ahead, the sweep's mean.
+
+use map::{Building, Gateway};
+use serde::{Deserialize, Serialize};
+
+use crate::floor_model::FloorModel;
+use crate::likelihood_field::LikelihoodFieldConfig;
+use crate::motion::OdometryIncrement;
+use crate::particle_filter::{Correction, Estimate, FilterConfig, Observations, ParticleFilter, Rejected, Status};
+use crate::pose::Pose2;
+use crate::scan::{Beam, Scan};
+use crate::LocalizationError;
+
+/// Where the cane camera is on the body.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CaneOnBody {
+    /// the hand holding the cane, ahead of the body's axis, metres (the simulator's
+    /// default mount: 0.25)
+    pub hand_forward_m: f64,
+    /// the camera's floor point ahead of the hand along the cane, metres (0.15 m down a
+    /// 1.3 m cane held at 1 m: 0.096)
+    pub camera_from_hand_m: f64,
+}
+
+impl Default for CaneOnBody {
+    fn default() -> Self {
+        Self { hand_forward_m: 0.25, camera_from_hand_m: 0.096 }
+    }
+}
+
+/// How the tracker runs the filter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TrackerConfig {
+    /// the particle filter
+    pub filter: FilterConfig,
+    /// the likelihood field of each floor
+    pub field: LikelihoodFieldConfig,
+    /// where the camera is
+    pub cane: CaneOnBody,
+    /// leak of the sweep estimate back to zero, seconds (5: a 0.7 Hz sweep keeps its
+    /// amplitude, 2.6 degrees of phase lead, under a degree at a 17-degree sweep)
+    pub sweep_time_constant_s: f64,
+    /// a known start's spread, metres per axis
+    pub start_sigma_m: f64,
+    /// ... and in heading, radians
+    pub start_sigma_heading_rad: f64,
+}
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        Self {
+            filter: FilterConfig::default(),
+            field: LikelihoodFieldConfig::default(),
+            cane: CaneOnBody::default(),
+            sweep_time_constant_s: 5.0,
+            start_sigma_m: 0.3,
+            start_sigma_heading_rad: 10f64.to_radians(),
+        }
+    }
+}
+
+/// Largest sweep the estimate holds, radians (a cane swept wider than this is not a cane).
+const MAX_SWEEP_RAD: f64 = 1.2;
+/// Longest gap between frames the sweep is integrated over, seconds; a longer one
+/// starts it again from zero.
+const MAX_FRAME_GAP_S: f64 = 0.5;
+
+/// A particle filter fed by the agent's streams.
+#[derive(Clone, Debug)]
+pub struct Tracker {
+    pf: ParticleFilter,
+    gateways: Vec<Gateway>,
+    config: TrackerConfig,
+    sweep_rad: f64,
+    /// the cane's turn rate against the body's at the last frame, rad/s
+    sweep_rate: Option<f64>,
+    last_frame_ns: Option<u64>,
+    /// the status last announced (`None`: nothing said yet)
+    announced: Option<Status>,
+    scan: Scan,
+}
+
+impl Tracker {
+    /// A tracker over every floor of `building`, started globally (nothing known).
+    pub fn new(building: &Building, config: TrackerConfig, seed: u64) -> Result<Self, LocalizationError> {
+        let floors = building
+            .floors()
+            .iter()
+            .map(|f| FloorModel::new(f.level, &f.grid, &f.semantic, &config.field))
+            .collect::<Result<Vec<_>, _>>()?;
+        let pf = ParticleFilter::new(floors, config.filter.clone(), seed)?;
+        Ok(Self {
+            pf,
+            gateways: building.gateways().to_vec(),
+            config,
+            sweep_rad: 0.0,
+            sweep_rate: None,
+            last_frame_ns: None,
+            announced: None,
+            scan: Scan::default(),
+        })
+    }
+
+    /// Starts near a known pose (the user said where they stand, or a start of the demo).
+    pub fn start_at(&mut self, level: i32, pose: Pose2) -> Result<(), LocalizationError> {
+        let c = &self.config;
+        self.pf.init_pose(level, pose, c.start_sigma_m, c.start_sigma_heading_rad)
+    }
+
+    /// Forgets the position: particles over every floor.
+    pub fn start_global(&mut self) {
+        self.pf.init_global();
+    }
+
+    /// The body's motion over one interval (`sensor/<device>/odom`) and the body-worn
+    /// gyro's turn rate over it, if there is one. Implausible input is refused, counted
+    /// and changes nothing.
+    pub fn odometry(&mut self, inc: &schemas::OdomIncrement, body_yaw_rate_rad_s: Option<f64>) -> Result<(), Rejected> {
+        let dt_s = inc.to_ns.saturating_sub(inc.from_ns) as f64 * 1e-9;
+        let step = OdometryIncrement {
+            forward_m: f64::from(inc.forward_m),
+            left_m: f64::from(inc.left_m),
+            yaw_rad: f64::from(inc.yaw_rad),
+            dt_s,
+        };
+        self.pf.predict(&step, body_yaw_rate_rad_s)
+    }
+
+    /// One camera frame's scan, captured at `capture_ns`, with the cane's and the body's
+    /// turn rates then: the sweep estimate moves, and the filter corrects when due.
+    pub fn frame(
+        &mut self,
+        scan: &schemas::Scan,
+        capture_ns: u64,
+        cane_yaw_rate_rad_s: Option<f64>,
+        body_yaw_rate_rad_s: Option<f64>,
+    ) -> Correction {
+        let dt_s = self.last_frame_ns.map_or(0.0, |t| capture_ns.saturating_sub(t) as f64 * 1e-9);
+        self.last_frame_ns = Some(capture_ns);
+        if dt_s > MAX_FRAME_GAP_S {
+            self.sweep_rad = 0.0;
+            self.sweep_rate = None;
+        } else if dt_s > 0.0 {
+            // trapezoids: the rate between two frames is the mean of theirs
+            let rate = match (cane_yaw_rate_rad_s, body_yaw_rate_rad_s) {
+                (Some(cane), Some(body)) if (cane - body).is_finite() => Some(cane - body),
+                _ => None,
+            };
+            match (rate, self.sweep_rate) {
+                (Some(now), Some(before)) => self.sweep_rad += 0.5 * (now + before) * dt_s,
+                // not measured: read as its mean, straight ahead, not as a stale angle
+                (None, _) => self.sweep_rad = 0.0,
+                (Some(_), None) => {}
+            }
+            self.sweep_rate = rate;
+            self.sweep_rad *= (-dt_s / self.config.sweep_time_constant_s.max(1e-3)).exp();
+            self.sweep_rad = self.sweep_rad.clamp(-MAX_SWEEP_RAD, MAX_SWEEP_RAD);
+        }
+        self.fill_scan(scan);
+        self.pf.correct(&Observations { scan: Some(&self.scan), ..Default::default() })
+    }
+
+    /// The user says they are on `level` now (after an elevator or stairs): the
+    /// particles go through the gateway that serves both floors nearest the estimate.
+    pub fn floor_confirmed(&mut self, level: i32) -> Result<(), String> {
+        let e = self.pf.estimate();
+        if e.level == level {
+            return Ok(());
+        }
+        let near = |g: &&Gateway| g.stop(e.level).map_or(f64::INFINITY, |s| (s.x - e.pose.x_m).hypot(s.y - e.pose.y_m));
+        let gateway = self
+            .gateways
+            .iter()
+            .filter(|g| g.stop(level).is_some() && g.stop(e.level).is_some())
+            .min_by(|a, b| near(a).total_cmp(&near(b)))
+            .ok_or_else(|| format!("no elevator, stairs or ramp joins floor {} and floor {level}", e.level))?;
+        self.pf.take_gateway(gateway, level).map(|_| ()).map_err(|e| e.to_string())
+    }
+
+    /// The filter's answer.
+    pub fn estimate(&self) -> Estimate {
+        self.pf.estimate()
+    }
+
+    /// The sweep the scan is read with now, radians (positive: to the left).
+    pub fn sweep_rad(&self) -> f64 {
+        self.sweep_rad
+    }
+
+    /// The filter itself (counters, particles).
+    pub fn filter(&self) -> &ParticleFilter {
+        &self.pf
+    }
+
+    /// The pose for `localization/pose`.
+    pub fn pose(&self) -> schemas::Pose {
+        let e = self.pf.estimate();
+        let mut covariance = [0f32; 9];
+        for (i, row) in e.covariance.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                covariance[i * 3 + j] = *v as f32;
+            }
+        }
+        schemas::Pose {
+            x_m: e.pose.x_m as f32,
+            y_m: e.pose.y_m as f32,
+            yaw_rad: e.pose.heading_rad as f32,
+            floor: e.level,
+            covariance,
+            status: wire_status(e.status),
+        }
+    }
+
+    /// What to tell the user when the status changed since the last call: the position
+    /// found (tracking), or lost. Converging is not news.
+    pub fn news(&mut self) -> Option<&'static str> {
+        let now = self.pf.estimate().status;
+        let said = match (self.announced, now) {
+            (Some(Status::Tracking), Status::Tracking) => None,
+            (_, Status::Tracking) => Some("Position found."),
+            (Some(Status::Tracking), Status::Lost) => Some("Position lost: walk on slowly while I look for it."),
+            _ => None,
+        };
+        if said.is_some() || now == Status::Lost {
+            self.announced = Some(now);
+        }
+        said
+    }
+
+    /// The perception's scan (the camera's floor frame, 1-degree bins) in the body frame
+    /// with the sweep of now.
+    fn fill_scan(&mut self, scan: &schemas::Scan) {
+        let c = self.config.cane;
+        let (s, k) = self.sweep_rad.sin_cos();
+        self.scan.beams.clear();
+        self.scan.beams.extend(scan.ranges_m.iter().enumerate().map(|(i, r)| Beam {
+            angle_rad: f64::from(scan.angle_min_deg + i as f32 * scan.angle_increment_deg).to_radians(),
+            range_m: f64::from(*r),
+        }));
+        self.scan.max_range_m = f64::from(scan.range_max_m);
+        self.scan.sensor_forward_m = c.hand_forward_m + k * c.camera_from_hand_m;
+        self.scan.sensor_left_m = s * c.camera_from_hand_m;
+        self.scan.sensor_yaw_rad = self.sweep_rad;
+    }
+}
+
+/// The filter's status as the wire says it.
+pub fn wire_status(status: Status) -> schemas::LocalizationStatus {
+    match status {
+        Status::Tracking => schemas::LocalizationStatus::Tracking,
+        Status::Uncertain => schemas::LocalizationStatus::Converging,
+        Status::Lost => schemas::LocalizationStatus::Lost,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use map::{Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
+
+    use super::*;
+
+    const RES_M: f64 = 0.05;
+
+    /// An L of corridors 2 m wide (y 1..3 from x 1 to 19, and x 15..17 up to y 12) with
+    /// walls 0.15 m thick and unknown space beyond them, as a floor plan has it: a walk
+    /// along the first one is pinned across by its walls and along by its ends.
+    fn grid() -> OccupancyGrid {
+        let (w, h) = ((20.0 / RES_M) as usize, (13.0 / RES_M) as usize);
+        let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+        let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Unknown).unwrap();
+        let inside = |x: f64, y: f64, m: f64| {
+            ((1.0 - m..=19.0 + m).contains(&x) && (1.0 - m..=3.0 + m).contains(&y))
+                || ((15.0 - m..=17.0 + m).contains(&x) && (1.0 - m..=12.0 + m).contains(&y))
+        };
+        for r in 0..h {
+            for c in 0..w {
+                let (x, y) = g.cell_center(c, r);
+                if inside(x, y, 0.0) {
+                    g.set(c, r, Cell::Free);
+                } else if inside(x, y, 0.15) {
+                    g.set(c, r, Cell::Occupied);
+                }
+            }
+        }
+        g
+    }
+
+    const LIFT: &str = r#"
+[[gateway]]
+name = "lift"
+type = "elevator"
+stops = [ { floor = 0, x = 16.0, y = 11.0 }, { floor = 1, x = 16.0, y = 11.0 } ]
+"#;
+
+    fn building() -> Building {
+        let layer = SemanticLayer::parse(LIFT, Path::new("lift.toml")).unwrap();
+        let floors = [0, 1].map(|level| Floor { level, grid: grid(), semantic: layer.floor(level) });
+        Building::new(floors.to_vec(), Path::new("two floors")).unwrap()
+    }
+
+    /// The perception's scan from a body at (x, y, heading) with the cane swept by
+    /// `sweep`: 59 one-degree beams marched through the grid to 4 m.
+    fn scan_at(g: &OccupancyGrid, x: f64, y: f64, heading: f64, sweep: f64) -> schemas::Scan {
+        let c = CaneOnBody::default();
+        let (sx, sy) = (
+            x + heading.cos() * c.hand_forward_m + (heading + sweep).cos() * c.camera_from_hand_m,
+            y + heading.sin() * c.hand_forward_m + (heading + sweep).sin() * c.camera_from_hand_m,
+        );
+        let ranges_m = (-29..=29)
+            .map(|d| {
+                let a = heading + sweep + f64::from(d).to_radians();
+                let mut r = 0.0;
+                while r < 4.0 {
+                    let hit =
+                        g.world_to_cell(sx + a.cos() * r, sy + a.sin() * r).and_then(|(col, row)| g.get(col, row));
+                    if hit != Some(Cell::Free) {
+                        return r as f32;
+                    }
+                    r += 0.01;
+                }
+                f32::INFINITY
+            })
+            .collect();
+        schemas::Scan { angle_min_deg: -29.0, angle_increment_deg: 1.0, ranges_m, range_max_m: 4.0 }
+    }
+
+    fn odom(forward_m: f64, yaw_rad: f64, from_ns: u64, to_ns: u64) -> schemas::OdomIncrement {
+        schemas::OdomIncrement { from_ns, to_ns, forward_m: forward_m as f32, left_m: 0.0, yaw_rad: yaw_rad as f32 }
+    }
+
+    #[test]
+    fn the_sweep_is_the_cane_turning_against_the_body_and_its_mean_when_unmeasured() {
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 1).unwrap();
+        let g = grid();
+        let (amp, w) = (17f64.to_radians(), std::f64::consts::TAU * 0.7);
+        let mut worst: f64 = 0.0;
+        for k in 0..300u64 {
+            let ts = k as f64 / 30.0;
+            let body = 0.3; // the user turning too: only the difference is sweep
+            let cane = body + amp * w * (w * ts).cos();
+            t.frame(&scan_at(&g, 3.0, 2.0, 0.0, 0.0), k * 33_333_333, Some(cane), Some(body));
+            if ts > 3.0 {
+                worst = worst.max((t.sweep_rad() - amp * (w * ts).sin()).abs());
+            }
+        }
+        assert!(worst < 3f64.to_radians(), "sweep off by {:.1} deg", worst.to_degrees());
+        // without the cane's rate the sweep is its mean, not a stale angle
+        t.frame(&scan_at(&g, 3.0, 2.0, 0.0, 0.0), 300 * 33_333_333, None, Some(0.0));
+        assert_eq!(t.sweep_rad(), 0.0);
+    }
+
+    #[test]
+    fn a_walk_down_the_corridor_with_a_swept_cane_is_tracked_and_found_once() {
+        let g = grid();
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 3).unwrap();
+        // told 0.3 m and 10 degrees off
+        t.start_at(0, Pose2::new(2.3, 2.3, 0.15)).unwrap();
+        let (amp, w) = (17f64.to_radians(), std::f64::consts::TAU * 0.7);
+        let mut said = Vec::new();
+        let period = 33_333_333u64;
+        // 12 s: by then the corridor up is in view and pins the place along the walk
+        for k in 0..360u64 {
+            let ts = k as f64 / 30.0;
+            let x = 2.0 + ts; // 1 m/s east along y = 2
+            let sweep = amp * (w * ts).sin();
+            if k > 0 {
+                t.odometry(&odom(1.0 / 30.0 * 1.02, 0.0, (k - 1) * period, k * period), Some(0.0)).unwrap();
+            }
+            t.frame(&scan_at(&g, x, 2.0, 0.0, sweep), k * period, Some(amp * w * (w * ts).cos()), Some(0.0));
+            said.extend(t.news());
+        }
+        let e = t.estimate();
+        let truth_x = 2.0 + 359.0 / 30.0;
+        assert!((e.pose.x_m - truth_x).hypot(e.pose.y_m - 2.0) < 0.3, "{:?} vs ({truth_x}, 2)", e.pose);
+        assert!(e.pose.heading_rad.abs() < 5f64.to_radians(), "{}", e.pose.heading_rad);
+        assert_eq!(said, ["Position found."]);
+        let pose = t.pose();
+        assert_eq!((pose.floor, pose.status), (0, schemas::LocalizationStatus::Tracking));
+        assert!(pose.covariance[0] > 0.0 && pose.covariance[0] < 0.25, "{:?}", pose.covariance);
+    }
+
+    #[test]
+    fn a_confirmed_floor_moves_the_belief_through_the_lift_and_refuses_a_floor_no_gateway_serves() {
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 5).unwrap();
+        t.start_at(0, Pose2::new(16.0, 10.5, 1.57)).unwrap();
+        t.floor_confirmed(1).unwrap();
+        let e = t.estimate();
+        assert_eq!(e.level, 1);
+        assert!((e.pose.x_m - 16.0).hypot(e.pose.y_m - 10.5) < 0.3, "{:?}", e.pose);
+        assert_ne!(t.pose().status, schemas::LocalizationStatus::Tracking, "tracking is earned again");
+        let err = t.floor_confirmed(4).unwrap_err();
+        assert_eq!(err, "no elevator, stairs or ramp joins floor 1 and floor 4");
+        assert_eq!(t.estimate().level, 1);
+    }
+
+    #[test]
+    fn odometry_that_is_no_motion_is_refused_and_counted() {
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 7).unwrap();
+        t.start_at(0, Pose2::new(3.0, 2.0, 0.0)).unwrap();
+        assert!(t.odometry(&odom(f64::NAN, 0.0, 0, 33_000_000), None).is_err());
+        assert!(t.odometry(&odom(5.0, 0.0, 0, 30_000_000), None).is_err(), "5 m in 30 ms");
+        assert!(t.odometry(&odom(0.03, 0.0, 0, 30_000_000), Some(f64::INFINITY)).is_err());
+        assert_eq!(t.filter().counters().odometry_rejected, 3);
+        assert!(t.odometry(&odom(0.03, 0.0, 0, 30_000_000), Some(0.1)).is_ok());
+    }
+}
