@@ -335,6 +335,7 @@ fn map_kind(e: &MapError) -> &'static str {
         MapError::SizeMismatch { .. } => "size_mismatch",
         MapError::Semantic { .. } => "semantic",
         MapError::Building { .. } => "building",
+        MapError::Dxf { .. } => "dxf",
     }
 }
 

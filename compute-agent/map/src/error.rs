@@ -136,6 +136,17 @@ pub enum MapError {
         /// what is wrong
         message: String,
     },
+    /// A DXF drawing is malformed (the line where it went wrong), or makes no floor
+    /// map: no walls, no units, an extent no building has (line 0 unless one line says it).
+    #[error("{file}{}: {message}", at_line(*.line))]
+    Dxf {
+        /// the DXF file
+        file: PathBuf,
+        /// 1-based line (0 when not tied to one line)
+        line: usize,
+        /// what is wrong and what to do
+        message: String,
+    },
     /// The building manifest is malformed or inconsistent.
     #[error("{file}:{line}: malformed building manifest: {message}")]
     Building {
@@ -146,6 +157,15 @@ pub enum MapError {
         /// what is wrong
         message: String,
     },
+}
+
+/// `:line` after a file name, nothing for line 0 (not tied to a line).
+fn at_line(line: usize) -> String {
+    if line == 0 {
+        String::new()
+    } else {
+        format!(":{line}")
+    }
 }
 
 /// 1-based line of a byte offset in `text`.

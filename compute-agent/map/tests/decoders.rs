@@ -1,14 +1,15 @@
 //! Property tests of every decoder of outside files in the map crate: map_server YAML
 //! (`parse_map_yaml`), PGM (`decode_pgm`: P5 8 and 16 bit, P2), PNG (`decode_png`), a
 //! whole map from disk (`load_map`: YAML + image), the semantic layer
-//! (`SemanticLayer::parse`) and the building manifest (`Building::load`). Mutated valid
-//! files and random bytes must give a value or a [`MapError`] naming the file (and the
-//! line where the parser has one): never a panic, never an allocation beyond the size
-//! limits, never a hang.
+//! (`SemanticLayer::parse`), the building manifest (`Building::load`) and CAD floor
+//! plans (`DxfImport::parse`). Mutated valid files and random bytes must give a value
+//! or a [`MapError`] naming the file (and the line where the parser has one): never a
+//! panic, never an allocation beyond the size limits, never a hang.
 //!
 //! Seeds: the TurtleBot3 map as ROS map_saver wrote it (`tests/data/map.{yaml,pgm}`),
-//! plus small files made here (PGMs of every kind, PNGs of every colour type, YAML in
-//! every mode, semantic layers, manifests). CI runs a bounded number of cases (`CASES`,
+//! the office floor ezdxf wrote (`tests/data/floor.dxf`), plus small files made here
+//! (PGMs of every kind, PNGs of every colour type, YAML in every mode, semantic layers,
+//! manifests, DXF drawings of every entity read). CI runs a bounded number of cases (`CASES`,
 //! see `docs/fuzzing.md`); `wearnav fuzz` runs millions on demand. `PROPTEST_CASES=N`
 //! sets the cases per property.
 
@@ -18,9 +19,10 @@ use std::sync::LazyLock;
 use std::time::Duration;
 
 use decoder_props::{config, measured, mutated, mutation_with, within, LargestAllocation};
+use map::dxf::{DxfImport, MAX_EXTENT_M};
 use map::map_server::{decode_png, parse_map_yaml, MAX_DEFLATE_RATIO};
 use map::pgm::decode_pgm;
-use map::{load_map, Building, MapError, SemanticLayer, MAX_CELLS};
+use map::{load_map, Building, Cell, MapError, SemanticLayer, MAX_CELLS};
 use proptest::prelude::*;
 use proptest::sample::Index;
 
@@ -49,6 +51,27 @@ static TOKENS: [&str; 20] = [
     "\t- ",
     "# ",
     "\nP2 ",
+];
+
+/// Text a DXF reader meets with edge cases: structure tags, entities, huge counts and
+/// coordinates, bulges, nesting.
+static DXF_TOKENS: [&str; 16] = [
+    "  0\nSECTION\n",
+    "  0\nENDSEC\n",
+    "  0\nEOF\n",
+    "  0\nINSERT\n  2\nCOLUMN\n",
+    "  0\nSEQEND\n",
+    "\n 42\n1e9\n",
+    "\n 70\n32767\n 71\n32767\n",
+    "\n 40\n1e11\n",
+    "\n 41\n-1e11\n",
+    "\n210\n0\n220\n1\n230\n0\n",
+    "1e300",
+    "nan",
+    "-0",
+    "\\P{\\f",
+    "%%",
+    "\\U+",
 ];
 
 /// Cases per property in CI (measured numbers in `docs/fuzzing.md`).
@@ -151,12 +174,40 @@ fn manifest_seeds() -> Vec<Vec<u8>> {
     .collect()
 }
 
+/// The office floor ezdxf wrote (R2013, millimetres, see `tests/data/make_floor_dxf.py`).
+const FLOOR_DXF: &[u8] = include_bytes!("data/floor.dxf");
+
+/// The ezdxf floor and small drawings made here: R12-style POLYLINE with VERTEX and
+/// SEQEND, nested and arrayed INSERTs, a mirrored OCS, MTEXT chunks, TEXT justified.
+fn dxf_seeds() -> Vec<Vec<u8>> {
+    let drawing = |insunits: u8, blocks: &str, entities: &str| {
+        format!(
+            "  0\nSECTION\n  2\nHEADER\n  9\n$INSUNITS\n 70\n{insunits}\n  0\nENDSEC\n\
+             0\nSECTION\n2\nBLOCKS\n{blocks}0\nENDSEC\n0\nSECTION\n2\nENTITIES\n{entities}0\nENDSEC\n0\nEOF\n"
+        )
+        .into_bytes()
+    };
+    let polyline = "0\nPOLYLINE\n8\nW\n66\n1\n70\n1\n0\nVERTEX\n10\n0\n20\n0\n\
+                    0\nVERTEX\n10\n4\n20\n4\n42\n-1\n0\nVERTEX\n10\n4\n20\n0\n0\nSEQEND\n\
+                    0\nTEXT\n8\nT\n10\n1\n20\n1\n11\n2\n21\n2\n72\n1\n73\n2\n1\nroom %%d1\n";
+    let blocks = "0\nBLOCK\n2\nCOLUMN\n10\n0\n20\n0\n0\nCIRCLE\n8\n0\n10\n0\n20\n0\n40\n150\n0\nENDBLK\n\
+                  0\nBLOCK\n2\nPAIR\n10\n0\n20\n0\n0\nINSERT\n2\nCOLUMN\n10\n0\n20\n0\n\
+                  0\nINSERT\n2\nCOLUMN\n10\n1000\n20\n0\n41\n-1\n0\nENDBLK\n";
+    let inserts = "0\nLWPOLYLINE\n8\nWALLS\n90\n4\n70\n1\n10\n0\n20\n0\n10\n8000\n20\n0\n42\n0.4\n\
+                   10\n8000\n20\n6000\n10\n0\n20\n6000\n\
+                   0\nINSERT\n8\nWALLS\n2\nPAIR\n10\n2000\n20\n3000\n50\n30\n70\n3\n71\n2\n44\n1500\n45\n1500\n\
+                   0\nARC\n8\nW\n10\n4000\n20\n3000\n40\n500\n50\n10\n51\n300\n210\n0\n220\n0\n230\n-1\n\
+                   0\nMTEXT\n8\nT\n10\n4000\n20\n1000\n71\n5\n3\n{\\fArial|b1;hall \n1\nwest}\\Pdoor\n";
+    vec![FLOOR_DXF.to_vec(), drawing(6, "", polyline), drawing(4, blocks, inserts)]
+}
+
 /// Seeds are made once: making them took most of a case's time.
 static YAML_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(yaml_seeds);
 static PGM_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(pgm_seeds);
 static PNG_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(png_seeds);
 static SEMANTIC_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(semantic_seeds);
 static MANIFEST_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(manifest_seeds);
+static DXF_SEEDS: LazyLock<Vec<Vec<u8>>> = LazyLock::new(dxf_seeds);
 /// Small images for whole maps on disk (the ROS map's 147 KB would be most of the time).
 static IMAGE_SEEDS: LazyLock<Vec<Vec<u8>>> =
     LazyLock::new(|| PGM_SEEDS[1..].iter().chain(PNG_SEEDS.iter()).cloned().collect());
@@ -173,7 +224,7 @@ fn check_error(e: &MapError, file: &Path, bytes: &[u8]) -> Result<(), String> {
     let lines = bytes.iter().filter(|&&b| b == b'\n' || b == b'\r').count() + 1;
     let line = match e {
         MapError::Pgm { line, .. } | MapError::Semantic { line, .. } | MapError::Building { line, .. } => Some(*line),
-        MapError::Yaml { line, .. } => Some(*line),
+        MapError::Yaml { line, .. } | MapError::Dxf { line, .. } => Some(*line),
         _ => None,
     };
     match line {
@@ -289,6 +340,50 @@ fn check_semantic(bytes: &[u8]) -> Result<(), String> {
     }
 }
 
+/// The import the DXF cases run: 10 cm cells (a quarter of the default's cells, the
+/// same code), the other options at their defaults.
+fn dxf_import() -> DxfImport {
+    DxfImport { resolution_m: 0.1, ..DxfImport::default() }
+}
+
+/// Largest single allocation a DXF import may make: the text (Windows-1252 decoded to
+/// UTF-8 is at most 3 bytes a byte), the entities read (each at least 7 bytes of text),
+/// and the grid, which is checked against `MAX_CELLS` first (a byte a cell).
+fn dxf_bound(len: usize) -> usize {
+    text_bound(len).max(MAX_CELLS as usize)
+}
+
+fn check_dxf(bytes: &[u8]) -> Result<(), String> {
+    let file = Path::new("fuzz.dxf");
+    let (result, largest, took) = measured(|| dxf_import().parse(bytes, file));
+    within("DXF", largest, dxf_bound(bytes.len()), took)?;
+    match result {
+        Ok(floor) => {
+            let g = &floor.grid;
+            let [x0, y0, x1, y1] = floor.report.extent_m;
+            let sane = g.cells().len() == g.width() * g.height()
+                && g.count(Cell::Occupied) > 0
+                && (x1 - x0) <= MAX_EXTENT_M
+                && (y1 - y0) <= MAX_EXTENT_M
+                && floor.semantic.labels.iter().all(|l| {
+                    !l.name.trim().is_empty()
+                        && l.x.is_finite()
+                        && l.y.is_finite()
+                        && g.world_to_cell(l.x, l.y).is_some()
+                });
+            if !sane {
+                return Err(format!("accepted {}x{} grid, report {:?}", g.width(), g.height(), floor.report));
+            }
+            // what was accepted writes out as a semantic layer that reads back the same
+            match SemanticLayer::parse(&floor.semantic.to_toml(), file) {
+                Ok(again) if again == floor.semantic => Ok(()),
+                other => Err(format!("{:?} reads back as {other:?}", floor.semantic)),
+            }
+        }
+        Err(e) => check_error(&e, file, bytes),
+    }
+}
+
 // ---------------------------------------------------------------------------------
 // Files on disk: `load_map` and `Building::load` read a folder.
 
@@ -366,7 +461,8 @@ fn error_file(e: &MapError) -> &Path {
         | MapError::TooLarge { file, .. }
         | MapError::SizeMismatch { file, .. }
         | MapError::Semantic { file, .. }
-        | MapError::Building { file, .. } => file,
+        | MapError::Building { file, .. }
+        | MapError::Dxf { file, .. } => file,
     }
 }
 
@@ -410,6 +506,11 @@ fn every_seed_is_valid() {
     }
     for (i, s) in manifest_seeds().iter().enumerate() {
         assert_eq!(check_building(s), Ok(()), "manifest seed {i}");
+    }
+    for (i, s) in dxf_seeds().iter().enumerate() {
+        let floor = dxf_import().parse(s, Path::new("seed.dxf")).unwrap_or_else(|e| panic!("DXF seed {i}: {e}"));
+        assert!(floor.report.skipped.is_empty() || i == 0, "DXF seed {i}: {:?}", floor.report.skipped);
+        assert_eq!(check_dxf(s), Ok(()), "DXF seed {i}");
     }
     for (i, s) in manifest_seeds().iter().enumerate() {
         let dir = CaseDir::new();
@@ -458,6 +559,15 @@ proptest! {
     }
 
     #[test]
+    fn mutated_dxf_drawings_import_or_are_refused_with_their_line(
+        seed in any::<Index>(),
+        mutations in prop::collection::vec(mutation_with(&DXF_TOKENS), 1..6),
+    ) {
+        let outcome = check_dxf(&mutated(&DXF_SEEDS, &seed, &mutations));
+        prop_assert!(outcome.is_ok(), "{:?}", outcome);
+    }
+
+    #[test]
     fn mutated_semantic_layers_parse_and_read_back_or_are_refused(
         seed in any::<Index>(),
         mutations in prop::collection::vec(mutation_with(&TOKENS), 1..6),
@@ -497,7 +607,7 @@ proptest! {
 
     #[test]
     fn random_bytes_are_refused_by_every_reader(bytes in prop::collection::vec(any::<u8>(), 0..1024)) {
-        for outcome in [check_yaml(&bytes), check_pgm(&bytes), check_png(&bytes), check_semantic(&bytes)] {
+        for outcome in [check_yaml(&bytes), check_pgm(&bytes), check_png(&bytes), check_semantic(&bytes), check_dxf(&bytes)] {
             prop_assert!(outcome.is_ok(), "{:?}", outcome);
         }
     }
@@ -577,4 +687,46 @@ fn yaml_alias_bombs_and_deep_nesting_are_refused_not_a_stack_overflow() {
     for text in [format!("label = {}", "[".repeat(100_000)), format!("label = {}", "{a=".repeat(100_000))] {
         assert_eq!(check_semantic(text.as_bytes()), Ok(()));
     }
+}
+
+#[test]
+fn dxf_block_bombs_huge_arrays_and_huge_extents_are_refused_before_allocating() {
+    let drawing = |blocks: &str, entities: &str| {
+        format!(
+            "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n6\n0\nENDSEC\n0\nSECTION\n2\nBLOCKS\n{blocks}0\nENDSEC\n\
+             0\nSECTION\n2\nENTITIES\n{entities}0\nENDSEC\n0\nEOF\n"
+        )
+    };
+    // ten levels of blocks, each inserting the one below ten times: 10^10 lines
+    let mut blocks = "0\nBLOCK\n2\nB0\n0\nLINE\n10\n0\n20\n0\n11\n1\n21\n0\n0\nENDBLK\n".to_string();
+    for level in 1..10 {
+        blocks.push_str(&format!("0\nBLOCK\n2\nB{level}\n"));
+        for k in 0..10 {
+            blocks.push_str(&format!("0\nINSERT\n2\nB{}\n10\n{k}\n20\n0\n41\n0.1\n", level - 1));
+        }
+        blocks.push_str("0\nENDBLK\n");
+    }
+    let bomb = drawing(&blocks, "0\nINSERT\n2\nB9\n");
+    // a MINSERT of 32767 x 32767 copies (clamped to 4096 x 4096, still 16 million)
+    let array = drawing(&blocks, "0\nINSERT\n2\nB0\n70\n32767\n71\n32767\n44\n0\n45\n0\n");
+    // a line a million kilometres long, and a circle of 3 km
+    let long = drawing("", "0\nLINE\n10\n0\n20\n0\n11\n1e9\n21\n0\n");
+    let circle = drawing("", "0\nCIRCLE\n10\n0\n20\n0\n40\n1500\n");
+    for (text, why) in [
+        (&bomb, "block instances"),
+        (&array, "block instances"),
+        (&long, "more than the 2000 m"),
+        (&circle, "more than the 2000 m"),
+    ] {
+        let (result, largest, took) = measured(|| dxf_import().parse(text.as_bytes(), Path::new("bomb.dxf")));
+        let e = result.expect_err(why).to_string();
+        assert!(e.contains(why) && e.starts_with("bomb.dxf"), "{why}: {e}");
+        assert!(largest < 1 << 20, "{why}: allocated {largest} bytes at once");
+        assert!(took < Duration::from_secs(1), "{why}: took {took:?}");
+    }
+    // a 2 km square at 5 cm is 1.6 billion cells: refused by count before the grid
+    let square = drawing("", "0\nLWPOLYLINE\n70\n1\n10\n0\n20\n0\n10\n1990\n20\n0\n10\n1990\n20\n1990\n");
+    let (result, largest, _) = measured(|| DxfImport::default().parse(square.as_bytes(), Path::new("big.dxf")));
+    assert!(matches!(result, Err(MapError::TooLarge { .. })), "{result:?}");
+    assert!(largest < 1 << 20, "allocated {largest} bytes at once");
 }
