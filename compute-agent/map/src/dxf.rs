@@ -241,7 +241,8 @@ pub struct DxfReport {
     pub wall_entities: usize,
     /// the straight segments they became
     pub wall_segments: usize,
-    /// entity name -> how many were not read (unknown kinds, paper space, empty texts)
+    /// entity name -> how many were not read (unknown kinds, paper space, empty texts),
+    /// in model space and in the blocks it inserts (each copy again)
     pub skipped: BTreeMap<String, usize>,
     /// what the caller may want to know (units overridden, missing blocks, ...)
     pub warnings: Vec<String>,
@@ -314,7 +315,7 @@ impl DxfImport {
             layers,
             wall_entities: counts.wall_entities,
             wall_segments: counts.segments,
-            skipped: drawing.skipped.clone(),
+            skipped: counts.skipped,
             warnings,
             extent_m: [x0, y0, x1, y1],
         };
@@ -623,6 +624,8 @@ struct Entity {
 struct Block {
     base: [f64; 2],
     entities: Vec<Entity>,
+    /// what of it is not read, counted for each copy inserted
+    skipped: BTreeMap<String, usize>,
 }
 
 #[derive(Debug, Default)]
@@ -637,6 +640,7 @@ struct Drawing {
     layers: Vec<String>,
     /// upper-case layer name -> index
     layer_index: HashMap<String, u32>,
+    /// what is not read in the section or block being read (model space when done)
     skipped: BTreeMap<String, usize>,
 }
 
@@ -746,9 +750,11 @@ impl Drawing {
                     _ => {}
                 }
             }
+            let model_space = std::mem::take(&mut self.skipped);
             let entities = self.read_entities(tags, "ENDBLK", "BLOCK", tag.line)?;
+            let skipped = std::mem::replace(&mut self.skipped, model_space);
             tags.skip_group()?; // ENDBLK's own tags
-            self.blocks.insert(name.to_uppercase(), Block { base, entities });
+            self.blocks.insert(name.to_uppercase(), Block { base, entities, skipped });
         }
     }
 
@@ -887,13 +893,7 @@ impl Drawing {
 
     /// Counts an entity not read, by name (past [`MAX_SKIPPED_KINDS`] names as `...`).
     fn skip(&mut self, kind: &str) {
-        let name: String = kind.chars().take(40).collect();
-        let name = if self.skipped.len() < MAX_SKIPPED_KINDS || self.skipped.contains_key(&name) {
-            name
-        } else {
-            "...".to_string()
-        };
-        *self.skipped.entry(name).or_default() += 1;
+        count_skipped(&mut self.skipped, kind, 1);
     }
 
     /// A POLYLINE's VERTEX entities up to its SEQEND. Meshes (flags 16, 64) are not
@@ -941,6 +941,13 @@ impl Drawing {
         self.layer_index.insert(key, i);
         i
     }
+}
+
+/// Adds `n` entities named `kind` not read (past [`MAX_SKIPPED_KINDS`] names as `...`).
+fn count_skipped(skipped: &mut BTreeMap<String, usize>, kind: &str, n: usize) {
+    let name: String = kind.chars().take(40).collect();
+    let name = if skipped.len() < MAX_SKIPPED_KINDS || skipped.contains_key(&name) { name } else { "...".into() };
+    *skipped.entry(name).or_default() += n;
 }
 
 /// A section's next tag; the end of the file inside it is an error.
@@ -1169,6 +1176,8 @@ struct Counts {
     instances: usize,
     /// by layer index: an entity read was on it
     layers_seen: Vec<bool>,
+    /// entities not read, model space and each block copy
+    skipped: BTreeMap<String, usize>,
 }
 
 impl Counts {
@@ -1247,6 +1256,7 @@ impl<'d> Walk<'d> {
     ) -> Result<(), MapError> {
         let root = Affine::scale(self.units.metres());
         counts.layers_seen = vec![false; self.drawing.layers.len()];
+        counts.skipped = self.drawing.skipped.clone();
         let mut state = WalkState { counts, warnings, visit };
         self.entities(&self.drawing.entities, &root, None, 0, &mut state)
     }
@@ -1366,6 +1376,9 @@ impl<'d> Walk<'d> {
                 };
                 let to_map = xf.after(&rotate.after(&local));
                 self.entities(&b.entities, &to_map, Some(layer), depth + 1, state)?;
+                for (kind, n) in &b.skipped {
+                    count_skipped(&mut state.counts.skipped, kind, *n);
+                }
             }
         }
         Ok(())
@@ -1846,6 +1859,18 @@ mod tests {
         let near = |a: f64, b: f64| (a - b).abs() < 0.0125;
         assert!(near(x0, -3.5) && near(y0, -0.5) && x1 == 2.0 && y1 == 2.0, "{:?}", f.report.extent_m);
         assert_eq!(f.report.skipped, BTreeMap::from([("(paper space)".into(), 1), ("HATCH".into(), 1)]));
+    }
+
+    #[test]
+    fn what_is_not_read_is_counted_where_it_is_drawn() {
+        // a block with a hatch, inserted twice; a dimension's block, never inserted
+        let blocks = "0\nBLOCK\n2\nHATCHED\n0\nHATCH\n8\n0\n0\nLINE\n11\n1\n0\nENDBLK\n\
+                      0\nBLOCK\n2\n*D1\n0\nSOLID\n0\nPOINT\n0\nENDBLK\n";
+        let inserts = "0\nINSERT\n2\nHATCHED\n10\n1\n20\n1\n0\nINSERT\n2\nhatched\n10\n2\n20\n2\n\
+                       0\nDIMENSION\n2\n*D1\n";
+        let f = import(&drawing(Some(6), blocks, &[room(4.0, 3.0, 1.0).as_str(), inserts].concat())).unwrap();
+        assert_eq!(f.report.skipped, BTreeMap::from([("DIMENSION".into(), 1), ("HATCH".into(), 2)]));
+        assert_eq!(f.report.wall_entities, 6);
     }
 
     #[test]
