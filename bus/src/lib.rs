@@ -7,6 +7,7 @@
 pub mod clock;
 pub mod health;
 pub mod logging;
+pub mod query;
 pub mod session;
 pub mod shutdown;
 pub mod stream;
@@ -16,4 +17,5 @@ pub use health::{Health, HealthTask, StreamCounter};
 pub use schemas::guard::{self, Freshness, InputError};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;
+pub use query::{Query, Queryable};
 pub use stream::{Lane, Publisher, Received, Subscriber};
