@@ -571,6 +571,13 @@ impl ParticleFilter {
         Ok(())
     }
 
+    /// The next [`ParticleFilter::correct`] updates whatever the motion since the last:
+    /// the sensor itself turned enough to see something new (a swept cane while the
+    /// user stands).
+    pub fn force_update(&mut self) {
+        self.force_update = true;
+    }
+
     /// Whether enough motion has accumulated for a correction.
     pub fn update_due(&self) -> bool {
         self.force_update
