@@ -148,7 +148,7 @@ impl Navigator {
                         }
                     } else {
                         let text = format!(
-                            "Going to {name}. I do not know where you are yet: walk on slowly, and I will tell you when I do."
+                            "Going to {name}. Finding your position first: I will tell you when I have it."
                         );
                         out.speech.push(self.say(text, "destination/waiting"));
                     }

@@ -48,8 +48,10 @@ pub struct GuidanceProfile {
     /// `min_spacing_ms` of walking before "now" is skipped, "now" alone is said
     /// (default 1.0: our choice, a cautious pace with a cane)
     pub walking_speed_mps: f64,
-    /// "you have arrived" within this distance of the goal, metres (default 1.0:
-    /// issue 31's target for a guided walk)
+    /// "you have arrived" within this distance of the goal, metres (default 0.5: a
+    /// guided walk must end within 1 m of the place, issue 31; said at 1 m, the
+    /// simulated user, stopping as told, stood 0.85-0.97 m from it over six seeds,
+    /// a localization error away from missing)
     pub arrival_radius_m: f64,
     /// off the route when farther than this from the route's segment, metres
     /// (default 1.5: our choice, wider than a corridor's half-width plus drift)
@@ -89,7 +91,7 @@ impl Default for GuidanceProfile {
             announce_turn_m: 6.0,
             turn_now_m: 1.5,
             walking_speed_mps: 1.0,
-            arrival_radius_m: 1.0,
+            arrival_radius_m: 0.5,
             off_route_m: 1.5,
             on_route_m: 1.0,
             rejoin_radius_m: 4.0,

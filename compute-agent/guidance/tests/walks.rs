@@ -196,9 +196,10 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
     let expect_ms = |d: f64| ((first_leg - d) / STEP_M).ceil() as u64 * TICK_MS;
     assert!(said[1].t_ms.abs_diff(expect_ms(6.0)) <= TICK_MS, "{} vs {}", said[1].t_ms, expect_ms(6.0));
     assert!(said[2].t_ms.abs_diff(expect_ms(1.5)) <= TICK_MS, "{} vs {}", said[2].t_ms, expect_ms(1.5));
-    // arrival at the first pose within the 1 m radius, and nothing after it
+    // arrival at the first pose within the arrival radius, and nothing after it
+    let r = GuidanceProfile::default().arrival_radius_m;
     let d_goal = dist(said[3].at, goal);
-    assert!(d_goal <= 1.0 && d_goal > 1.0 - STEP_M - 1e-9, "{d_goal}");
+    assert!(d_goal <= r && d_goal > r - STEP_M - 1e-9, "{d_goal}");
     assert!(guide.arrived());
     assert_eq!(said[3].instruction.kind, InstructionKind::Arrived);
     match said[1].instruction.kind {
@@ -254,7 +255,9 @@ fn spacing_drops_an_announcement_that_now_would_crowd_and_arrival_is_exempt() {
     // start 7 m before the corner, end 2.4 m after it
     let mut p = planner();
     let route = p.plan([12.5, 11.5], [19.5, 8.5]).unwrap();
-    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), GuidanceProfile::default());
+    // arrival said 1 m out, so it falls due within the spacing after "now"
+    let profile = GuidanceProfile { arrival_radius_m: 1.0, ..GuidanceProfile::default() };
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", layer(), profile);
     let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
     // the announcement fell due at 6 m (t = 0.x s), had to wait for the spacing until 3 s
     // (4 m before the corner), and then "now" would have followed within the spacing
