@@ -4,7 +4,7 @@
 //! that, it carries the sweep.
 
 use super::pose::CameraPose;
-use super::walker::ScriptedWalker;
+use super::walker::Trajectory;
 
 /// How the device is worn and how the torso sways.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +42,7 @@ impl Default for BodyMount {
 impl BodyMount {
     /// The device's pose at `t_s` (in the same optical-style frame as a camera's: x
     /// right, y down, z out of the screen's back).
-    pub fn pose_at(&self, walker: &ScriptedWalker, t_s: f64) -> CameraPose {
+    pub fn pose_at(&self, walker: &(impl Trajectory + ?Sized), t_s: f64) -> CameraPose {
         let user = walker.pose_at(t_s);
         let scale = (walker.speed_at(t_s) / self.sway_speed_m_s).clamp(0.0, 1.0);
         let sway = self.sway_deg * scale * (std::f64::consts::TAU * self.sway_hz * t_s).sin();
@@ -59,6 +59,7 @@ mod tests {
     use crate::sim::imu::{ImuModel, ImuNoise};
     use crate::sim::random::SimRng;
     use crate::sim::scene::{AtEnd, WalkerSpec};
+    use crate::sim::walker::ScriptedWalker;
     use crate::sim::world::UserPose;
 
     /// Mean rate about gravity over `n` samples from `t0_s`, rad/s positive left.

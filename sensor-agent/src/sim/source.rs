@@ -8,12 +8,13 @@ use schemas::{GroundTruth, ImuSample, MountGuess};
 use super::body::BodyMount;
 use super::camera::CameraProfile;
 use super::cane::CaneMount;
+use super::guided::{DirectionsHandle, GuidedWalker};
 use super::imu::{ImuModel, ImuNoise};
 use super::odometry::{OdometryModel, OdometryNoise};
 use super::random::SimRng;
 use super::render::{Renderer, DEPTH_UNITS_PER_M};
 use super::scene::{SceneError, WalkerSpec};
-use super::walker::ScriptedWalker;
+use super::walker::{ScriptedWalker, Trajectory};
 use super::world::{UserPose, World};
 use crate::source::{FrameSource, SourceError, SourceFrame};
 
@@ -30,6 +31,8 @@ pub struct SimConfig {
     pub mount: CaneMount,
     /// Scripted walk; `None` uses the world's own, or stands at the start without one.
     pub walker: Option<WalkerSpec>,
+    /// Walk by the device's guidance instead of a script ([`GuidedWalker`]).
+    pub guided_by: Option<Guidance>,
     /// IMU sample rate, Hz.
     pub imu_rate_hz: f64,
     /// IMU errors.
@@ -55,6 +58,7 @@ impl Default for SimConfig {
             seed: 1,
             mount: CaneMount::default(),
             walker: None,
+            guided_by: None,
             imu_rate_hz: 200.0,
             imu_noise: ImuNoise::default(),
             body_imu_rate_hz: 100.0,
@@ -64,6 +68,43 @@ impl Default for SimConfig {
         }
     }
 }
+
+/// The directions a guided walker follows (two configs are equal when they share them).
+#[derive(Debug, Clone)]
+pub struct Guidance(pub DirectionsHandle);
+
+impl PartialEq for Guidance {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+/// Who walks: a script, or a user following guidance.
+#[derive(Debug)]
+enum Walker {
+    Scripted(ScriptedWalker),
+    Guided(GuidedWalker),
+}
+
+impl Trajectory for Walker {
+    fn pose_at(&self, t_s: f64) -> UserPose {
+        match self {
+            Walker::Scripted(w) => w.pose_at(t_s),
+            Walker::Guided(w) => Trajectory::pose_at(w, t_s),
+        }
+    }
+
+    fn speed_at(&self, t_s: f64) -> f64 {
+        match self {
+            Walker::Scripted(w) => w.speed_at(t_s),
+            Walker::Guided(w) => Trajectory::speed_at(w, t_s),
+        }
+    }
+}
+
+/// How far ahead of a frame a guided walker is walked, seconds: the IMUs' differences
+/// look a little past the frame.
+const GUIDED_LEAD_S: f64 = 0.01;
 
 /// The IMU worn on the body.
 #[derive(Debug)]
@@ -87,7 +128,7 @@ struct LastFrame {
 pub struct SimSource {
     world: World,
     renderer: Renderer,
-    walker: ScriptedWalker,
+    walker: Walker,
     mount: CaneMount,
     depth_rng: SimRng,
     gravity_rng: SimRng,
@@ -106,9 +147,10 @@ impl SimSource {
     /// Loads the world and sets up the run.
     pub fn new(config: SimConfig) -> Result<Self, SceneError> {
         let world = World::load(&config.world)?;
-        let walker = match config.walker.as_ref().or(world.walker()) {
-            Some(spec) => ScriptedWalker::new(world.start(), spec),
-            None => ScriptedWalker::standing(world.start()),
+        let walker = match (&config.guided_by, config.walker.as_ref().or(world.walker())) {
+            (Some(g), _) => Walker::Guided(GuidedWalker::new(world.start(), g.0.clone(), world.elevators().to_vec())),
+            (None, Some(spec)) => Walker::Scripted(ScriptedWalker::new(world.start(), spec)),
+            (None, None) => Walker::Scripted(ScriptedWalker::standing(world.start())),
         };
         let mut rng = SimRng::seed_from(config.seed);
         Ok(SimSource {
@@ -159,7 +201,7 @@ impl SimSource {
 }
 
 /// The camera at `t_s`: the walker's pose, the cane's sweep and the walking bob.
-fn camera_pose_at(walker: &ScriptedWalker, mount: &CaneMount, t_s: f64) -> super::pose::CameraPose {
+fn camera_pose_at(walker: &impl Trajectory, mount: &CaneMount, t_s: f64) -> super::pose::CameraPose {
     let user = walker.pose_at(t_s);
     mount.camera_pose_bobbing(&user, mount.sweep_rad(t_s), mount.bob_at(t_s, walker.speed_at(t_s)))
 }
@@ -174,6 +216,9 @@ impl FrameSource for SimSource {
         // Simulated time never runs backwards, whatever the caller's clock does.
         let stamp_ns = self.last.map_or(now_ns, |l| now_ns.max(l.stamp_ns));
         let t_s = stamp_ns.saturating_sub(start_ns) as f64 * 1e-9;
+        if let Walker::Guided(w) = &mut self.walker {
+            w.advance_to(t_s + GUIDED_LEAD_S);
+        }
 
         let user = self.walker.pose_at(t_s);
         let sweep = self.mount.sweep_rad(t_s);

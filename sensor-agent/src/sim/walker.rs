@@ -46,6 +46,25 @@ enum Leg {
 /// Time step of the finite difference that gives the walker's speed, seconds.
 const SPEED_STEP_S: f64 = 0.01;
 
+/// A walk as the simulator reads it: the user's pose and walking speed at a time,
+/// seconds from the run's first frame.
+pub trait Trajectory {
+    /// The user's pose at `t_s`.
+    fn pose_at(&self, t_s: f64) -> UserPose;
+    /// Walking speed at `t_s`, m/s.
+    fn speed_at(&self, t_s: f64) -> f64;
+}
+
+impl Trajectory for ScriptedWalker {
+    fn pose_at(&self, t_s: f64) -> UserPose {
+        ScriptedWalker::pose_at(self, t_s)
+    }
+
+    fn speed_at(&self, t_s: f64) -> f64 {
+        ScriptedWalker::speed_at(self, t_s)
+    }
+}
+
 /// A walker following a fixed script; its pose is a pure function of time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScriptedWalker {
