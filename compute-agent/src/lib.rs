@@ -3,4 +3,5 @@
 //! odometry and the body's IMU off the bus, runs them through
 //! [`perception::ComputeStep`] and publishes what it gives.
 
+pub mod nav;
 pub mod run;

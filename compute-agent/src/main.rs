@@ -8,7 +8,8 @@ use perception::PerceptionConfig;
 use schemas::CostFunction;
 
 /// Find obstacles in the cane camera's depth frames and publish scan, hazard and
-/// haptic intents (Taylor 2017 pipeline, with memory, drop-offs, time to collision).
+/// haptic intents (Taylor 2017 pipeline, with memory, drop-offs, time to collision);
+/// with a floor map, also localize the user on it, plan routes and guide by speech.
 #[derive(Debug, Parser)]
 #[command(version, about, long_about = None)]
 struct Cli {
@@ -40,6 +41,41 @@ struct Cli {
     #[arg(long, value_name = "MS", default_value_t = compute_agent::run::DEFAULT_MAX_INPUT_AGE.as_millis() as u64,
           value_parser = clap::value_parser!(u64).range(1..=10_000))]
     max_input_age_ms: u64,
+    /// Floor map to localize on and plan routes with: a building manifest
+    /// (`building.toml`, as `wearnav map` writes it) or its directory. With it the agent
+    /// publishes `localization/pose` and `route/state`, answers `query/destinations` and
+    /// `query/route?to=LABEL`, and guides on `cmd/destination`, `where-am-i`, `repeat`,
+    /// `cancel` and `floor`. Without it: obstacle perception only.
+    #[arg(long, value_name = "PATH")]
+    map: Option<PathBuf>,
+    /// Where the user stands at the start: `X,Y,HEADING_DEG[,FLOOR]` in the map's frame
+    /// (heading counter-clockwise from +x). Without it the filter searches every floor,
+    /// and guidance waits until it knows the position.
+    #[arg(long, value_name = "X,Y,DEG[,FLOOR]", value_parser = parse_start, requires = "map")]
+    start: Option<(i32, localization::Pose2)>,
+    /// Seed of the localization filter's random draws.
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "map")]
+    localization_seed: u64,
+}
+
+/// `X,Y,HEADING_DEG[,FLOOR]`.
+fn parse_start(s: &str) -> Result<(i32, localization::Pose2), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if !(3..=4).contains(&parts.len()) {
+        return Err(format!("{s:?}: give X,Y,HEADING_DEG or X,Y,HEADING_DEG,FLOOR"));
+    }
+    let num = |i: usize, what: &str| {
+        parts[i]
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("{s:?}: {what} {:?} is not a number", parts[i]))
+    };
+    let floor = match parts.get(3) {
+        Some(f) => f.parse::<i32>().map_err(|_| format!("{s:?}: floor {f:?} is not a whole number"))?,
+        None => 0,
+    };
+    Ok((floor, localization::Pose2::new(num(0, "x")?, num(1, "y")?, num(2, "heading")?.to_radians())))
 }
 
 fn parse_cost(s: &str) -> Result<CostFunction, String> {
@@ -65,6 +101,12 @@ async fn main() -> anyhow::Result<()> {
     }
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
     config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
+    if let Some(map) = cli.map {
+        let mut nav = compute_agent::nav::NavConfig::new(compute_agent::nav::MapSource::File(map));
+        nav.start = cli.start;
+        nav.seed = cli.localization_seed;
+        config.nav = Some(nav);
+    }
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     compute_agent::run::run(config, shutdown).await

@@ -13,6 +13,8 @@ use perception::body_rate::{BodyRate, MAX_AGE_NS};
 use perception::rejections::REJECTIONS_BEFORE_BLIND;
 use perception::{Blind, ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, PerceptionConfig, StepOutput};
 
+use crate::nav::{Nav, NavConfig, STATE_PERIOD};
+
 /// Agent name: liveliness token `health/compute-agent` and sender of its messages.
 pub const AGENT: &str = "compute-agent";
 
@@ -36,6 +38,9 @@ pub struct ComputeConfig {
     /// `stale`, so a rumble never reports a world that was, and it counts as no input
     /// (the feedback agent's watchdog then warns that detection is offline).
     pub max_input_age: Duration,
+    /// Localization, route planning and guidance on a floor map; `None`: obstacle
+    /// perception only.
+    pub nav: Option<NavConfig>,
 }
 
 /// Default [`ComputeConfig::max_input_age`]: a frame is 33 ms at 30 Hz and capture ->
@@ -56,6 +61,7 @@ impl ComputeConfig {
             health_period: Duration::from_secs(1),
             body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
             max_input_age: DEFAULT_MAX_INPUT_AGE,
+            nav: None,
         }
     }
 }
@@ -149,6 +155,12 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         hazard: Publisher::declare(&session, keys.hazard(), AGENT, Lane::Perception, Some(&health)).await?,
         haptic: Publisher::declare(&session, keys.haptic(), AGENT, Lane::RealTime, Some(&health)).await?,
     };
+    let mut nav = match &config.nav {
+        Some(c) => Some(Nav::declare(c, &session, &keys, config.body_imu_device.clone(), &health).await?),
+        None => None,
+    };
+    let mut state_tick = tokio::time::interval(STATE_PERIOD);
+    state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut step = ComputeStep::new(config.perception.clone(), config.cue.clone());
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
@@ -159,21 +171,55 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             biased;
             _ = shutdown.triggered() => break,
             e = health_task.failed() => return Err(e),
-            Some(inc) = odom.recv() => add_step(&mut step, &inc, &health),
+            Some(inc) = odom.recv() => add_step(&mut step, nav.as_mut(), &mut body, &inc, &health),
             Some(batch) = body.recv() => body.add(&batch, &health),
+            Some(batch) = maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.imu(&batch, &health);
+                }
+            }
+            Some(cmd) = maybe(nav.as_ref().map(|n| n.commands.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.command(&cmd).await;
+                }
+            }
+            Some(query) = maybe(nav.as_ref().map(|n| n.destinations.recv())) => {
+                if let Some(n) = nav.as_ref() {
+                    n.answer_destinations(query).await;
+                }
+            }
+            Some(query) = maybe(nav.as_ref().map(|n| n.routes.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.answer_route(query).await;
+                }
+            }
+            _ = state_tick.tick(), if nav.is_some() => {
+                if let Some(n) = nav.as_mut() {
+                    n.publish_state().await;
+                }
+            }
             Some(frame) = frames.recv() => {
                 while let Some(inc) = odom.try_recv() {
-                    add_step(&mut step, &inc, &health);
+                    add_step(&mut step, nav.as_mut(), &mut body, &inc, &health);
                 }
                 while let Some(batch) = body.imu.as_ref().and_then(|s| s.try_recv()) {
                     body.add(&batch, &health);
+                }
+                if let Some(n) = nav.as_mut() {
+                    while let Some(batch) = n.cane_imu.try_recv() {
+                        n.imu(&batch, &health);
+                    }
                 }
                 if let Err(e) = still_fresh(&frame, max_age, &health) {
                     health.reject(&frame.key, e.kind(), &e);
                     continue;
                 }
                 let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
-                process(&frame, body_yaw_rate_rad_s, &mut step, &health, &mut out).await;
+                let nav_status = nav.as_ref().map(|n| n.status());
+                let scan = process(&frame, body_yaw_rate_rad_s, &mut step, &health, &mut out, nav_status).await;
+                if let (Some(n), Some(scan)) = (nav.as_mut(), scan) {
+                    n.frame(&scan, frame.header.capture_ns, body_yaw_rate_rad_s).await;
+                }
             }
         }
     }
@@ -196,22 +242,44 @@ fn still_fresh(frame: &Received<DepthFrame>, max_age: Duration, health: &Health)
     Ok(())
 }
 
-fn add_step(step: &mut ComputeStep, inc: &Received<OdomIncrement>, health: &Health) {
+/// `future` when there is one, else never: a branch of the loop that only exists
+/// with navigation on.
+async fn maybe<T>(future: Option<impl std::future::Future<Output = Option<T>>>) -> Option<T> {
+    match future {
+        Some(f) => f.await,
+        None => std::future::pending().await,
+    }
+}
+
+fn add_step(
+    step: &mut ComputeStep,
+    nav: Option<&mut Nav>,
+    body: &mut Body,
+    inc: &Received<OdomIncrement>,
+    health: &Health,
+) {
     if let Err(e) = step.add_odometry(&inc.body) {
         health.reject(&inc.key, e.kind(), &e);
+        return;
+    }
+    if let Some(nav) = nav {
+        let rate = body.imu.is_some().then(|| body.rate.rate_at(inc.body.to_ns, bus::now_ns())).flatten();
+        nav.odometry(inc, rate, health);
     }
 }
 
 /// Runs one frame through the step and publishes what it gave: intent, hazard (with
 /// the latencies from capture) and scan; a refused frame is counted, and when the
 /// refusals in a row mean the system is blind, that is published instead of silence.
+/// Returns the scan of a perceived frame.
 async fn process(
     frame: &Received<DepthFrame>,
     body_yaw_rate_rad_s: Option<f32>,
     step: &mut ComputeStep,
     health: &Arc<Health>,
     out: &mut Outputs,
-) {
+    nav_status: Option<String>,
+) -> Option<Scan> {
     let capture_ns = frame.header.capture_ns;
     let mut clock = InstantTimer::default();
     // The hops before this agent, so a monitor can attribute capture -> intent:
@@ -228,7 +296,7 @@ async fn process(
             if let Some(blind) = blind {
                 publish_blind(capture_ns, blind, health, out).await;
             }
-            return;
+            return None;
         }
     };
     hazard.latency = clock
@@ -241,7 +309,8 @@ async fn process(
         Some(r) => format!("body turning {:+.0} deg/s", r.to_degrees()),
         None => "no body turn rate".to_string(),
     };
-    health.set_status(seeing, format!("{:?} ground, rumble {:?}, {body}", hazard.ground, hazard.rumble));
+    let nav = nav_status.map(|s| format!("; {s}")).unwrap_or_default();
+    health.set_status(seeing, format!("{:?} ground, rumble {:?}, {body}{nav}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.
     for result in [
         out.haptic.put(capture_ns, &intent).await,
@@ -252,6 +321,7 @@ async fn process(
             tracing::warn!("{e:#}");
         }
     }
+    Some(perception.scan)
 }
 
 /// Frames keep coming but none can be used: say so with a degraded hazard (rumble

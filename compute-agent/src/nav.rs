@@ -1,0 +1,309 @@
+//! Localization, route planning and guidance in the compute agent: the bus side of
+//! [`localization::Tracker`] and [`guidance::Navigator`].
+//!
+//! In: the body's odometry and gyro (from the loop), each frame's scan with the cane's
+//! and the body's turn rates, `cmd/*` commands, `query/destinations` and `query/route`.
+//! Out: `localization/pose`, `route/state` (5 Hz, and at once when a command changes
+//! it), and speech intents at `Message` priority on `feedback/speech`: the position
+//! found or lost, and the guide's instructions (never before localization tracks).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use bus::{Health, Lane, Publisher, Query, Queryable, Received, Subscriber};
+use guidance::{GuidanceProfile, Navigator, UserPose};
+use localization::{Pose2, Tracker, TrackerConfig};
+use map::Building;
+use perception::body_rate::BodyRate;
+use planning::UserProfile;
+use schemas::{Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, Scan, SpeechIntent};
+
+use crate::run::AGENT;
+
+/// Period of `localization/pose` and `route/state`.
+pub const STATE_PERIOD: Duration = Duration::from_millis(200);
+
+/// Oldest command acted on, from its capture: a command replayed or stuck in a queue
+/// for longer is refused as stale (as the feedback agent's speech bound).
+pub const MAX_COMMAND_AGE: Duration = Duration::from_secs(5);
+
+/// The floor map.
+#[derive(Debug, Clone)]
+pub enum MapSource {
+    /// A building manifest (`building.toml`, as `wearnav map` writes it), or the
+    /// directory holding one.
+    File(PathBuf),
+    /// A building already in memory (the demo's: the simulated world's floor plan),
+    /// with a name for the logs.
+    Loaded(String, Box<Building>),
+}
+
+impl MapSource {
+    fn name(&self) -> String {
+        match self {
+            MapSource::File(p) => p.display().to_string(),
+            MapSource::Loaded(name, _) => name.clone(),
+        }
+    }
+
+    fn building(&self) -> anyhow::Result<Building> {
+        match self {
+            MapSource::File(p) => load_building(p),
+            MapSource::Loaded(_, b) => Ok((**b).clone()),
+        }
+    }
+}
+
+/// What the agent navigates with.
+#[derive(Debug, Clone)]
+pub struct NavConfig {
+    /// The floor map.
+    pub map: MapSource,
+    /// Where the user stands at the start (floor, pose), when known; otherwise the
+    /// filter starts over every floor and guidance waits until it tracks.
+    pub start: Option<(i32, Pose2)>,
+    /// The particle filter as the agent runs it.
+    pub tracker: TrackerConfig,
+    /// Route preferences (stairs, elevator, distance to walls).
+    pub route: UserProfile,
+    /// Guidance wording and spacing.
+    pub guidance: GuidanceProfile,
+    /// Seed of the filter's random draws.
+    pub seed: u64,
+}
+
+impl NavConfig {
+    /// Defaults for the building `map`.
+    pub fn new(map: MapSource) -> Self {
+        Self {
+            map,
+            start: None,
+            tracker: TrackerConfig::default(),
+            route: UserProfile::default(),
+            guidance: GuidanceProfile::default(),
+            seed: 1,
+        }
+    }
+}
+
+/// Loads the building manifest at `path` (or `path/building.toml`).
+pub fn load_building(path: &Path) -> anyhow::Result<Building> {
+    let manifest = if path.is_dir() { path.join("building.toml") } else { path.to_path_buf() };
+    Building::load(&manifest).with_context(|| format!("cannot load the floor map {}", manifest.display()))
+}
+
+/// The navigation half of the agent.
+pub struct Nav {
+    tracker: Tracker,
+    navigator: Navigator,
+    cane_rate: BodyRate,
+    /// device whose IMU is worn on the body (its samples are not the cane's)
+    body_device: Option<String>,
+    keys: Keys,
+    pose_out: Publisher<Pose>,
+    route_out: Publisher<RouteState>,
+    speech_out: Publisher<SpeechIntent>,
+    pub(crate) commands: Subscriber<Command>,
+    pub(crate) cane_imu: Subscriber<ImuBatch>,
+    pub(crate) destinations: Queryable,
+    pub(crate) routes: Queryable,
+    serial: u64,
+    started_ns: u64,
+}
+
+impl Nav {
+    /// Loads the map, starts the filter and declares the streams.
+    pub async fn declare(
+        config: &NavConfig,
+        session: &zenoh::Session,
+        keys: &Keys,
+        body_device: Option<String>,
+        health: &Arc<Health>,
+    ) -> anyhow::Result<Self> {
+        let building = config.map.building()?;
+        let mut tracker = Tracker::new(&building, config.tracker.clone(), config.seed)
+            .with_context(|| format!("cannot localize on {}", config.map.name()))?;
+        match config.start {
+            Some((level, pose)) => tracker.start_at(level, pose).context("bad start pose")?,
+            None => tracker.start_global(),
+        }
+        let navigator = Navigator::new(&building, config.route.clone(), config.guidance);
+        let floors: Vec<String> = building.floors().iter().map(|f| f.level.to_string()).collect();
+        tracing::info!(
+            "floor map {}: floors {}, {} destinations; {}",
+            config.map.name(),
+            floors.join(", "),
+            navigator.destinations().destinations.len(),
+            match config.start {
+                Some((level, p)) => format!("starting at ({:.2}, {:.2}) on floor {level}", p.x_m, p.y_m),
+                None => "start unknown: localizing over every floor".to_string(),
+            }
+        );
+        Ok(Self {
+            tracker,
+            navigator,
+            cane_rate: BodyRate::default(),
+            body_device,
+            keys: keys.clone(),
+            pose_out: Publisher::declare(session, keys.pose(), AGENT, Lane::Telemetry, Some(health)).await?,
+            route_out: Publisher::declare(session, keys.route_state(), AGENT, Lane::Events, Some(health)).await?,
+            speech_out: Publisher::declare(session, keys.speech(), AGENT, Lane::RealTime, Some(health)).await?,
+            commands: Subscriber::declare_fresh(session, keys.cmd_any(), false, MAX_COMMAND_AGE, health).await?,
+            cane_imu: Subscriber::declare(session, keys.imu_any(), false, health).await?,
+            destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
+            routes: Queryable::declare(session, keys.query("route"), health).await?,
+            serial: 0,
+            started_ns: bus::now_ns(),
+        })
+    }
+
+    /// The pose as guidance reads it: confident only while the filter tracks.
+    fn user_pose(&self) -> UserPose {
+        let e = self.tracker.estimate();
+        UserPose {
+            x_m: e.pose.x_m,
+            y_m: e.pose.y_m,
+            heading_rad: e.pose.heading_rad,
+            floor: e.level,
+            confident: e.status == localization::Status::Tracking,
+        }
+    }
+
+    fn now_ms(&self) -> u64 {
+        bus::now_ns().saturating_sub(self.started_ns) / 1_000_000
+    }
+
+    /// One odometry increment of the body, with the body's gyro rate over it.
+    pub fn odometry(&mut self, inc: &Received<OdomIncrement>, body_yaw_rate: Option<f32>, health: &Health) {
+        if let Err(e) = self.tracker.odometry(&inc.body, body_yaw_rate.map(f64::from)) {
+            health.reject(&inc.key, "implausible", &e);
+        }
+    }
+
+    /// IMU samples of a device other than the body's: the cane's (its turn rate carries
+    /// the sweep).
+    pub fn imu(&mut self, batch: &Received<ImuBatch>, health: &Health) {
+        let device = self.keys.device_of(&batch.key);
+        if device.is_none() || device == self.body_device.as_deref() {
+            return;
+        }
+        for s in &batch.body.samples {
+            if let Err(e) = self.cane_rate.add(s, batch.received_ns) {
+                health.reject(&batch.key, e.kind(), &e);
+            }
+        }
+    }
+
+    /// One frame's scan: the filter corrects, the guide speaks if it has something to say.
+    pub async fn frame(&mut self, scan: &Scan, capture_ns: u64, body_yaw_rate: Option<f32>) {
+        let cane = self.cane_rate.rate_at(capture_ns, bus::now_ns()).map(f64::from);
+        self.tracker.frame(scan, capture_ns, cane, body_yaw_rate.map(f64::from));
+        if let Some(news) = self.tracker.news() {
+            tracing::info!("localization: {news}");
+            let speech = self.speech(news, "localization");
+            self.say(capture_ns, speech).await;
+        }
+        let pose = self.user_pose();
+        let now_ms = self.now_ms();
+        if let Some(speech) = self.navigator.step(&pose, now_ms) {
+            tracing::info!("guidance: {}", speech.text);
+            self.say(capture_ns, speech).await;
+        }
+        if let Some(problem) = self.navigator.take_problem() {
+            tracing::warn!("{problem}");
+        }
+    }
+
+    /// A user command.
+    pub async fn command(&mut self, cmd: &Received<Command>) {
+        tracing::info!("command {:?} from {}", cmd.body, cmd.header.sender);
+        let pose = self.user_pose();
+        let now_ms = self.now_ms();
+        let response = self.navigator.command(&cmd.body, &pose, now_ms);
+        let stamp = bus::now_ns();
+        if let Some(level) = response.floor_confirmed {
+            if let Err(e) = self.tracker.floor_confirmed(level) {
+                tracing::warn!("floor {level} confirmed, but {e}");
+                let speech = self.speech(&format!("I cannot move you to floor {level}: {e}."), "floor");
+                self.say(stamp, speech).await;
+            }
+        }
+        for speech in response.speech {
+            tracing::info!("answer: {}", speech.text);
+            self.say(stamp, speech).await;
+        }
+        if let Some(problem) = self.navigator.take_problem() {
+            tracing::warn!("{problem}");
+        }
+        self.publish_state().await;
+    }
+
+    /// Answers `query/destinations`.
+    pub async fn answer_destinations(&self, query: Query) {
+        if let Err(e) = query.reply(AGENT, &self.navigator.destinations()).await {
+            tracing::warn!("{e:#}");
+        }
+    }
+
+    /// Answers `query/route?to=LABEL`: the route from the user's place, not followed.
+    pub async fn answer_route(&mut self, query: Query) {
+        let pose = self.user_pose();
+        let result = match query.parameter("to") {
+            None => Err("say where to: query/route?to=<destination>".to_string()),
+            Some(to) => self.navigator.preview(&pose, &to),
+        };
+        let sent = match result {
+            Ok(state) => query.reply(AGENT, &state).await,
+            Err(text) => query.reply_err(&text).await,
+        };
+        if let Err(e) = sent {
+            tracing::warn!("{e:#}");
+        }
+    }
+
+    /// Publishes pose and route state.
+    pub async fn publish_state(&mut self) {
+        let stamp = bus::now_ns();
+        let pose = self.tracker.pose();
+        let route = self.navigator.state(&self.user_pose());
+        for result in [self.pose_out.put(stamp, &pose).await, self.route_out.put(stamp, &route).await] {
+            if let Err(e) = result {
+                tracing::warn!("{e:#}");
+            }
+        }
+    }
+
+    /// A one-line summary for the health status.
+    pub fn status(&self) -> String {
+        let e = self.tracker.estimate();
+        let route = self.navigator.state(&self.user_pose());
+        format!(
+            "localization {:?} ({:.1}, {:.1}) floor {}, route {:?}{}",
+            localization::tracker::wire_status(e.status),
+            e.pose.x_m,
+            e.pose.y_m,
+            e.level,
+            route.status,
+            if route.destination.is_empty() { String::new() } else { format!(" to {}", route.destination) }
+        )
+    }
+
+    fn speech(&mut self, text: &str, key: &str) -> SpeechIntent {
+        self.serial += 1;
+        SpeechIntent {
+            text: text.to_string(),
+            priority: Priority::Message,
+            interrupt: false,
+            ttl_ms: 5000,
+            dedup_key: format!("{key}/{}", self.serial),
+        }
+    }
+
+    async fn say(&mut self, capture_ns: u64, speech: SpeechIntent) {
+        if let Err(e) = self.speech_out.put(capture_ns, &speech).await {
+            tracing::warn!("{e:#}");
+        }
+    }
+}
