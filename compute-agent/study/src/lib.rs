@@ -16,6 +16,7 @@
 pub mod compare;
 pub mod contacts;
 pub mod floor_plan;
+pub mod guided_walk;
 pub mod hands;
 pub mod localize_walk;
 pub mod oracle;

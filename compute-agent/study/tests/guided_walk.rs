@@ -1,0 +1,46 @@
+//! The whole navigation loop without the bus, on the simulated `building`: the user
+//! asks for room 204 (floor 1) at the entrance (floor 0); the compute agent's tracker
+//! localizes on the exported floor plan from the simulator's odometry, IMUs and depth
+//! (never its truth), the navigator plans by the elevator and guides, and the simulated
+//! user walks by what it is told, rides up and says so.
+
+use study::guided_walk::guided_walk;
+
+#[test]
+fn a_guided_walk_reaches_room_204_on_floor_1_by_the_elevator_within_a_metre() {
+    let r = guided_walk("building", "room 204", 1, 60.0).unwrap();
+    let said: Vec<&str> = r.said.iter().map(|(_, s)| s.as_str()).collect();
+    let first = |prefix: &str| r.said.iter().position(|(_, s)| s.starts_with(prefix));
+    // the order of what the user hears: position, route, elevator, floor 1, arrival
+    let order = [
+        first("Going to room 204."),
+        first("Position found."),
+        first("Route to room 204:"),
+        first("Elevator ahead; take it to floor 1"),
+        first("You are at the elevator."),
+        first("Floor 1:"),
+        first("You have arrived at room 204."),
+    ];
+    assert!(order.iter().all(Option::is_some), "{said:#?}");
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{said:#?}");
+    // no route before the position was known
+    let found_at = r.said[order[1].unwrap()].0;
+    assert!(r.frames.iter().filter(|f| f.t_s < found_at).all(|f| !f.tracking || f.t_s + 0.1 >= found_at));
+    let arrived = r.arrived_s.expect("arrived");
+    assert!(arrived < 45.0, "arrived after {arrived} s");
+    assert_eq!(r.floor, 1);
+    assert!(r.off_m <= 1.0, "the user stands {:.2} m from room 204", r.off_m);
+    // while the filter tracked, it was right: never more than 0.5 m off (floor 1's
+    // start excepted: the pose is taken through the elevator at the user's word)
+    let worst = r
+        .frames
+        .iter()
+        .filter(|f| f.tracking && f.truth[3] == f.estimate[3])
+        .map(|f| (f.truth[0] - f.estimate[0]).hypot(f.truth[1] - f.estimate[1]))
+        .fold(0.0, f64::max);
+    assert!(worst < 0.5, "tracking while {worst:.2} m off");
+    // the sweep the scan is read with follows the cane's
+    let sweep_err: Vec<f64> = r.frames.iter().skip(60).map(|f| (f.sweep_deg - f.true_sweep_deg).abs()).collect();
+    let mean = sweep_err.iter().sum::<f64>() / sweep_err.len() as f64;
+    assert!(mean < 3.0, "sweep off by {mean:.1} degrees on average");
+}
