@@ -38,6 +38,22 @@ pub struct DemoArgs {
     /// Haptic backends of the feedback agent, comma-separated (`console`, `wiimote`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub haptic: Vec<feedback_agent::HapticBackend>,
+    /// Walk the simulated world to this place by the device's guidance (a label of its
+    /// floor plan, `wearnav map --world W` lists them; needs a `sim:` source): the
+    /// compute agent localizes on the floor plan and guides, the simulated user walks by
+    /// the route as the device sees it and takes elevators when told (the device is told
+    /// to prefer them: the simulated user does not climb stairs). Ends on arrival; fails
+    /// when the user did not arrive within 1 m of the place.
+    #[arg(long, value_name = "LABEL")]
+    pub destination: Option<String>,
+}
+
+/// `future` when there is one, else never.
+async fn maybe<T>(future: Option<impl std::future::Future<Output = Option<T>>>) -> Option<T> {
+    match future {
+        Some(f) => f.await,
+        None => std::future::pending().await,
+    }
 }
 
 fn free_loopback_port() -> anyhow::Result<u16> {
@@ -163,14 +179,30 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     peer_bus.connect = vec![hub.clone()];
     peer_bus.no_multicast = !args.multicast;
 
-    let source = sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
-        .with_context(|| format!("cannot open frame source {:?}", args.source))?;
+    // on a simulated world the compute agent localizes and guides on its floor plan
+    let navigation = crate::guided::sim_navigation(&args.source)?;
+    let (source, guided) = match (&args.destination, &navigation) {
+        (Some(label), Some((world, nav))) => {
+            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label)?;
+            let source = walk.source.take().context("the guided walk's source was taken twice")?;
+            (source, Some(walk))
+        }
+        (Some(_), None) => {
+            bail!("--destination needs a simulated world (--source sim:<world>), not {:?}", args.source)
+        }
+        (None, _) => (
+            sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
+                .with_context(|| format!("cannot open frame source {:?}", args.source))?,
+            None,
+        ),
+    };
     let shutdown = Shutdown::new();
     shutdown.trigger_on_signals();
 
     // The hub (compute) must be listening before the others connect.
-    let compute =
-        tokio::spawn(compute_agent::run::run(compute_agent::run::ComputeConfig::new(hub_bus), shutdown.clone()));
+    let mut compute_config = compute_agent::run::ComputeConfig::new(hub_bus);
+    compute_config.nav = navigation.as_ref().map(|(_, nav)| nav.clone());
+    let compute = tokio::spawn(compute_agent::run::run(compute_config, shutdown.clone()));
     tokio::time::sleep(Duration::from_millis(300)).await;
     let feedback_config = feedback_agent::FeedbackConfig { bus: peer_bus.clone(), ..feedback_config };
     let feedback = tokio::spawn(feedback_agent::run(feedback_config, shutdown.clone()));
@@ -195,6 +227,11 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     // their age is capture -> intent at the device's agent for every frame, free of
     // the pulse timing that shifts when a pulsed rumble's edges are applied.
     let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), false, &watch).await?;
+    let mut guide = match &guided {
+        Some(walk) => Some(crate::guided::GuidedWatch::declare(walk, &session, &keys, &watch).await?),
+        None => None,
+    };
+    let mut guide_tick = tokio::time::interval(Duration::from_millis(250));
     if let Ok(addr) = bound_rx.await {
         eprintln!("phone page: http://{addr}/");
     }
@@ -202,6 +239,12 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
         "wearnav demo for user {:?} on {}; watch it with:\n  python3 schemas/python/monitor.py --user {} --connect {hub}",
         args.user, args.source, args.user
     );
+    if navigation.is_some() && guided.is_none() {
+        eprintln!(
+            "guidance on the world's floor plan; ask for a place with:\n  python3 schemas/python/send.py --user {} --connect {hub} cmd destination <place>",
+            args.user
+        );
+    }
 
     let started = Instant::now();
     let period = Duration::from_secs(1);
@@ -226,6 +269,27 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
                 tally.on_health(&h.body);
             }
             _ = tick.tick() => eprintln!("{}", tally.status_line(started.elapsed(), period)),
+            Some(r) = maybe(guide.as_ref().map(|g| g.route.recv())) => {
+                if let Some(g) = guide.as_mut() { g.on_route(r.body) }
+            }
+            Some(p) = maybe(guide.as_ref().map(|g| g.pose.recv())) => {
+                if let Some(g) = guide.as_mut() { g.on_pose(p.body) }
+            }
+            Some(s) = maybe(guide.as_ref().map(|g| g.speech.recv())) => {
+                if let Some(g) = guide.as_mut() { g.on_speech(&s.body) }
+            }
+            Some(t) = maybe(guide.as_ref().map(|g| g.truth.recv())) => {
+                if let Some(g) = guide.as_mut() { g.on_truth(t.body) }
+            }
+            _ = guide_tick.tick(), if guide.is_some() => {
+                if let Some(g) = guide.as_mut() {
+                    g.tick().await;
+                    // a moment after arrival, so "you have arrived" is heard and shown
+                    if g.arrived_at.is_some_and(|t| t.elapsed() >= Duration::from_secs(2)) {
+                        break;
+                    }
+                }
+            }
         }
     }
     shutdown.trigger();
@@ -267,6 +331,9 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     );
     if !failures.is_empty() {
         bail!("agents failed: {}", failures.join("; "));
+    }
+    if let Some(g) = &guide {
+        g.finish()?;
     }
     if tally.hazards == 0 {
         bail!("no hazard was perceived: obstacle detection never ran");

@@ -4,6 +4,7 @@
 mod codec_cmd;
 mod demo;
 mod fuzz;
+mod guided;
 mod localize_cmd;
 mod map_cmd;
 mod perceive;
@@ -23,7 +24,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run every agent in this process on the simulated world, with console feedback
-    /// and a live status line.
+    /// and a live status line; `--destination PLACE` walks the world by the device's
+    /// guidance.
     Demo(demo::DemoArgs),
     /// Run the obstacle perception on recorded frames (PCD, 16-bit depth PNG) and
     /// print plane, scan, costs, rumble and stage timings as JSON.
@@ -43,8 +45,9 @@ enum Command {
     /// Localize with the particle filter on a recorded laser log (CARMEN) and report the
     /// errors against its poses: RMSE, convergence from a global start, update time.
     Localize(localize_cmd::LocalizeArgs),
-    /// Write a simulated world's floor plan (walls, doors, rooms, gateways; no
-    /// furniture) as ROS map_server maps and semantic layers, one per floor.
+    /// Write a floor plan as ROS map_server maps and semantic layers, one per floor:
+    /// a simulated world's (walls, doors, rooms, gateways; no furniture) or a CAD
+    /// drawing's (DXF: lines and arcs as walls, texts as labels).
     Map(map_cmd::MapArgs),
     /// Plan routes: every scenario of a Moving AI benchmark against its optimal
     /// lengths, or one route on a ROS map_server floor map to a point or a label.

@@ -479,9 +479,7 @@ async fn frames_a_stalled_link_delivers_late_count_as_none_and_the_user_is_told_
         Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
             .await
             .unwrap();
-    let offline = |a: &bus::Received<Applied>, want: bool| {
-        matches!(&a.body.action, AppliedAction::OfflineWarning { offline, .. } if *offline == want)
-    };
+    let offline = |a: &bus::Received<Applied>, want: bool| matches!(&a.body.action, AppliedAction::OfflineWarning { offline, .. } if *offline == want);
 
     // Fresh frames: hazards flow and detection is online.
     for _ in 0..30 {
@@ -500,7 +498,8 @@ async fn frames_a_stalled_link_delivers_late_count_as_none_and_the_user_is_told_
         frames.put(stamp, &frame).await.unwrap();
         tokio::time::sleep(Duration::from_millis(33)).await;
     }
-    let warned = wait_for(&applied, Duration::from_secs(2), |a| offline(a, true) && a.body.applied_ns > late_from).await;
+    let warned =
+        wait_for(&applied, Duration::from_secs(2), |a| offline(a, true) && a.body.applied_ns > late_from).await;
     assert!(warned.is_some(), "no offline warning while every frame arrived 400 ms late");
     // none of the late frames was acted on
     while let Some(h) = hazards.try_recv() {
@@ -519,4 +518,76 @@ async fn frames_a_stalled_link_delivers_late_count_as_none_and_the_user_is_told_
     }
     let back = wait_for(&applied, Duration::from_secs(3), |a| offline(a, false) && a.body.applied_ns > late_from).await;
     assert!(back.is_some(), "detection never came back");
+}
+
+/// The sample map of the simulated `building` (maps/building).
+fn building_map() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/building").display().to_string()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides() {
+    use bus::query::get;
+    use schemas::{Command, Destinations, GroundTruth, LocalizationStatus, Pose, Priority, RouteState, RouteStatus};
+    let user = "nav-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let h = &hub.health;
+    let poses = Subscriber::<Pose>::declare(&hub.session, keys.pose(), true, h).await.unwrap();
+    let routes = Subscriber::<RouteState>::declare(&hub.session, keys.route_state(), false, h).await.unwrap();
+    let speech = Subscriber::<schemas::SpeechIntent>::declare(&hub.session, keys.speech(), false, h).await.unwrap();
+    let truth = Subscriber::<GroundTruth>::declare(&hub.session, keys.truth_any(), true, h).await.unwrap();
+    let mut destination =
+        Publisher::<Command>::declare(&hub.session, keys.cmd("destination"), "test-user", Lane::Events, None)
+            .await
+            .unwrap();
+    let mut cancel =
+        Publisher::<Command>::declare(&hub.session, keys.cmd("cancel"), "test-user", Lane::Events, None).await.unwrap();
+
+    // the building's scripted walk: from the entrance (1, 5) east to the stairs
+    let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:building"]);
+    let map = building_map();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map, "--start", "1,5,0,0"]);
+
+    let tracked = wait_for(&poses, Duration::from_secs(30), |p| p.body.status == LocalizationStatus::Tracking).await;
+    let tracked = tracked.expect("localization never tracked");
+    let found = wait_for(&speech, Duration::from_secs(5), |s| s.body.text == "Position found.").await;
+    assert!(found.is_some_and(|s| s.body.priority == Priority::Message), "no 'Position found.'");
+    // the pose is where the simulator has the user (a later pose against the newest truth)
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let (p, t) = (poses.try_recv().unwrap_or(tracked), truth.try_recv().expect("truth"));
+    let off = (p.body.x_m - t.body.x_m).hypot(p.body.y_m - t.body.y_m);
+    assert!(off < 0.6 && p.body.floor == 0, "pose {:?} vs truth {:?}", p.body, t.body);
+
+    let query = |service: &str| keys.query(service);
+    let d = get::<Destinations>(&hub.session, &query("destinations"), Duration::from_secs(5)).await.unwrap().unwrap();
+    let names: Vec<(&str, i32)> = d.destinations.iter().map(|d| (d.label.as_str(), d.at.floor)).collect();
+    assert!(names.contains(&("entrance", 0)) && names.contains(&("room 204", 1)), "{names:?}");
+    let to_204 = format!("{}?to=room%20204", query("route"));
+    let preview = get::<RouteState>(&hub.session, &to_204, Duration::from_secs(5)).await.unwrap().unwrap();
+    assert_eq!((preview.status, preview.destination.as_str()), (RouteStatus::Preview, "room 204"));
+    assert!(preview.route.last().is_some_and(|p| p.floor == 1), "{preview:?}");
+    assert!((10.0..40.0).contains(&preview.distance_left_m), "{preview:?}");
+    let to_kitchen = format!("{}?to=kitchen", query("route"));
+    let unknown = get::<RouteState>(&hub.session, &to_kitchen, Duration::from_secs(5)).await.unwrap().unwrap_err();
+    assert!(unknown.starts_with("I do not know a place called kitchen"), "{unknown}");
+
+    destination.put(bus::now_ns(), &Command::Destination { label: "room 204".into() }).await.unwrap();
+    let route = wait_for(&speech, Duration::from_secs(5), |s| s.body.text.starts_with("Route to room 204:")).await;
+    assert!(route.is_some_and(|s| s.body.priority == Priority::Message), "guidance did not start");
+    let guiding = wait_for(&routes, Duration::from_secs(2), |r| r.body.status == RouteStatus::Guiding).await;
+    let guiding = guiding.expect("route state never guiding");
+    assert_eq!(guiding.body.destination, "room 204");
+    assert!(guiding.body.next_waypoint.is_some() && !guiding.body.route.is_empty());
+
+    destination.put(bus::now_ns(), &Command::Destination { label: "kitchen".into() }).await.unwrap();
+    let no =
+        wait_for(&speech, Duration::from_secs(5), |s| s.body.text.starts_with("I do not know a place called kitchen"))
+            .await;
+    assert!(no.is_some(), "an unknown place was not said");
+    cancel.put(bus::now_ns(), &Command::Cancel).await.unwrap();
+    let stopped = wait_for(&speech, Duration::from_secs(5), |s| s.body.text == "Guidance to room 204 stopped.").await;
+    assert!(stopped.is_some(), "cancel was not acknowledged");
+    let idle = wait_for(&routes, Duration::from_secs(2), |r| r.body.status == RouteStatus::Idle).await;
+    assert!(idle.is_some(), "route state not idle after cancel");
 }

@@ -323,3 +323,14 @@ fn building_route_from_the_ground_floor_entrance_to_room_204_upstairs_changes_fl
     assert!((end[0] - goal.x_m).hypot(end[1] - goal.y_m) < 0.2, "{end:?}");
     println!("building: {name}, {:.1} m walked", route.walk_length_m);
 }
+
+#[test]
+fn the_sample_map_in_the_repo_is_what_wearnav_map_writes_for_the_building_world() {
+    let committed = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../maps/building/building.toml");
+    let loaded = Building::load(&committed).unwrap_or_else(|e| panic!("{e}"));
+    let (_, fresh) = exported("building");
+    assert!(
+        loaded == fresh,
+        "maps/building differs from the world's floor plan: run `cargo run --release -- map --world building --out maps/building`"
+    );
+}
