@@ -298,6 +298,7 @@ impl Nav {
             interrupt: false,
             ttl_ms: 5000,
             dedup_key: format!("{key}/{}", self.serial),
+            notice: false,
         }
     }
 

@@ -73,6 +73,8 @@ pub struct Feedback {
     watchdog: DetectionWatchdog,
     obstacle: Option<HapticCue>,
     alert: Option<HapticCue>,
+    /// The notice tap of an utterance that asked for one.
+    notice: Option<HapticCue>,
     next_alert_ns: Option<u64>,
     out: DeviceOutput,
     actions: Vec<SpeechAction>,
@@ -99,6 +101,7 @@ impl Feedback {
             engines,
             obstacle: None,
             alert: None,
+            notice: None,
             next_alert_ns: None,
             out: DeviceOutput::default(),
             actions: Vec::new(),
@@ -223,6 +226,7 @@ impl Feedback {
         consider(self.watchdog.next_check_ns());
         consider(self.obstacle.and_then(|c| c.next_change_ns(now_ns)));
         consider(self.alert.and_then(|c| c.next_change_ns(now_ns)));
+        consider(self.notice.and_then(|c| c.next_change_ns(now_ns)));
         consider(self.next_alert_ns);
         consider(self.queue.next_expiry_ns());
         consider(self.queue.speaking().map(|_| now_ns + self.settings.speech_poll_ms * MS));
@@ -240,6 +244,7 @@ impl Feedback {
         self.perform_speech(now_ns);
         self.obstacle = None;
         self.alert = None;
+        self.notice = None;
         self.next_alert_ns = None;
         for d in &mut self.haptics {
             d.off(now_ns, &mut self.out);
@@ -289,10 +294,15 @@ impl Feedback {
     fn drive_haptics(&mut self, now_ns: u64, refresh: bool) {
         let alert = self.alert.filter(|a| a.is_live(now_ns));
         self.alert = alert;
-        let (levels, pattern, cause) = match (alert, self.obstacle) {
-            (Some(a), _) => (a.levels_at(now_ns), a.pattern(), 0),
-            (None, Some(o)) => (o.levels_at(now_ns), o.pattern(), if refresh { o.cause_capture_ns } else { 0 }),
-            (None, None) => (Levels::OFF, HapticPattern::Steady, 0),
+        // a notice taps only on idle motors: an obstacle cue (even between its pulses)
+        // or an alert cancels it
+        let busy = alert.is_some() || self.obstacle.is_some_and(|o| o.is_live(now_ns) && !o.is_at_rest());
+        self.notice = self.notice.filter(|n| n.is_live(now_ns) && !busy);
+        let (levels, pattern, cause) = match (alert, self.obstacle, self.notice) {
+            (Some(a), _, _) => (a.levels_at(now_ns), a.pattern(), 0),
+            (None, _, Some(n)) => (n.levels_at(now_ns), n.pattern(), 0),
+            (None, Some(o), None) => (o.levels_at(now_ns), o.pattern(), if refresh { o.cause_capture_ns } else { 0 }),
+            (None, None, None) => (Levels::OFF, HapticPattern::Steady, 0),
         };
         if self.obstacle.is_some_and(|o| !o.is_live(now_ns)) {
             self.obstacle = None;
@@ -350,6 +360,10 @@ impl Feedback {
     }
 
     fn start_utterance(&mut self, u: &Utterance, now_ns: u64) {
+        if u.notice && !self.haptics.is_empty() {
+            self.notice = Some(HapticCue::notice(now_ns));
+            self.drive_haptics(now_ns, false);
+        }
         for (k, engine) in self.engines.iter_mut().enumerate() {
             match engine.start(&u.text, u.priority, now_ns) {
                 Ok(handle) => {
@@ -377,6 +391,7 @@ impl Feedback {
 mod tests {
     use super::*;
     use crate::console::ConsoleSpeech;
+    use crate::haptic_cue::NOTICE_LEVEL;
     use crate::wiimote::fake::FakeHid;
     use crate::wiimote::{WiimoteBackend, WiimoteConfig};
     use schemas::GroundState;
@@ -532,6 +547,7 @@ mod tests {
             interrupt: false,
             ttl_ms: 3000,
             dedup_key: String::new(),
+            notice: false,
         };
         f.on_speech(&warning, now, now).unwrap();
         let warned_at = now;
@@ -559,6 +575,59 @@ mod tests {
     }
 
     #[test]
+    fn guidance_asking_for_notice_taps_twice_lightly_on_idle_motors_only() {
+        let left_levels = |f: &mut Feedback| -> Vec<f32> {
+            f.drain_applied()
+                .filter_map(|a| match a.action {
+                    AppliedAction::Rumble { left, .. } if a.device == "wiimote-left" => Some(left),
+                    _ => None,
+                })
+                .collect()
+        };
+        let say = |notice| SpeechIntent {
+            text: "in six metres turn left".into(),
+            priority: Priority::Message,
+            interrupt: false,
+            ttl_ms: 3000,
+            dedup_key: String::new(),
+            notice,
+        };
+        // path clear: tap on, off, on, off within 170 ms, then nothing
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        f.on_haptic(&steady(0.0, 0.0, 500), T0, T0).unwrap();
+        f.drain_applied();
+        f.on_speech(&say(true), T0, T0 + MS).unwrap();
+        for k in 2..=300u64 {
+            f.tick(T0 + k * MS);
+        }
+        // the Wiimote's motor is on or off: the tap is told apart by being brief
+        let taps = left_levels(&mut f);
+        assert_eq!(taps, [1.0, 0.0, 1.0, 0.0], "{taps:?}");
+        assert!(NOTICE_LEVEL < 0.5, "light where a motor can be");
+        // an utterance that does not ask for it: no tap
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        f.drain_applied();
+        f.on_speech(&say(false), T0, T0 + MS).unwrap();
+        for k in 2..=300u64 {
+            f.tick(T0 + k * MS);
+        }
+        assert!(left_levels(&mut f).is_empty());
+        // an obstacle cue on: the obstacle is felt, never the tap
+        let (_, mut f) = setup();
+        fresh(&mut f, T0);
+        f.on_haptic(&steady(0.8, 0.0, 500), T0, T0).unwrap();
+        f.drain_applied();
+        f.on_speech(&say(true), T0, T0 + MS).unwrap();
+        for k in 2..=300u64 {
+            f.tick(T0 + k * MS);
+        }
+        // the steady obstacle cue holds the motor on until its TTL: nothing changes
+        assert!(left_levels(&mut f).is_empty(), "the notice was felt over an obstacle");
+    }
+
+    #[test]
     fn warning_preempts_guidance_speech() {
         let (_, mut f) = setup();
         fresh(&mut f, T0);
@@ -568,6 +637,7 @@ mod tests {
             interrupt: false,
             ttl_ms: 3000,
             dedup_key: String::new(),
+            notice: false,
         };
         f.on_speech(&say("in ten metres turn left at the lift", Priority::Message), T0, T0).unwrap();
         f.on_speech(&say("stop", Priority::Important), T0 + 5 * MS, T0 + 5 * MS).unwrap();
@@ -587,6 +657,7 @@ mod tests {
             interrupt: false,
             ttl_ms: 3000,
             dedup_key: String::new(),
+            notice: false,
         };
         f.on_speech(&say("in ten metres turn left", Priority::Message), T0, T0).unwrap();
         f.drain_applied();

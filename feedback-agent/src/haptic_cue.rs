@@ -123,6 +123,9 @@ fn clamp_unit(name: &str, v: f32, notes: &mut Vec<String>) -> f32 {
 
 const MS: u64 = 1_000_000;
 
+/// Motor level of the notice tap ([`HapticCue::notice`]).
+pub const NOTICE_LEVEL: f32 = 0.35;
+
 impl HapticCue {
     /// Turn `intent` (captured at `capture_ns`, arriving at `now_ns`) into a cue.
     ///
@@ -198,9 +201,29 @@ impl HapticCue {
         }
     }
 
+    /// The notice tap before route guidance: two short taps on both sides (50 ms, 120 ms
+    /// apart, over in 170 ms; level 0.35 where a motor can be driven lighter, on/off
+    /// motors like the Wiimote's tap at full). Brief where an obstacle cue lasts, and
+    /// the feedback step plays it only while no obstacle cue or alert drives the
+    /// motors, so it cannot be taken for one.
+    pub fn notice(now_ns: u64) -> Self {
+        HapticCue {
+            levels: Levels { left: NOTICE_LEVEL, right: NOTICE_LEVEL },
+            shape: Shape::Pulses { period_ns: 120 * MS, on_ns: 50 * MS, origin_ns: now_ns },
+            pattern: HapticPattern::Pulses { period_ms: 120, duty: 50.0 / 120.0 },
+            expires_ns: now_ns + 170 * MS,
+            cause_capture_ns: 0,
+        }
+    }
+
     /// The pattern to report in `feedback/applied`.
     pub fn pattern(&self) -> HapticPattern {
         self.pattern
+    }
+
+    /// True when the cue asks for no motion at all (an obstacle intent saying "clear").
+    pub fn is_at_rest(&self) -> bool {
+        self.levels.is_off()
     }
 
     /// True while the cue can still drive a motor.

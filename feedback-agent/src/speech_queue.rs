@@ -79,6 +79,8 @@ pub struct Utterance {
     pub dedup_key: String,
     /// The agent's own detection status ("offline", "back"): only the newest waits.
     pub status: bool,
+    /// Announce it with a notice tap where a device can (the intent's `notice`).
+    pub notice: bool,
 }
 
 /// What the driver must do, in order.
@@ -161,6 +163,7 @@ impl SpeechQueue {
             expires_ns: capture_ns.saturating_add(intent.ttl_ms as u64 * 1_000_000),
             dedup_key: intent.dedup_key.clone(),
             status: false,
+            notice: intent.notice,
         };
         self.next_id += 1;
         if self.muted && utterance.priority != Priority::Important {
@@ -199,6 +202,7 @@ impl SpeechQueue {
             expires_ns: now_ns.saturating_add(ttl_ms as u64 * 1_000_000),
             dedup_key: String::new(),
             status,
+            notice: false,
         }
     }
 
@@ -360,7 +364,14 @@ mod tests {
     const T0: u64 = 1_700_000_000_000_000_000;
 
     fn say(text: &str, priority: Priority) -> SpeechIntent {
-        SpeechIntent { text: text.into(), priority, interrupt: false, ttl_ms: 5000, dedup_key: String::new() }
+        SpeechIntent {
+            text: text.into(),
+            priority,
+            interrupt: false,
+            ttl_ms: 5000,
+            dedup_key: String::new(),
+            notice: false,
+        }
     }
 
     fn offer(q: &mut SpeechQueue, i: &SpeechIntent, now: u64) -> Vec<SpeechAction> {

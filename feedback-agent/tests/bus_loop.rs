@@ -100,6 +100,7 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         interrupt: false,
         ttl_ms: 1000,
         dedup_key: String::new(),
+        notice: false,
     };
     let huge = schemas::encode(&evil, 0, bus::now_ns(), &huge);
     let mut bad_priority = schemas::encode(
@@ -112,6 +113,7 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
             interrupt: false,
             ttl_ms: 1000,
             dedup_key: String::new(),
+            notice: false,
         },
     );
     let (_, header_len) = schemas::decode_header(&bad_priority).unwrap();

@@ -100,6 +100,7 @@ fn interrupt_once(dir: &Path, round: usize) -> (Duration, Duration) {
         interrupt: false,
         ttl_ms: 5000,
         dedup_key: String::new(),
+        notice: false,
     };
     let now = bus::now_ns();
     f.on_speech(&say(GUIDANCE, Priority::Message), now, now).expect("accepted");

@@ -36,6 +36,7 @@ async fn mute_command_over_the_bus_silences_guidance_but_not_warnings() {
         interrupt: false,
         ttl_ms: 5000,
         dedup_key: String::new(),
+        notice: false,
     };
     let started = |text: &'static str| move |a: &Applied| matches!(&a.action, AppliedAction::SpeechStarted { text: t, .. } if t == text);
     let within = Duration::from_secs(2);

@@ -49,6 +49,8 @@ def parse(argv):
     speech.add_argument("--ttl-ms", type=int, default=5000,
                         help="drop it if it cannot start within this time (default 5000)")
     speech.add_argument("--dedup-key", default="", help="not repeated within the dedup window")
+    speech.add_argument("--notice", action="store_true",
+                        help="announce it with a short light double tap where a device can")
 
     cmd = what.add_parser("cmd", help="a user command")
     verbs = cmd.add_subparsers(dest="verb", required=True)
@@ -79,6 +81,7 @@ def message(args):
             "interrupt": args.interrupt,
             "ttl_ms": args.ttl_ms,
             "dedup_key": args.dedup_key,
+            "notice": args.notice,
         }
         return keys.speech(), "speech_intent", body
     commands = {

@@ -391,6 +391,9 @@ pub struct SpeechIntent {
     pub ttl_ms: u32,
     /// Utterances with the same non-empty key are not repeated within the dedup window.
     pub dedup_key: String,
+    /// Announce it with a short, light double tap where a device can (route guidance
+    /// the user did not ask for); never while an obstacle cue or an alert is on.
+    pub notice: bool,
 }
 
 /// What a feedback device actually did.

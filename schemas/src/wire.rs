@@ -134,10 +134,11 @@ impl SchemaId {
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
     /// `turn_ahead` and `body_turn_deg_s`; every schema went up one when the envelope
     /// gained the sender's `session` and the checksum trailer; `pose` v3 added `status`,
-    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`.
+    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`,
+    /// `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
-            SchemaId::Hazard | SchemaId::Pose | SchemaId::RouteState | SchemaId::Command => 3,
+            SchemaId::Hazard | SchemaId::Pose | SchemaId::RouteState | SchemaId::Command | SchemaId::SpeechIntent => 3,
             _ => 2,
         }
     }
@@ -640,6 +641,7 @@ mod tests {
                 interrupt: false,
                 ttl_ms: 1,
                 dedup_key: String::new(),
+                notice: false,
             },
         );
         let text_len_at = 4 + 8 + 1 + 8 + 8 + 8;
@@ -688,6 +690,7 @@ mod tests {
             interrupt: true,
             ttl_ms: 1,
             dedup_key: String::new(),
+            notice: false,
         };
         assert_eq!(decode::<SpeechIntent>(&encode(&X, 0, 0, &empty)).unwrap_err().kind(), "invalid");
     }

@@ -379,6 +379,7 @@ fn feedback_vectors() -> Vec<[Golden; 2]> {
         interrupt,
         ttl_ms: 2000,
         dedup_key: String::new(),
+        notice: false,
     };
     let applied = |device: &str, action| Applied {
         device: device.into(),
@@ -401,7 +402,11 @@ fn feedback_vectors() -> Vec<[Golden; 2]> {
                 ..speech("Achtung: Tür links, 1,5 m — stufe ↓ 出口", Priority::Important, true)
             },
         ),
-        vector("speech_intent_message", 20, speech("turn left in 3 metres", Priority::Message, false)),
+        vector(
+            "speech_intent_message",
+            20,
+            SpeechIntent { notice: true, ..speech("turn left in 3 metres", Priority::Message, false) },
+        ),
         vector("speech_intent_text", 21, speech("door 2.14 on your right", Priority::Text, false)),
         vector("speech_intent_notification", 22, speech("battery 20 %", Priority::Notification, false)),
         vector("speech_intent_progress", 23, speech("23 metres left", Priority::Progress, false)),
@@ -535,6 +540,7 @@ fn reject_vectors() -> Vec<Golden> {
         interrupt: true,
         ttl_ms: 1000,
         dedup_key: String::new(),
+        notice: false,
     };
     let speech_bytes = encode(&ORIGIN, 1, CAPTURE_NS, &speech);
     let text_at = BODY_AT + 8;

@@ -85,7 +85,8 @@ pub struct Instruction {
 }
 
 impl Instruction {
-    /// The speech intent for the feedback agent: `Message` priority, no interrupt.
+    /// The speech intent for the feedback agent: `Message` priority, no interrupt, a
+    /// notice tap first when the profile asks for one ([`Instruction::vibrate_first`]).
     pub fn speech(&self) -> SpeechIntent {
         SpeechIntent {
             text: self.text.clone(),
@@ -93,6 +94,7 @@ impl Instruction {
             interrupt: false,
             ttl_ms: self.ttl_ms,
             dedup_key: self.dedup_key.clone(),
+            notice: self.vibrate_first,
         }
     }
 

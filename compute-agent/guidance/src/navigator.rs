@@ -288,6 +288,7 @@ impl Navigator {
             interrupt: false,
             ttl_ms: ANSWER_TTL_MS,
             dedup_key: format!("navigator/{key}/{}", self.serial),
+            notice: false,
         };
         self.last_said = Some(s.clone());
         s

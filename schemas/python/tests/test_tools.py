@@ -34,7 +34,7 @@ def test_speech_from_the_command_line_decodes_as_that_speech_intent():
     assert encoding == "application/octet-stream;" + encoding_schema("speech_intent")
     message = decode(payload, expected="speech_intent")
     assert message.body == {"text": "Tür links", "priority": "Important", "interrupt": True,
-                            "ttl_ms": 1500, "dedup_key": ""}
+                            "ttl_ms": 1500, "dedup_key": "", "notice": False}
     assert message.header["sender"] == "send.py"
 
 

@@ -149,7 +149,13 @@ PRIORITY = Enum(
 )
 
 SPEECH_INTENT = Struct(
-    "SpeechIntent", text=STRING, priority=PRIORITY, interrupt=BOOL, ttl_ms=U32, dedup_key=STRING
+    "SpeechIntent",
+    text=STRING,
+    priority=PRIORITY,
+    interrupt=BOOL,
+    ttl_ms=U32,
+    dedup_key=STRING,
+    notice=BOOL,
 )
 
 APPLIED_ACTION = Enum(
@@ -238,7 +244,8 @@ SCHEMAS = (
     # v3 added floor, status and route
     Schema(8, "route_state", ROUTE_STATE, version=3),
     Schema(9, "haptic_intent", HAPTIC_INTENT, 256),
-    Schema(10, "speech_intent", SPEECH_INTENT, 16 * 1024),
+    # v3 added notice
+    Schema(10, "speech_intent", SPEECH_INTENT, 16 * 1024, version=3),
     Schema(11, "applied", APPLIED),
     # v3 added Cancel and Floor
     Schema(12, "command", COMMAND, version=3),
