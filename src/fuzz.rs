@@ -68,10 +68,12 @@ pub enum Target {
     /// Moving AI benchmark maps and scenarios (`planning::movingai`).
     #[value(name = "movingai")]
     MovingAi,
+    /// CAD floor plans, DXF text (`map::dxf::DxfImport::parse`).
+    Dxf,
 }
 
 /// Every target `all` runs.
-const TARGETS: [Target; 11] = [
+const TARGETS: [Target; 12] = [
     Target::Wire,
     Target::DepthCodec,
     Target::Pcd,
@@ -83,13 +85,14 @@ const TARGETS: [Target; 11] = [
     Target::Semantic,
     Target::Carmen,
     Target::MovingAi,
+    Target::Dxf,
 ];
 
 /// Arguments of `wearnav fuzz`.
 #[derive(Debug, clap::Args)]
 #[command(long_about = "Feed millions of mutated and random inputs to every decoder of outside input \
 (wire envelope and schemas, depth codec, PCD, depth PNG, LZF, scene TOML, map YAML, PGM, semantic \
-layer, CARMEN log, Moving AI map and scenarios), catching panics.\n\n\
+layer, CARMEN log, Moving AI map and scenarios, DXF floor plan), catching panics.\n\n\
 Prints per target the cases run, cases per second, the outcomes by error kind (`ok` when the input \
 decoded), the slowest case, and every panic or broken contract with the seed and case number that \
 replay it (`--seed S --case N`). Exits non-zero if any case panicked or broke a contract.\n\n\
@@ -275,6 +278,21 @@ fn fuzz_case(target: Target, seeds: &Seeds, rng: &mut Rng) -> Result<&'static st
                     Ok(again) if again.labels == layer.labels && again.areas == layer.areas => Ok("ok"),
                     other => Err(format!("{layer:?} reads back as {other:?}")),
                 },
+            }
+        }
+        Target::Dxf => {
+            let bytes = input(&seeds.dxf, rng);
+            // 10 cm cells: the same code as the default's 5 cm, a quarter of the cells
+            let import = map::dxf::DxfImport { resolution_m: 0.1, ..map::dxf::DxfImport::default() };
+            match import.parse(&bytes, Path::new("fuzz.dxf")) {
+                Err(e) => Ok(map_kind(&e)),
+                Ok(f) if f.grid.cells().len() != f.grid.width() * f.grid.height() => {
+                    Err(format!("{}x{} grid of {} cells", f.grid.width(), f.grid.height(), f.grid.cells().len()))
+                }
+                Ok(f) if f.semantic.labels.iter().any(|l| f.grid.world_to_cell(l.x, l.y).is_none()) => {
+                    Err(format!("a label outside the {}x{} grid", f.grid.width(), f.grid.height()))
+                }
+                Ok(_) => Ok("ok"),
             }
         }
         Target::Carmen => {
@@ -594,6 +612,7 @@ struct Seeds {
     pgm: Vec<Vec<u8>>,
     semantic: Vec<Vec<u8>>,
     carmen: Vec<Vec<u8>>,
+    dxf: Vec<Vec<u8>>,
     movingai_maps: Vec<Vec<u8>>,
     movingai_scenarios: Vec<Vec<u8>>,
 }
@@ -658,6 +677,7 @@ impl Seeds {
             pgm: pgm_seeds(),
             semantic: texts(&SEMANTIC_LAYERS),
             carmen: carmen_seeds(),
+            dxf: vec![FLOOR_DXF.to_vec(), SMALL_DXF.as_bytes().to_vec()],
             movingai_maps: texts(&MOVINGAI_MAPS),
             movingai_scenarios: texts(&MOVINGAI_SCENARIOS),
         }
@@ -698,6 +718,15 @@ fn pgm_seeds() -> Vec<Vec<u8>> {
 }
 
 /// The semantic layer of `map::semantic`'s documentation, and smaller ones.
+/// The office floor ezdxf wrote (R2013, millimetres; `compute-agent/map/tests/data`).
+const FLOOR_DXF: &[u8] = include_bytes!("../compute-agent/map/tests/data/floor.dxf");
+
+/// A drawing in metres: a closed polyline with a bulge, an arc, a text.
+const SMALL_DXF: &str = "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n6\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n\
+0\nLWPOLYLINE\n8\nWALLS\n90\n4\n70\n1\n10\n0\n20\n0\n10\n8\n20\n0\n42\n0.4\n10\n8\n20\n6\n10\n0\n20\n6\n\
+0\nARC\n8\nW\n10\n4\n20\n3\n40\n0.5\n50\n10\n51\n300\n\
+0\nTEXT\n8\nT\n10\n1\n20\n1\n1\nroom 1\n0\nENDSEC\n0\nEOF\n";
+
 const SEMANTIC_LAYERS: [&str; 3] = [
     "[[label]]\nname = \"room 214\"\nx = 12.5\ny = 3.0\nfloor = 2\n\n\
      [[door]]\nnumber = \"214\"\nx = 12.0\ny = 2.0\nfloor = 2\nnormal = [0.0, 2.0]\n\n\
