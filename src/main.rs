@@ -7,6 +7,7 @@ mod fuzz;
 mod guided;
 mod localize_cmd;
 mod map_cmd;
+mod mcap_cmd;
 mod perceive;
 mod plan_cmd;
 
@@ -52,6 +53,14 @@ enum Command {
     /// Plan routes: every scenario of a Moving AI benchmark against its optimal
     /// lengths, or one route on a ROS map_server floor map to a point or a label.
     Plan(plan_cmd::PlanArgs),
+    /// Record a user's bus traffic (every message as it crossed the bus) into an MCAP
+    /// file, with a progress line a second; until --duration or Ctrl-C.
+    Record(mcap_cmd::RecordArgs),
+    /// Republish a recorded MCAP session on the bus with its original timing.
+    Replay(mcap_cmd::ReplayArgs),
+    /// Summarise a recorded MCAP session per key: count, rate, duration, largest gap,
+    /// bytes, schema.
+    Inspect(mcap_cmd::InspectArgs),
 }
 
 /// Log filter of `wearnav course` (and `localize`, whose `--world` walks the same way)
@@ -76,5 +85,8 @@ fn main() -> anyhow::Result<()> {
         Command::Localize(args) => localize_cmd::run(&args),
         Command::Map(args) => map_cmd::run(&args),
         Command::Plan(args) => plan_cmd::run(&args),
+        Command::Record(args) => runtime.block_on(mcap_cmd::record(args)),
+        Command::Replay(args) => runtime.block_on(mcap_cmd::replay(args)),
+        Command::Inspect(args) => mcap_cmd::inspect(&args),
     }
 }

@@ -1,0 +1,507 @@
+//! `wearnav record`, `replay` and `inspect`: a bus session in an MCAP file
+//! (<https://mcap.dev>), so a walk can be looked at, shared and run again.
+//!
+//! Conventions (docs/recording.md): one MCAP channel per key expression (and per schema
+//! seen on it), topic = the key; every message is the payload exactly as it crossed the
+//! bus (the `schemas` envelope, bincode body and CRC), message encoding
+//! [`MESSAGE_ENCODING`]; the schema is named as the Zenoh encoding names it
+//! (`wearnav/<name>/v<version>`) from the payload's own header, or [`UNKNOWN_SCHEMA`]
+//! when the header does not decode (recorded all the same: nothing is lost); the Zenoh
+//! encoding the sample carried is kept in the channel's metadata under
+//! [`ZENOH_ENCODING`], and replay sends it again. `log_time` is the arrival time at the
+//! recorder, `publish_time` the header's capture time (the arrival time when the header
+//! does not decode), `sequence` the header's sequence number (its low 32 bits).
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context};
+use bus::{BusOptions, Shutdown};
+use zenoh::key_expr::KeyExpr;
+
+/// MCAP message encoding of every recorded payload: the wearnav wire format.
+pub const MESSAGE_ENCODING: &str = "wearnav-bincode";
+/// Schema name of payloads whose header did not decode (unknown schema or version,
+/// damaged).
+pub const UNKNOWN_SCHEMA: &str = "unknown";
+/// Channel metadata key holding the Zenoh encoding the samples carried.
+pub const ZENOH_ENCODING: &str = "zenoh_encoding";
+
+/// Messages to buffer in a chunk before it is compressed and written: an interrupted
+/// recording loses at most this much (about a second of the demo's depth frames).
+const CHUNK_BYTES: u64 = 1 << 20;
+
+/// Record a user's bus traffic into an MCAP file.
+#[derive(Debug, clap::Args)]
+pub struct RecordArgs {
+    #[command(flatten)]
+    pub bus: BusOptions,
+    /// The MCAP file to write (replaced if it exists).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// How long to record (`30s`, `5m`); without it, until Ctrl-C.
+    #[arg(long, value_parser = humantime::parse_duration)]
+    pub duration: Option<Duration>,
+    /// Which keys, as a Zenoh key expression under the user's prefix `wearnav/<user>/`
+    /// (`sensor/**`, `perception/*`).
+    #[arg(long, value_name = "GLOB", default_value = "**")]
+    pub keys: String,
+}
+
+/// Republish a recorded session on the bus with its original timing.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The MCAP file `wearnav record` wrote.
+    pub file: PathBuf,
+    /// Speed: 2.0 replays twice as fast, 0.5 at half speed.
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+    /// Start again from the beginning at the end, until Ctrl-C.
+    #[arg(long = "loop")]
+    pub repeat: bool,
+    /// Which keys, as a Zenoh key expression under the recorded user's prefix
+    /// `wearnav/<user>/` (`sensor/**`).
+    #[arg(long, value_name = "GLOB", default_value = "**")]
+    pub keys: String,
+    /// Zenoh JSON5 configuration file (default: $ZENOH_CONFIG, else peer mode with
+    /// multicast scouting).
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Endpoint to connect to, e.g. `tcp/192.168.1.20:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Turn multicast scouting off.
+    #[arg(long)]
+    pub no_multicast: bool,
+}
+
+/// Summarise a recorded session per key.
+#[derive(Debug, clap::Args)]
+pub struct InspectArgs {
+    /// The MCAP file.
+    pub file: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One sample as it arrived.
+struct Arrival {
+    arrival_ns: u64,
+    key: String,
+    encoding: String,
+    payload: Vec<u8>,
+}
+
+/// The MCAP writer and the channels it has opened.
+struct Recording {
+    writer: mcap::Writer<BufWriter<File>>,
+    /// (key, schema, Zenoh encoding) -> channel id
+    channels: HashMap<(String, String, String), u16>,
+    messages: u64,
+    payload_bytes: u64,
+}
+
+impl Recording {
+    fn create(path: &Path) -> anyhow::Result<Self> {
+        let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        let writer = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Lz4))
+            .chunk_size(Some(CHUNK_BYTES))
+            .profile("wearnav")
+            .create(BufWriter::new(file))
+            .with_context(|| format!("cannot start the MCAP file {}", path.display()))?;
+        Ok(Self { writer, channels: HashMap::new(), messages: 0, payload_bytes: 0 })
+    }
+
+    fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
+        let header = schemas::decode_header(&arrival.payload).ok().map(|(h, _)| h);
+        let schema = header
+            .as_ref()
+            .and_then(|h| schemas::SchemaId::from_u16(h.schema))
+            .map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.encoding_schema());
+        let id = (arrival.key.clone(), schema, arrival.encoding.clone());
+        let channel_id = match self.channels.get(&id) {
+            Some(&c) => c,
+            None => {
+                // The layout is the `schemas` crate's (docs/wire.md), not an MCAP
+                // schema language: the schema record names it and carries no data.
+                let schema_id = self.writer.add_schema(&id.1, "", &[])?;
+                let metadata = BTreeMap::from([(ZENOH_ENCODING.to_string(), id.2.clone())]);
+                let c = self.writer.add_channel(schema_id, &id.0, MESSAGE_ENCODING, &metadata)?;
+                self.channels.insert(id, c);
+                c
+            }
+        };
+        let message = mcap::records::MessageHeader {
+            channel_id,
+            sequence: header.as_ref().map_or(0, |h| h.seq as u32),
+            log_time: arrival.arrival_ns,
+            publish_time: header.as_ref().map_or(arrival.arrival_ns, |h| h.capture_ns),
+        };
+        self.writer.write_to_known_channel(&message, &arrival.payload)?;
+        self.messages += 1;
+        self.payload_bytes += arrival.payload.len() as u64;
+        Ok(())
+    }
+}
+
+/// Writes what the subscription delivers until `stop`, with a progress line a second.
+fn write_loop(
+    mut recording: Recording,
+    rx: mpsc::Receiver<Arrival>,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<Recording> {
+    let started = Instant::now();
+    let mut next_report = started + Duration::from_secs(1);
+    let mut in_period = 0u64;
+    let mut period_start = started;
+    loop {
+        match rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(arrival) => {
+                recording.write(&arrival).context("writing the recording failed")?;
+                in_period += 1;
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        let now = Instant::now();
+        if now >= next_report {
+            let rate = in_period as f64 / (now - period_start).as_secs_f64();
+            eprintln!(
+                "[{:6.1}s] {} messages, {:.1} MB, {:.0} msgs/s",
+                (now - started).as_secs_f64(),
+                recording.messages,
+                recording.payload_bytes as f64 / 1e6,
+                rate
+            );
+            (in_period, period_start, next_report) = (0, now, next_report + Duration::from_secs(1));
+        }
+        if stop.load(Ordering::Relaxed) {
+            // what already arrived is kept
+            while let Ok(arrival) = rx.try_recv() {
+                recording.write(&arrival).context("writing the recording failed")?;
+            }
+            break;
+        }
+    }
+    Ok(recording)
+}
+
+/// `wearnav record`: Ok once the file is complete (summary and footer written).
+pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
+    let keys = args.bus.keys()?;
+    let key_expr = format!("{}/{}", keys.prefix(), args.keys);
+    KeyExpr::try_from(key_expr.clone()).map_err(|e| anyhow!("bad --keys {:?}: {e}", args.keys))?;
+    let recording = Recording::create(&args.out)?;
+    let session = bus::open_session(&args.bus).await?;
+    let (tx, rx) = mpsc::channel();
+    let subscriber = session
+        .declare_subscriber(key_expr.clone())
+        .callback(move |sample| {
+            let _ = tx.send(Arrival {
+                arrival_ns: bus::now_ns(),
+                key: sample.key_expr().as_str().to_string(),
+                encoding: sample.encoding().to_string(),
+                payload: sample.payload().to_bytes().into_owned(),
+            });
+        })
+        .await
+        .map_err(|e| anyhow!("cannot subscribe {key_expr}: {e}"))?;
+    eprintln!("recording {key_expr} into {}", args.out.display());
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut writer = tokio::task::spawn_blocking({
+        let stop = stop.clone();
+        move || write_loop(recording, rx, stop)
+    });
+    let shutdown = Shutdown::new();
+    shutdown.trigger_on_signals();
+    let deadline = async {
+        match args.duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    let early = tokio::select! {
+        _ = shutdown.triggered() => None,
+        _ = deadline => None,
+        done = &mut writer => Some(done),
+    };
+    stop.store(true, Ordering::Relaxed);
+    let _ = subscriber.undeclare().await;
+    let done = match early {
+        Some(done) => done,
+        None => writer.await,
+    };
+    let mut recording = done.context("the recording's writer stopped")??;
+    recording.writer.finish().with_context(|| format!("cannot finish {}", args.out.display()))?;
+    let _ = session.close().await;
+    eprintln!(
+        "recorded {} messages on {} channels, {:.1} MB of payload, into {}",
+        recording.messages,
+        recording.channels.len(),
+        recording.payload_bytes as f64 / 1e6,
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// A recorded message, as replay and inspect use it.
+struct Recorded {
+    topic: String,
+    schema: String,
+    zenoh_encoding: String,
+    sequence: u32,
+    log_time: u64,
+    data: Vec<u8>,
+}
+
+/// What could be read of a file: every message up to the first damage, and the damage.
+struct Contents {
+    messages: Vec<Recorded>,
+    /// Why reading stopped before the end, if it did.
+    damage: Option<String>,
+}
+
+/// Read every message of `path`; a file that is not MCAP at all is an error, a damaged
+/// or truncated one gives what precedes the damage and says where it broke.
+fn read(path: &Path) -> anyhow::Result<Contents> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if !bytes.starts_with(mcap::MAGIC) {
+        bail!("{} is not an MCAP file (it does not start with the MCAP magic)", path.display());
+    }
+    let options = mcap::read::Options::IgnoreEndMagic | mcap::read::Options::ValidateChunkCrcs;
+    let stream = mcap::MessageStream::new_with_options(&bytes, options)
+        .map_err(|e| anyhow!("{} cannot be read as MCAP: {e}", path.display()))?;
+    let mut messages = Vec::new();
+    let mut damage = None;
+    for message in stream {
+        match message {
+            Ok(m) => messages.push(Recorded {
+                topic: m.channel.topic.clone(),
+                schema: m.channel.schema.as_ref().map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.name.clone()),
+                zenoh_encoding: m.channel.metadata.get(ZENOH_ENCODING).cloned().unwrap_or_default(),
+                sequence: m.sequence,
+                log_time: m.log_time,
+                data: m.data.into_owned(),
+            }),
+            Err(e) => {
+                damage = Some(format!("damaged after message {}: {e}", messages.len()));
+                break;
+            }
+        }
+    }
+    if damage.is_none() && !bytes.ends_with(mcap::MAGIC) {
+        damage = Some(format!("truncated after message {}: no footer (the recording did not finish)", messages.len()));
+    }
+    Ok(Contents { messages, damage })
+}
+
+/// Figures of one channel.
+#[derive(Debug, serde::Serialize)]
+struct ChannelSummary {
+    key: String,
+    schema: String,
+    count: u64,
+    bytes: u64,
+    duration_s: f64,
+    rate_hz: f64,
+    largest_gap_ms: f64,
+    /// Messages whose sequence number was not above the one before on the channel.
+    sequence_breaks: u64,
+    #[serde(skip)]
+    first_ns: u64,
+    #[serde(skip)]
+    last_ns: u64,
+    #[serde(skip)]
+    last_sequence: Option<u32>,
+}
+
+/// The whole file's summary.
+#[derive(Debug, serde::Serialize)]
+struct FileSummary {
+    file: String,
+    messages: u64,
+    bytes: u64,
+    duration_s: f64,
+    channels: Vec<ChannelSummary>,
+    /// Why the file could not be read to its end, if it could not.
+    damage: Option<String>,
+}
+
+fn summarise(path: &Path, contents: &Contents) -> FileSummary {
+    let mut channels: Vec<ChannelSummary> = Vec::new();
+    for m in &contents.messages {
+        let index = match channels.iter().position(|c| c.key == m.topic && c.schema == m.schema) {
+            Some(i) => i,
+            None => {
+                channels.push(ChannelSummary {
+                    key: m.topic.clone(),
+                    schema: m.schema.clone(),
+                    count: 0,
+                    bytes: 0,
+                    duration_s: 0.0,
+                    rate_hz: 0.0,
+                    largest_gap_ms: 0.0,
+                    sequence_breaks: 0,
+                    first_ns: m.log_time,
+                    last_ns: m.log_time,
+                    last_sequence: None,
+                });
+                channels.len() - 1
+            }
+        };
+        let c = &mut channels[index];
+        let gap_ms = m.log_time.saturating_sub(c.last_ns) as f64 / 1e6;
+        c.largest_gap_ms = c.largest_gap_ms.max(gap_ms);
+        if c.last_sequence.is_some_and(|s| m.sequence <= s) {
+            c.sequence_breaks += 1;
+        }
+        c.last_sequence = Some(m.sequence);
+        c.last_ns = c.last_ns.max(m.log_time);
+        c.count += 1;
+        c.bytes += m.data.len() as u64;
+    }
+    for c in &mut channels {
+        c.duration_s = (c.last_ns - c.first_ns) as f64 / 1e9;
+        c.rate_hz = if c.count > 1 && c.duration_s > 0.0 { (c.count - 1) as f64 / c.duration_s } else { 0.0 };
+    }
+    channels.sort_by(|a, b| a.key.cmp(&b.key).then(a.schema.cmp(&b.schema)));
+    let first = contents.messages.iter().map(|m| m.log_time).min().unwrap_or(0);
+    let last = contents.messages.iter().map(|m| m.log_time).max().unwrap_or(0);
+    FileSummary {
+        file: path.display().to_string(),
+        messages: contents.messages.len() as u64,
+        bytes: channels.iter().map(|c| c.bytes).sum(),
+        duration_s: (last - first) as f64 / 1e9,
+        channels,
+        damage: contents.damage.clone(),
+    }
+}
+
+fn print_table(summary: &FileSummary) {
+    println!(
+        "{}: {} messages, {:.1} MB of payload, {:.1} s",
+        summary.file,
+        summary.messages,
+        summary.bytes as f64 / 1e6,
+        summary.duration_s
+    );
+    let width = summary.channels.iter().map(|c| c.key.len()).max().unwrap_or(3).max(3);
+    println!(
+        "{:<width$}  {:<26} {:>7} {:>8} {:>8} {:>9} {:>11} {:>6}",
+        "key", "schema", "count", "rate/s", "dur s", "max gap", "bytes", "seq!"
+    );
+    for c in &summary.channels {
+        println!(
+            "{:<width$}  {:<26} {:>7} {:>8.1} {:>8.1} {:>6.0} ms {:>11} {:>6}",
+            c.key, c.schema, c.count, c.rate_hz, c.duration_s, c.largest_gap_ms, c.bytes, c.sequence_breaks
+        );
+    }
+}
+
+/// `wearnav inspect`: the summary of what is readable; an error (after the summary)
+/// when the file is damaged.
+pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
+    let contents = read(&args.file)?;
+    let summary = summarise(&args.file, &contents);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print_table(&summary);
+    }
+    match &summary.damage {
+        Some(damage) => bail!("{}: {damage}; the figures above are of what precedes it", args.file.display()),
+        None => Ok(()),
+    }
+}
+
+/// Whether `topic` (`wearnav/<user>/<rest>`) is selected by `glob` (a key expression
+/// under the user's prefix).
+fn selected(glob: &KeyExpr<'_>, topic: &str) -> bool {
+    let rest = topic.splitn(3, '/').nth(2).unwrap_or("");
+    KeyExpr::try_from(rest).is_ok_and(|k| glob.intersects(&k))
+}
+
+/// `wearnav replay`: republish the recorded payloads, byte for byte, on their keys and
+/// with their encodings, at the recorded pace scaled by `--rate`.
+pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        bail!("--rate must be a positive number, not {}", args.rate);
+    }
+    let glob = KeyExpr::try_from(args.keys.clone()).map_err(|e| anyhow!("bad --keys {:?}: {e}", args.keys))?;
+    let contents = read(&args.file)?;
+    if let Some(damage) = &contents.damage {
+        eprintln!("{}: {damage}; replaying what precedes it", args.file.display());
+    }
+    let messages: Vec<&Recorded> = contents.messages.iter().filter(|m| selected(&glob, &m.topic)).collect();
+    let Some(first_ns) = messages.iter().map(|m| m.log_time).min() else {
+        bail!("{}: no message matches --keys {:?}", args.file.display(), args.keys);
+    };
+    let mut bus = BusOptions::for_user("replay");
+    (bus.zenoh_config, bus.connect, bus.listen, bus.no_multicast) =
+        (args.zenoh_config.clone(), args.connect.clone(), args.listen.clone(), args.no_multicast);
+    let session = bus::open_session(&bus).await?;
+    let mut publishers = HashMap::new();
+    for m in &messages {
+        let id = (m.topic.clone(), m.zenoh_encoding.clone());
+        if !publishers.contains_key(&id) {
+            // Block rather than drop: a replay is only worth its completeness.
+            let publisher = session
+                .declare_publisher(m.topic.clone())
+                .encoding(zenoh::bytes::Encoding::from(m.zenoh_encoding.clone()))
+                .congestion_control(zenoh::qos::CongestionControl::Block)
+                .express(true)
+                .await
+                .map_err(|e| anyhow!("cannot declare a publisher on {}: {e}", m.topic))?;
+            publishers.insert(id, publisher);
+        }
+    }
+    let shutdown = Shutdown::new();
+    shutdown.trigger_on_signals();
+    wait_for_subscribers(&publishers, &shutdown).await;
+    let mut rounds = 0u64;
+    'replay: loop {
+        let start = tokio::time::Instant::now();
+        for m in &messages {
+            let offset_ns = ((m.log_time - first_ns) as f64 / args.rate) as u64;
+            tokio::select! {
+                _ = tokio::time::sleep_until(start + Duration::from_nanos(offset_ns)) => {}
+                _ = shutdown.triggered() => break 'replay,
+            }
+            let publisher = &publishers[&(m.topic.clone(), m.zenoh_encoding.clone())];
+            publisher.put(m.data.clone()).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
+        }
+        rounds += 1;
+        if !args.repeat {
+            break;
+        }
+    }
+    eprintln!("replayed {} messages {rounds} time(s) from {}", messages.len(), args.file.display());
+    // let the last messages leave before the session goes
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let _ = session.close().await;
+    Ok(())
+}
+
+/// Wait (up to 2 s) until some subscriber matches one of the publishers, so a recorder
+/// or monitor started alongside the replay misses none of its first messages.
+async fn wait_for_subscribers<K>(publishers: &HashMap<K, zenoh::pubsub::Publisher<'_>>, shutdown: &Shutdown) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    while tokio::time::Instant::now() < deadline && !shutdown.is_triggered() {
+        for p in publishers.values() {
+            if p.matching_status().await.is_ok_and(|s| s.matching()) {
+                return;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}

@@ -1,0 +1,250 @@
+//! `wearnav record`, `inspect` and `replay` as a user runs them: the real binary
+//! recording a running `wearnav demo` over loopback, the file summarised, replayed into
+//! a second recorder, and damaged files refused.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::net::{Ipv4Addr, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// A process killed when dropped, so a failing test leaves nothing behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start(args: &[&str]) -> Proc {
+    // the demo's status lines are not read: they must not fill a pipe
+    let stderr = if args[0] == "demo" { Stdio::null() } else { Stdio::piped() };
+    let child = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(stderr)
+        .spawn()
+        .expect("wearnav starts");
+    Proc(child)
+}
+
+/// Wait for the process to end by itself: its exit status and stderr.
+fn finish(mut proc: Proc, limit: Duration) -> (ExitStatus, String) {
+    let deadline = Instant::now() + limit;
+    loop {
+        if let Some(status) = proc.0.try_wait().expect("wait") {
+            let mut err = String::new();
+            if let Some(mut pipe) = proc.0.stderr.take() {
+                pipe.read_to_string(&mut err).expect("stderr");
+            }
+            return (status, err);
+        }
+        assert!(Instant::now() < deadline, "process did not end within {limit:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn wearnav(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("wearnav runs")
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).unwrap().local_addr().unwrap().port()
+}
+
+fn wait_listening(port: u16, limit: Duration) {
+    let deadline = Instant::now() + limit;
+    while TcpStream::connect((Ipv4Addr::LOCALHOST, port)).is_err() {
+        assert!(Instant::now() < deadline, "nothing listens on port {port} after {limit:?}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wearnav-mcap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// (sequence, log_time, payload) of every message, per key, in file order.
+type PerKey = BTreeMap<String, Vec<(u32, u64, Vec<u8>)>>;
+
+fn messages(path: &Path) -> PerKey {
+    let bytes = std::fs::read(path).unwrap();
+    let mut per_key = PerKey::new();
+    for m in mcap::MessageStream::new(&bytes).expect("a complete MCAP") {
+        let m = m.expect("a readable message");
+        per_key.entry(m.channel.topic.clone()).or_default().push((m.sequence, m.log_time, m.data.into_owned()));
+    }
+    per_key
+}
+
+fn inspect_json(path: &Path) -> serde_json::Value {
+    let out = wearnav(&["inspect", path.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "inspect failed: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("inspect --json prints JSON")
+}
+
+fn channel<'a>(summary: &'a serde_json::Value, suffix: &str) -> &'a serde_json::Value {
+    summary["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["key"].as_str().unwrap().ends_with(suffix))
+        .unwrap_or_else(|| panic!("no channel on */{suffix} in {summary:#}"))
+}
+
+fn sigterm(proc: &Proc) {
+    let status = Command::new("kill").args(["-TERM", &proc.0.id().to_string()]).status().expect("kill runs");
+    assert!(status.success());
+}
+
+/// Records 8 s of a demo, checks the summary, replays the file into a second recorder
+/// (stopped by SIGTERM, as Ctrl-C would) and compares the two files message by message.
+#[test]
+fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_timing() {
+    let demo_port = free_port();
+    let demo_endpoint = format!("tcp/127.0.0.1:{demo_port}");
+    let demo = start(&["demo", "--duration", "14s", "--user", "rec", "--listen", &demo_endpoint]);
+    wait_listening(demo_port, Duration::from_secs(20));
+    std::thread::sleep(Duration::from_secs(1));
+    let first = scratch("first.mcap");
+    let recorder = start(&[
+        "record",
+        "--user",
+        "rec",
+        "--connect",
+        &demo_endpoint,
+        "--no-multicast",
+        "--duration",
+        "8s",
+        "--out",
+        first.to_str().unwrap(),
+    ]);
+    let (status, progress) = finish(recorder, Duration::from_secs(30));
+    assert!(status.success(), "record failed: {progress}");
+    assert!(progress.contains("msgs/s"), "no progress line: {progress}");
+    drop(demo);
+
+    let summary = inspect_json(&first);
+    assert!(summary["damage"].is_null(), "{}", summary["damage"]);
+    let hazard = channel(&summary, "perception/hazard");
+    assert_eq!(hazard["schema"], "wearnav/hazard/v3");
+    let rate = hazard["rate_hz"].as_f64().unwrap();
+    let expected = 30.0 * hazard["duration_s"].as_f64().unwrap();
+    let count = hazard["count"].as_f64().unwrap();
+    assert!(hazard["duration_s"].as_f64().unwrap() > 7.0, "{hazard}");
+    assert!((count - expected).abs() <= 0.2 * expected, "{count} hazards, {rate:.1}/s: {hazard}");
+    let depth = channel(&summary, "/depth");
+    assert_eq!(depth["schema"], "wearnav/depth_frame/v2");
+    assert!(depth["count"].as_u64().unwrap() > 100, "{depth}");
+    for c in summary["channels"].as_array().unwrap() {
+        assert_eq!(c["sequence_breaks"], 0, "{c}");
+        assert!(c["bytes"].as_u64().unwrap() > 0, "{c}");
+        assert_ne!(c["schema"], "unknown", "{c}");
+    }
+
+    // replay into a second recorder listening on a fresh port
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let second = scratch("second.mcap");
+    let recorder =
+        start(&["record", "--user", "rec", "--listen", &endpoint, "--no-multicast", "--out", second.to_str().unwrap()]);
+    wait_listening(port, Duration::from_secs(20));
+    let out = wearnav(&["replay", first.to_str().unwrap(), "--connect", &endpoint, "--no-multicast"]);
+    assert!(out.status.success(), "replay failed: {}", String::from_utf8_lossy(&out.stderr));
+    std::thread::sleep(Duration::from_millis(500));
+    sigterm(&recorder);
+    let (status, err) = finish(recorder, Duration::from_secs(20));
+    assert!(status.success(), "record after SIGTERM failed: {err}");
+
+    let (original, replayed) = (messages(&first), messages(&second));
+    assert_eq!(original.keys().collect::<Vec<_>>(), replayed.keys().collect::<Vec<_>>());
+    let mut errors_ms = Vec::new();
+    for (key, a) in &original {
+        let b = &replayed[key];
+        assert_eq!(a.len(), b.len(), "{key}: {} messages recorded, {} after replay", a.len(), b.len());
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert_eq!((x.0, &x.2), (y.0, &y.2), "{key}: message {i} differs");
+        }
+        for (x, y) in a.windows(2).zip(b.windows(2)) {
+            let gap_a = x[1].1 as f64 - x[0].1 as f64;
+            let gap_b = y[1].1 as f64 - y[0].1 as f64;
+            errors_ms.push((gap_b - gap_a).abs() / 1e6);
+        }
+    }
+    errors_ms.sort_by(f64::total_cmp);
+    let p99 = errors_ms[(errors_ms.len() * 99) / 100];
+    let max = errors_ms[errors_ms.len() - 1];
+    eprintln!("replay timing error over {} gaps: p99 {p99:.2} ms, max {max:.2} ms", errors_ms.len());
+    assert!(max <= 5.0, "an inter-message gap changed by {max:.2} ms (p99 {p99:.2} ms)");
+}
+
+#[test]
+fn inspect_refuses_a_file_that_is_not_mcap() {
+    let path = scratch("not.mcap");
+    std::fs::write(&path, b"this is not an MCAP file at all").unwrap();
+    let out = wearnav(&["inspect", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("not an MCAP file"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// A recording cut short (as by a crash or a full disk) and one with damaged bytes:
+/// inspect says so and exits non-zero, never panics.
+#[test]
+fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let demo = start(&["demo", "--duration", "8s", "--user", "cut", "--listen", &endpoint]);
+    wait_listening(port, Duration::from_secs(20));
+    let path = scratch("whole.mcap");
+    let out = wearnav(&[
+        "record",
+        "--user",
+        "cut",
+        "--connect",
+        &endpoint,
+        "--no-multicast",
+        "--duration",
+        "4s",
+        "--out",
+        path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "record failed: {}", String::from_utf8_lossy(&out.stderr));
+    drop(demo);
+    let whole = std::fs::read(&path).unwrap();
+    assert!(whole.len() > 100_000, "{} bytes recorded", whole.len());
+
+    let truncated = scratch("truncated.mcap");
+    std::fs::write(&truncated, &whole[..whole.len() * 2 / 3]).unwrap();
+    let out = wearnav(&["inspect", truncated.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("truncated") || err.contains("damaged"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    // what precedes the cut is still summarised
+    assert!(String::from_utf8_lossy(&out.stdout).contains("perception/hazard"), "{err}");
+
+    let mut corrupted = whole.clone();
+    for b in &mut corrupted[whole.len() / 3..whole.len() / 3 + 64] {
+        *b ^= 0xA5;
+    }
+    let damaged = scratch("corrupted.mcap");
+    std::fs::write(&damaged, &corrupted).unwrap();
+    let out = wearnav(&["inspect", damaged.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
