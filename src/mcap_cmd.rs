@@ -14,6 +14,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
+use std::hash::BuildHasher;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -68,6 +69,13 @@ pub struct ReplayArgs {
     /// `wearnav/<user>/` (`sensor/**`).
     #[arg(long, value_name = "GLOB", default_value = "**")]
     pub keys: String,
+    /// Move every capture stamp to the replay's clock (each message keeps the age at
+    /// arrival it was recorded with) and give each publisher a new session every round,
+    /// so running agents take the recorded walk as live input instead of refusing it as
+    /// stale and replayed. For development: it defeats the agents' guard against
+    /// exactly this.
+    #[arg(long)]
+    pub restamp: bool,
     /// Zenoh JSON5 configuration file (default: $ZENOH_CONFIG, else peer mode with
     /// multicast scouting).
     #[arg(long, value_name = "FILE")]
@@ -471,14 +479,19 @@ pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let mut rounds = 0u64;
     'replay: loop {
         let start = tokio::time::Instant::now();
+        let mut sessions = HashMap::new();
         for m in &messages {
             let offset_ns = ((m.log_time - first_ns) as f64 / args.rate) as u64;
             tokio::select! {
                 _ = tokio::time::sleep_until(start + Duration::from_nanos(offset_ns)) => {}
                 _ = shutdown.triggered() => break 'replay,
             }
+            let payload = match args.restamp {
+                true => restamped(m, &mut sessions)?,
+                false => m.data.clone(),
+            };
             let publisher = &publishers[&(m.topic.clone(), m.zenoh_encoding.clone())];
-            publisher.put(m.data.clone()).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
+            publisher.put(payload).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
         }
         rounds += 1;
         if !args.repeat {
@@ -490,6 +503,31 @@ pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     tokio::time::sleep(Duration::from_millis(200)).await;
     let _ = session.close().await;
     Ok(())
+}
+
+/// The recorded payload with its capture stamp moved to now (minus the age it arrived
+/// with at the recorder) and its publisher session replaced by a new one (one per
+/// recorded session, kept in `sessions` for the round), checksum resealed. A payload
+/// whose header does not decode goes out as recorded.
+fn restamped(m: &Recorded, sessions: &mut HashMap<u64, u64>) -> anyhow::Result<Vec<u8>> {
+    let Ok((header, used)) = schemas::decode_header(&m.data) else {
+        return Ok(m.data.clone());
+    };
+    let session = *sessions
+        .entry(header.session)
+        .or_insert_with(|| std::collections::hash_map::RandomState::new().hash_one((header.session, bus::now_ns())));
+    let age_ns = m.log_time as i128 - header.capture_ns as i128;
+    let capture_ns = (bus::now_ns() as i128 - age_ns).max(0) as u64;
+    // The envelope ends with session, seq and capture_ns, fixed-width little-endian u64
+    // (bincode's legacy layout, docs/wire.md); the check below proves it for each one.
+    let mut out = m.data.clone();
+    out[used - 24..used - 16].copy_from_slice(&session.to_le_bytes());
+    out[used - 8..used].copy_from_slice(&capture_ns.to_le_bytes());
+    schemas::wire::reseal(&mut out);
+    match schemas::decode_header(&out) {
+        Ok((check, _)) if check == schemas::Header { session, capture_ns, ..header } => Ok(out),
+        _ => bail!("cannot restamp a {} message on {}: its envelope is not laid out as expected", m.schema, m.topic),
+    }
 }
 
 /// Wait (up to 2 s) until some subscriber matches one of the publishers, so a recorder
