@@ -175,7 +175,9 @@ fn write_loop(
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
             Ok(arrival) => {
-                recording.write(&arrival).context("writing the recording failed")?;
+                recording
+                    .write(&arrival)
+                    .context("writing the recording failed (`wearnav inspect` reads what was written before)")?;
                 in_period += 1;
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
@@ -196,7 +198,9 @@ fn write_loop(
         if stop.load(Ordering::Relaxed) {
             // what already arrived is kept
             while let Ok(arrival) = rx.try_recv() {
-                recording.write(&arrival).context("writing the recording failed")?;
+                recording
+                    .write(&arrival)
+                    .context("writing the recording failed (`wearnav inspect` reads what was written before)")?;
             }
             break;
         }

@@ -207,12 +207,13 @@ fn inspect_refuses_a_file_that_is_not_mcap() {
 }
 
 /// A recording cut short (as by a crash or a full disk) and one with damaged bytes:
-/// inspect says so and exits non-zero, never panics.
+/// inspect says so and exits non-zero, never panics; replay plays what precedes the
+/// cut. A recorder whose disk is full (`/dev/full`) says so and exits non-zero.
 #[test]
 fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
     let port = free_port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let demo = start(&["demo", "--duration", "8s", "--user", "cut", "--listen", &endpoint]);
+    let demo = start(&["demo", "--duration", "12s", "--user", "cut", "--listen", &endpoint]);
     wait_listening(port, Duration::from_secs(20));
     let path = scratch("whole.mcap");
     let out = wearnav(&[
@@ -228,6 +229,22 @@ fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
         path.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "record failed: {}", String::from_utf8_lossy(&out.stderr));
+    // a full disk: the recorder says so and exits non-zero
+    let out = wearnav(&[
+        "record",
+        "--user",
+        "cut",
+        "--connect",
+        &endpoint,
+        "--no-multicast",
+        "--duration",
+        "3s",
+        "--out",
+        "/dev/full",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("No space left on device"), "{err}");
     drop(demo);
     let whole = std::fs::read(&path).unwrap();
     assert!(whole.len() > 100_000, "{} bytes recorded", whole.len());
@@ -239,8 +256,13 @@ fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("truncated") || err.contains("damaged"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
-    // what precedes the cut is still summarised
+    // what precedes the cut is still summarised, and replayed
     assert!(String::from_utf8_lossy(&out.stdout).contains("perception/hazard"), "{err}");
+    let out =
+        wearnav(&["replay", truncated.to_str().unwrap(), "--rate", "4", "--keys", "perception/*", "--no-multicast"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("replaying what precedes it"), "{err}");
 
     let mut corrupted = whole.clone();
     for b in &mut corrupted[whole.len() / 3..whole.len() / 3 + 64] {
