@@ -52,6 +52,13 @@ pub struct RecordArgs {
     /// (`sensor/**`, `perception/*`).
     #[arg(long, value_name = "GLOB", default_value = "**")]
     pub keys: String,
+    /// Start a new file once the current one holds this many megabytes of payload: the
+    /// files are then numbered (`walk.mcap` becomes `walk-000.mcap`, `walk-001.mcap`, ...).
+    #[arg(long, value_name = "MB")]
+    pub split_size_mb: Option<f64>,
+    /// Start a new file after this long (`10m`), numbered as with --split-size-mb.
+    #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration)]
+    pub split_every: Option<Duration>,
 }
 
 /// Republish a recorded session on the bus with its original timing.
@@ -109,12 +116,13 @@ struct Arrival {
     payload: Vec<u8>,
 }
 
-/// The MCAP writer and the channels it has opened.
+/// One MCAP file being written and the channels it has opened.
 struct Recording {
+    path: PathBuf,
+    opened: Instant,
     writer: mcap::Writer<BufWriter<File>>,
     /// (key, schema, Zenoh encoding) -> channel id
     channels: HashMap<(String, String, String), u16>,
-    messages: u64,
     payload_bytes: u64,
 }
 
@@ -127,7 +135,19 @@ impl Recording {
             .profile("wearnav")
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot start the MCAP file {}", path.display()))?;
-        Ok(Self { writer, channels: HashMap::new(), messages: 0, payload_bytes: 0 })
+        Ok(Self {
+            path: path.to_path_buf(),
+            opened: Instant::now(),
+            writer,
+            channels: HashMap::new(),
+            payload_bytes: 0,
+        })
+    }
+
+    /// Write the summary and footer: the file is complete.
+    fn finish(mut self) -> anyhow::Result<PathBuf> {
+        self.writer.finish().with_context(|| format!("cannot finish {}", self.path.display()))?;
+        Ok(self.path)
     }
 
     fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
@@ -156,18 +176,72 @@ impl Recording {
             publish_time: header.as_ref().map_or(arrival.arrival_ns, |h| h.capture_ns),
         };
         self.writer.write_to_known_channel(&message, &arrival.payload)?;
-        self.messages += 1;
         self.payload_bytes += arrival.payload.len() as u64;
         Ok(())
     }
 }
 
+/// When to start a new file, and what to call each.
+struct Rotation {
+    out: PathBuf,
+    max_bytes: Option<u64>,
+    max_age: Option<Duration>,
+}
+
+impl Rotation {
+    /// `--out` as given, or numbered (`walk-000.mcap`, `walk-001.mcap`, ...) when
+    /// files rotate.
+    fn path(&self, index: usize) -> PathBuf {
+        if self.max_bytes.is_none() && self.max_age.is_none() {
+            return self.out.clone();
+        }
+        let stem = self.out.file_stem().map_or_else(|| "recording".into(), |s| s.to_string_lossy());
+        let ext = self.out.extension().map_or_else(|| "mcap".into(), |e| e.to_string_lossy());
+        self.out.with_file_name(format!("{stem}-{index:03}.{ext}"))
+    }
+
+    fn due(&self, current: &Recording) -> bool {
+        self.max_bytes.is_some_and(|b| current.payload_bytes >= b)
+            || self.max_age.is_some_and(|a| current.opened.elapsed() >= a)
+    }
+}
+
+/// The file being written, the files finished before it, and the totals.
+struct Recorder {
+    rotation: Rotation,
+    current: Recording,
+    finished: Vec<PathBuf>,
+    messages: u64,
+    payload_bytes: u64,
+}
+
+impl Recorder {
+    fn start(rotation: Rotation) -> anyhow::Result<Self> {
+        let current = Recording::create(&rotation.path(0))?;
+        Ok(Self { rotation, current, finished: Vec::new(), messages: 0, payload_bytes: 0 })
+    }
+
+    fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
+        if self.rotation.due(&self.current) {
+            let next = Recording::create(&self.rotation.path(self.finished.len() + 1))?;
+            let done = std::mem::replace(&mut self.current, next);
+            self.finished.push(done.finish()?);
+        }
+        self.current.write(arrival)?;
+        self.messages += 1;
+        self.payload_bytes += arrival.payload.len() as u64;
+        Ok(())
+    }
+
+    /// Finish the current file; every file written, in order.
+    fn finish(mut self) -> anyhow::Result<Vec<PathBuf>> {
+        self.finished.push(self.current.finish()?);
+        Ok(self.finished)
+    }
+}
+
 /// Writes what the subscription delivers until `stop`, with a progress line a second.
-fn write_loop(
-    mut recording: Recording,
-    rx: mpsc::Receiver<Arrival>,
-    stop: Arc<AtomicBool>,
-) -> anyhow::Result<Recording> {
+fn write_loop(mut recording: Recorder, rx: mpsc::Receiver<Arrival>, stop: Arc<AtomicBool>) -> anyhow::Result<Recorder> {
     let started = Instant::now();
     let mut next_report = started + Duration::from_secs(1);
     let mut in_period = 0u64;
@@ -213,7 +287,15 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
     let keys = args.bus.keys()?;
     let key_expr = format!("{}/{}", keys.prefix(), args.keys);
     KeyExpr::try_from(key_expr.clone()).map_err(|e| anyhow!("bad --keys {:?}: {e}", args.keys))?;
-    let recording = Recording::create(&args.out)?;
+    let max_bytes = match args.split_size_mb {
+        Some(mb) if mb.is_finite() && mb > 0.0 => Some((mb * 1e6) as u64),
+        Some(mb) => bail!("--split-size-mb must be a positive number, not {mb}"),
+        None => None,
+    };
+    if args.split_every.is_some_and(|d| d.is_zero()) {
+        bail!("--split-every must be longer than zero");
+    }
+    let recording = Recorder::start(Rotation { out: args.out.clone(), max_bytes, max_age: args.split_every })?;
     let session = bus::open_session(&args.bus).await?;
     let (tx, rx) = mpsc::channel();
     let subscriber = session
@@ -228,7 +310,7 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
         })
         .await
         .map_err(|e| anyhow!("cannot subscribe {key_expr}: {e}"))?;
-    eprintln!("recording {key_expr} into {}", args.out.display());
+    eprintln!("recording {key_expr} into {}", recording.current.path.display());
     let stop = Arc::new(AtomicBool::new(false));
     let mut writer = tokio::task::spawn_blocking({
         let stop = stop.clone();
@@ -253,15 +335,15 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
         Some(done) => done,
         None => writer.await,
     };
-    let mut recording = done.context("the recording's writer stopped")??;
-    recording.writer.finish().with_context(|| format!("cannot finish {}", args.out.display()))?;
+    let recording = done.context("the recording's writer stopped")??;
+    let (messages, payload_bytes) = (recording.messages, recording.payload_bytes);
+    let files = recording.finish()?;
     let _ = session.close().await;
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
     eprintln!(
-        "recorded {} messages on {} channels, {:.1} MB of payload, into {}",
-        recording.messages,
-        recording.channels.len(),
-        recording.payload_bytes as f64 / 1e6,
-        args.out.display()
+        "recorded {messages} messages, {:.1} MB of payload, into {}",
+        payload_bytes as f64 / 1e6,
+        names.join(", ")
     );
     Ok(())
 }
@@ -399,25 +481,31 @@ fn summarise(path: &Path, contents: &Contents) -> FileSummary {
     }
 }
 
-fn print_table(summary: &FileSummary) {
-    println!(
+/// The summary as a table (written, not printed: a closed pipe, `| head`, is an error,
+/// not a panic).
+fn write_table(out: &mut impl std::io::Write, summary: &FileSummary) -> std::io::Result<()> {
+    writeln!(
+        out,
         "{}: {} messages, {:.1} MB of payload, {:.1} s",
         summary.file,
         summary.messages,
         summary.bytes as f64 / 1e6,
         summary.duration_s
-    );
+    )?;
     let width = summary.channels.iter().map(|c| c.key.len()).max().unwrap_or(3).max(3);
-    println!(
+    writeln!(
+        out,
         "{:<width$}  {:<26} {:>7} {:>8} {:>8} {:>9} {:>11} {:>6}",
         "key", "schema", "count", "rate/s", "dur s", "max gap", "bytes", "seq!"
-    );
+    )?;
     for c in &summary.channels {
-        println!(
+        writeln!(
+            out,
             "{:<width$}  {:<26} {:>7} {:>8.1} {:>8.1} {:>6.0} ms {:>11} {:>6}",
             c.key, c.schema, c.count, c.rate_hz, c.duration_s, c.largest_gap_ms, c.bytes, c.sequence_breaks
-        );
+        )?;
     }
+    Ok(())
 }
 
 /// `wearnav inspect`: the summary of what is readable; an error (after the summary)
@@ -425,10 +513,12 @@ fn print_table(summary: &FileSummary) {
 pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
     let contents = read(&args.file)?;
     let summary = summarise(&args.file, &contents);
+    let mut out = std::io::stdout().lock();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        serde_json::to_writer_pretty(&mut out, &summary)?;
+        std::io::Write::write_all(&mut out, b"\n")?;
     } else {
-        print_table(&summary);
+        write_table(&mut out, &summary)?;
     }
     match &summary.damage {
         Some(damage) => bail!("{}: {damage}; the figures above are of what precedes it", args.file.display()),

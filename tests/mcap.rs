@@ -208,12 +208,13 @@ fn inspect_refuses_a_file_that_is_not_mcap() {
 
 /// A recording cut short (as by a crash or a full disk) and one with damaged bytes:
 /// inspect says so and exits non-zero, never panics; replay plays what precedes the
-/// cut. A recorder whose disk is full (`/dev/full`) says so and exits non-zero.
+/// cut. A recorder whose disk is full (`/dev/full`) says so and exits non-zero; one that
+/// rotates files by size leaves every file complete.
 #[test]
-fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
+fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_complete() {
     let port = free_port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let demo = start(&["demo", "--duration", "12s", "--user", "cut", "--listen", &endpoint]);
+    let demo = start(&["demo", "--duration", "16s", "--user", "cut", "--listen", &endpoint]);
     wait_listening(port, Duration::from_secs(20));
     let path = scratch("whole.mcap");
     let out = wearnav(&[
@@ -245,6 +246,40 @@ fn inspect_reports_a_truncated_or_corrupted_recording_and_exits_non_zero() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("No space left on device"), "{err}");
+    // rotation by size: numbered files, each complete, nothing lost between them
+    let split = scratch("split.mcap");
+    let out = wearnav(&[
+        "record",
+        "--user",
+        "cut",
+        "--connect",
+        &endpoint,
+        "--no-multicast",
+        "--duration",
+        "3s",
+        "--split-size-mb",
+        "2",
+        "--out",
+        split.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let recorded: u64 = err
+        .lines()
+        .find_map(|l| l.strip_prefix("recorded ")?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no total in {err}"));
+    let mut in_files = 0;
+    for index in 0.. {
+        let file = scratch(&format!("split-{index:03}.mcap"));
+        if !file.exists() {
+            assert!(index >= 3, "{index} files from 3 s at 2 MB/s split every 2 MB: {err}");
+            break;
+        }
+        let summary = inspect_json(&file);
+        assert!(summary["damage"].is_null(), "{}", summary["damage"]);
+        in_files += summary["messages"].as_u64().unwrap();
+    }
+    assert_eq!(in_files, recorded, "{err}");
     drop(demo);
     let whole = std::fs::read(&path).unwrap();
     assert!(whole.len() > 100_000, "{} bytes recorded", whole.len());
