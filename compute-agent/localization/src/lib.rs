@@ -88,6 +88,18 @@ pub enum LocalizationError {
         /// the level
         level: i32,
     },
+    /// a start pose off the floor's free space
+    #[error("the start ({x:.2}, {y:.2}) on floor {level} is {why}: give a place the user can stand on")]
+    StartNotFree {
+        /// the level
+        level: i32,
+        /// map x, metres
+        x: f64,
+        /// map y, metres
+        y: f64,
+        /// "outside the floor map", "not within 0.5 m of free space"
+        why: &'static str,
+    },
     /// a configuration that cannot work
     #[error("bad localization configuration: {0}")]
     BadConfig(String),

@@ -85,6 +85,10 @@ impl Default for TrackerConfig {
     }
 }
 
+/// A known start may be this far from free space (a user at a door, a wall's cells),
+/// metres.
+pub const START_SLACK_M: f64 = 0.5;
+
 /// Largest sweep the estimate holds, radians (a cane swept wider than this is not a cane).
 const MAX_SWEEP_RAD: f64 = 1.2;
 /// Longest gap between frames the sweep is integrated over, seconds; a longer one
@@ -95,6 +99,8 @@ const MAX_FRAME_GAP_S: f64 = 0.5;
 #[derive(Clone, Debug)]
 pub struct Tracker {
     pf: ParticleFilter,
+    /// each floor's grid, to check a start against
+    grids: Vec<(i32, map::OccupancyGrid)>,
     gateways: Vec<Gateway>,
     config: TrackerConfig,
     sweep_rad: f64,
@@ -119,6 +125,7 @@ impl Tracker {
         let pf = ParticleFilter::new(floors, config.filter.clone(), seed)?;
         Ok(Self {
             pf,
+            grids: building.floors().iter().map(|f| (f.level, f.grid.clone())).collect(),
             gateways: building.gateways().to_vec(),
             config,
             sweep_rad: 0.0,
@@ -131,7 +138,22 @@ impl Tracker {
     }
 
     /// Starts near a known pose (the user said where they stand, or a start of the demo).
+    /// A pose off the floor map, or farther than [`START_SLACK_M`] from its free space,
+    /// is refused: the particles would start where nobody can be.
     pub fn start_at(&mut self, level: i32, pose: Pose2) -> Result<(), LocalizationError> {
+        let grid = &self.grids.iter().find(|(l, _)| *l == level).ok_or(LocalizationError::UnknownFloor { level })?.1;
+        let refuse = |why| LocalizationError::StartNotFree { level, x: pose.x_m, y: pose.y_m, why };
+        let (col, row) = grid.world_to_cell(pose.x_m, pose.y_m).ok_or_else(|| refuse("outside the floor map"))?;
+        let reach = (START_SLACK_M / grid.resolution_m()).ceil() as isize;
+        let free_near = (-reach..=reach).any(|dr| {
+            (-reach..=reach).any(|dc| {
+                let (c, r) = (col as isize + dc, row as isize + dr);
+                c >= 0 && r >= 0 && grid.get(c as usize, r as usize) == Some(map::Cell::Free)
+            })
+        });
+        if !free_near {
+            return Err(refuse("not within 0.5 m of free space"));
+        }
         let c = &self.config;
         self.pf.init_pose(level, pose, c.start_sigma_m, c.start_sigma_heading_rad)
     }
@@ -428,6 +450,16 @@ stops = [ { floor = 0, x = 16.0, y = 11.0 }, { floor = 1, x = 16.0, y = 11.0 } ]
         assert_eq!(e.level, 1);
         assert!((e.pose.x_m - 16.0).hypot(e.pose.y_m - 10.5) < 0.3, "{:?}", e.pose);
         assert_ne!(t.pose().status, schemas::LocalizationStatus::Tracking, "tracking is earned again");
+        // a start off the map or inside the walls is refused with the reason
+        let off = t.start_at(0, Pose2::new(30.0, 2.0, 0.0)).unwrap_err().to_string();
+        assert_eq!(
+            off,
+            "the start (30.00, 2.00) on floor 0 is outside the floor map: give a place the user can stand on"
+        );
+        let wall = t.start_at(0, Pose2::new(10.0, 6.0, 0.0)).unwrap_err().to_string();
+        assert!(wall.contains("not within 0.5 m of free space"), "{wall}");
+        assert!(t.start_at(0, Pose2::new(10.0, 3.4, 0.0)).is_ok(), "0.4 m into the wall's side is a door frame");
+        t.start_at(1, Pose2::new(16.0, 10.5, 1.57)).unwrap();
         let err = t.floor_confirmed(4).unwrap_err();
         assert_eq!(err, "no elevator, stairs or ramp joins floor 1 and floor 4");
         assert_eq!(t.estimate().level, 1);
