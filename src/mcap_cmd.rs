@@ -15,7 +15,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::hash::BuildHasher;
-use std::io::BufWriter;
+use std::io::{BufWriter, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
@@ -33,8 +33,8 @@ pub const UNKNOWN_SCHEMA: &str = "unknown";
 /// Channel metadata key holding the Zenoh encoding the samples carried.
 pub const ZENOH_ENCODING: &str = "zenoh_encoding";
 
-/// Messages to buffer in a chunk before it is compressed and written: an interrupted
-/// recording loses at most this much (about a second of the demo's depth frames).
+/// Bytes of messages buffered in a chunk before it is compressed and written: an
+/// interrupted recording loses at most this much (about half a second of the demo).
 const CHUNK_BYTES: u64 = 1 << 20;
 
 /// Record a user's bus traffic into an MCAP file.
@@ -358,45 +358,49 @@ struct Recorded {
     data: Vec<u8>,
 }
 
-/// What could be read of a file: every message up to the first damage, and the damage.
-struct Contents {
-    messages: Vec<Recorded>,
-    /// Why reading stopped before the end, if it did.
-    damage: Option<String>,
-}
+/// Records larger than this are taken for damage (a corrupted length), not allocated:
+/// 16 times our chunks, and over 4000 times the largest message the wire allows.
+const RECORD_LIMIT_BYTES: usize = 16 * CHUNK_BYTES as usize;
 
-/// Read every message of `path`; a file that is not MCAP at all is an error, a damaged
-/// or truncated one gives what precedes the damage and says where it broke.
-fn read(path: &Path) -> anyhow::Result<Contents> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    if !bytes.starts_with(mcap::MAGIC) {
+/// Stream every message of `path`, in file order, into `each` (which may stop the
+/// reading by returning false). A file that is not MCAP at all is an error; of a damaged
+/// or truncated one, what precedes the damage is read, and the damage is returned.
+/// Only a chunk at a time is held in memory.
+fn read(path: &Path, mut each: impl FnMut(Recorded) -> bool) -> anyhow::Result<Option<String>> {
+    let mut file = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut magic = [0u8; 8];
+    let is_mcap = file.read_exact(&mut magic).is_ok() && magic == *mcap::MAGIC;
+    if !is_mcap {
         bail!("{} is not an MCAP file (it does not start with the MCAP magic)", path.display());
     }
-    let options = mcap::read::Options::IgnoreEndMagic | mcap::read::Options::ValidateChunkCrcs;
-    let stream = mcap::MessageStream::new_with_options(&bytes, options)
-        .map_err(|e| anyhow!("{} cannot be read as MCAP: {e}", path.display()))?;
-    let mut messages = Vec::new();
-    let mut damage = None;
-    for message in stream {
-        match message {
-            Ok(m) => messages.push(Recorded {
-                topic: m.channel.topic.clone(),
-                schema: m.channel.schema.as_ref().map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.name.clone()),
-                zenoh_encoding: m.channel.metadata.get(ZENOH_ENCODING).cloned().unwrap_or_default(),
-                sequence: m.sequence,
-                log_time: m.log_time,
-                data: m.data.into_owned(),
-            }),
-            Err(e) => {
-                damage = Some(format!("damaged after message {}: {e}", messages.len()));
-                break;
-            }
+    let len = file.seek(SeekFrom::End(0))?;
+    file.seek(SeekFrom::Start(len.saturating_sub(8)))?;
+    let ends_well = file.read_exact(&mut magic).is_ok() && magic == *mcap::MAGIC && len >= 16;
+    file.seek(SeekFrom::Start(0))?;
+    let options = mcap::sans_io::LinearReaderOptions::default()
+        .with_skip_end_magic(!ends_well)
+        .with_validate_chunk_crcs(true)
+        .with_record_length_limit(RECORD_LIMIT_BYTES);
+    let mut count = 0u64;
+    for message in mcap::io::MessageReader::new_with_options(std::io::BufReader::new(file), options) {
+        let m = match message {
+            Ok(m) => m,
+            Err(e) => return Ok(Some(format!("damaged after message {count}: {e}"))),
+        };
+        count += 1;
+        let recorded = Recorded {
+            topic: m.channel.topic.clone(),
+            schema: m.channel.schema.as_ref().map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.name.clone()),
+            zenoh_encoding: m.channel.metadata.get(ZENOH_ENCODING).cloned().unwrap_or_default(),
+            sequence: m.sequence,
+            log_time: m.log_time,
+            data: m.data.into_owned(),
+        };
+        if !each(recorded) {
+            return Ok(None);
         }
     }
-    if damage.is_none() && !bytes.ends_with(mcap::MAGIC) {
-        damage = Some(format!("truncated after message {}: no footer (the recording did not finish)", messages.len()));
-    }
-    Ok(Contents { messages, damage })
+    Ok((!ends_well).then(|| format!("truncated after message {count}: no footer (the recording did not finish)")))
 }
 
 /// Figures of one channel.
@@ -431,9 +435,13 @@ struct FileSummary {
     damage: Option<String>,
 }
 
-fn summarise(path: &Path, contents: &Contents) -> FileSummary {
+/// Read `path` and summarise it per channel.
+fn summarise(path: &Path) -> anyhow::Result<FileSummary> {
     let mut channels: Vec<ChannelSummary> = Vec::new();
-    for m in &contents.messages {
+    let (mut messages, mut first, mut last) = (0u64, u64::MAX, 0u64);
+    let damage = read(path, |m| {
+        messages += 1;
+        (first, last) = (first.min(m.log_time), last.max(m.log_time));
         let index = match channels.iter().position(|c| c.key == m.topic && c.schema == m.schema) {
             Some(i) => i,
             None => {
@@ -463,22 +471,21 @@ fn summarise(path: &Path, contents: &Contents) -> FileSummary {
         c.last_ns = c.last_ns.max(m.log_time);
         c.count += 1;
         c.bytes += m.data.len() as u64;
-    }
+        true
+    })?;
     for c in &mut channels {
         c.duration_s = (c.last_ns - c.first_ns) as f64 / 1e9;
         c.rate_hz = if c.count > 1 && c.duration_s > 0.0 { (c.count - 1) as f64 / c.duration_s } else { 0.0 };
     }
     channels.sort_by(|a, b| a.key.cmp(&b.key).then(a.schema.cmp(&b.schema)));
-    let first = contents.messages.iter().map(|m| m.log_time).min().unwrap_or(0);
-    let last = contents.messages.iter().map(|m| m.log_time).max().unwrap_or(0);
-    FileSummary {
+    Ok(FileSummary {
         file: path.display().to_string(),
-        messages: contents.messages.len() as u64,
+        messages,
         bytes: channels.iter().map(|c| c.bytes).sum(),
-        duration_s: (last - first) as f64 / 1e9,
+        duration_s: last.saturating_sub(first) as f64 / 1e9,
         channels,
-        damage: contents.damage.clone(),
-    }
+        damage,
+    })
 }
 
 /// The summary as a table (written, not printed: a closed pipe, `| head`, is an error,
@@ -511,8 +518,7 @@ fn write_table(out: &mut impl std::io::Write, summary: &FileSummary) -> std::io:
 /// `wearnav inspect`: the summary of what is readable; an error (after the summary)
 /// when the file is damaged.
 pub fn inspect(args: &InspectArgs) -> anyhow::Result<()> {
-    let contents = read(&args.file)?;
-    let summary = summarise(&args.file, &contents);
+    let summary = summarise(&args.file)?;
     let mut out = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut out, &summary)?;
@@ -540,63 +546,101 @@ pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         bail!("--rate must be a positive number, not {}", args.rate);
     }
     let glob = KeyExpr::try_from(args.keys.clone()).map_err(|e| anyhow!("bad --keys {:?}: {e}", args.keys))?;
-    let contents = read(&args.file)?;
-    if let Some(damage) = &contents.damage {
-        eprintln!("{}: {damage}; replaying what precedes it", args.file.display());
-    }
-    let messages: Vec<&Recorded> = contents.messages.iter().filter(|m| selected(&glob, &m.topic)).collect();
-    let Some(first_ns) = messages.iter().map(|m| m.log_time).min() else {
-        bail!("{}: no message matches --keys {:?}", args.file.display(), args.keys);
-    };
+    // refuse a file that is not MCAP before touching the bus
+    read(&args.file, |_| false)?;
     let mut bus = BusOptions::for_user("replay");
     (bus.zenoh_config, bus.connect, bus.listen, bus.no_multicast) =
         (args.zenoh_config.clone(), args.connect.clone(), args.listen.clone(), args.no_multicast);
     let session = bus::open_session(&bus).await?;
-    let mut publishers = HashMap::new();
-    for m in &messages {
-        let id = (m.topic.clone(), m.zenoh_encoding.clone());
-        if !publishers.contains_key(&id) {
-            // Block rather than drop: a replay is only worth its completeness.
-            let publisher = session
-                .declare_publisher(m.topic.clone())
-                .encoding(zenoh::bytes::Encoding::from(m.zenoh_encoding.clone()))
-                .congestion_control(zenoh::qos::CongestionControl::Block)
-                .express(true)
-                .await
-                .map_err(|e| anyhow!("cannot declare a publisher on {}: {e}", m.topic))?;
-            publishers.insert(id, publisher);
-        }
-    }
     let shutdown = Shutdown::new();
     shutdown.trigger_on_signals();
-    wait_for_subscribers(&publishers, &shutdown).await;
-    let mut rounds = 0u64;
-    'replay: loop {
-        let start = tokio::time::Instant::now();
-        let mut sessions = HashMap::new();
-        for m in &messages {
-            let offset_ns = ((m.log_time - first_ns) as f64 / args.rate) as u64;
-            tokio::select! {
-                _ = tokio::time::sleep_until(start + Duration::from_nanos(offset_ns)) => {}
-                _ = shutdown.triggered() => break 'replay,
-            }
-            let payload = match args.restamp {
-                true => restamped(m, &mut sessions)?,
-                false => m.data.clone(),
-            };
-            let publisher = &publishers[&(m.topic.clone(), m.zenoh_encoding.clone())];
-            publisher.put(payload).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
+    let mut player = Player { session: &session, publishers: HashMap::new(), restamp: args.restamp, rate: args.rate };
+    let (mut rounds, mut sent) = (0u64, 0u64);
+    loop {
+        // the file is read as it is played, a chunk at a time
+        let (tx, mut rx) = tokio::sync::mpsc::channel::<Recorded>(1024);
+        let (path, glob) = (args.file.clone(), glob.clone().into_owned());
+        let reader = tokio::task::spawn_blocking(move || {
+            read(&path, |m| !selected(&glob, &m.topic) || tx.blocking_send(m).is_ok())
+        });
+        let played = player.round(&mut rx, &shutdown).await;
+        drop(rx);
+        let damage = reader.await.context("the file's reader stopped")??;
+        sent += played?;
+        if let Some(damage) = damage.filter(|_| rounds == 0) {
+            eprintln!("{}: {damage}; replayed what precedes it", args.file.display());
+        }
+        if sent == 0 {
+            bail!("{}: no message matches --keys {:?}", args.file.display(), args.keys);
         }
         rounds += 1;
-        if !args.repeat {
+        if !args.repeat || shutdown.is_triggered() {
             break;
         }
     }
-    eprintln!("replayed {} messages {rounds} time(s) from {}", messages.len(), args.file.display());
+    eprintln!("replayed {sent} messages ({rounds} round(s)) from {}", args.file.display());
     // let the last messages leave before the session goes
     tokio::time::sleep(Duration::from_millis(200)).await;
     let _ = session.close().await;
     Ok(())
+}
+
+/// Publishes recorded messages on the bus at their recorded pace.
+struct Player<'s> {
+    session: &'s zenoh::Session,
+    /// (key, Zenoh encoding) -> publisher, declared as keys first appear
+    publishers: HashMap<(String, String), zenoh::pubsub::Publisher<'s>>,
+    restamp: bool,
+    rate: f64,
+}
+
+impl Player<'_> {
+    /// Play what `rx` delivers, timed from its first message, until it ends or
+    /// shutdown; how many messages were sent.
+    async fn round(
+        &mut self,
+        rx: &mut tokio::sync::mpsc::Receiver<Recorded>,
+        shutdown: &Shutdown,
+    ) -> anyhow::Result<u64> {
+        let mut clock: Option<(tokio::time::Instant, u64)> = None;
+        let mut sessions = HashMap::new();
+        let mut sent = 0;
+        while let Some(m) = tokio::select! { m = rx.recv() => m, _ = shutdown.triggered() => None } {
+            let id = (m.topic.clone(), m.zenoh_encoding.clone());
+            if !self.publishers.contains_key(&id) {
+                // Block rather than drop: a replay is only worth its completeness.
+                let publisher = self
+                    .session
+                    .declare_publisher(m.topic.clone())
+                    .encoding(zenoh::bytes::Encoding::from(m.zenoh_encoding.clone()))
+                    .congestion_control(zenoh::qos::CongestionControl::Block)
+                    .express(true)
+                    .await
+                    .map_err(|e| anyhow!("cannot declare a publisher on {}: {e}", m.topic))?;
+                self.publishers.insert(id.clone(), publisher);
+            }
+            let publisher = &self.publishers[&id];
+            let (start, first_ns) = match clock {
+                Some(c) => c,
+                None => {
+                    wait_for_subscribers(publisher, shutdown).await;
+                    *clock.insert((tokio::time::Instant::now(), m.log_time))
+                }
+            };
+            let offset_ns = (m.log_time.saturating_sub(first_ns) as f64 / self.rate) as u64;
+            tokio::select! {
+                _ = tokio::time::sleep_until(start + Duration::from_nanos(offset_ns)) => {}
+                _ = shutdown.triggered() => break,
+            }
+            let payload = match self.restamp {
+                true => restamped(&m, &mut sessions)?,
+                false => m.data,
+            };
+            publisher.put(payload).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
+            sent += 1;
+        }
+        Ok(sent)
+    }
 }
 
 /// The recorded payload with its capture stamp moved to now (minus the age it arrived
@@ -624,15 +668,13 @@ fn restamped(m: &Recorded, sessions: &mut HashMap<u64, u64>) -> anyhow::Result<V
     }
 }
 
-/// Wait (up to 2 s) until some subscriber matches one of the publishers, so a recorder
-/// or monitor started alongside the replay misses none of its first messages.
-async fn wait_for_subscribers<K>(publishers: &HashMap<K, zenoh::pubsub::Publisher<'_>>, shutdown: &Shutdown) {
+/// Wait (up to 2 s) until a subscriber matches the first key played, so a recorder or
+/// monitor started alongside the replay misses none of its first messages.
+async fn wait_for_subscribers(publisher: &zenoh::pubsub::Publisher<'_>, shutdown: &Shutdown) {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
     while tokio::time::Instant::now() < deadline && !shutdown.is_triggered() {
-        for p in publishers.values() {
-            if p.matching_status().await.is_ok_and(|s| s.matching()) {
-                return;
-            }
+        if publisher.matching_status().await.is_ok_and(|s| s.matching()) {
+            return;
         }
         tokio::time::sleep(Duration::from_millis(20)).await;
     }

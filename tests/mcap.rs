@@ -297,7 +297,7 @@ fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_co
         wearnav(&["replay", truncated.to_str().unwrap(), "--rate", "4", "--keys", "perception/*", "--no-multicast"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
-    assert!(err.contains("replaying what precedes it"), "{err}");
+    assert!(err.contains("replayed what precedes it"), "{err}");
 
     let mut corrupted = whole.clone();
     for b in &mut corrupted[whole.len() / 3..whole.len() / 3 + 64] {
