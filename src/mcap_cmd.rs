@@ -32,6 +32,8 @@ pub const MESSAGE_ENCODING: &str = "wearnav-bincode";
 pub const UNKNOWN_SCHEMA: &str = "unknown";
 /// Channel metadata key holding the Zenoh encoding the samples carried.
 pub const ZENOH_ENCODING: &str = "zenoh_encoding";
+/// Suffix of the topic of a key's JSON twin (`wearnav/<user>/perception/hazard/json`).
+pub const JSON_SUFFIX: &str = "/json";
 
 /// Bytes of messages buffered in a chunk before it is compressed and written: an
 /// interrupted recording loses at most this much (about half a second of the demo).
@@ -177,7 +179,45 @@ impl Recording {
         };
         self.writer.write_to_known_channel(&message, &arrival.payload)?;
         self.payload_bytes += arrival.payload.len() as u64;
+        let schema = header.as_ref().and_then(|h| schemas::SchemaId::from_u16(h.schema));
+        if let Some(json) = schema.and_then(|s| as_json(s, &arrival.payload)) {
+            let topic = format!("{}{JSON_SUFFIX}", arrival.key);
+            let id = (topic, "json".to_string(), String::new());
+            let channel_id = match self.channels.get(&id) {
+                Some(&c) => c,
+                None => {
+                    let c = self.writer.add_channel(0, &id.0, "json", &BTreeMap::new())?;
+                    self.channels.insert(id, c);
+                    c
+                }
+            };
+            self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..message }, &json)?;
+        }
         Ok(())
+    }
+}
+
+/// Hazards, haptic and speech intents also as JSON (`{"header": .., "body": ..}`, as
+/// serde writes them; non-finite numbers as `null`), for tools that read JSON but not
+/// our wire (Foxglove's plots and raw messages); None for other schemas and for
+/// payloads that do not decode.
+fn as_json(schema: schemas::SchemaId, payload: &[u8]) -> Option<Vec<u8>> {
+    // serialised straight from the types, so an f32 is written as the shortest text
+    // that reads back to it, as serde_json and the Python decoder write it
+    #[derive(serde::Serialize)]
+    struct Twin<M> {
+        header: schemas::Header,
+        body: M,
+    }
+    fn json<M: schemas::Message>(payload: &[u8]) -> Option<Vec<u8>> {
+        let (header, body) = schemas::decode::<M>(payload).ok()?;
+        serde_json::to_vec(&Twin { header, body }).ok()
+    }
+    match schema {
+        schemas::SchemaId::Hazard => json::<schemas::Hazard>(payload),
+        schemas::SchemaId::HapticIntent => json::<schemas::HapticIntent>(payload),
+        schemas::SchemaId::SpeechIntent => json::<schemas::SpeechIntent>(payload),
+        _ => None,
     }
 }
 
@@ -351,7 +391,9 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
 /// A recorded message, as replay and inspect use it.
 struct Recorded {
     topic: String,
+    /// The schema's name; the message encoding for a channel without one (`json`).
     schema: String,
+    message_encoding: String,
     zenoh_encoding: String,
     sequence: u32,
     log_time: u64,
@@ -390,7 +432,8 @@ fn read(path: &Path, mut each: impl FnMut(Recorded) -> bool) -> anyhow::Result<O
         count += 1;
         let recorded = Recorded {
             topic: m.channel.topic.clone(),
-            schema: m.channel.schema.as_ref().map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.name.clone()),
+            schema: m.channel.schema.as_ref().map_or_else(|| m.channel.message_encoding.clone(), |s| s.name.clone()),
+            message_encoding: m.channel.message_encoding.clone(),
             zenoh_encoding: m.channel.metadata.get(ZENOH_ENCODING).cloned().unwrap_or_default(),
             sequence: m.sequence,
             log_time: m.log_time,
@@ -561,7 +604,10 @@ pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         let (tx, mut rx) = tokio::sync::mpsc::channel::<Recorded>(1024);
         let (path, glob) = (args.file.clone(), glob.clone().into_owned());
         let reader = tokio::task::spawn_blocking(move || {
-            read(&path, |m| !selected(&glob, &m.topic) || tx.blocking_send(m).is_ok())
+            // only the wire's channels: their JSON twins are the recorder's own
+            read(&path, |m| {
+                m.message_encoding != MESSAGE_ENCODING || !selected(&glob, &m.topic) || tx.blocking_send(m).is_ok()
+            })
         });
         let played = player.round(&mut rx, &shutdown).await;
         drop(rx);

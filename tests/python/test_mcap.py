@@ -5,6 +5,7 @@ Starts the demo (built by `cargo build --workspace`) on a free loopback port, re
 5 s of it with `wearnav record`, then reads the file with ``mcap.reader.make_reader``.
 """
 
+import json
 import os
 import socket
 import subprocess
@@ -77,13 +78,29 @@ def test_the_pypi_mcap_reader_opens_a_recording_and_every_payload_decodes(record
             assert f"wearnav/{USER}/{suffix}" in topics, sorted(topics)
         assert any(t.endswith("/depth") for t in topics), sorted(topics)
         for channel in summary.channels.values():
+            if channel.topic.endswith("/json"):  # the JSON twin of a key, schemaless
+                assert (channel.message_encoding, channel.schema_id) == ("json", 0)
+                continue
             assert channel.message_encoding == "wearnav-bincode"
             assert channel.metadata["zenoh_encoding"].endswith(summary.schemas[channel.schema_id].name)
+        twins = {c.topic for c in summary.channels.values() if c.topic.endswith("/json")}
+        always = {f"wearnav/{USER}/{k}/json" for k in ("perception/hazard", "feedback/haptic")}
+        assert always <= twins <= always | {f"wearnav/{USER}/feedback/speech/json"}, twins
 
         last_seq = {}
         counts = {}
+        wire = {}
         for schema, channel, message in reader.iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.message_encoding == "json":
+                twin = json.loads(message.data)
+                raw = wire[channel.topic[: -len("/json")]]
+                # the Rust recorder's JSON is the Python decoder's serde view of the wire
+                view = raw.to_json()
+                assert (twin["header"], twin["body"]) == (view["header"], view["body"]), channel.topic
+                continue
             decoded = decode(message.data)  # raises WireError on anything undecodable
+            wire[channel.topic] = decoded
             assert schema.name == encoding_schema(decoded.schema), (schema.name, decoded.schema)
             assert message.sequence == decoded.header["seq"] & 0xFFFFFFFF
             assert message.publish_time == decoded.header["capture_ns"]
@@ -92,11 +109,11 @@ def test_the_pypi_mcap_reader_opens_a_recording_and_every_payload_decodes(record
             if stream in last_seq:
                 assert seq > last_seq[stream], f"{stream}: seq {last_seq[stream]} then {seq}"
             last_seq[stream] = seq
-            counts[channel.topic] = counts.get(channel.topic, 0) + 1
 
         stats = summary.statistics
         assert stats.message_count == sum(counts.values())
         for channel_id, channel in summary.channels.items():
             assert stats.channel_message_counts[channel_id] == counts[channel.topic]
         hazards = counts[f"wearnav/{USER}/perception/hazard"]
+        assert counts[f"wearnav/{USER}/perception/hazard/json"] == hazards
         assert 90 <= hazards <= 190, f"{hazards} hazards in 5 s (30/s expected)"
