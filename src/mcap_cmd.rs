@@ -11,6 +11,8 @@
 //! [`ZENOH_ENCODING`], and replay sends it again. `log_time` is the arrival time at the
 //! recorder, `publish_time` the header's capture time (the arrival time when the header
 //! does not decode), `sequence` the header's sequence number (its low 32 bits).
+//! Hazards, haptic and speech intents also get a decoded JSON twin on `<key>/json`
+//! for tools that read JSON but not the wire; replay leaves the twins out.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
