@@ -73,7 +73,9 @@ pub struct ReplayArgs {
     /// Speed: 2.0 replays twice as fast, 0.5 at half speed.
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
-    /// Start again from the beginning at the end, until Ctrl-C.
+    /// Start again from the beginning at the end, until Ctrl-C. Receivers that check
+    /// sequence numbers (every agent) refuse the rounds after the first as replayed,
+    /// unless --restamp.
     #[arg(long = "loop")]
     pub repeat: bool,
     /// Which keys, as a Zenoh key expression under the recorded user's prefix
@@ -599,7 +601,8 @@ pub async fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let session = bus::open_session(&bus).await?;
     let shutdown = Shutdown::new();
     shutdown.trigger_on_signals();
-    let mut player = Player { session: &session, publishers: HashMap::new(), restamp: args.restamp, rate: args.rate };
+    let mut player =
+        Player { session: &session, publishers: HashMap::new(), restamp: args.restamp, rate: args.rate, waited: false };
     let (mut rounds, mut sent) = (0u64, 0u64);
     loop {
         // the file is read as it is played, a chunk at a time
@@ -640,6 +643,8 @@ struct Player<'s> {
     publishers: HashMap<(String, String), zenoh::pubsub::Publisher<'s>>,
     restamp: bool,
     rate: f64,
+    /// Whether the wait for a first subscriber is done (once, not every round).
+    waited: bool,
 }
 
 impl Player<'_> {
@@ -671,7 +676,10 @@ impl Player<'_> {
             let (start, first_ns) = match clock {
                 Some(c) => c,
                 None => {
-                    wait_for_subscribers(publisher, shutdown).await;
+                    if !self.waited {
+                        wait_for_subscribers(publisher, shutdown).await;
+                        self.waited = true;
+                    }
                     *clock.insert((tokio::time::Instant::now(), m.log_time))
                 }
             };

@@ -208,7 +208,7 @@ fn inspect_refuses_a_file_that_is_not_mcap() {
 
 /// A recording cut short (as by a crash or a full disk) and one with damaged bytes:
 /// inspect says so and exits non-zero, never panics; replay plays what precedes the
-/// cut. A recorder whose disk is full (`/dev/full`) says so and exits non-zero; one that
+/// cut, and `--loop` replays it again and again. A recorder whose disk is full (`/dev/full`) says so and exits non-zero; one that
 /// rotates files by size leaves every file complete.
 #[test]
 fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_complete() {
@@ -301,6 +301,17 @@ fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_co
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains("replayed what precedes it"), "{err}");
+    // --loop goes round until stopped
+    let looping = start(&["replay", truncated.to_str().unwrap(), "--rate", "20", "--loop", "--no-multicast"]);
+    std::thread::sleep(Duration::from_secs(4));
+    sigterm(&looping);
+    let (status, err) = finish(looping, Duration::from_secs(10));
+    assert!(status.success(), "{err}");
+    let rounds: u64 = err
+        .lines()
+        .find_map(|l| l.split(" messages (").nth(1)?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no round count in {err}"));
+    assert!(rounds >= 3, "{rounds} rounds in 2 s at 20 times the speed: {err}");
 
     let mut corrupted = whole.clone();
     for b in &mut corrupted[whole.len() / 3..whole.len() / 3 + 64] {
