@@ -181,9 +181,20 @@ impl Health {
         let mut warned = lock(&self.clock_warned);
         off.into_iter()
             .map(|(sender, ms)| {
-                let note = format!("clock of {sender} {} ms {}", ms.abs(), if ms > 0 { "behind" } else { "ahead" });
+                let trusted = ms.unsigned_abs() as u128 <= schemas::guard::MAX_TRUSTED_OFFSET.as_millis();
+                let side = if ms > 0 { "behind" } else { "ahead" };
+                let note = if trusted {
+                    format!("clock of {sender} {} ms {side}", ms.abs())
+                } else {
+                    format!("clock of {sender} {} ms {side}, not trusted", ms.abs())
+                };
                 if warned.insert(sender) {
-                    tracing::warn!(agent = %self.agent, "{note} (more than the {} ms input bound): its stamps are read through that offset; check NTP on its host", bound.as_millis());
+                    let reading = if trusted {
+                        "its stamps are read through that offset"
+                    } else {
+                        "past the 10 s a LAN's clocks can be apart, so its stamps are read as they are and its input is refused as stale (or replayed health)"
+                    };
+                    tracing::warn!(agent = %self.agent, "{note} (more than the {} ms input bound): {reading}; check NTP on its host", bound.as_millis());
                 }
                 note
             })

@@ -158,6 +158,13 @@ impl Guard {
 /// that was stepped.
 const OFFSET_WINDOW: usize = 20;
 
+/// Largest clock offset a receiver reads a sender's stamps through. A LAN's clocks (NTP,
+/// a phone's network time) agree to milliseconds; one off by more is misconfigured, or
+/// the "offset" comes from old health messages replayed with old data, which would then
+/// look fresh. Beyond this the sender's stamps are read as they are (its data is
+/// refused as stale or future, and the watchdog warns), and the sender is named.
+pub const MAX_TRUSTED_OFFSET: Duration = Duration::from_secs(10);
+
 /// Clock offsets of the other agents, from the stamps of their health messages.
 #[derive(Debug, Default)]
 pub struct Clocks {
@@ -179,9 +186,20 @@ impl Clocks {
         window.push_back(gap);
     }
 
-    /// How far `sender`'s clock reads behind ours (negative: ahead), trip included; 0
-    /// for a sender not heard from.
+    /// How far `sender`'s clock reads behind ours (negative: ahead), trip included,
+    /// as its stamps are to be read: 0 for a sender not heard from, and 0 for one off by
+    /// more than [`MAX_TRUSTED_OFFSET`] (see there).
     pub fn offset_ns(&self, sender: &str) -> i64 {
+        let raw = self.measured_offset_ns(sender);
+        if raw.unsigned_abs() as u128 > MAX_TRUSTED_OFFSET.as_nanos() {
+            0
+        } else {
+            raw
+        }
+    }
+
+    /// The offset measured from `sender`'s health messages, trusted or not.
+    pub fn measured_offset_ns(&self, sender: &str) -> i64 {
         self.seen.get(sender).and_then(|w| w.iter().min().copied()).unwrap_or(0)
     }
 
@@ -190,7 +208,7 @@ impl Clocks {
         let mut off: Vec<(String, i64)> = self
             .seen
             .keys()
-            .map(|s| (s.clone(), self.offset_ns(s)))
+            .map(|s| (s.clone(), self.measured_offset_ns(s)))
             .filter(|(_, o)| o.unsigned_abs() as u128 > bound.as_nanos())
             .map(|(s, o)| (s, o / 1_000_000))
             .collect();
@@ -224,6 +242,25 @@ mod tests {
         );
         // the refused ones left no trace: seq 1 is still new
         assert_eq!(g.check("k", &header("s", 1, 1, T0 + 200 * MS), T0 + 210 * MS, 0), Ok(()));
+    }
+
+    #[test]
+    fn health_replayed_from_an_hour_ago_does_not_make_that_hours_data_fresh() {
+        let mut clocks = Clocks::default();
+        let hour = 3_600_000 * MS;
+        for i in 0..5u64 {
+            // recorded health, stamped an hour before it arrives
+            let ours = T0 + i * 1_000 * MS;
+            clocks.observe("sensor-agent", ours - hour, ours);
+        }
+        assert_eq!(clocks.measured_offset_ns("sensor-agent"), hour as i64);
+        assert_eq!(clocks.offset_ns("sensor-agent"), 0, "an offset past the trusted bound is not applied");
+        assert_eq!(clocks.off_by_more_than(Duration::from_millis(150)), [("sensor-agent".to_string(), 3_600_000)]);
+        // the recorded frame, as old as the health: stale
+        let mut g = Guard::new(Some(Freshness::within(Duration::from_millis(150))));
+        let frame = header("sensor-agent", 9, 0, T0 + 5_000 * MS - hour);
+        let got = g.check("k", &frame, T0 + 5_000 * MS, clocks.offset_ns("sensor-agent"));
+        assert_eq!(got, Err(InputError::Stale { age_ms: 3_600_000, bound_ms: 150 }));
     }
 
     #[test]
