@@ -495,6 +495,10 @@ fn wire_outcome(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::Command => decode_checked::<Command>(bytes),
         SchemaId::HealthStats => decode_checked::<HealthStats>(bytes),
         SchemaId::Destinations => decode_checked::<Destinations>(bytes),
+        SchemaId::PhoneHaptic => decode_checked::<PhoneHaptic>(bytes),
+        SchemaId::PhoneSpeech => decode_checked::<PhoneSpeech>(bytes),
+        SchemaId::PhoneAck => decode_checked::<PhoneAck>(bytes),
+        SchemaId::PhoneMotion => decode_checked::<PhoneMotion>(bytes),
     }
 }
 
@@ -619,7 +623,7 @@ struct Seeds {
 
 /// The golden vectors (`schemas/vectors`, kept current by `schemas/tests/golden.rs`):
 /// representative values of every message as `encode` writes them.
-const GOLDEN: [&[u8]; 40] = [
+const GOLDEN: [&[u8]; 51] = [
     include_bytes!("../schemas/vectors/applied_device_status.bin"),
     include_bytes!("../schemas/vectors/applied_offline_warning.bin"),
     include_bytes!("../schemas/vectors/applied_rumble.bin"),
@@ -648,6 +652,17 @@ const GOLDEN: [&[u8]; 40] = [
     include_bytes!("../schemas/vectors/imu_batch.bin"),
     include_bytes!("../schemas/vectors/imu_batch_empty.bin"),
     include_bytes!("../schemas/vectors/odom_increment.bin"),
+    include_bytes!("../schemas/vectors/phone_ack_ended.bin"),
+    include_bytes!("../schemas/vectors/phone_ack_failed.bin"),
+    include_bytes!("../schemas/vectors/phone_ack_interrupted.bin"),
+    include_bytes!("../schemas/vectors/phone_ack_started.bin"),
+    include_bytes!("../schemas/vectors/phone_ack_vibrated.bin"),
+    include_bytes!("../schemas/vectors/phone_haptic.bin"),
+    include_bytes!("../schemas/vectors/phone_haptic_stop.bin"),
+    include_bytes!("../schemas/vectors/phone_motion.bin"),
+    include_bytes!("../schemas/vectors/phone_motion_unknown.bin"),
+    include_bytes!("../schemas/vectors/phone_speech_cut.bin"),
+    include_bytes!("../schemas/vectors/phone_speech_say.bin"),
     include_bytes!("../schemas/vectors/pose.bin"),
     include_bytes!("../schemas/vectors/pose_lost.bin"),
     include_bytes!("../schemas/vectors/route_state_active.bin"),

@@ -3,7 +3,8 @@
 //! Key space (ARCHITECTURE.md), one user per prefix so several people can share a LAN:
 //! `wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}`, `perception/{scan,hazard}`,
 //! `localization/pose`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
-//! `health/<agent>`, `query/<service>`, `phone/{haptic,speech}` (reserved: intents for the phone app, once it acknowledges them).
+//! `health/<agent>`, `query/<service>`, `phone/{haptic,speech,ack}` (the phone app as a feedback
+//! device, through the phone bridge; `sensor/phone/motion` is the phone's compass and steps).
 
 use thiserror::Error;
 
@@ -33,15 +34,8 @@ pub fn check_chunk(what: &'static str, name: &str) -> Result<(), KeyError> {
     if name.is_empty() {
         return Err(KeyError::Empty { what });
     }
-    if let Some(bad) = name
-        .chars()
-        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
-    {
-        return Err(KeyError::BadChar {
-            what,
-            name: name.to_string(),
-            bad,
-        });
+    if let Some(bad) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))) {
+        return Err(KeyError::BadChar { what, name: name.to_string(), bad });
     }
     Ok(())
 }
@@ -56,9 +50,7 @@ impl Keys {
     /// Keys for `user`; fails when the name cannot be a key chunk.
     pub fn new(user: &str) -> Result<Self, KeyError> {
         check_chunk("user", user)?;
-        Ok(Self {
-            prefix: format!("wearnav/{user}"),
-        })
+        Ok(Self { prefix: format!("wearnav/{user}") })
     }
 
     /// The user's prefix, `wearnav/<user>`.
@@ -150,15 +142,25 @@ impl Keys {
         format!("{}/feedback/applied", self.prefix)
     }
 
-    /// What the phone should vibrate (reserved for the phone app: the feedback agent
-    /// refuses a phone backend until the phone acknowledges what it is sent).
+    /// What the phone page should vibrate (the feedback agent's phone backend to the
+    /// phone bridge).
     pub fn phone_haptic(&self) -> String {
         format!("{}/phone/haptic", self.prefix)
     }
 
-    /// What the phone should say (reserved for the phone app, as [`Keys::phone_haptic`]).
+    /// What the phone page should say or stop saying.
     pub fn phone_speech(&self) -> String {
         format!("{}/phone/speech", self.prefix)
+    }
+
+    /// What the phone page did with each request (the bridge to the feedback agent).
+    pub fn phone_ack(&self) -> String {
+        format!("{}/phone/ack", self.prefix)
+    }
+
+    /// The phone's compass heading and steps (`sensor/<device>/motion`).
+    pub fn motion(&self, device: &str) -> String {
+        self.sensor(device, "motion")
     }
 
     /// One user command verb (`destination`, `where-am-i`, `mute`, `repeat`, `cancel`,
@@ -189,16 +191,13 @@ impl Keys {
 
     /// The device chunk of a `sensor/<device>/...` key of this user, if it is one.
     pub fn device_of<'k>(&self, key: &'k str) -> Option<&'k str> {
-        let rest = key
-            .strip_prefix(self.prefix.as_str())?
-            .strip_prefix("/sensor/")?;
+        let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix("/sensor/")?;
         rest.split('/').next()
     }
 
     /// The agent chunk of a `health/<agent>` key of this user, if it is one.
     pub fn agent_of<'k>(&self, key: &'k str) -> Option<&'k str> {
-        key.strip_prefix(self.prefix.as_str())?
-            .strip_prefix("/health/")
+        key.strip_prefix(self.prefix.as_str())?.strip_prefix("/health/")
     }
 }
 
@@ -214,13 +213,12 @@ mod tests {
         assert_eq!(k.hazard(), "wearnav/alice/perception/hazard");
         assert_eq!(k.applied(), "wearnav/alice/feedback/applied");
         assert_eq!(k.cmd("where-am-i"), "wearnav/alice/cmd/where-am-i");
-        assert_eq!(
-            k.health("compute-agent"),
-            "wearnav/alice/health/compute-agent"
-        );
+        assert_eq!(k.health("compute-agent"), "wearnav/alice/health/compute-agent");
         assert_eq!(k.all(), "wearnav/alice/**");
         assert_eq!(k.phone_haptic(), "wearnav/alice/phone/haptic");
         assert_eq!(k.phone_speech(), "wearnav/alice/phone/speech");
+        assert_eq!(k.phone_ack(), "wearnav/alice/phone/ack");
+        assert_eq!(k.motion("phone"), "wearnav/alice/sensor/phone/motion");
     }
 
     #[test]
@@ -237,9 +235,6 @@ mod tests {
         let k = Keys::new("bob").unwrap();
         assert_eq!(k.device_of("wearnav/bob/sensor/cane/depth"), Some("cane"));
         assert_eq!(k.device_of("wearnav/eve/sensor/cane/depth"), None);
-        assert_eq!(
-            k.agent_of("wearnav/bob/health/feedback-agent"),
-            Some("feedback-agent")
-        );
+        assert_eq!(k.agent_of("wearnav/bob/health/feedback-agent"), Some("feedback-agent"));
     }
 }

@@ -27,11 +27,7 @@ pub struct Intrinsics {
 impl Intrinsics {
     /// True when every parameter is finite and the focal lengths are positive.
     pub fn is_valid(&self) -> bool {
-        [self.fx, self.fy, self.cx, self.cy]
-            .iter()
-            .all(|v| v.is_finite())
-            && self.fx > 0.0
-            && self.fy > 0.0
+        [self.fx, self.fy, self.cx, self.cy].iter().all(|v| v.is_finite()) && self.fx > 0.0 && self.fy > 0.0
     }
 }
 
@@ -514,6 +510,84 @@ pub struct Destination {
 pub struct Destinations {
     /// The destinations.
     pub destinations: Vec<Destination>,
+}
+
+/// What the phone page is asked to vibrate (`phone/haptic`, from the feedback agent's
+/// phone backend through the phone bridge). The phone has one motor: the side is
+/// carried by the rhythm (docs/phone.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhoneHaptic {
+    /// Request number; the page acknowledges it by this id.
+    pub id: u64,
+    /// `navigator.vibrate` pattern: on, off, on... milliseconds; `[0]` stops.
+    pub pattern_ms: Vec<u32>,
+    /// Left level it stands for, 0..1 (for monitors).
+    pub left: f32,
+    /// Right level it stands for, 0..1.
+    pub right: f32,
+}
+
+/// What the phone page is asked to say, or to stop saying (`phone/speech`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PhoneSpeech {
+    /// Speak `text` (`speechSynthesis`).
+    Say {
+        /// Request number; the page acknowledges it by this id.
+        id: u64,
+        /// The words.
+        text: String,
+        /// Priority (for the page's display; the feedback agent already ordered it).
+        priority: Priority,
+        /// Cut off whatever the page is saying first.
+        interrupt: bool,
+    },
+    /// Stop the utterance `id` at once.
+    Cut {
+        /// The `Say` request to stop.
+        id: u64,
+    },
+}
+
+/// What the phone page did with a request.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum PhoneEvent {
+    /// `navigator.vibrate` was called (or a beep played where the browser cannot vibrate).
+    Vibrated,
+    /// The utterance began.
+    Started,
+    /// The utterance played to its end.
+    Ended,
+    /// The utterance was cut off.
+    Interrupted,
+    /// The page could not do it.
+    Failed {
+        /// Why, as the browser said.
+        reason: String,
+    },
+}
+
+/// The phone page's acknowledgement of one request (`phone/ack`, from the bridge).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhoneAck {
+    /// The request's id.
+    pub id: u64,
+    /// What happened.
+    pub event: PhoneEvent,
+    /// When, ns since the epoch on the bridge's clock (the page's own time with the
+    /// page's clock offset, measured by the bridge, taken out).
+    pub at_ns: u64,
+}
+
+/// The phone's own sensors (`sensor/phone/motion`): compass heading and steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PhoneMotion {
+    /// Compass heading, degrees clockwise from magnetic north, 0..360; `None` until
+    /// the phone gave one.
+    pub heading_deg: Option<f32>,
+    /// The heading's accuracy as the phone reports it, degrees.
+    pub accuracy_deg: Option<f32>,
+    /// Steps counted by the page since it loaded.
+    pub steps: u64,
 }
 
 /// Counters of one stream an agent publishes or subscribes.

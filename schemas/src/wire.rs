@@ -84,11 +84,19 @@ pub enum SchemaId {
     HealthStats = 13,
     /// [`Destinations`]
     Destinations = 14,
+    /// [`PhoneHaptic`]
+    PhoneHaptic = 15,
+    /// [`PhoneSpeech`]
+    PhoneSpeech = 16,
+    /// [`PhoneAck`]
+    PhoneAck = 17,
+    /// [`PhoneMotion`]
+    PhoneMotion = 18,
 }
 
 impl SchemaId {
     /// Every schema, in id order.
-    pub const ALL: [SchemaId; 14] = [
+    pub const ALL: [SchemaId; 18] = [
         SchemaId::DepthFrame,
         SchemaId::ImuBatch,
         SchemaId::OdomIncrement,
@@ -103,6 +111,10 @@ impl SchemaId {
         SchemaId::Command,
         SchemaId::HealthStats,
         SchemaId::Destinations,
+        SchemaId::PhoneHaptic,
+        SchemaId::PhoneSpeech,
+        SchemaId::PhoneAck,
+        SchemaId::PhoneMotion,
     ];
 
     /// The schema with this numeric id.
@@ -127,6 +139,10 @@ impl SchemaId {
             SchemaId::Command => "command",
             SchemaId::HealthStats => "health_stats",
             SchemaId::Destinations => "destinations",
+            SchemaId::PhoneHaptic => "phone_haptic",
+            SchemaId::PhoneSpeech => "phone_speech",
+            SchemaId::PhoneAck => "phone_ack",
+            SchemaId::PhoneMotion => "phone_motion",
         }
     }
 
@@ -518,6 +534,63 @@ impl Message for Destinations {
     const MAX_BYTES: usize = 256 * 1024;
     fn validate(&self) -> Result<(), String> {
         finite("destinations", &self.destinations.iter().flat_map(|d| [d.at.x_m, d.at.y_m]).collect::<Vec<_>>())
+    }
+}
+
+/// Longest vibration pattern sent to a phone (on/off steps).
+pub const MAX_PHONE_PATTERN_STEPS: usize = 64;
+
+impl Message for PhoneHaptic {
+    const SCHEMA: SchemaId = SchemaId::PhoneHaptic;
+    const MAX_BYTES: usize = 1024;
+    fn validate(&self) -> Result<(), String> {
+        if self.pattern_ms.is_empty() || self.pattern_ms.len() > MAX_PHONE_PATTERN_STEPS {
+            return Err(format!(
+                "vibration pattern of {} steps (1 to {MAX_PHONE_PATTERN_STEPS})",
+                self.pattern_ms.len()
+            ));
+        }
+        if self.pattern_ms.iter().any(|&ms| ms > 10_000) {
+            return Err("a vibration step longer than 10 s".into());
+        }
+        finite("left level", &[self.left, self.right])?;
+        if !(0.0..=1.0).contains(&self.left) || !(0.0..=1.0).contains(&self.right) {
+            return Err(format!("levels {} {} outside 0..1", self.left, self.right));
+        }
+        Ok(())
+    }
+}
+
+impl Message for PhoneSpeech {
+    const SCHEMA: SchemaId = SchemaId::PhoneSpeech;
+    const MAX_BYTES: usize = 16 * 1024;
+    fn validate(&self) -> Result<(), String> {
+        match self {
+            PhoneSpeech::Say { text, .. } if text.trim().is_empty() => Err("empty utterance".into()),
+            PhoneSpeech::Say { text, .. } if text.chars().count() > MAX_SPEECH_CHARS => {
+                Err(format!("utterance longer than {MAX_SPEECH_CHARS} characters"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Message for PhoneAck {
+    const SCHEMA: SchemaId = SchemaId::PhoneAck;
+    const MAX_BYTES: usize = 1024;
+}
+
+impl Message for PhoneMotion {
+    const SCHEMA: SchemaId = SchemaId::PhoneMotion;
+    const MAX_BYTES: usize = 1024;
+    fn validate(&self) -> Result<(), String> {
+        if self.heading_deg.is_some_and(|h| !(0.0..=360.0).contains(&h)) {
+            return Err("heading outside 0..360 degrees".into());
+        }
+        if self.accuracy_deg.is_some_and(|a| !(a >= 0.0 && a.is_finite())) {
+            return Err("heading accuracy not a finite positive angle".into());
+        }
+        Ok(())
     }
 }
 

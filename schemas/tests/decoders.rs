@@ -158,6 +158,10 @@ fn check_schema(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::Command => check_decode::<Command>(bytes),
         SchemaId::HealthStats => check_decode::<HealthStats>(bytes),
         SchemaId::Destinations => check_decode::<Destinations>(bytes),
+        SchemaId::PhoneHaptic => check_decode::<PhoneHaptic>(bytes),
+        SchemaId::PhoneSpeech => check_decode::<PhoneSpeech>(bytes),
+        SchemaId::PhoneAck => check_decode::<PhoneAck>(bytes),
+        SchemaId::PhoneMotion => check_decode::<PhoneMotion>(bytes),
     }
 }
 

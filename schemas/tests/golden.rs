@@ -450,6 +450,24 @@ fn feedback_vectors() -> Vec<[Golden; 2]> {
     ]
 }
 
+fn phone_vectors() -> Vec<[Golden; 2]> {
+    let say = PhoneSpeech::Say { id: 8, text: "Turn left.".into(), priority: Priority::Message, interrupt: true };
+    let ack = |id, event| PhoneAck { id, event, at_ns: CAPTURE_NS + 45_000_000 };
+    vec![
+        vector("phone_haptic", 50, PhoneHaptic { id: 7, pattern_ms: vec![60, 40, 60, 40], left: 0.0, right: 0.8 }),
+        vector("phone_haptic_stop", 51, PhoneHaptic { id: 9, pattern_ms: vec![0], left: 0.0, right: 0.0 }),
+        vector("phone_speech_say", 52, say),
+        vector("phone_speech_cut", 53, PhoneSpeech::Cut { id: 8 }),
+        vector("phone_ack_vibrated", 54, ack(7, PhoneEvent::Vibrated)),
+        vector("phone_ack_started", 55, ack(8, PhoneEvent::Started)),
+        vector("phone_ack_ended", 56, ack(8, PhoneEvent::Ended)),
+        vector("phone_ack_interrupted", 57, ack(8, PhoneEvent::Interrupted)),
+        vector("phone_ack_failed", 58, ack(8, PhoneEvent::Failed { reason: "synthesis-failed".into() })),
+        vector("phone_motion", 59, PhoneMotion { heading_deg: Some(271.5), accuracy_deg: Some(15.0), steps: 42 }),
+        vector("phone_motion_unknown", 60, PhoneMotion { heading_deg: None, accuracy_deg: None, steps: 0 }),
+    ]
+}
+
 fn command_and_health_vectors() -> Vec<[Golden; 2]> {
     vec![
         vector("command_destination", 31, Command::Destination { label: "café".into() }),
@@ -501,6 +519,7 @@ fn message_vectors() -> Vec<Golden> {
         perception_vectors(),
         localization_vectors(),
         feedback_vectors(),
+        phone_vectors(),
         command_and_health_vectors(),
     ]
     .into_iter()
@@ -672,6 +691,8 @@ fn key_vectors() -> Golden {
         case("applied", &[], &k.applied()),
         case("phone_haptic", &[], &k.phone_haptic()),
         case("phone_speech", &[], &k.phone_speech()),
+        case("phone_ack", &[], &k.phone_ack()),
+        case("motion", &["phone"], &k.motion("phone")),
         case("cmd", &["where-am-i"], &k.cmd("where-am-i")),
         case("cmd_any", &[], &k.cmd_any()),
         case("health", &["compute-agent"], &k.health("compute-agent")),

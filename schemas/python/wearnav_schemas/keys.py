@@ -103,12 +103,20 @@ class Keys:
         return f"{self._prefix}/feedback/applied"
 
     def phone_haptic(self):
-        """What the phone should vibrate (reserved for the phone app)."""
+        """What the phone page should vibrate (feedback agent to phone bridge)."""
         return f"{self._prefix}/phone/haptic"
 
     def phone_speech(self):
-        """What the phone should say (reserved for the phone app)."""
+        """What the phone page should say or stop saying."""
         return f"{self._prefix}/phone/speech"
+
+    def phone_ack(self):
+        """What the phone page did with each request (phone bridge to feedback agent)."""
+        return f"{self._prefix}/phone/ack"
+
+    def motion(self, device):
+        """The phone's compass heading and steps (``sensor/<device>/motion``)."""
+        return self._sensor(device, "motion")
 
     def cmd(self, verb):
         """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``,

@@ -187,6 +187,33 @@ COMMAND = Enum(
     },
 )
 
+PHONE_HAPTIC = Struct("PhoneHaptic", id=U64, pattern_ms=Seq(U32), left=F32, right=F32)
+
+PHONE_SPEECH = Enum(
+    "PhoneSpeech",
+    {
+        "Say": {"id": U64, "text": STRING, "priority": PRIORITY, "interrupt": BOOL},
+        "Cut": {"id": U64},
+    },
+)
+
+PHONE_EVENT = Enum(
+    "PhoneEvent",
+    {
+        "Vibrated": None,
+        "Started": None,
+        "Ended": None,
+        "Interrupted": None,
+        "Failed": {"reason": STRING},
+    },
+)
+
+PHONE_ACK = Struct("PhoneAck", id=U64, event=PHONE_EVENT, at_ns=U64)
+
+PHONE_MOTION = Struct(
+    "PhoneMotion", heading_deg=Optional(F32), accuracy_deg=Optional(F32), steps=U64
+)
+
 STREAM_STATS = Struct(
     "StreamStats",
     key=STRING,
@@ -251,4 +278,8 @@ SCHEMAS = (
     Schema(12, "command", COMMAND, version=3),
     Schema(13, "health_stats", HEALTH_STATS, 256 * 1024),
     Schema(14, "destinations", DESTINATIONS, 256 * 1024),
+    Schema(15, "phone_haptic", PHONE_HAPTIC, 1024),
+    Schema(16, "phone_speech", PHONE_SPEECH, 16 * 1024),
+    Schema(17, "phone_ack", PHONE_ACK, 1024),
+    Schema(18, "phone_motion", PHONE_MOTION, 1024),
 )

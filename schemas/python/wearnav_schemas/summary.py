@@ -128,6 +128,28 @@ def _command(b):
     return verb
 
 
+def _phone_haptic(b):
+    return f"#{b['id']} vibrate {b['pattern_ms']} (left {b['left']:.2f} right {b['right']:.2f})"
+
+
+def _phone_speech(b):
+    verb, fields = _variant(b)
+    if verb == "Say":
+        return f"#{fields['id']} say {fields['priority']} {fields['text']!r}"
+    return f"#{fields['id']} cut"
+
+
+def _phone_ack(b):
+    event, fields = _variant(b["event"])
+    reason = f" ({fields['reason']})" if fields else ""
+    return f"#{b['id']} {event}{reason}"
+
+
+def _phone_motion(b):
+    heading = "no heading" if b["heading_deg"] is None else f"heading {b['heading_deg']:.0f} deg"
+    return f"{heading}, {b['steps']} steps"
+
+
 def _health_stats(b):
     state = "ok" if b["ok"] else "NOT OK"
     rejects = sum(r["count"] for r in b["rejects"])
@@ -152,6 +174,10 @@ SUMMARIES = {
     "command": _command,
     "health_stats": _health_stats,
     "destinations": _destinations,
+    "phone_haptic": _phone_haptic,
+    "phone_speech": _phone_speech,
+    "phone_ack": _phone_ack,
+    "phone_motion": _phone_motion,
 }
 
 
