@@ -94,6 +94,7 @@ async fn over_bus(n: u64, hz: u64) -> anyhow::Result<()> {
         haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
+        phone: None,
     };
     let shutdown = Shutdown::new();
     let agent = tokio::spawn(feedback_agent::run_with(FeedbackConfig::with_bus(agent_bus), devices, shutdown.clone()));

@@ -26,9 +26,8 @@ pub enum HapticBackend {
     /// Force-feedback rumble on evdev input nodes (`--evdev-left`, `--evdev-right`),
     /// e.g. the kernel hid-wiimote driver's, or a gamepad's.
     Evdev,
-    /// The phone's vibration: refused ([`ConfigError::PhoneHaptic`]) until the phone
-    /// bridge forwards intents and the phone acknowledges them.
-    #[value(hide = true)]
+    /// The phone's vibration, through the phone bridge (one motor: the side is the
+    /// rhythm); reported only when the page confirms it vibrated.
     Phone,
 }
 
@@ -42,29 +41,22 @@ pub enum SpeechBackend {
     Espeak,
     /// speech-dispatcher, over SSIP on its Unix socket (`--speechd-socket`).
     Speechd,
-    /// The phone's voice: refused ([`ConfigError::PhoneSpeech`]) until the phone
-    /// bridge forwards intents and the phone acknowledges them.
-    #[value(hide = true)]
+    /// The phone's voice (`speechSynthesis` in the page), through the phone bridge;
+    /// reported when the page says it started, ended or was cut.
     Phone,
 }
 
 /// A configuration the agent refuses to run with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ConfigError {
-    /// `--haptic phone`: `feedback/applied` would report rumbles nobody felt.
-    #[error(
-        "--haptic phone is not available yet: the phone bridge does not forward intents to a phone and no \
-         phone acknowledges them, so the agent would report rumbles nobody felt; use --haptic console, \
-         wiimote or evdev"
-    )]
-    PhoneHaptic,
-    /// `--speech phone`: `feedback/applied` would report speech nobody heard.
-    #[error(
-        "--speech phone is not available yet: the phone bridge does not forward intents to a phone and no \
-         phone acknowledges them, so the agent would report speech nobody heard; use --speech console, \
-         espeak or speechd"
-    )]
-    PhoneSpeech,
+    /// A backend named twice would drive one device twice and report each action twice.
+    #[error("--{option} names {backend} twice; name each backend once (e.g. --{option} console,{backend})")]
+    Twice {
+        /// `haptic` or `speech`.
+        option: &'static str,
+        /// The backend named twice.
+        backend: String,
+    },
 }
 
 fn default_bus() -> bus::BusOptions {
@@ -198,15 +190,16 @@ impl FeedbackConfig {
     }
 
     /// Refuse what the agent cannot honestly do: `feedback/applied` says the user felt
-    /// or heard something, so a backend that cannot confirm it is not started.
+    /// or heard something once per action, so no backend may be named twice.
     pub fn check(&self) -> Result<(), ConfigError> {
-        if self.haptic.contains(&HapticBackend::Phone) {
-            return Err(ConfigError::PhoneHaptic);
+        fn twice<T: PartialEq + std::fmt::Debug>(option: &'static str, list: &[T]) -> Result<(), ConfigError> {
+            match list.iter().enumerate().find(|(k, b)| list[..*k].contains(b)) {
+                Some((_, b)) => Err(ConfigError::Twice { option, backend: format!("{b:?}").to_lowercase() }),
+                None => Ok(()),
+            }
         }
-        if self.speech.contains(&SpeechBackend::Phone) {
-            return Err(ConfigError::PhoneSpeech);
-        }
-        Ok(())
+        twice("haptic", &self.haptic)?;
+        twice("speech", &self.speech)
     }
 
     /// Settings of the feedback step.
@@ -315,17 +308,19 @@ mod tests {
     }
 
     #[test]
-    fn phone_backends_are_refused_with_what_to_use_instead() {
+    fn the_phone_is_a_backend_and_a_backend_named_twice_is_refused() {
         let parse = |args: &[&str]| DefaultsOnly::try_parse_from(args).unwrap().config;
-        let haptic = parse(&["x", "--haptic", "console,phone"]).check().unwrap_err();
-        assert_eq!(haptic, ConfigError::PhoneHaptic);
-        assert!(haptic.to_string().contains("use --haptic console, wiimote or evdev"), "{haptic}");
-        let speech = parse(&["x", "--speech", "phone"]).check().unwrap_err();
-        assert_eq!(speech, ConfigError::PhoneSpeech);
-        assert!(speech.to_string().contains("use --speech console, espeak or speechd"), "{speech}");
+        let c = parse(&["x", "--haptic", "wiimote,phone", "--speech", "phone"]);
+        assert_eq!(
+            (c.haptic.as_slice(), c.speech.as_slice(), c.check()),
+            (&[HapticBackend::Wiimote, HapticBackend::Phone][..], &[SpeechBackend::Phone][..], Ok(()))
+        );
+        let twice = parse(&["x", "--haptic", "phone,console,phone"]).check().unwrap_err();
+        assert_eq!(twice, ConfigError::Twice { option: "haptic", backend: "phone".into() });
+        assert!(twice.to_string().contains("names phone twice"), "{twice}");
         // config files too
-        let c: FeedbackConfig = serde_json::from_str(r#"{"speech": ["espeak", "phone"]}"#).unwrap();
-        assert_eq!(c.check(), Err(ConfigError::PhoneSpeech));
+        let c: FeedbackConfig = serde_json::from_str(r#"{"speech": ["espeak", "espeak"]}"#).unwrap();
+        assert_eq!(c.check(), Err(ConfigError::Twice { option: "speech", backend: "espeak".into() }));
         assert_eq!(
             parse(&["x", "--haptic", "wiimote,evdev,console", "--speech", "espeak,speechd,console"]).check(),
             Ok(())

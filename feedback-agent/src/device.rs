@@ -79,6 +79,25 @@ pub enum SpeechError {
     Unavailable(String),
 }
 
+/// What a confirming engine ([`SpeechEngine::confirms`]) says happened to an
+/// utterance, with the device's own time, ns.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpeechEvent {
+    /// It began playing.
+    Started(u64),
+    /// It played to its end.
+    Ended(u64),
+    /// It was cut off.
+    Interrupted(u64),
+    /// The device could not say it.
+    Failed {
+        /// When this was known.
+        at_ns: u64,
+        /// Why.
+        reason: String,
+    },
+}
+
 /// An utterance being spoken.
 pub trait SpeakingHandle: Send {
     /// True once the audio has played to its end (or the engine gave up).
@@ -86,12 +105,24 @@ pub trait SpeakingHandle: Send {
 
     /// Stop at once.
     fn cut(&mut self);
+
+    /// What the device reported since the last call (confirming engines only).
+    fn take_events(&mut self, _now_ns: u64) -> Vec<SpeechEvent> {
+        Vec::new()
+    }
 }
 
 /// A text-to-speech engine.
 pub trait SpeechEngine: Send {
     /// Backend name (`console`, `espeak`, `speechd`, `phone`).
     fn name(&self) -> &str;
+
+    /// True when the device itself says when an utterance started, ended or was cut
+    /// ([`SpeakingHandle::take_events`]): `feedback/applied` then reports those, not
+    /// the moment the engine was asked (the phone: only what the page confirmed).
+    fn confirms(&self) -> bool {
+        false
+    }
 
     /// Start saying `text` at `now_ns`. The agent's queue has already ordered it;
     /// `priority` is for engines that rank against other clients (speech-dispatcher).

@@ -8,7 +8,7 @@
 
 use schemas::{Applied, AppliedAction, Command, HapticIntent, HapticPattern, Hazard, Priority, SpeechIntent};
 
-use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine};
+use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine, SpeechEvent};
 use crate::haptic_cue::{CueLimits, HapticCue, Levels};
 use crate::speech_queue::{QueueConfig, SpeechAction, SpeechQueue, Utterance};
 use crate::watchdog::{DetectionState, DetectionWatchdog, Transition};
@@ -60,6 +60,15 @@ pub struct Reject {
     pub reason: String,
 }
 
+/// An utterance cut on an engine that confirms, waiting for it to say so.
+struct CutUtterance {
+    engine: usize,
+    handle: Box<dyn SpeakingHandle>,
+    text: String,
+    priority: Priority,
+    capture_ns: u64,
+}
+
 /// TTL of the agent's own utterances, ms.
 const OWN_UTTERANCE_TTL_MS: u32 = 10_000;
 
@@ -69,6 +78,8 @@ pub struct Feedback {
     haptics: Vec<Box<dyn HapticDevice>>,
     engines: Vec<Box<dyn SpeechEngine>>,
     handles: Vec<(usize, Box<dyn SpeakingHandle>)>,
+    /// Utterances cut on a confirming engine, until it says they stopped.
+    cut: Vec<CutUtterance>,
     queue: SpeechQueue,
     watchdog: DetectionWatchdog,
     obstacle: Option<HapticCue>,
@@ -97,6 +108,7 @@ impl Feedback {
             settings,
             haptics,
             handles: Vec::new(),
+            cut: Vec::new(),
             engine_errors: vec![None; engines.len()],
             engines,
             obstacle: None,
@@ -192,8 +204,12 @@ impl Feedback {
                 Some(HapticCue::offline_alert(now_ns, self.settings.alert_half_ms, self.settings.alert_cycles));
             self.next_alert_ns = Some(now_ns + self.settings.alert_repeat_ms * MS);
         }
+        self.confirmed_speech(now_ns);
         if self.queue.speaking().is_some() && self.handles.iter_mut().all(|(_, h)| h.is_finished(now_ns)) {
             for (engine, _) in self.handles.drain(..) {
+                if self.engines[engine].confirms() {
+                    continue; // its own events said it (confirmed_speech)
+                }
                 if let Some(u) = self.queue.speaking() {
                     let action = AppliedAction::SpeechFinished { text: u.text.clone() };
                     self.out.applied(self.engines[engine].name(), action, now_ns, u.capture_ns);
@@ -229,7 +245,8 @@ impl Feedback {
         consider(self.notice.and_then(|c| c.next_change_ns(now_ns)));
         consider(self.next_alert_ns);
         consider(self.queue.next_expiry_ns());
-        consider(self.queue.speaking().map(|_| now_ns + self.settings.speech_poll_ms * MS));
+        let speaking = self.queue.speaking().is_some() || !self.cut.is_empty();
+        consider(speaking.then_some(now_ns + self.settings.speech_poll_ms * MS));
         for d in &self.haptics {
             consider(d.next_poll_ns());
         }
@@ -335,6 +352,11 @@ impl Feedback {
                 SpeechAction::Cut(u) => {
                     for (engine, mut h) in self.handles.drain(..) {
                         h.cut();
+                        if self.engines[engine].confirms() {
+                            let (text, priority, capture_ns) = (u.text.clone(), u.priority, u.capture_ns);
+                            self.cut.push(CutUtterance { engine, handle: h, text, priority, capture_ns });
+                            continue;
+                        }
                         let action = AppliedAction::SpeechInterrupted { text: u.text.clone() };
                         self.out.applied(self.engines[engine].name(), action, now_ns, u.capture_ns);
                     }
@@ -359,6 +381,59 @@ impl Feedback {
         self.applied.append(&mut self.out.applied);
     }
 
+    /// Report what confirming engines say happened to the utterance being spoken and to
+    /// the ones cut, at the device's own times.
+    fn confirmed_speech(&mut self, now_ns: u64) {
+        let speaking = self.queue.speaking().map(|u| (u.text.clone(), u.priority, u.capture_ns));
+        for (engine, h) in &mut self.handles {
+            let name = self.engines[*engine].name();
+            let Some((text, priority, cause)) = &speaking else { continue };
+            for event in h.take_events(now_ns) {
+                let (action, at) = match event {
+                    SpeechEvent::Started(at) => {
+                        (AppliedAction::SpeechStarted { text: text.clone(), priority: *priority }, at)
+                    }
+                    SpeechEvent::Ended(at) => (AppliedAction::SpeechFinished { text: text.clone() }, at),
+                    SpeechEvent::Interrupted(at) => (AppliedAction::SpeechInterrupted { text: text.clone() }, at),
+                    SpeechEvent::Failed { at_ns, reason } => {
+                        let text = format!("{name} could not say {text:?}: {reason}");
+                        (AppliedAction::DeviceStatus { text }, at_ns)
+                    }
+                };
+                self.out.applied(name, action, at, *cause);
+            }
+        }
+        let mut k = 0;
+        while k < self.cut.len() {
+            let c = &mut self.cut[k];
+            let name = self.engines[c.engine].name();
+            let mut over = false;
+            for event in c.handle.take_events(now_ns) {
+                let (action, at) = match event {
+                    // it began before the cut reached the device
+                    SpeechEvent::Started(at) => {
+                        (AppliedAction::SpeechStarted { text: c.text.clone(), priority: c.priority }, at)
+                    }
+                    // it had ended before the cut reached the device
+                    SpeechEvent::Ended(at) => (AppliedAction::SpeechFinished { text: c.text.clone() }, at),
+                    SpeechEvent::Interrupted(at) => (AppliedAction::SpeechInterrupted { text: c.text.clone() }, at),
+                    SpeechEvent::Failed { at_ns, reason } => {
+                        let text = format!("{name} could not say {:?}: {reason}", c.text);
+                        (AppliedAction::DeviceStatus { text }, at_ns)
+                    }
+                };
+                over |= !matches!(action, AppliedAction::SpeechStarted { .. });
+                self.out.applied(name, action, at, c.capture_ns);
+            }
+            if over {
+                self.cut.swap_remove(k);
+            } else {
+                k += 1;
+            }
+        }
+        self.applied.append(&mut self.out.applied);
+    }
+
     fn start_utterance(&mut self, u: &Utterance, now_ns: u64) {
         if u.notice && !self.haptics.is_empty() {
             self.notice = Some(HapticCue::notice(now_ns));
@@ -371,6 +446,9 @@ impl Feedback {
                         tracing::info!("{} speaks again", engine.name());
                     }
                     self.handles.push((k, handle));
+                    if engine.confirms() {
+                        continue; // reported when the device says it started
+                    }
                     let action = AppliedAction::SpeechStarted { text: u.text.clone(), priority: u.priority };
                     self.out.applied(engine.name(), action, now_ns, u.capture_ns);
                 }
@@ -434,6 +512,52 @@ mod tests {
     /// Keep detection online with a fresh hazard at `now`.
     fn fresh(f: &mut Feedback, now: u64) {
         f.on_hazard(&hazard(GroundState::Found), now);
+    }
+
+    #[test]
+    fn a_confirming_engine_reports_speech_at_the_devices_times_and_a_cut_when_it_stopped() {
+        use crate::phone::{Outgoing, PhoneLink, PhoneSpeech as Phone};
+        use schemas::{PhoneAck, PhoneEvent, PhoneSpeech};
+        let link = PhoneLink::new();
+        let mut f = Feedback::new(StepSettings::default(), vec![], vec![Box::new(Phone::new(link.clone()))], T0);
+        fresh(&mut f, T0);
+        f.tick(T0);
+        f.drain_applied();
+        let say = |text: &str, priority| SpeechIntent {
+            text: text.into(),
+            priority,
+            interrupt: false,
+            ttl_ms: 2000,
+            dedup_key: String::new(),
+            notice: false,
+        };
+        let said = |link: &PhoneLink| -> Vec<u64> {
+            link.take_outgoing()
+                .into_iter()
+                .filter_map(|o| match o {
+                    Outgoing::Speech(PhoneSpeech::Say { id, .. }) => Some(id),
+                    _ => None,
+                })
+                .collect()
+        };
+        f.on_speech(&say("Turn left.", Priority::Message), T0, T0 + MS).unwrap();
+        let turn = said(&link)[0];
+        assert!(spoken(&mut f).is_empty(), "nothing reported before the phone says it started");
+        link.acknowledge(PhoneAck { id: turn, event: PhoneEvent::Started, at_ns: T0 + 60 * MS });
+        f.tick(T0 + 70 * MS);
+        let started: Vec<(String, u64, u64)> =
+            f.drain_applied().map(|a| (format!("{:?}", a.action), a.applied_ns, a.cause_capture_ns)).collect();
+        assert_eq!(started, [(r#"SpeechStarted { text: "Turn left.", priority: Message }"#.into(), T0 + 60 * MS, T0)]);
+
+        // a warning cuts it: the interruption is reported when the phone says it stopped
+        f.on_speech(&say("Stop.", Priority::Important), T0 + 100 * MS, T0 + 100 * MS).unwrap();
+        let out = link.take_outgoing();
+        assert!(matches!(out[0], Outgoing::Speech(PhoneSpeech::Cut { id }) if id == turn), "{out:?}");
+        assert!(spoken(&mut f).is_empty());
+        link.acknowledge(PhoneAck { id: turn, event: PhoneEvent::Interrupted, at_ns: T0 + 130 * MS });
+        f.tick(T0 + 140 * MS);
+        let cut: Vec<(String, u64)> = f.drain_applied().map(|a| (format!("{:?}", a.action), a.applied_ns)).collect();
+        assert_eq!(cut, [(r#"SpeechInterrupted { text: "Turn left." }"#.into(), T0 + 130 * MS)]);
     }
 
     #[test]

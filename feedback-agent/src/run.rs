@@ -11,12 +11,13 @@ use schemas::{Applied, AppliedAction, Command, HapticIntent, Hazard, SpeechInten
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
-use crate::config::{ConfigError, FeedbackConfig, HapticBackend, SpeechBackend};
+use crate::config::{FeedbackConfig, HapticBackend, SpeechBackend};
 use crate::console::{ConsoleHaptic, ConsoleSpeech};
 use crate::device::{HapticDevice, SpeechEngine};
 use crate::espeak::{find_player, EspeakEngine};
 use crate::evdev::{EvdevBackend, EvdevOpener};
 use crate::feedback::Feedback;
+use crate::phone::{run_link, PhoneHaptic, PhoneLink, PhoneSpeech};
 use crate::speechd::SpeechdEngine;
 use crate::watchdog::DetectionState;
 use crate::wiimote::link::HidapiBus;
@@ -33,6 +34,9 @@ pub struct Devices {
     pub engines: Vec<Box<dyn SpeechEngine>>,
     /// Start-up notes (`device`, text), published as device status.
     pub notes: Vec<(String, String)>,
+    /// The link to the phone, when a phone backend is configured (carried over the
+    /// bus once the session is open).
+    pub phone: Option<PhoneLink>,
 }
 
 impl Devices {
@@ -40,7 +44,7 @@ impl Devices {
     /// work at all (espeak-ng missing, or refused: [`FeedbackConfig::check`]), rather
     /// than running silently without it.
     pub fn from_config(config: &FeedbackConfig) -> anyhow::Result<Self> {
-        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new() };
+        let mut devices = Devices { haptics: Vec::new(), engines: Vec::new(), notes: Vec::new(), phone: None };
         for backend in &config.haptic {
             match backend {
                 HapticBackend::Console => devices.haptics.push(Box::new(ConsoleHaptic::stdout())),
@@ -54,7 +58,10 @@ impl Devices {
                     }
                     devices.haptics.push(Box::new(EvdevBackend::new(Box::new(EvdevOpener), evdev)));
                 }
-                HapticBackend::Phone => return Err(ConfigError::PhoneHaptic.into()),
+                HapticBackend::Phone => {
+                    let link = devices.phone.get_or_insert_with(PhoneLink::new).clone();
+                    devices.haptics.push(Box::new(PhoneHaptic::new(link)));
+                }
             }
         }
         for backend in &config.speech {
@@ -71,7 +78,10 @@ impl Devices {
                     devices.notes.push(("speechd".into(), engine.describe()));
                     devices.engines.push(Box::new(engine));
                 }
-                SpeechBackend::Phone => return Err(ConfigError::PhoneSpeech.into()),
+                SpeechBackend::Phone => {
+                    let link = devices.phone.get_or_insert_with(PhoneLink::new).clone();
+                    devices.engines.push(Box::new(PhoneSpeech::new(link)));
+                }
             }
         }
         Ok(devices)
@@ -158,6 +168,13 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
     let (applied_tx, applied_rx) = mpsc::channel(APPLIED_BACKLOG);
     let applied_task = tokio::spawn(publish_applied(applied_pub, applied_rx));
 
+    // The link outlives the loop: it carries the devices' last words (motors off).
+    let link_stop = Shutdown::new();
+    let phone_task = devices.phone.clone().map(|link| {
+        let (session, keys, health, stop) = (session.clone(), keys.clone(), health.clone(), link_stop.clone());
+        tokio::spawn(async move { run_link(link, &session, &keys, AGENT, &health, stop).await })
+    });
+
     let started = now_ns();
     let mut feedback = Feedback::new(config.step_settings(), devices.haptics, devices.engines, started);
     let notes = devices.notes.into_iter().map(|(device, text)| Applied {
@@ -231,6 +248,14 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
         tracing::warn!("applied publishing task ended abnormally: {e}");
     }
     drop(feedback);
+    link_stop.trigger();
+    if let Some(task) = phone_task {
+        match task.await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::warn!("phone link: {e:#}"),
+            Err(e) => tracing::warn!("phone link task ended abnormally: {e}"),
+        }
+    }
     if let Some(e) = failure {
         return Err(e);
     }

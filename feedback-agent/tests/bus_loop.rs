@@ -37,6 +37,7 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
+        phone: None,
     };
     let config = FeedbackConfig { health_period_ms: 200, ..FeedbackConfig::with_bus(agent_bus) };
     let shutdown = Shutdown::new();
@@ -178,6 +179,7 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         haptics: vec![Box::new(WiimoteBackend::new(Box::new(hid2.clone()), WiimoteConfig::default()))],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
+        phone: None,
     };
     let agent_bus = BusOptions { connect: test_bus.listen.clone(), no_multicast: true, ..BusOptions::for_user(&user) };
     let shutdown = Shutdown::new();

@@ -21,6 +21,7 @@ async fn mute_command_over_the_bus_silences_guidance_but_not_warnings() {
         haptics: vec![],
         engines: vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175))],
         notes: vec![],
+        phone: None,
     };
     let shutdown = Shutdown::new();
     let agent = tokio::spawn(feedback_agent::run_with(FeedbackConfig::with_bus(agent_bus), devices, shutdown.clone()));

@@ -4,7 +4,8 @@
 Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}``,
 ``perception/{scan,hazard}``, ``localization/pose``, ``route/state``,
 ``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``,
-``phone/{haptic,speech}`` (reserved for the phone app; nothing publishes there yet).
+``phone/{haptic,speech,ack}`` (the phone as a feedback device, through the phone bridge)
+and ``sensor/phone/motion`` (the phone's compass and steps).
 """
 
 
