@@ -29,9 +29,13 @@ pub struct DemoArgs {
     /// Also find and join peers by multicast scouting (off: the demo stays to itself).
     #[arg(long)]
     pub multicast: bool,
-    /// Address of the phone page (port 0 picks a free one).
+    /// Address of the phone page, plain HTTP on loopback (port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:0")]
     pub http: SocketAddr,
+    /// Serve the phone page over HTTPS here instead (`0.0.0.0:8443` to open it on a
+    /// phone on the LAN; the pairing code is printed).
+    #[arg(long, value_name = "ADDR")]
+    pub https: Option<SocketAddr>,
     /// Speech backends of the feedback agent, comma-separated (`console`, `espeak`).
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub speech: Vec<feedback_agent::SpeechBackend>,
@@ -209,7 +213,12 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let feedback = tokio::spawn(feedback_agent::run(feedback_config, shutdown.clone()));
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
-    phone_config.http = args.http;
+    phone_config.serve = match args.https {
+        Some(addr) => phone_bridge::Serve::Https(addr),
+        None => phone_bridge::Serve::Http(args.http),
+    };
+    // the demo prints the page's address itself; the pairing code goes to its log
+    phone_config.announce = false;
     let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
     let sensor = tokio::spawn(sensor_agent::run::run(
         sensor_agent::run::SensorConfig::new(peer_bus.clone()),
@@ -234,7 +243,8 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     };
     let mut guide_tick = tokio::time::interval(Duration::from_millis(250));
     if let Ok(addr) = bound_rx.await {
-        eprintln!("phone page: http://{addr}/");
+        let scheme = if args.https.is_some() { "https" } else { "http" };
+        eprintln!("phone page: {scheme}://{addr}/");
     }
     eprintln!(
         "wearnav demo for user {:?} on {}; watch it with:\n  python3 schemas/python/monitor.py --user {} --connect {hub}",

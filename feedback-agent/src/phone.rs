@@ -40,6 +40,8 @@ pub const START_TIMEOUT_MS: u64 = 3000;
 pub const RIGHT_RHYTHM_MS: [u32; 2] = [60, 40];
 /// Both sides: long breaks (ms), unlike either side alone.
 pub const BOTH_RHYTHM_MS: [u32; 2] = [200, 60];
+/// Acknowledgements kept for utterances not yet looked at.
+const MAX_WAITING_ACKS: usize = 256;
 /// How often acknowledgements are looked for, ms.
 pub const POLL_MS: u64 = 20;
 /// Shortest vibration a phone motor renders as a distinct pulse, ms.
@@ -112,6 +114,13 @@ impl PhoneLink {
                     s.done.insert(ack.id);
                 }
                 s.speech_acks.push_back(ack);
+                // answers for utterances nobody waits for (a page confused, or hostile)
+                // must not pile up
+                while s.speech_acks.len() > MAX_WAITING_ACKS {
+                    if let Some(old) = s.speech_acks.pop_front() {
+                        s.done.remove(&old.id);
+                    }
+                }
             }
         }
     }

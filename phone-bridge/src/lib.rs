@@ -1,8 +1,14 @@
-//! wearnav phone bridge: a small web server for the user's phone. At this stage it
-//! serves the start page and a health endpoint that shows which agents are alive and
-//! what the obstacle perception last said; the phone app (destination picking, speech,
-//! vibration, WebSocket <-> Zenoh) builds on it.
+//! wearnav phone bridge: serves the phone web app (an accessible page to pick a
+//! destination, hear guidance and feel cues) and carries it to and from one user's
+//! Zenoh keys over a WebSocket. HTTPS with a certificate it makes and keeps (phone
+//! browsers allow sensors, speech input and vibration only in a secure context);
+//! pairing by a spoken code so nobody else on the Wi-Fi can use or watch the socket.
+//! docs/phone.md has the protocol.
 
+pub mod clock;
+pub mod pairing;
+pub mod protocol;
 pub mod run;
+pub mod tls;
 
-pub use run::{run, PhoneConfig, AGENT};
+pub use run::{run, PhoneConfig, Serve, AGENT};

@@ -1,18 +1,43 @@
-//! `phone-bridge`: serves the wearnav page to the user's phone.
+//! `phone-bridge`: serves the wearnav phone app and bridges it to the Zenoh bus.
 
 use std::net::SocketAddr;
+use std::path::PathBuf;
 
 use clap::Parser;
 
-/// Serve the wearnav phone page and bridge it to the Zenoh bus.
+/// Serve the wearnav phone app (pick a destination, hear guidance, feel cues) and
+/// bridge it to one user's Zenoh keys.
+///
+/// On start it prints the page's address, a QR code of it and a six-digit pairing
+/// code (also spoken through the feedback agent); the phone enters the code once.
+/// To feel and hear the system on the phone, run the feedback agent with
+/// `--haptic phone` and/or `--speech phone`.
 #[derive(Debug, Parser)]
-#[command(version, about, long_about = None)]
+#[command(version, about, long_about)]
 struct Cli {
     #[command(flatten)]
     bus: bus::BusOptions,
-    /// Address the phone connects to (reachable from the LAN with 0.0.0.0).
-    #[arg(long, default_value = "0.0.0.0:8080")]
-    http: SocketAddr,
+    /// Serve HTTPS here (a phone browser needs it for vibration, sensors and speech
+    /// input). Default 0.0.0.0:8443.
+    #[arg(long, value_name = "ADDR", conflicts_with = "http")]
+    https: Option<SocketAddr>,
+    /// Serve plain HTTP here instead; loopback addresses only (tests, one machine).
+    #[arg(long, value_name = "ADDR")]
+    http: Option<SocketAddr>,
+    /// Where the bridge keeps the certificate it makes and the paired phones.
+    /// Default $XDG_STATE_HOME/wearnav/phone-bridge (~/.local/state/...).
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
+    /// Your own certificate chain (PEM) instead of a self-signed one; needs --tls-key.
+    #[arg(long, value_name = "FILE", requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// The private key (PEM) of --tls-cert.
+    #[arg(long, value_name = "FILE", requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// A fixed six-digit pairing code (e.g. for a bridge started at boot), instead of
+    /// a new random one each start.
+    #[arg(long, value_name = "CODE", env = "WEARNAV_PAIRING_CODE")]
+    pairing_code: Option<String>,
 }
 
 #[tokio::main]
@@ -20,7 +45,16 @@ async fn main() -> anyhow::Result<()> {
     bus::logging::init();
     let cli = Cli::parse();
     let mut config = phone_bridge::PhoneConfig::new(cli.bus);
-    config.http = cli.http;
+    if let Some(addr) = cli.http {
+        config.serve = phone_bridge::Serve::Http(addr);
+    } else if let Some(addr) = cli.https {
+        config.serve = phone_bridge::Serve::Https(addr);
+    }
+    if let Some(dir) = cli.state_dir {
+        config.state_dir = dir;
+    }
+    config.tls = cli.tls_cert.zip(cli.tls_key);
+    config.pairing_code = cli.pairing_code;
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     phone_bridge::run(config, shutdown, None).await

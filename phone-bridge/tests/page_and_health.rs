@@ -17,6 +17,12 @@ async fn get(addr: std::net::SocketAddr, path: &str) -> (u16, String) {
     (status, body)
 }
 
+fn state_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("wearnav-bridge-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
 fn hazard(rumble: Rumble) -> Hazard {
     Hazard {
         frame_seq: 1,
@@ -49,7 +55,9 @@ async fn page_is_served_and_health_shows_agents_and_the_last_hazard() {
     bridge_bus.connect = vec![endpoint];
     bridge_bus.no_multicast = true;
     let mut config = phone_bridge::PhoneConfig::new(bridge_bus);
-    config.http = "127.0.0.1:0".parse().unwrap();
+    config.serve = phone_bridge::Serve::Http("127.0.0.1:0".parse().unwrap());
+    config.state_dir = state_dir("page");
+    config.announce = false;
     let shutdown = Shutdown::new();
     let (tx, rx) = tokio::sync::oneshot::channel();
     let bridge = tokio::spawn(phone_bridge::run(config, shutdown.clone(), Some(tx)));
@@ -81,4 +89,47 @@ async fn page_is_served_and_health_shows_agents_and_the_last_hazard() {
 
     shutdown.trigger();
     tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn https_serves_the_page_with_the_certificate_it_made_and_keeps() {
+    use rustls::pki_types::{pem::PemObject, CertificateDer, ServerName};
+    let mut bus = BusOptions::for_user("https-test");
+    bus.no_multicast = true;
+    let mut config = phone_bridge::PhoneConfig::new(bus);
+    config.serve = phone_bridge::Serve::Https("127.0.0.1:0".parse().unwrap());
+    let dir = state_dir("https");
+    config.state_dir = dir.clone();
+    config.announce = false;
+    let shutdown = Shutdown::new();
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let bridge = tokio::spawn(phone_bridge::run(config, shutdown.clone(), Some(tx)));
+    let addr = tokio::time::timeout(Duration::from_secs(10), rx).await.unwrap().unwrap();
+
+    // a client that trusts only the certificate the bridge made
+    let cert = CertificateDer::from_pem_file(dir.join("phone-bridge.crt")).expect("the bridge kept its certificate");
+    let mut roots = rustls::RootCertStore::empty();
+    roots.add(cert).unwrap();
+    let provider = std::sync::Arc::new(rustls::crypto::ring::default_provider());
+    let client = rustls::ClientConfig::builder_with_provider(provider)
+        .with_safe_default_protocol_versions()
+        .unwrap()
+        .with_root_certificates(roots)
+        .with_no_client_auth();
+    let connector = tokio_rustls::TlsConnector::from(std::sync::Arc::new(client));
+    let tcp = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let mut tls = connector.connect(ServerName::try_from("localhost").unwrap(), tcp).await.expect("TLS handshake");
+    tls.write_all(b"GET / HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n").await.unwrap();
+    let mut response = Vec::new();
+    let _ = tls.read_to_end(&mut response).await; // a close without close_notify is fine here
+    let response = String::from_utf8_lossy(&response);
+    assert!(response.starts_with("HTTP/1.1 200"), "{response}");
+    assert!(response.contains("<title>wearnav</title>"), "{response}");
+    // plain HTTP on the TLS port gets no page
+    let (status, _) = get(addr, "/").await;
+    assert_ne!(status, 200);
+
+    shutdown.trigger();
+    tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
 }

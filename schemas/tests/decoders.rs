@@ -25,7 +25,7 @@ static ALLOCATOR: LargestAllocation = LargestAllocation;
 
 /// Every golden vector (`schemas/vectors`, kept current by `tests/golden.rs`):
 /// representative values of every message, as `encode` writes them.
-const GOLDEN: [&[u8]; 40] = [
+const GOLDEN: [&[u8]; 51] = [
     include_bytes!("../vectors/applied_device_status.bin"),
     include_bytes!("../vectors/applied_offline_warning.bin"),
     include_bytes!("../vectors/applied_rumble.bin"),
@@ -40,6 +40,17 @@ const GOLDEN: [&[u8]; 40] = [
     include_bytes!("../vectors/command_repeat.bin"),
     include_bytes!("../vectors/command_where_am_i.bin"),
     include_bytes!("../vectors/destinations.bin"),
+    include_bytes!("../vectors/phone_ack_ended.bin"),
+    include_bytes!("../vectors/phone_ack_failed.bin"),
+    include_bytes!("../vectors/phone_ack_interrupted.bin"),
+    include_bytes!("../vectors/phone_ack_started.bin"),
+    include_bytes!("../vectors/phone_ack_vibrated.bin"),
+    include_bytes!("../vectors/phone_haptic.bin"),
+    include_bytes!("../vectors/phone_haptic_stop.bin"),
+    include_bytes!("../vectors/phone_motion.bin"),
+    include_bytes!("../vectors/phone_motion_unknown.bin"),
+    include_bytes!("../vectors/phone_speech_cut.bin"),
+    include_bytes!("../vectors/phone_speech_say.bin"),
     include_bytes!("../vectors/depth_frame_bounded.bin"),
     include_bytes!("../vectors/depth_frame_lossless.bin"),
     include_bytes!("../vectors/depth_frame_raw.bin"),

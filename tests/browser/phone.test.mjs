@@ -348,12 +348,12 @@ step('haptics', ['guidance'], 'the phone vibrates what the feedback agent asks, 
   assert.ok(match);
 
   // feedback/applied carries no request id: the ack it reports is the one at its time
-  const rumble = await waitFor('feedback/applied from device "phone" with a Rumble, at the time (within 1 s) the page acked a vibrate', () => {
+  const rumble = await waitFor('feedback/applied from device "phone" with a Rumble, at the time the page acked a vibrate (within 50 ms: the bridge takes the clock offset of the page out)', () => {
     const vibrated = acks('vibrated');
     for (const body of appliedFromPhone().filter((b) => b.action?.Rumble)) {
       const nearest = vibrated.reduce((best, a) =>
         (!best || Math.abs(a.t * 1e6 - body.applied_ns) < Math.abs(best.t * 1e6 - body.applied_ns) ? a : best), null);
-      if (nearest && Math.abs(nearest.t * 1e6 - body.applied_ns) <= 1e9) return { body, ack: nearest };
+      if (nearest && Math.abs(nearest.t * 1e6 - body.applied_ns) <= 5e7) return { body, ack: nearest };
     }
     return null;
   }, 20000).catch(async (e) => {
@@ -371,8 +371,8 @@ step('haptics', ['guidance'], 'the phone vibrates what the feedback agent asks, 
     acks('started').find((a) => a.id === route.msg.id), 5000);
   const spoken = await waitFor(`feedback/applied SpeechStarted from device "phone" for "${route.msg.text}"`, () =>
     appliedFromPhone().find((b) => b.action?.SpeechStarted?.text === route.msg.text), 5000);
-  assert.ok(Math.abs(spoken.applied_ns - started.t * 1e6) <= 1e9,
-    `SpeechStarted applied_ns ${spoken.applied_ns} within 1 s of the page's started ack at ${started.t} ms`);
+  assert.ok(Math.abs(spoken.applied_ns - started.t * 1e6) <= 5e7,
+    `SpeechStarted applied_ns ${spoken.applied_ns} within 50 ms of the page's started ack at ${started.t} ms`);
 });
 
 step('a11y', ['pairing'], 'the page has no serious accessibility violations and every control has its name', 20000, async () => {

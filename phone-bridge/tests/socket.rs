@@ -1,0 +1,203 @@
+//! The bridge's WebSocket and pairing, against a real bridge on a real bus: a socket
+//! without a paired token is refused, wrong codes are slowed down, bad messages get a
+//! clear error and are not forwarded, commands are rate-limited, an oversized frame
+//! closes only that socket, and requests and acknowledgements cross between the JSON
+//! the page speaks and the wire schemas.
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
+use futures_util::{SinkExt, StreamExt};
+use schemas::{Command, PhoneAck, PhoneEvent, PhoneHaptic};
+use serde_json::Value;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio_tungstenite::tungstenite::Message;
+
+const CODE: &str = "424242";
+
+async fn http(addr: SocketAddr, request: &str) -> (u16, Value) {
+    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect to the bridge");
+    stream.write_all(request.as_bytes()).await.unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).await.unwrap();
+    let status = response.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let body = response.split("\r\n\r\n").nth(1).unwrap_or("");
+    (status, serde_json::from_str(body).unwrap_or(Value::Null))
+}
+
+async fn pair(addr: SocketAddr, code: &str) -> (u16, Value) {
+    let body = format!(r#"{{"code":"{code}"}}"#);
+    let request = format!(
+        "POST /pair HTTP/1.1\r\nHost: localhost\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    http(addr, &request).await
+}
+
+type Socket = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+async fn connect(addr: SocketAddr, token: &str) -> Result<Socket, tokio_tungstenite::tungstenite::Error> {
+    tokio_tungstenite::connect_async(format!("ws://{addr}/ws?token={token}")).await.map(|(s, _)| s)
+}
+
+/// The next message of `type_` within `within`, skipping others (clock ticks, state).
+async fn next_of(socket: &mut Socket, type_: &str, within: Duration) -> Value {
+    tokio::time::timeout(within, async {
+        loop {
+            match socket.next().await {
+                Some(Ok(Message::Text(t))) => {
+                    let v: Value = serde_json::from_str(t.as_str()).expect("the bridge sends JSON");
+                    if v["type"] == type_ {
+                        return v;
+                    }
+                }
+                Some(Ok(_)) => {}
+                other => panic!("socket ended waiting for {type_}: {other:?}"),
+            }
+        }
+    })
+    .await
+    .unwrap_or_else(|_| panic!("no {type_} message within {within:?}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_acks() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let mut hub = BusOptions::for_user("socket-test");
+    hub.listen = vec![endpoint.clone()];
+    hub.no_multicast = true;
+    let session = bus::open_session(&hub).await.unwrap();
+    let keys = hub.keys().unwrap();
+    let health = Health::new("test");
+    let commands = Subscriber::<Command>::declare(&session, keys.cmd_any(), false, &health).await.unwrap();
+    let acks = Subscriber::<PhoneAck>::declare(&session, keys.phone_ack(), false, &health).await.unwrap();
+    let mut vibrate =
+        Publisher::<PhoneHaptic>::declare(&session, keys.phone_haptic(), "test", Lane::RealTime, None).await.unwrap();
+
+    let mut bus = BusOptions::for_user("socket-test");
+    bus.connect = vec![endpoint];
+    bus.no_multicast = true;
+    let mut config = phone_bridge::PhoneConfig::new(bus);
+    config.serve = phone_bridge::Serve::Http("127.0.0.1:0".parse().unwrap());
+    let dir = std::env::temp_dir().join(format!("wearnav-bridge-socket-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    config.state_dir = dir.clone();
+    config.announce = false;
+    config.pairing_code = Some(CODE.into());
+    let shutdown = Shutdown::new();
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let bridge = tokio::spawn(phone_bridge::run(config, shutdown.clone(), Some(tx)));
+    let addr = tokio::time::timeout(Duration::from_secs(10), rx).await.unwrap().unwrap();
+
+    // no token, a made-up token: refused before any socket opens
+    for token in ["", "0123456789abcdef0123456789abcdef"] {
+        let e = connect(addr, token).await.err().expect("refused");
+        assert!(e.to_string().contains("401"), "{e}");
+    }
+    // wrong codes: three at once, then each must wait; a try while waiting is not read
+    for k in 0..3 {
+        let (status, body) = pair(addr, "000000").await;
+        assert_eq!(status, 403, "{body}");
+        assert_eq!(body["retry_after_s"], if k < 2 { 0 } else { 1 }, "{body}");
+    }
+    let (status, body) = pair(addr, CODE).await;
+    assert_eq!(status, 429, "even the right code waits: {body}");
+    assert!(body["error"].as_str().unwrap().starts_with("Too many wrong codes"), "{body}");
+    tokio::time::sleep(Duration::from_millis(1100)).await;
+    let (status, body) = pair(addr, CODE).await;
+    assert_eq!(status, 200, "{body}");
+    let token = body["token"].as_str().unwrap().to_string();
+    assert_eq!(token.len(), 32);
+
+    let mut socket = connect(addr, &token).await.expect("a paired token opens the socket");
+    let hello = next_of(&mut socket, "hello", Duration::from_secs(5)).await;
+    assert_eq!(hello["user"], "socket-test");
+
+    // bad messages: an error each, nothing forwarded, the socket stays open
+    for (bad, says) in [
+        ("{nope", "not JSON"),
+        (r#"{"type":"teleport"}"#, "unknown message type \"teleport\""),
+        (r#"{"type":"command","verb":"destination"}"#, "destination needs a \"label\""),
+        (r#"{"type":"ack","id":1,"event":"exploded","t":1}"#, "\"event\" must be"),
+    ] {
+        socket.send(Message::Text(bad.into())).await.unwrap();
+        let e = next_of(&mut socket, "error", Duration::from_secs(5)).await;
+        assert!(e["message"].as_str().unwrap().contains(says), "{bad}: {e}");
+    }
+    // a flood of commands: a burst of 10 goes through, the rest are refused
+    for _ in 0..15 {
+        socket.send(Message::Text(r#"{"type":"command","verb":"repeat"}"#.into())).await.unwrap();
+    }
+    let mut refused = 0;
+    while refused < 5 {
+        let e = next_of(&mut socket, "error", Duration::from_secs(5)).await;
+        assert!(e["message"].as_str().unwrap().starts_with("Too many commands"), "{e}");
+        refused += 1;
+    }
+    let mut forwarded = 0;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    while let Ok(Some(c)) = tokio::time::timeout_at(deadline, commands.recv()).await {
+        assert_eq!(c.body, Command::Repeat, "only the repeats were forwarded");
+        forwarded += 1;
+    }
+    assert_eq!(forwarded, 10, "the burst, and nothing of the bad messages");
+
+    // a vibration request reaches the page as JSON; the page's ack reaches the bus on
+    // the bridge's clock (the page's clock here is 5 s ahead)
+    let ahead_ms = 5000.0;
+    // answer a clock tick at once, as the page does (not one that waited in the socket)
+    let (t, now_ms) = loop {
+        let clock = next_of(&mut socket, "clock", Duration::from_secs(3)).await;
+        let (t, now_ms) = (clock["t"].as_f64().unwrap(), bus::now_ns() as f64 / 1e6);
+        if now_ms - t < 20.0 {
+            break (t, now_ms);
+        }
+    };
+    socket
+        .send(Message::Text(format!(r#"{{"type":"clock","t":{t},"page_t":{}}}"#, now_ms + ahead_ms).into()))
+        .await
+        .unwrap();
+    let request = PhoneHaptic { id: 77, pattern_ms: vec![60, 40, 60], left: 0.0, right: 0.9 };
+    let mut page_saw = Value::Null;
+    for _ in 0..20 {
+        vibrate.put(bus::now_ns(), &request).await.unwrap();
+        if let Ok(v) =
+            tokio::time::timeout(Duration::from_millis(250), next_of(&mut socket, "vibrate", Duration::from_secs(1)))
+                .await
+        {
+            page_saw = v;
+            break;
+        }
+    }
+    assert_eq!(page_saw, serde_json::json!({"type": "vibrate", "id": 77, "pattern": [60, 40, 60]}));
+    let acked_ms = bus::now_ns() as f64 / 1e6;
+    let ack = format!(r#"{{"type":"ack","id":77,"event":"vibrated","t":{}}}"#, acked_ms + ahead_ms);
+    socket.send(Message::Text(ack.into())).await.unwrap();
+    let a = tokio::time::timeout(Duration::from_secs(5), acks.recv()).await.unwrap().unwrap().body;
+    assert_eq!((a.id, a.event), (77, PhoneEvent::Vibrated));
+    let off_ms = (a.at_ns as f64 / 1e6 - acked_ms).abs();
+    assert!(off_ms < 50.0, "the ack is {off_ms:.1} ms off on the bridge's clock");
+
+    // an oversized frame closes that socket only; the bridge goes on serving
+    socket.send(Message::Text("x".repeat(20 * 1024).into())).await.ok();
+    let closed = tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            match socket.next().await {
+                None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
+                Some(Ok(_)) => {}
+            }
+        }
+    })
+    .await;
+    assert!(closed.is_ok(), "an oversized frame must close the socket");
+    let mut again = connect(addr, &token).await.expect("the bridge still serves");
+    next_of(&mut again, "hello", Duration::from_secs(5)).await;
+    let (status, view) = http(addr, "GET /health HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n").await;
+    assert_eq!((status, view["phones_paired"].as_u64()), (200, Some(1)), "{view}");
+
+    shutdown.trigger();
+    tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
