@@ -240,6 +240,7 @@ fn fuzz_case(target: Target, seeds: &Seeds, rng: &mut Rng) -> Result<&'static st
                 Err(SceneError::Invalid { .. }) => "invalid",
                 Err(SceneError::Io { .. }) => "io",
                 Err(SceneError::UnknownWorld { .. }) => "unknown_world",
+                Err(SceneError::Generate(_)) => "generate",
             })
         }
         Target::MapYaml => {

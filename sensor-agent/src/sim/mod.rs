@@ -15,9 +15,10 @@
 pub mod body;
 pub mod camera;
 pub mod cane;
+pub mod generate;
+pub mod guided;
 pub mod imu;
 pub mod odometry;
-pub mod guided;
 pub mod pose;
 pub mod random;
 pub mod render;
@@ -29,11 +30,11 @@ pub mod world;
 
 pub use camera::CameraProfile;
 pub use cane::CaneMount;
+pub use guided::{Directions, DirectionsHandle, GuidedWalker};
 pub use pose::CameraPose;
 pub use random::SimRng;
 pub use render::Renderer;
 pub use scene::SceneError;
 pub use source::{SimConfig, SimSource};
-pub use guided::{Directions, DirectionsHandle, GuidedWalker};
 pub use walker::{ScriptedWalker, Trajectory};
 pub use world::{Nearest, ObstacleId, ObstacleKind, UserPose, World};

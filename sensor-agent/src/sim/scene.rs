@@ -77,8 +77,11 @@ pub enum SceneError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// A `gen:` name that names no generated world.
+    #[error(transparent)]
+    Generate(#[from] crate::sim::generate::GenerateError),
     /// A world name that is neither built in nor a readable file.
-    #[error("unknown world `{name}`: give a scene file path or one of the built-in worlds: {known}")]
+    #[error("unknown world `{name}`: give a scene file path, one of the built-in worlds ({known}) or a generated one (gen:corridor:7; kinds corridor, office, lobby, street)")]
     UnknownWorld {
         /// The name asked for.
         name: String,

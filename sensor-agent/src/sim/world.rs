@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use super::generate;
 use super::scene::{
     self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, RoomSpec, SceneError,
     SceneFile, StairsSpec, WalkerSpec, LEG_INSET_M,
@@ -191,10 +192,15 @@ static NO_GEOMETRY: FloorGeometry = FloorGeometry {
 };
 
 impl World {
-    /// A built-in world by name, or else a scene file at that path.
+    /// A built-in world by name, a generated one (`gen:<kind>:<seed>`, see
+    /// [`generate`](super::generate)), or else a scene file at that path.
     pub fn load(name_or_path: &str) -> Result<World, SceneError> {
         if let Some(world) = Self::builtin(name_or_path) {
             return world;
+        }
+        if let Some(generated) = generate::parse_name(name_or_path) {
+            let (kind, seed) = generated?;
+            return Self::from_toml(&generate::scene_text(kind, seed)?, name_or_path);
         }
         let path = Path::new(name_or_path);
         if path.exists() {
