@@ -59,7 +59,7 @@ fn cell_at(b: &Building, floor: i32, x: f64, y: f64) -> Option<Cell> {
 /// (world, [(floor, x, y)] on walls, [(floor, x, y)] free).
 type Known = (&'static str, &'static [(i32, f64, f64)], &'static [(i32, f64, f64)]);
 
-const KNOWN: [Known; 7] = [
+const KNOWN: [Known; 10] = [
     (
         "taylor-course",
         // the four room walls, divider 1 (x 3.5, y 0..7), divider 2 (x 6.5, y 3..10)
@@ -110,6 +110,26 @@ const KNOWN: [Known; 7] = [
     ),
     // no walls at all; the head-high sign is no wall
     ("sign-ahead", &[], &[(0, 5.0, 0.0), (0, 4.9, 0.5)]),
+    (
+        "corridor-narrow",
+        // south, east, north (first leg) and west (second leg) walls
+        &[(0, 7.0, -0.05), (0, 14.85, 6.0), (0, 5.0, 1.65), (0, 13.15, 6.0)],
+        // the corner, the bin (5.0, 0.2), the wall cabinet (9.0, 1.45), the flag sign (13.35, 7.0)
+        &[(0, 14.0, 0.8), (0, 5.0, 0.2), (0, 9.0, 1.45), (0, 13.35, 7.0)],
+    ),
+    (
+        "lobby-bench",
+        // the four walls, and the sunken area (x 5.2..8.4, y 1.5..4.5)
+        &[(0, 6.0, -0.05), (0, 12.05, 5.0), (0, 6.0, 10.05), (0, -0.05, 5.0), (0, 6.8, 3.0)],
+        // the bench (4.3, 5.25), bollard 2 (2.2, 5.2), the planter (9.6, 6.3)
+        &[(0, 4.3, 5.25), (0, 2.2, 5.2), (0, 9.6, 6.3)],
+    ),
+    (
+        "hanging-lamp",
+        &[(0, 4.5, -0.05), (0, 9.05, 3.5), (0, 4.5, 7.05), (0, -0.05, 3.5)],
+        // under the lamp (4.5, 3.55), the table (2.5, 5.8)
+        &[(0, 4.5, 3.55), (0, 2.5, 5.8)],
+    ),
 ];
 
 #[test]

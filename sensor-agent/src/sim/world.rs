@@ -12,7 +12,7 @@ use super::scene::{
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
 /// The built-in worlds, by name, embedded in the binary.
-pub const BUILTIN_WORLDS: [(&str, &str); 7] = [
+pub const BUILTIN_WORLDS: [(&str, &str); 10] = [
     ("taylor-course", include_str!("../../worlds/taylor-course.toml")),
     ("open-course", include_str!("../../worlds/open-course.toml")),
     ("corridor", include_str!("../../worlds/corridor.toml")),
@@ -20,6 +20,10 @@ pub const BUILTIN_WORLDS: [(&str, &str); 7] = [
     ("approach", include_str!("../../worlds/approach.toml")),
     ("step-down", include_str!("../../worlds/step-down.toml")),
     ("sign-ahead", include_str!("../../worlds/sign-ahead.toml")),
+    // written from a description, after the cues were tuned (issue 29)
+    ("corridor-narrow", include_str!("../../worlds/corridor-narrow.toml")),
+    ("lobby-bench", include_str!("../../worlds/lobby-bench.toml")),
+    ("hanging-lamp", include_str!("../../worlds/hanging-lamp.toml")),
 ];
 
 /// What an obstacle is, for contact reports.
