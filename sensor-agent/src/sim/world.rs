@@ -667,6 +667,71 @@ mod tests {
         assert!(sign.bottom_m > 1.5 && sign.top_m < 1.9, "head height: {sign:?}");
     }
 
+    /// What a 0.45 m wide body walking the floor-plan route (start to goal) touches,
+    /// and how near the route comes to a wall or a drop-off.
+    fn along_floor_plan_route(w: &World) -> (std::collections::BTreeSet<String>, f64) {
+        let (start, goal) = (w.start(), w.goal());
+        let mut route = vec![[start.x_m, start.y_m]];
+        route.extend_from_slice(w.floor_plan_route().unwrap_or_else(|| panic!("{}: no floor-plan route", w.name())));
+        route.push([goal.x_m, goal.y_m]);
+        let (mut touched, mut nearest_m) = (std::collections::BTreeSet::new(), f64::INFINITY);
+        for leg in route.windows(2) {
+            let steps = ((leg[1][0] - leg[0][0]).hypot(leg[1][1] - leg[0][1]) / 0.05).ceil() as usize;
+            for i in 0..=steps {
+                let f = i as f64 / steps as f64;
+                let (x, y) = (leg[0][0] + f * (leg[1][0] - leg[0][0]), leg[0][1] + f * (leg[1][1] - leg[0][1]));
+                for (id, shape) in w.obstacles_at(0, 0.0) {
+                    let Some(o) = w.obstacle(id) else { continue };
+                    if matches!(o.kind, ObstacleKind::Wall | ObstacleKind::DropOff) {
+                        nearest_m = nearest_m.min(shape.body_distance_m(x, y, 0.0, 1.8));
+                    } else if shape.body_distance_m(x, y, 0.225, 1.8) == 0.0 {
+                        touched.insert(o.label.clone());
+                    }
+                }
+            }
+        }
+        (touched, nearest_m)
+    }
+
+    #[test]
+    fn hidden_style_worlds_load_with_what_their_description_says_and_a_floor_plan_route() {
+        let box_of = |w: &World, label: &str| {
+            let id = w.obstacles().iter().position(|o| o.label == label).unwrap_or_else(|| panic!("no {label}"));
+            w.geometry(0)
+                .boxes
+                .iter()
+                .find(|(_, i)| i.0 as usize == id)
+                .map(|(b, _)| *b)
+                .unwrap_or_else(|| panic!("{label} is no box"))
+        };
+        let c = builtin("corridor-narrow");
+        let cabinet = box_of(&c, "wall cabinet");
+        assert_eq!((cabinet.bottom_m, cabinet.top_m, 2.0 * cabinet.half_size_m[1]), (1.2, 1.9, 0.3));
+        let sign = box_of(&c, "flag sign");
+        assert_eq!((sign.bottom_m, sign.top_m, 2.0 * sign.half_size_m[0]), (1.6, 1.9, 0.3));
+        assert_eq!((count(&c, ObstacleKind::Cylinder), c.corners().len()), (1, 1), "a bin, one corner");
+        let (touched, nearest_wall_m) = along_floor_plan_route(&c);
+        // down the middle of 1.6 m (0.8 m from the side walls; the nearest wall is the end
+        // wall, 0.75 m behind the start), clear of the bin, the cabinet and the sign
+        assert!(touched.is_empty() && (nearest_wall_m - 0.75).abs() < 1e-9, "{touched:?} {nearest_wall_m}");
+
+        let l = builtin("lobby-bench");
+        let bench = box_of(&l, "bench");
+        assert_eq!((2.0 * bench.half_size_m[0], 2.0 * bench.half_size_m[1], bench.top_m), (1.6, 0.45, 0.45));
+        assert_eq!(l.geometry(0).drop_offs.iter().map(|(d, _)| d.depth_m).collect::<Vec<_>>(), [0.15]);
+        assert_eq!(count(&l, ObstacleKind::Pole), 3, "bollards");
+        let (touched, nearest_m) = along_floor_plan_route(&l);
+        // the plan shows the step (0.5 m off the route), not the bench and bollard on it
+        assert_eq!(touched.into_iter().collect::<Vec<_>>(), ["bench", "bollard 2"]);
+        assert!((nearest_m - 0.5).abs() < 1e-9, "{nearest_m}");
+
+        let h = builtin("hanging-lamp");
+        let lamp = box_of(&h, "hanging lamp");
+        assert!(lamp.bottom_m >= 1.5 && lamp.top_m <= 1.85, "{lamp:?}");
+        let (touched, _) = along_floor_plan_route(&h);
+        assert_eq!(touched.into_iter().collect::<Vec<_>>(), ["hanging lamp"], "the sign hangs beside the way");
+    }
+
     #[test]
     fn scene_file_loads_by_path_and_a_missing_file_is_an_unknown_world() {
         let path = std::env::temp_dir().join(format!("wearnav-sim-scene-{}.toml", std::process::id()));
