@@ -18,7 +18,8 @@ pub struct DemoArgs {
     #[arg(long, default_value = "demo")]
     pub user: String,
     /// Frame source: `sim:<world>` (approach, taylor-course, open-course, corridor,
-    /// building, step-down, sign-ahead), `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
+    /// building, step-down, sign-ahead, corridor-narrow, lobby-bench, hanging-lamp, or a
+    /// generated world such as gen:corridor:7), `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
     #[arg(long, default_value = "sim:approach")]
     pub source: String,
     /// Extra endpoint the demo listens on, so a Python monitor or another machine can

@@ -12,6 +12,7 @@
 //! | one closed-loop walk | [`walk`] |
 //! | N walks and the table | [`study`] |
 //! | two configurations on the same seeds, walk by walk | [`compare`] |
+//! | groups of worlds (generated kinds), a table per group and overall | [`world_groups`] |
 
 pub mod compare;
 pub mod contacts;
@@ -23,6 +24,7 @@ pub mod oracle;
 pub mod study;
 pub mod virtual_user;
 pub mod walk;
+pub mod world_groups;
 
 use anyhow::Context;
 use schemas::CostFunction;
@@ -68,10 +70,22 @@ impl Camera {
 #[derive(Debug, Clone, clap::Args)]
 pub struct CourseArgs {
     /// Built-in world (`taylor-course`, `open-course`, `corridor`, `step-down`,
-    /// `sign-ahead`, `approach`) or a scene file with its start and goal on one floor
-    /// (the virtual user takes no stairs or lifts: `building` is refused).
+    /// `sign-ahead`, `approach`, `corridor-narrow`, `lobby-bench`, `hanging-lamp`), a
+    /// generated one (`gen:<kind>:<seed>`, kinds corridor, office, lobby, street) or a
+    /// scene file with its start and goal on one floor (the virtual user takes no stairs
+    /// or lifts: `building` is refused).
     #[arg(long, default_value = "taylor-course")]
     pub world: String,
+    /// Walk groups of worlds instead of one, comma-separated: `gen:<kind>` (corridor,
+    /// office, lobby, street) stands for `--count` generated worlds of that kind, seeds
+    /// `--seed`, `--seed + 1`, ...; any other name (a built-in world, `gen:corridor:7`, a
+    /// scene file) for itself. Each world is walked `--runs` times; a table per group
+    /// and overall (`wearnav course --worlds gen:corridor,gen:lobby --count 10 --runs 2`).
+    #[arg(long, value_delimiter = ',', value_name = "WORLDS", conflicts_with = "world")]
+    pub worlds: Vec<String>,
+    /// With `--worlds`: how many generated worlds each `gen:<kind>` stands for.
+    #[arg(long, default_value_t = 5)]
+    pub count: u32,
     /// Cost function driving the rumble.
     #[arg(long, value_enum, default_value_t = Cost::Ficf)]
     pub cost: Cost,
@@ -242,6 +256,8 @@ impl CourseArgs {
         }
         let taken = take!(
             world,
+            worlds,
+            count,
             cost,
             runs,
             seed,
@@ -280,8 +296,9 @@ impl CourseArgs {
             anyhow::bail!("--versus \"{flags}\": `{id}` cannot be changed there");
         }
         anyhow::ensure!(
-            (v.world.as_str(), v.seed, v.runs) == (self.world.as_str(), self.seed, self.runs),
-            "--versus \"{flags}\": the world, --seed and --runs must stay the same (walks are compared seed by seed)"
+            (v.world.as_str(), &v.worlds, v.count, v.seed, v.runs)
+                == (self.world.as_str(), &self.worlds, self.count, self.seed, self.runs),
+            "--versus \"{flags}\": the world, --worlds, --count, --seed and --runs must stay the same (walks are compared seed by seed)"
         );
         anyhow::ensure!(
             !typed("versus") && !typed("trace") && !typed("json"),
@@ -360,10 +377,22 @@ impl CourseArgs {
     }
 }
 
-/// Runs the study the arguments describe and prints the table (or JSON).
-pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
-    let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
-    let config = args.walk_config()?;
+/// The `--versus` flags, the arguments with them applied, and their walk configuration.
+type Versus<'a> = (&'a str, CourseArgs, WalkConfig);
+
+/// The arguments and configuration `--versus` describes, when given.
+fn versus_of(args: &CourseArgs) -> anyhow::Result<Option<Versus<'_>>> {
+    let Some(flags) = &args.versus else { return Ok(None) };
+    let v = args.with_flags(flags)?;
+    let mut c = v.walk_config().with_context(|| format!("--versus \"{flags}\""))?;
+    // only the walks without the --versus flags are traced
+    c.trace = false;
+    Ok(Some((flags.as_str(), v, c)))
+}
+
+/// Refuses a world no walk of these configurations could serve: its goal on another
+/// floor, or no floor-plan route for `--route-map floor-plan`.
+fn check_world(world: &World, configs: &[&WalkConfig]) -> anyhow::Result<()> {
     let (start, goal) = (world.start(), world.goal());
     anyhow::ensure!(
         start.floor == goal.floor,
@@ -373,17 +402,7 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
         goal.floor,
         start.floor
     );
-    let versus = match &args.versus {
-        Some(flags) => {
-            let v = args.with_flags(flags)?;
-            let mut c = v.walk_config().with_context(|| format!("--versus \"{flags}\""))?;
-            // only the walks without the --versus flags are traced
-            c.trace = false;
-            Some((flags.as_str(), v, c))
-        }
-        None => None,
-    };
-    for c in std::iter::once(&config).chain(versus.as_ref().map(|v| &v.2)) {
+    for c in configs {
         if c.route_map == RouteMap::FloorPlan && c.guide != GuideKind::Sound {
             anyhow::ensure!(
                 world.floor_plan_route().is_some(),
@@ -392,6 +411,18 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
             );
         }
     }
+    Ok(())
+}
+
+/// Runs the study the arguments describe and prints the table (or JSON).
+pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
+    if !args.worlds.is_empty() {
+        return world_groups::run(args);
+    }
+    let world = World::load(&args.world).with_context(|| format!("loading world `{}`", args.world))?;
+    let config = args.walk_config()?;
+    let versus = versus_of(args)?;
+    check_world(&world, &std::iter::once(&config).chain(versus.as_ref().map(|v| &v.2)).collect::<Vec<_>>())?;
     let started = std::time::Instant::now();
     let ended = std::sync::atomic::AtomicU32::new(0);
     let total = args.runs.saturating_mul(if versus.is_some() { 2 } else { 1 });
@@ -448,8 +479,21 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
 
 /// A study as JSON: the configuration, every walk, the rows and the averages.
 fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &study::Study) -> serde_json::Value {
+    let mut doc = config_json(args, config);
+    doc["world"] = serde_json::json!(world.name());
+    doc["walks"] = serde_json::json!(result.walks);
+    doc["rows"] = serde_json::json!(result.rows);
+    doc["average"] = serde_json::json!(result.average);
+    doc["lead_times"] = serde_json::json!({
+        "cane": LeadTimes::of(&result.walks, Part::Cane),
+        "body": LeadTimes::of(&result.walks, Part::Body),
+    });
+    doc
+}
+
+/// The configuration of a study as JSON.
+fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
     serde_json::json!({
-        "world": world.name(),
         "cost": format!("{:?}", args.cost).to_lowercase(),
         "memory": !args.no_memory,
         "hysteresis": !args.no_hysteresis,
@@ -473,13 +517,6 @@ fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         "user": config.user,
         "timeout_s": config.timeout_s,
         "first_seed": args.seed,
-        "walks": result.walks,
-        "rows": result.rows,
-        "average": result.average,
-        "lead_times": {
-            "cane": LeadTimes::of(&result.walks, Part::Cane),
-            "body": LeadTimes::of(&result.walks, Part::Body),
-        },
     })
 }
 
@@ -487,48 +524,7 @@ fn summary_json(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
 /// walks that did not reach the goal, and every contact with `--contacts`.
 fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &study::Study) -> String {
     use std::fmt::Write;
-    let lookahead_m = config.lookahead_m();
-    let guide = match args.guide {
-        GuideKind::Route if lookahead_m > 0.0 => format!("Route ({:?} map), {lookahead_m:.1} m ahead", args.route_map),
-        GuideKind::Route => format!("Route ({:?} map), corner to corner", args.route_map),
-        GuideKind::Assisted => format!("Assisted (led on the {:?} map)", args.route_map),
-        g => format!("{g:?}"),
-    };
-    let mut s = format!(
-        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
-         user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
-        world.name(),
-        config.camera.name,
-        on_off(!args.no_rumble),
-        config.oracle.map_or_else(String::new, |o| {
-            let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
-            format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
-        }),
-        args.cost,
-        on_off(!args.no_memory),
-        on_off(!args.no_hysteresis),
-        if !args.no_hysteresis && args.hold_sides { " (holding sides)" } else { "" },
-        on_off(!args.no_dropoff),
-        on_off(!args.no_dropoff && !args.no_edges),
-        on_off(!args.no_ttc),
-        on_off(args.body_gyro),
-        guide,
-        args.runs,
-        args.seed,
-        config.user.walk_speed_m_s,
-        config.user.turn_rate_deg_s,
-        config.user.reaction_s,
-        if config.user.fast_pulse_ms > 0.0 {
-            format!(", stops on pulses every {:.0} ms or faster", config.user.fast_pulse_ms)
-        } else {
-            String::new()
-        },
-        config.mount.cane_length_m,
-        config.mount.pitch_deg,
-        config.mount.sweep_amplitude_deg,
-        config.bounded_mm.map_or_else(|| "lossless".to_string(), |mm| format!("bounded {mm} mm")),
-        config.timeout_s,
-    );
+    let mut s = config_lines(args, config, world.name());
     s.push_str(&table(result));
     s.push_str(&LeadTimes::of(&result.walks, Part::Cane).line("cane"));
     s.push('\n');
@@ -565,6 +561,52 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
         }
     }
     s
+}
+
+/// The configuration of a study as text, two lines; `worlds` names what is walked.
+fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String {
+    let lookahead_m = config.lookahead_m();
+    let guide = match args.guide {
+        GuideKind::Route if lookahead_m > 0.0 => format!("Route ({:?} map), {lookahead_m:.1} m ahead", args.route_map),
+        GuideKind::Route => format!("Route ({:?} map), corner to corner", args.route_map),
+        GuideKind::Assisted => format!("Assisted (led on the {:?} map)", args.route_map),
+        g => format!("{g:?}"),
+    };
+    format!(
+        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
+         user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
+        worlds,
+        config.camera.name,
+        on_off(!args.no_rumble),
+        config.oracle.map_or_else(String::new, |o| {
+            let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
+            format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
+        }),
+        args.cost,
+        on_off(!args.no_memory),
+        on_off(!args.no_hysteresis),
+        if !args.no_hysteresis && args.hold_sides { " (holding sides)" } else { "" },
+        on_off(!args.no_dropoff),
+        on_off(!args.no_dropoff && !args.no_edges),
+        on_off(!args.no_ttc),
+        on_off(args.body_gyro),
+        guide,
+        args.runs,
+        args.seed,
+        config.user.walk_speed_m_s,
+        config.user.turn_rate_deg_s,
+        config.user.reaction_s,
+        if config.user.fast_pulse_ms > 0.0 {
+            format!(", stops on pulses every {:.0} ms or faster", config.user.fast_pulse_ms)
+        } else {
+            String::new()
+        },
+        config.mount.cane_length_m,
+        config.mount.pitch_deg,
+        config.mount.sweep_amplitude_deg,
+        config.bounded_mm.map_or_else(|| "lossless".to_string(), |mm| format!("bounded {mm} mm")),
+        config.timeout_s,
+    )
 }
 
 fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::Result<()> {

@@ -496,3 +496,69 @@ fn versus_walks_the_same_seeds_and_tells_a_switch_that_matters_from_the_spread()
     assert_eq!(get("body_in_fov").higher + get("body_out_fov").higher, 4, "{diffs:?}");
     assert_eq!((get("completed_pct").low, get("completed_pct").high), (0.0, 0.0), "neither reaches the goal");
 }
+
+#[test]
+fn course_over_generated_corridors_walks_every_world_on_the_same_seeds_with_the_device_on_and_off() {
+    // walks of 4 s: the argument plumbing, not the figures (docs/beyond-the-course.md)
+    let parsed = |line: &str| Cli::parse_from(std::iter::once("course").chain(line.split_whitespace())).args;
+    let args = parsed(
+        "--worlds gen:corridor --count 2 --runs 1 --timeout-s 4 --guide route --route-map floor-plan --versus=--no-rumble",
+    );
+    let report = study::world_groups::walk_groups(&args).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!((report.groups.len(), report.walks), (1, 4), "2 worlds, each walked once with the device on and off");
+    let g = &report.groups[0];
+    assert_eq!(g.group.worlds, ["gen:corridor:1", "gen:corridor:2"]);
+    assert_eq!(g.this.worlds.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), g.group.worlds);
+    let off = g.versus.as_ref().unwrap_or_else(|| panic!("no versus walks"));
+    for rows in [&g.this.rows, &off.rows] {
+        assert_eq!(rows.iter().map(|r| r.seed).collect::<Vec<_>>(), [Some(1), Some(1)]);
+        assert!(rows.iter().all(|r| r.time_s <= 4.0 + 1e-9 && r.completed == 0.0), "{rows:?}");
+    }
+    assert!(off.rows.iter().all(|r| r.signals == 0.0), "the device off gives no signal: {:?}", off.rows);
+    let simulated: f64 = g.this.rows.iter().chain(&off.rows).map(|r| r.time_s).sum();
+    assert!((report.simulated_s - simulated).abs() < 1e-9);
+
+    let text = study::world_groups::text(&args, &report).unwrap_or_else(|e| panic!("{e:#}"));
+    let walks_of = |label: &str| {
+        text.lines()
+            .filter(|l| l.starts_with(label))
+            .map(|l| l[label.len()..].split_whitespace().next().unwrap_or_default().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(walks_of("gen:corridor (mean) "), ["2", "2"], "{text}");
+    assert_eq!(walks_of("gen:corridor:2 "), ["1", "1"], "{text}");
+    assert_eq!(walks_of("overall "), ["2"], "{text}");
+    assert!(text.contains("versus `--no-rumble`, the same walks:") && text.contains("4 walks, "), "{text}");
+    let json = study::world_groups::json(&args, &report).unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(json["groups"][0]["this"]["walks"], 2);
+    assert_eq!(json["groups"][0]["versus"]["worlds"][1]["world"], "gen:corridor:2");
+    assert_eq!(json["groups"][0]["difference"]["signals"]["n"], 2);
+    assert_eq!(json["versus"]["configuration"]["rumble"], false);
+}
+
+#[test]
+fn worlds_that_are_not_there_or_flags_that_do_not_fit_groups_are_refused_before_walking() {
+    let run = |line: &str| {
+        let argv = std::iter::once("course").chain(line.split_whitespace());
+        match Cli::try_parse_from(argv) {
+            Ok(cli) => study::run(&cli.args).map_err(|e| format!("{e:#}")),
+            Err(e) => Err(e.to_string()),
+        }
+    };
+    let err = run("--worlds gen:corridor,gen:lobby:x --runs 1").unwrap_err();
+    assert!(err.contains("gen:lobby:x: seed must be a whole number"), "{err}");
+    let err = run("--worlds gen:cave --runs 1").unwrap_err();
+    assert!(
+        err.contains("gen:cave: unknown kind `cave`: use gen:corridor, gen:office, gen:lobby or gen:street"),
+        "{err}"
+    );
+    let err = run("--world corridor --worlds gen:corridor").unwrap_err();
+    assert!(err.contains("cannot be used with"), "{err}");
+    let err = run("--worlds gen:street --trace /tmp/x.csv").unwrap_err();
+    assert!(err.contains("--trace and --contacts go with --world"), "{err}");
+    let err = run("--worlds gen:office,corridor --guide route --route-map floor-plan --runs 1").unwrap_err();
+    assert!(err.contains("world `corridor` has no floor-plan route"), "{err}");
+    let base = Cli::parse_from(["course", "--worlds", "gen:office", "--count", "3"]).args;
+    let refused = base.with_flags("--count 4").err().map(|e| format!("{e:#}")).unwrap_or_default();
+    assert!(refused.contains("--count, --seed and --runs must stay the same"), "{refused}");
+}
