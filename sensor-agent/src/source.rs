@@ -167,6 +167,10 @@ mod tests {
         assert!(err.contains("sim:") && err.contains("pcd:"), "{err}");
         let err = open("sim:no-such-world", &opts).err().unwrap().to_string();
         assert!(err.contains("no-such-world"), "{err}");
+        // generated worlds go through the same loader
+        assert_eq!(open("sim:gen:corridor:7", &opts).unwrap().describe(), "sim:gen:corridor:7");
+        let err = open("sim:gen:lobby:x", &opts).err().unwrap().to_string();
+        assert!(err.starts_with("gen:lobby:x: seed must be a whole number"), "{err}");
         let bad_camera = SourceOptions { camera: "kinect9".into(), ..SourceOptions::default() };
         assert!(open("sim:approach", &bad_camera).err().unwrap().to_string().contains("kinect9"));
     }

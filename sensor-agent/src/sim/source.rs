@@ -313,6 +313,16 @@ mod tests {
     }
 
     #[test]
+    fn a_generated_world_is_walked_along_the_way_its_generator_found() {
+        let s = source(SimConfig { world: "gen:street:3".into(), ..SimConfig::default() });
+        assert_eq!(s.describe(), "sim:gen:street:3");
+        let (start, goal) = (s.user_pose_at(0.0), s.world().goal().clone());
+        let end = s.user_pose_at(120.0);
+        assert!((end.x_m - goal.x_m).hypot(end.y_m - goal.y_m) < 1e-6, "stops at the goal: {end:?} {goal:?}");
+        assert!((goal.x_m - start.x_m) > 20.0, "a street at least 25 m long: {start:?} {goal:?}");
+    }
+
+    #[test]
     fn sim_source_streams_xtion_frames_with_imu_odometry_and_truth() {
         let mut s = source(SimConfig::default());
         assert_eq!(s.describe(), "sim:taylor-course");
