@@ -1,6 +1,7 @@
 //! `wearnav`: the embedded launcher (every agent in one process) and the tools that
 //! run the libraries on recorded data.
 
+mod certs_cmd;
 mod codec_cmd;
 mod demo;
 mod fuzz;
@@ -10,6 +11,7 @@ mod map_cmd;
 mod mcap_cmd;
 mod perceive;
 mod plan_cmd;
+mod router_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -61,6 +63,13 @@ enum Command {
     /// Summarise a recorded MCAP session per key: count, rate, duration, largest gap,
     /// bytes, schema.
     Inspect(mcap_cmd::InspectArgs),
+    /// Make the secure profile's certificate authority, a certificate per agent, tool
+    /// and monitor, and the router's and clients' Zenoh configurations
+    /// (deploy/secure/README.md).
+    Certs(certs_cmd::CertsArgs),
+    /// Run the deployment's Zenoh router from a configuration file (the secure
+    /// profile's enforces its access-control list), until Ctrl-C.
+    Router(router_cmd::RouterArgs),
 }
 
 /// Log filter of `wearnav course` (and `localize`, whose `--world` walks the same way)
@@ -88,5 +97,7 @@ fn main() -> anyhow::Result<()> {
         Command::Record(args) => runtime.block_on(mcap_cmd::record(args)),
         Command::Replay(args) => runtime.block_on(mcap_cmd::replay(args)),
         Command::Inspect(args) => mcap_cmd::inspect(&args),
+        Command::Certs(args) => certs_cmd::run(&args),
+        Command::Router(args) => runtime.block_on(router_cmd::run(&args)),
     }
 }
