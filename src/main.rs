@@ -12,6 +12,7 @@ mod mcap_cmd;
 mod perceive;
 mod plan_cmd;
 mod router_cmd;
+mod up_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -70,6 +71,9 @@ enum Command {
     /// Run the deployment's Zenoh router from a configuration file (the secure
     /// profile's enforces its access-control list), until Ctrl-C.
     Router(router_cmd::RouterArgs),
+    /// Start this machine's agents from a placement manifest (deploy/hosts/) and
+    /// restart one that dies, until Ctrl-C.
+    Up(up_cmd::UpArgs),
 }
 
 /// Log filter of `wearnav course` (and `localize`, whose `--world` walks the same way)
@@ -99,5 +103,6 @@ fn main() -> anyhow::Result<()> {
         Command::Inspect(args) => mcap_cmd::inspect(&args),
         Command::Certs(args) => certs_cmd::run(&args),
         Command::Router(args) => runtime.block_on(router_cmd::run(&args)),
+        Command::Up(args) => runtime.block_on(up_cmd::run(&args)),
     }
 }
