@@ -12,7 +12,9 @@
 //! recorder, `publish_time` the header's capture time (the arrival time when the header
 //! does not decode), `sequence` the header's sequence number (its low 32 bits).
 //! Hazards, haptic and speech intents also get a decoded JSON twin on `<key>/json`
-//! for tools that read JSON but not the wire; replay leaves the twins out.
+//! for tools that read JSON but not the wire, and the scan and the pose a Foxglove twin
+//! on `<key>/foxglove` (`foxglove.LaserScan`, `foxglove.PoseInFrame`, JSON) that
+//! Foxglove draws; replay leaves the twins out.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -36,6 +38,8 @@ pub const UNKNOWN_SCHEMA: &str = "unknown";
 pub const ZENOH_ENCODING: &str = "zenoh_encoding";
 /// Suffix of the topic of a key's JSON twin (`wearnav/<user>/perception/hazard/json`).
 pub const JSON_SUFFIX: &str = "/json";
+/// Suffix of the topic of a key's Foxglove twin (`wearnav/<user>/perception/scan/foxglove`).
+pub const FOXGLOVE_SUFFIX: &str = "/foxglove";
 
 /// Bytes of messages buffered in a chunk before it is compressed and written: an
 /// interrupted recording loses at most this much (about half a second of the demo).
@@ -197,8 +201,95 @@ impl Recording {
             };
             self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..message }, &json)?;
         }
+        if let Some((name, json)) = schema.and_then(|s| as_foxglove(s, &arrival.payload)) {
+            let topic = format!("{}{FOXGLOVE_SUFFIX}", arrival.key);
+            let id = (topic, name.to_string(), "json".to_string());
+            let channel_id = match self.channels.get(&id) {
+                Some(&c) => c,
+                None => {
+                    let schema_id = self.writer.add_schema(name, "jsonschema", foxglove_schema(name).as_bytes())?;
+                    let c = self.writer.add_channel(schema_id, &id.0, "json", &BTreeMap::new())?;
+                    self.channels.insert(id, c);
+                    c
+                }
+            };
+            self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..message }, &json)?;
+        }
         Ok(())
     }
+}
+
+/// The scan and the pose also as Foxglove's well-known types, JSON-encoded, so Foxglove
+/// draws them: `foxglove.LaserScan` in the user frame (`wearnav_user`: x forward, y
+/// left; a bin that saw nothing has range 0, which Foxglove draws at the origin) and
+/// `foxglove.PoseInFrame` in the map frame (`map`, the floor's plane; z = 0).
+fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static str, Vec<u8>)> {
+    let stamp =
+        |capture_ns: u64| serde_json::json!({ "sec": capture_ns / 1_000_000_000, "nsec": capture_ns % 1_000_000_000 });
+    let pose = |x: f64, y: f64, yaw: f64| {
+        serde_json::json!({
+            "position": { "x": x, "y": y, "z": 0.0 },
+            "orientation": { "x": 0.0, "y": 0.0, "z": (yaw / 2.0).sin(), "w": (yaw / 2.0).cos() },
+        })
+    };
+    let value = match schema {
+        schemas::SchemaId::Scan => {
+            let (header, scan) = schemas::decode::<schemas::Scan>(payload).ok()?;
+            let start = f64::from(scan.angle_min_deg).to_radians();
+            let step = f64::from(scan.angle_increment_deg).to_radians();
+            let last = scan.ranges_m.len().saturating_sub(1) as f64;
+            let ranges: Vec<f64> =
+                scan.ranges_m.iter().map(|&r| if r.is_finite() && r >= 0.0 { f64::from(r) } else { 0.0 }).collect();
+            (
+                "foxglove.LaserScan",
+                serde_json::json!({
+                    "timestamp": stamp(header.capture_ns),
+                    "frame_id": "wearnav_user",
+                    "pose": pose(0.0, 0.0, 0.0),
+                    "start_angle": start,
+                    "end_angle": start + step * last,
+                    "ranges": ranges,
+                    "intensities": [],
+                }),
+            )
+        }
+        schemas::SchemaId::Pose => {
+            let (header, p) = schemas::decode::<schemas::Pose>(payload).ok()?;
+            if !(p.x_m.is_finite() && p.y_m.is_finite() && p.yaw_rad.is_finite()) {
+                return None;
+            }
+            (
+                "foxglove.PoseInFrame",
+                serde_json::json!({
+                    "timestamp": stamp(header.capture_ns),
+                    "frame_id": "map",
+                    "pose": pose(f64::from(p.x_m), f64::from(p.y_m), f64::from(p.yaw_rad)),
+                }),
+            )
+        }
+        _ => return None,
+    };
+    Some((value.0, serde_json::to_vec(&value.1).ok()?))
+}
+
+/// The JSON schema recorded with a Foxglove twin: the fields we write, by their
+/// Foxglove names (Foxglove knows the type by the schema's name).
+fn foxglove_schema(name: &str) -> String {
+    let time = r#"{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}"#;
+    let xyz = r#"{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}}"#;
+    let quat = r#"{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}"#;
+    let pose = format!(r#"{{"type":"object","properties":{{"position":{xyz},"orientation":{quat}}}}}"#);
+    let numbers = r#"{"type":"array","items":{"type":"number"}}"#;
+    let extra = if name == "foxglove.LaserScan" {
+        format!(
+            r#","start_angle":{{"type":"number"}},"end_angle":{{"type":"number"}},"ranges":{numbers},"intensities":{numbers}"#
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        r#"{{"title":"{name}","type":"object","properties":{{"timestamp":{time},"frame_id":{{"type":"string"}},"pose":{pose}{extra}}}}}"#
+    )
 }
 
 /// Hazards, haptic and speech intents also as JSON (`{"header": .., "body": ..}`, as

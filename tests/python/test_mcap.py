@@ -6,6 +6,7 @@ Starts the demo (built by `cargo build --workspace`) on a free loopback port, re
 """
 
 import json
+import math
 import os
 import socket
 import subprocess
@@ -81,6 +82,8 @@ def test_the_pypi_mcap_reader_opens_a_recording_and_every_payload_decodes(record
             if channel.topic.endswith("/json"):  # the JSON twin of a key, schemaless
                 assert (channel.message_encoding, channel.schema_id) == ("json", 0)
                 continue
+            if channel.topic.endswith("/foxglove"):  # Foxglove's types: the next test
+                continue
             assert channel.message_encoding == "wearnav-bincode"
             assert channel.metadata["zenoh_encoding"].endswith(summary.schemas[channel.schema_id].name)
         twins = {c.topic for c in summary.channels.values() if c.topic.endswith("/json")}
@@ -92,6 +95,8 @@ def test_the_pypi_mcap_reader_opens_a_recording_and_every_payload_decodes(record
         wire = {}
         for schema, channel, message in reader.iter_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic.endswith("/foxglove"):
+                continue
             if channel.message_encoding == "json":
                 twin = json.loads(message.data)
                 raw = wire[channel.topic[: -len("/json")]]
@@ -117,3 +122,56 @@ def test_the_pypi_mcap_reader_opens_a_recording_and_every_payload_decodes(record
         hazards = counts[f"wearnav/{USER}/perception/hazard"]
         assert counts[f"wearnav/{USER}/perception/hazard/json"] == hazards
         assert 90 <= hazards <= 190, f"{hazards} hazards in 5 s (30/s expected)"
+
+
+def foxglove_json_schemas():
+    """Foxglove's own JSON schemas, from its npm package @foxglove/schemas (installed by
+    scripts/test: npm ci --prefix tests/browser)."""
+    script = ('const j = require("@foxglove/schemas/dist/jsonschema");'
+              'console.log(JSON.stringify({LaserScan: j.LaserScan, PoseInFrame: j.PoseInFrame}));')
+    run = subprocess.run(["node", "-e", script], cwd=ROOT / "tests" / "browser",
+                         capture_output=True, text=True, timeout=60)
+    if run.returncode != 0:
+        pytest.fail(f"cannot load @foxglove/schemas (npm ci --prefix tests/browser): {run.stderr}")
+    return json.loads(run.stdout)
+
+
+def test_the_scan_and_pose_are_recorded_as_foxglove_types_that_validate_against_foxglove_schemas(recording):
+    import jsonschema
+
+    official = foxglove_json_schemas()
+    with open(recording, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        wire = {}
+        checked = {"foxglove.LaserScan": 0, "foxglove.PoseInFrame": 0}
+        for schema, channel, message in reader.iter_messages():
+            if not channel.topic.endswith("/foxglove"):
+                if channel.message_encoding == "wearnav-bincode":
+                    wire[channel.topic] = decode(message.data)
+                continue
+            assert channel.message_encoding == "json"
+            assert schema.encoding == "jsonschema" and schema.name in checked, schema.name
+            assert json.loads(schema.data)["title"] == schema.name
+            fox = json.loads(message.data)
+            jsonschema.validate(fox, official[schema.name.split(".")[1]])
+            source = wire[channel.topic[: -len("/foxglove")]]
+            stamp = source.header["capture_ns"]
+            assert (fox["timestamp"]["sec"], fox["timestamp"]["nsec"]) == divmod(stamp, 10**9)
+            if schema.name == "foxglove.LaserScan":
+                ranges = source.body["ranges_m"]
+                assert len(fox["ranges"]) == len(ranges)
+                assert fox["ranges"] == pytest.approx([r if r != float("inf") else 0.0 for r in ranges], abs=1e-6)
+                first = source.body["angle_min_deg"]
+                assert fox["start_angle"] == pytest.approx(math.radians(first), abs=1e-6)
+            else:
+                pose, q = fox["pose"], fox["pose"]["orientation"]
+                assert (pose["position"]["x"], pose["position"]["y"]) == pytest.approx(
+                    (source.body["x_m"], source.body["y_m"]), abs=1e-5)
+                yaw = 2 * math.atan2(q["z"], q["w"])
+                assert math.remainder(yaw - source.body["yaw_rad"], 2 * math.pi) == pytest.approx(0, abs=1e-5)
+            checked[schema.name] += 1
+        assert checked["foxglove.LaserScan"] >= 90, checked  # 30 scans a second for 5 s
+        assert checked["foxglove.PoseInFrame"] >= 10, checked
+        topics = {c.topic for c in summary.channels.values()}
+        assert f"wearnav/{USER}/perception/scan/foxglove" in topics
