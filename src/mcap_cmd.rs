@@ -12,9 +12,9 @@
 //! recorder, `publish_time` the header's capture time (the arrival time when the header
 //! does not decode), `sequence` the header's sequence number (its low 32 bits).
 //! Hazards, haptic and speech intents also get a decoded JSON twin on `<key>/json`
-//! for tools that read JSON but not the wire, and the scan and the pose a Foxglove twin
-//! on `<key>/foxglove` (`foxglove.LaserScan`, `foxglove.PoseInFrame`, JSON) that
-//! Foxglove draws; replay leaves the twins out.
+//! for tools that read JSON but not the wire, and the scan, the pose and the route a
+//! Foxglove twin on `<key>/foxglove` (`foxglove.LaserScan`, `foxglove.PoseInFrame`,
+//! `foxglove.PosesInFrame`, JSON) that Foxglove draws; replay leaves the twins out.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -219,10 +219,11 @@ impl Recording {
     }
 }
 
-/// The scan and the pose also as Foxglove's well-known types, JSON-encoded, so Foxglove
-/// draws them: `foxglove.LaserScan` in the user frame (`wearnav_user`: x forward, y
-/// left; a bin that saw nothing has range 0, which Foxglove draws at the origin) and
-/// `foxglove.PoseInFrame` in the map frame (`map`, the floor's plane; z = 0).
+/// The scan, the pose and the route also as Foxglove's well-known types, JSON-encoded,
+/// so Foxglove draws them: `foxglove.LaserScan` in the user frame (`wearnav_user`: x
+/// forward, y left; a bin that saw nothing has range 0, which Foxglove draws at the
+/// origin), `foxglove.PoseInFrame` and `foxglove.PosesInFrame` (the route ahead, each
+/// point facing the next) in the map frame (`map`, the floor's plane; z = 0).
 fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static str, Vec<u8>)> {
     let stamp =
         |capture_ns: u64| serde_json::json!({ "sec": capture_ns / 1_000_000_000, "nsec": capture_ns % 1_000_000_000 });
@@ -267,6 +268,33 @@ fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static st
                 }),
             )
         }
+        schemas::SchemaId::RouteState => {
+            // the route ahead, each point facing the next (the last one the way it came)
+            let (header, r) = schemas::decode::<schemas::RouteState>(payload).ok()?;
+            let points: Vec<(f64, f64)> = r
+                .route
+                .iter()
+                .filter(|p| p.x_m.is_finite() && p.y_m.is_finite())
+                .map(|p| (f64::from(p.x_m), f64::from(p.y_m)))
+                .collect();
+            let mut yaw = 0.0;
+            let poses: Vec<_> = (0..points.len())
+                .map(|i| {
+                    if let Some(next) = points.get(i + 1) {
+                        yaw = (next.1 - points[i].1).atan2(next.0 - points[i].0);
+                    }
+                    pose(points[i].0, points[i].1, yaw)
+                })
+                .collect();
+            (
+                "foxglove.PosesInFrame",
+                serde_json::json!({
+                    "timestamp": stamp(header.capture_ns),
+                    "frame_id": "map",
+                    "poses": poses,
+                }),
+            )
+        }
         _ => return None,
     };
     Some((value.0, serde_json::to_vec(&value.1).ok()?))
@@ -280,15 +308,15 @@ fn foxglove_schema(name: &str) -> String {
     let quat = r#"{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}"#;
     let pose = format!(r#"{{"type":"object","properties":{{"position":{xyz},"orientation":{quat}}}}}"#);
     let numbers = r#"{"type":"array","items":{"type":"number"}}"#;
-    let extra = if name == "foxglove.LaserScan" {
-        format!(
-            r#","start_angle":{{"type":"number"}},"end_angle":{{"type":"number"}},"ranges":{numbers},"intensities":{numbers}"#
-        )
-    } else {
-        String::new()
+    let fields = match name {
+        "foxglove.LaserScan" => format!(
+            r#""pose":{pose},"start_angle":{{"type":"number"}},"end_angle":{{"type":"number"}},"ranges":{numbers},"intensities":{numbers}"#
+        ),
+        "foxglove.PosesInFrame" => format!(r#""poses":{{"type":"array","items":{pose}}}"#),
+        _ => format!(r#""pose":{pose}"#),
     };
     format!(
-        r#"{{"title":"{name}","type":"object","properties":{{"timestamp":{time},"frame_id":{{"type":"string"}},"pose":{pose}{extra}}}}}"#
+        r#"{{"title":"{name}","type":"object","properties":{{"timestamp":{time},"frame_id":{{"type":"string"}},{fields}}}}}"#
     )
 }
 
@@ -824,5 +852,43 @@ async fn wait_for_subscribers(publisher: &zenoh::pubsub::Publisher<'_>, shutdown
             return;
         }
         tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use schemas::{MapPoint, Origin, RouteState, RouteStatus};
+
+    #[test]
+    fn a_route_becomes_poses_in_the_map_each_facing_the_next_point() {
+        let point = |x_m, y_m| MapPoint { x_m, y_m, floor: 0 };
+        let route = RouteState {
+            destination: "room 204".into(),
+            next_waypoint: Some(point(4.0, 0.0)),
+            distance_left_m: 7.0,
+            instruction: String::new(),
+            floor: 0,
+            status: RouteStatus::Guiding,
+            route: vec![point(1.0, 0.0), point(4.0, 0.0), point(4.0, 4.0)],
+        };
+        let payload = schemas::encode(&Origin { sender: "test", session: 1 }, 3, 2_500_000_001, &route);
+        let (name, json) = as_foxglove(schemas::SchemaId::RouteState, &payload).expect("a route twin");
+        assert_eq!(name, "foxglove.PosesInFrame");
+        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
+        assert_eq!((v["timestamp"]["sec"].as_u64(), v["timestamp"]["nsec"].as_u64()), (Some(2), Some(500_000_001)));
+        let poses = v["poses"].as_array().unwrap();
+        let xy: Vec<_> = poses.iter().map(|p| (p["position"]["x"].as_f64(), p["position"]["y"].as_f64())).collect();
+        assert_eq!(xy, [(Some(1.0), Some(0.0)), (Some(4.0), Some(0.0)), (Some(4.0), Some(4.0))]);
+        let yaw = |p: &serde_json::Value| {
+            2.0 * p["orientation"]["z"].as_f64().unwrap().atan2(p["orientation"]["w"].as_f64().unwrap())
+        };
+        // east, then north; the last point keeps the way it came
+        let yaws: Vec<f64> = poses.iter().map(yaw).collect();
+        assert!(yaws[0].abs() < 1e-9 && (yaws[1] - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{yaws:?}");
+        assert!((yaws[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{yaws:?}");
+        let schema: serde_json::Value = serde_json::from_str(&foxglove_schema(name)).unwrap();
+        assert_eq!(schema["title"], "foxglove.PosesInFrame");
+        assert!(schema["properties"]["poses"]["items"]["properties"]["orientation"].is_object());
     }
 }

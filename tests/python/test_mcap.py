@@ -128,7 +128,8 @@ def foxglove_json_schemas():
     """Foxglove's own JSON schemas, from its npm package @foxglove/schemas (installed by
     scripts/test: npm ci --prefix tests/browser)."""
     script = ('const j = require("@foxglove/schemas/dist/jsonschema");'
-              'console.log(JSON.stringify({LaserScan: j.LaserScan, PoseInFrame: j.PoseInFrame}));')
+              'console.log(JSON.stringify({LaserScan: j.LaserScan, PoseInFrame: j.PoseInFrame,'
+              ' PosesInFrame: j.PosesInFrame}));')
     run = subprocess.run(["node", "-e", script], cwd=ROOT / "tests" / "browser",
                          capture_output=True, text=True, timeout=60)
     if run.returncode != 0:
@@ -136,7 +137,7 @@ def foxglove_json_schemas():
     return json.loads(run.stdout)
 
 
-def test_the_scan_and_pose_are_recorded_as_foxglove_types_that_validate_against_foxglove_schemas(recording):
+def test_scan_pose_and_route_are_recorded_as_foxglove_types_that_validate_against_foxglove_schemas(recording):
     import jsonschema
 
     official = foxglove_json_schemas()
@@ -144,7 +145,7 @@ def test_the_scan_and_pose_are_recorded_as_foxglove_types_that_validate_against_
         reader = make_reader(f)
         summary = reader.get_summary()
         wire = {}
-        checked = {"foxglove.LaserScan": 0, "foxglove.PoseInFrame": 0}
+        checked = {"foxglove.LaserScan": 0, "foxglove.PoseInFrame": 0, "foxglove.PosesInFrame": 0}
         for schema, channel, message in reader.iter_messages():
             if not channel.topic.endswith("/foxglove"):
                 if channel.message_encoding == "wearnav-bincode":
@@ -164,6 +165,10 @@ def test_the_scan_and_pose_are_recorded_as_foxglove_types_that_validate_against_
                 assert fox["ranges"] == pytest.approx([r if r != float("inf") else 0.0 for r in ranges], abs=1e-6)
                 first = source.body["angle_min_deg"]
                 assert fox["start_angle"] == pytest.approx(math.radians(first), abs=1e-6)
+            elif schema.name == "foxglove.PosesInFrame":
+                route = source.body["route"]
+                assert [(p["position"]["x"], p["position"]["y"]) for p in fox["poses"]] == pytest.approx(
+                    [(p["x_m"], p["y_m"]) for p in route], abs=1e-5)
             else:
                 pose, q = fox["pose"], fox["pose"]["orientation"]
                 assert (pose["position"]["x"], pose["position"]["y"]) == pytest.approx(
@@ -173,5 +178,6 @@ def test_the_scan_and_pose_are_recorded_as_foxglove_types_that_validate_against_
             checked[schema.name] += 1
         assert checked["foxglove.LaserScan"] >= 90, checked  # 30 scans a second for 5 s
         assert checked["foxglove.PoseInFrame"] >= 10, checked
+        assert checked["foxglove.PosesInFrame"] >= 10, checked
         topics = {c.topic for c in summary.channels.values()}
         assert f"wearnav/{USER}/perception/scan/foxglove" in topics
