@@ -429,12 +429,8 @@ pub fn run(args: &CourseArgs) -> anyhow::Result<()> {
     let progress = |w: &walk::WalkOutcome| {
         let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         tracing::info!(
-            "{n} of {total} walks done; seed {}: {} in {:.1} s, {} cane and {} body contacts ({:.0} s elapsed)",
-            w.seed,
-            if w.completed { "goal reached" } else { "goal not reached" },
-            w.time_s,
-            w.count(Part::Cane, None),
-            w.count(Part::Body, None),
+            "{n} of {total} walks done; {} ({:.0} s elapsed)",
+            walk_done(w),
             started.elapsed().as_secs_f64()
         );
     };
@@ -649,4 +645,16 @@ fn on_off(on: bool) -> &'static str {
     } else {
         "off"
     }
+}
+
+/// A finished walk in the progress log: seed, outcome, time and contacts.
+pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
+    format!(
+        "seed {}: {} in {:.1} s, {} cane and {} body contacts",
+        w.seed,
+        if w.completed { "goal reached" } else { "goal not reached" },
+        w.time_s,
+        w.count(Part::Cane, None),
+        w.count(Part::Body, None)
+    )
 }

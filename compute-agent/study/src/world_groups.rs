@@ -14,7 +14,6 @@ use sensor_agent::sim::generate;
 use sensor_agent::sim::World;
 
 use crate::compare::{self, Difference};
-use crate::contacts::Part;
 use crate::study::{study_with_progress, Row, Study};
 use crate::walk::{WalkConfig, WalkOutcome};
 use crate::{check_world, config_json, config_lines, versus_of, CourseArgs};
@@ -146,12 +145,8 @@ pub fn walk_groups(args: &CourseArgs) -> anyhow::Result<Report> {
     let progress = |world: &str, w: &WalkOutcome| {
         let n = ended.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         tracing::info!(
-            "{n} of {total} walks done; {world} seed {}: {} in {:.1} s, {} cane and {} body contacts ({:.0} s elapsed)",
-            w.seed,
-            if w.completed { "goal reached" } else { "goal not reached" },
-            w.time_s,
-            w.count(Part::Cane, None),
-            w.count(Part::Body, None),
+            "{n} of {total} walks done; {world} {} ({:.0} s elapsed)",
+            crate::walk_done(w),
             started.elapsed().as_secs_f64()
         );
     };
