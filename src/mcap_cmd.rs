@@ -67,6 +67,22 @@ pub struct RecordArgs {
     /// Start a new file after this long (`10m`), numbered as with --split-size-mb.
     #[arg(long, value_name = "DURATION", value_parser = humantime::parse_duration)]
     pub split_every: Option<Duration>,
+    /// Also record every N-th depth frame (by its sequence number) as a
+    /// `foxglove.PointCloud` on `<key>/foxglove`: 15 is two clouds a second of a 30 Hz
+    /// camera; 0 records none. Each cloud is about 0.3 MB (see --cloud-stride).
+    #[arg(long, value_name = "N", default_value_t = 15)]
+    pub cloud_every: u64,
+    /// Take every PX-th pixel across and down into a point cloud: 4 makes 19,200 points
+    /// of a 640 x 480 frame; 1 all of them (16 times the bytes).
+    #[arg(long, value_name = "PX", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub cloud_stride: u32,
+    /// The floor map the compute agent navigates with (a building manifest or its
+    /// directory, as for `compute-agent --map`): each floor is written as a
+    /// `foxglove.Grid` on `wearnav/<user>/map/floor<level>/foxglove` at the start of
+    /// every file, so Foxglove draws the pose and route on it. The map is not on the
+    /// bus; without this option the recording has none.
+    #[arg(long, value_name = "PATH")]
+    pub map: Option<PathBuf>,
 }
 
 /// Republish a recorded session on the bus with its original timing.
@@ -126,6 +142,21 @@ struct Arrival {
     payload: Vec<u8>,
 }
 
+/// What the recorder writes beside the wire messages, besides the JSON and Foxglove
+/// twins every file gets.
+struct Extras {
+    /// A point cloud of each depth frame whose sequence number is a multiple of this
+    /// (0: none).
+    cloud_every: u64,
+    /// Pixel step of a point cloud, across and down.
+    cloud_stride: usize,
+    /// (topic, floor plan) of each floor of the map, written first in every file as a
+    /// `foxglove.Grid`.
+    grids: Vec<(String, map::OccupancyGrid)>,
+    /// The decoder's output, kept between frames.
+    depth: Vec<u16>,
+}
+
 /// One MCAP file being written and the channels it has opened.
 struct Recording {
     path: PathBuf,
@@ -137,7 +168,7 @@ struct Recording {
 }
 
 impl Recording {
-    fn create(path: &Path) -> anyhow::Result<Self> {
+    fn create(path: &Path, extras: &Extras) -> anyhow::Result<Self> {
         let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         let writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Lz4))
@@ -145,13 +176,41 @@ impl Recording {
             .profile("wearnav")
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot start the MCAP file {}", path.display()))?;
-        Ok(Self {
+        let mut recording = Self {
             path: path.to_path_buf(),
             opened: Instant::now(),
             writer,
             channels: HashMap::new(),
             payload_bytes: 0,
-        })
+        };
+        let now = bus::now_ns();
+        let header = mcap::records::MessageHeader { channel_id: 0, sequence: 0, log_time: now, publish_time: now };
+        for (topic, grid) in &extras.grids {
+            recording.write_twin(topic, "foxglove.Grid", header, &grid_json(grid, now))?;
+        }
+        Ok(recording)
+    }
+
+    /// Write a Foxglove twin (JSON with Foxglove's schema `name`) on `topic`.
+    fn write_twin(
+        &mut self,
+        topic: &str,
+        name: &str,
+        header: mcap::records::MessageHeader,
+        json: &[u8],
+    ) -> anyhow::Result<()> {
+        let id = (topic.to_string(), name.to_string(), "json".to_string());
+        let channel_id = match self.channels.get(&id) {
+            Some(&c) => c,
+            None => {
+                let schema_id = self.writer.add_schema(name, "jsonschema", foxglove_schema(name).as_bytes())?;
+                let c = self.writer.add_channel(schema_id, &id.0, "json", &BTreeMap::new())?;
+                self.channels.insert(id, c);
+                c
+            }
+        };
+        self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..header }, json)?;
+        Ok(())
     }
 
     /// Write the summary and footer: the file is complete.
@@ -160,7 +219,7 @@ impl Recording {
         Ok(self.path)
     }
 
-    fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
+    fn write(&mut self, arrival: &Arrival, extras: &mut Extras) -> anyhow::Result<()> {
         let header = schemas::decode_header(&arrival.payload).ok().map(|(h, _)| h);
         let schema = header
             .as_ref()
@@ -201,22 +260,31 @@ impl Recording {
             };
             self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..message }, &json)?;
         }
+        let topic = || format!("{}{FOXGLOVE_SUFFIX}", arrival.key);
         if let Some((name, json)) = schema.and_then(|s| as_foxglove(s, &arrival.payload)) {
-            let topic = format!("{}{FOXGLOVE_SUFFIX}", arrival.key);
-            let id = (topic, name.to_string(), "json".to_string());
-            let channel_id = match self.channels.get(&id) {
-                Some(&c) => c,
-                None => {
-                    let schema_id = self.writer.add_schema(name, "jsonschema", foxglove_schema(name).as_bytes())?;
-                    let c = self.writer.add_channel(schema_id, &id.0, "json", &BTreeMap::new())?;
-                    self.channels.insert(id, c);
-                    c
-                }
-            };
-            self.writer.write_to_known_channel(&mcap::records::MessageHeader { channel_id, ..message }, &json)?;
+            self.write_twin(&topic(), name, message, &json)?;
+        }
+        let cloud_due = extras.cloud_every > 0 && header.as_ref().is_some_and(|h| h.seq % extras.cloud_every == 0);
+        if cloud_due && schema == Some(schemas::SchemaId::DepthFrame) {
+            if let Some(json) = point_cloud(&arrival.payload, extras.cloud_stride, &mut extras.depth) {
+                self.write_twin(&topic(), "foxglove.PointCloud", message, &json)?;
+            }
         }
         Ok(())
     }
+}
+
+/// A capture stamp as Foxglove's time.
+fn foxglove_time(capture_ns: u64) -> serde_json::Value {
+    serde_json::json!({ "sec": capture_ns / 1_000_000_000, "nsec": capture_ns % 1_000_000_000 })
+}
+
+/// A pose in the floor's plane (z = 0), turned `yaw` about z.
+fn foxglove_pose(x: f64, y: f64, yaw: f64) -> serde_json::Value {
+    serde_json::json!({
+        "position": { "x": x, "y": y, "z": 0.0 },
+        "orientation": { "x": 0.0, "y": 0.0, "z": (yaw / 2.0).sin(), "w": (yaw / 2.0).cos() },
+    })
 }
 
 /// The scan, the pose and the route also as Foxglove's well-known types, JSON-encoded,
@@ -225,14 +293,7 @@ impl Recording {
 /// origin), `foxglove.PoseInFrame` and `foxglove.PosesInFrame` (the route ahead, each
 /// point facing the next) in the map frame (`map`, the floor's plane; z = 0).
 fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static str, Vec<u8>)> {
-    let stamp =
-        |capture_ns: u64| serde_json::json!({ "sec": capture_ns / 1_000_000_000, "nsec": capture_ns % 1_000_000_000 });
-    let pose = |x: f64, y: f64, yaw: f64| {
-        serde_json::json!({
-            "position": { "x": x, "y": y, "z": 0.0 },
-            "orientation": { "x": 0.0, "y": 0.0, "z": (yaw / 2.0).sin(), "w": (yaw / 2.0).cos() },
-        })
-    };
+    let (stamp, pose) = (foxglove_time, foxglove_pose);
     let value = match schema {
         schemas::SchemaId::Scan => {
             let (header, scan) = schemas::decode::<schemas::Scan>(payload).ok()?;
@@ -300,6 +361,78 @@ fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static st
     Some((value.0, serde_json::to_vec(&value.1).ok()?))
 }
 
+/// A depth frame as a `foxglove.PointCloud` in the camera's optical frame
+/// (`wearnav_camera`: x right, y down, z forward, metres): every `stride`-th pixel across
+/// and down that holds a depth, as float32 x, y, z. None when the frame does not decode.
+fn point_cloud(payload: &[u8], stride: usize, depth: &mut Vec<u16>) -> Option<Vec<u8>> {
+    use base64::Engine as _;
+    let (header, frame) = schemas::decode::<schemas::DepthFrame>(payload).ok()?;
+    let k = frame.intrinsics;
+    if !(k.is_valid() && frame.depth_scale_m.is_finite() && frame.depth_scale_m > 0.0) {
+        return None;
+    }
+    schemas::depth_codec::decode(&frame.data, frame.width, frame.height, frame.encoding, depth).ok()?;
+    let (width, height) = (frame.width as usize, frame.height as usize);
+    let mut data = Vec::with_capacity((width / stride + 1) * (height / stride + 1) * 12);
+    for v in (0..height).step_by(stride) {
+        for u in (0..width).step_by(stride) {
+            let raw = depth[v * width + u];
+            if raw == 0 {
+                continue;
+            }
+            let z = f32::from(raw) * frame.depth_scale_m;
+            let x = (u as f32 - k.cx) * z / k.fx;
+            let y = (v as f32 - k.cy) * z / k.fy;
+            for c in [x, y, z] {
+                data.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    let field = |name: &str, offset: u32| serde_json::json!({ "name": name, "offset": offset, "type": FLOAT32 });
+    let value = serde_json::json!({
+        "timestamp": foxglove_time(header.capture_ns),
+        "frame_id": "wearnav_camera",
+        "pose": foxglove_pose(0.0, 0.0, 0.0),
+        "point_stride": 12,
+        "fields": [field("x", 0), field("y", 4), field("z", 8)],
+        "data": base64::engine::general_purpose::STANDARD.encode(&data),
+    });
+    serde_json::to_vec(&value).ok()
+}
+
+/// Foxglove's `NumericType` of an int8 and a float32 field.
+const INT8: u32 = 2;
+const FLOAT32: u32 = 7;
+
+/// A floor's occupancy grid as a `foxglove.Grid` in the map frame, one int8 a cell as
+/// ROS maps have them (0 free, 100 occupied, -1 unknown), row 0 at the bottom, placed at
+/// the map's origin.
+fn grid_json(grid: &map::OccupancyGrid, stamp_ns: u64) -> Vec<u8> {
+    use base64::Engine as _;
+    let data: Vec<u8> = grid
+        .cells()
+        .iter()
+        .map(|c| match c {
+            map::Cell::Free => 0u8,
+            map::Cell::Occupied => 100,
+            map::Cell::Unknown => (-1i8) as u8,
+        })
+        .collect();
+    let origin = grid.origin();
+    let value = serde_json::json!({
+        "timestamp": foxglove_time(stamp_ns),
+        "frame_id": "map",
+        "pose": foxglove_pose(origin.x_m, origin.y_m, origin.yaw_rad),
+        "column_count": grid.width(),
+        "cell_size": { "x": grid.resolution_m(), "y": grid.resolution_m() },
+        "row_stride": grid.width(),
+        "cell_stride": 1,
+        "fields": [{ "name": "occupancy", "offset": 0, "type": INT8 }],
+        "data": base64::engine::general_purpose::STANDARD.encode(&data),
+    });
+    serde_json::to_vec(&value).expect("a grid serialises")
+}
+
 /// The JSON schema recorded with a Foxglove twin: the fields we write, by their
 /// Foxglove names (Foxglove knows the type by the schema's name).
 fn foxglove_schema(name: &str) -> String {
@@ -308,7 +441,18 @@ fn foxglove_schema(name: &str) -> String {
     let quat = r#"{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}"#;
     let pose = format!(r#"{{"type":"object","properties":{{"position":{xyz},"orientation":{quat}}}}}"#);
     let numbers = r#"{"type":"array","items":{"type":"number"}}"#;
+    let integer = r#"{"type":"integer","minimum":0}"#;
+    let bytes = r#"{"type":"string","contentEncoding":"base64"}"#;
+    let packed = format!(
+        r#"{{"type":"array","items":{{"type":"object","properties":{{"name":{{"type":"string"}},"offset":{integer},"type":{integer}}}}}}}"#
+    );
     let fields = match name {
+        "foxglove.PointCloud" => {
+            format!(r#""pose":{pose},"point_stride":{integer},"fields":{packed},"data":{bytes}"#)
+        }
+        "foxglove.Grid" => format!(
+            r#""pose":{pose},"column_count":{integer},"cell_size":{{"type":"object","properties":{{"x":{{"type":"number"}},"y":{{"type":"number"}}}}}},"row_stride":{integer},"cell_stride":{integer},"fields":{packed},"data":{bytes}"#
+        ),
         "foxglove.LaserScan" => format!(
             r#""pose":{pose},"start_angle":{{"type":"number"}},"end_angle":{{"type":"number"}},"ranges":{numbers},"intensities":{numbers}"#
         ),
@@ -372,6 +516,7 @@ impl Rotation {
 /// The file being written, the files finished before it, and the totals.
 struct Recorder {
     rotation: Rotation,
+    extras: Extras,
     current: Recording,
     finished: Vec<PathBuf>,
     messages: u64,
@@ -379,18 +524,18 @@ struct Recorder {
 }
 
 impl Recorder {
-    fn start(rotation: Rotation) -> anyhow::Result<Self> {
-        let current = Recording::create(&rotation.path(0))?;
-        Ok(Self { rotation, current, finished: Vec::new(), messages: 0, payload_bytes: 0 })
+    fn start(rotation: Rotation, extras: Extras) -> anyhow::Result<Self> {
+        let current = Recording::create(&rotation.path(0), &extras)?;
+        Ok(Self { rotation, extras, current, finished: Vec::new(), messages: 0, payload_bytes: 0 })
     }
 
     fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
         if self.rotation.due(&self.current) {
-            let next = Recording::create(&self.rotation.path(self.finished.len() + 1))?;
+            let next = Recording::create(&self.rotation.path(self.finished.len() + 1), &self.extras)?;
             let done = std::mem::replace(&mut self.current, next);
             self.finished.push(done.finish()?);
         }
-        self.current.write(arrival)?;
+        self.current.write(arrival, &mut self.extras)?;
         self.messages += 1;
         self.payload_bytes += arrival.payload.len() as u64;
         Ok(())
@@ -458,7 +603,20 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
     if args.split_every.is_some_and(|d| d.is_zero()) {
         bail!("--split-every must be longer than zero");
     }
-    let recording = Recorder::start(Rotation { out: args.out.clone(), max_bytes, max_age: args.split_every })?;
+    let grids = match &args.map {
+        Some(path) => {
+            let building = compute_agent::nav::load_building(path)?;
+            building
+                .floors()
+                .iter()
+                .map(|f| (format!("{}/map/floor{}{FOXGLOVE_SUFFIX}", keys.prefix(), f.level), f.grid.clone()))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    let extras =
+        Extras { cloud_every: args.cloud_every, cloud_stride: args.cloud_stride as usize, grids, depth: Vec::new() };
+    let recording = Recorder::start(Rotation { out: args.out.clone(), max_bytes, max_age: args.split_every }, extras)?;
     let session = bus::open_session(&args.bus).await?;
     let (tx, rx) = mpsc::channel();
     let subscriber = session
@@ -890,5 +1048,60 @@ mod tests {
         let schema: serde_json::Value = serde_json::from_str(&foxglove_schema(name)).unwrap();
         assert_eq!(schema["title"], "foxglove.PosesInFrame");
         assert!(schema["properties"]["poses"]["items"]["properties"]["orientation"].is_object());
+    }
+
+    #[test]
+    fn a_depth_frame_becomes_points_in_the_camera_frame_every_stride_pixels_and_none_where_invalid() {
+        use base64::Engine as _;
+        // 8 x 4 pixels: 2.0 m everywhere but one invalid sample at (4, 2)
+        let (width, height) = (8u32, 4u32);
+        let mut samples = vec![2000u16; 32];
+        samples[2 * 8 + 4] = 0;
+        let data: Vec<u8> = samples.iter().flat_map(|d| d.to_le_bytes()).collect();
+        let frame = schemas::DepthFrame {
+            width,
+            height,
+            depth_scale_m: 0.001,
+            intrinsics: schemas::Intrinsics { fx: 100.0, fy: 50.0, cx: 4.0, cy: 2.0 },
+            gravity_camera: None,
+            mount: None,
+            encoding: schemas::DepthEncoding::Raw,
+            data,
+        };
+        let payload = schemas::encode(&Origin { sender: "test", session: 1 }, 30, 7_000_000_000, &frame);
+        let json = point_cloud(&payload, 2, &mut Vec::new()).expect("a cloud");
+        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
+        assert_eq!((v["timestamp"]["sec"].as_u64(), v["frame_id"].as_str()), (Some(7), Some("wearnav_camera")));
+        assert_eq!(v["point_stride"], 12);
+        let bytes = base64::engine::general_purpose::STANDARD.decode(v["data"].as_str().unwrap()).unwrap();
+        let floats: Vec<f32> = bytes.chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        let points: Vec<&[f32]> = floats.chunks(3).collect();
+        // pixels (0|2|4|6, 0|2): 8, less the invalid one
+        assert_eq!(points.len(), 7, "{points:?}");
+        // (u, v) = (0, 0): x = (0 - 4) * 2 / 100, y = (0 - 2) * 2 / 50
+        assert_eq!(points[0], [-0.08, -0.08, 2.0]);
+        // (6, 2): x = 2 * 2 / 100, y = 0
+        assert_eq!(points[6], [0.04, 0.0, 2.0]);
+        assert!(points.iter().all(|p| p[2] == 2.0));
+        assert!(point_cloud(&payload[..payload.len() - 3], 2, &mut Vec::new()).is_none(), "a damaged frame");
+    }
+
+    #[test]
+    fn a_floor_plan_becomes_a_grid_of_ros_occupancy_values_at_its_origin() {
+        use base64::Engine as _;
+        use map::Cell::{Free, Occupied, Unknown};
+        let origin = map::Origin { x_m: -1.5, y_m: 2.0, yaw_rad: 0.0 };
+        let grid =
+            map::OccupancyGrid::new(3, 2, 0.05, origin, vec![Free, Occupied, Unknown, Occupied, Free, Free]).unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&grid_json(&grid, 1_500_000_000)).unwrap();
+        assert_eq!(
+            (v["column_count"].as_u64(), v["row_stride"].as_u64(), v["cell_stride"].as_u64()),
+            (Some(3), Some(3), Some(1))
+        );
+        assert_eq!((v["cell_size"]["x"].as_f64(), v["pose"]["position"]["x"].as_f64()), (Some(0.05), Some(-1.5)));
+        assert_eq!(v["fields"][0]["type"], INT8);
+        let cells = base64::engine::general_purpose::STANDARD.decode(v["data"].as_str().unwrap()).unwrap();
+        let cells: Vec<i8> = cells.into_iter().map(|b| b as i8).collect();
+        assert_eq!(cells, [0, 100, -1, 100, 0, 0]);
     }
 }

@@ -5,6 +5,7 @@ Starts the demo (built by `cargo build --workspace`) on a free loopback port, re
 5 s of it with `wearnav record`, then reads the file with ``mcap.reader.make_reader``.
 """
 
+import base64
 import json
 import math
 import os
@@ -14,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
@@ -59,7 +61,7 @@ def recording(tmp_path):
         out = tmp_path / "walk.mcap"
         run = subprocess.run(
             [str(WEARNAV), "record", "--user", USER, "--connect", endpoint, "--no-multicast",
-             "--duration", "5s", "--out", str(out)],
+             "--duration", "5s", "--out", str(out), "--map", str(ROOT / "maps" / "building")],
             capture_output=True, text=True, timeout=60, env=env,
         )
         assert run.returncode == 0, run.stderr
@@ -129,7 +131,7 @@ def foxglove_json_schemas():
     scripts/test: npm ci --prefix tests/browser)."""
     script = ('const j = require("@foxglove/schemas/dist/jsonschema");'
               'console.log(JSON.stringify({LaserScan: j.LaserScan, PoseInFrame: j.PoseInFrame,'
-              ' PosesInFrame: j.PosesInFrame}));')
+              ' PosesInFrame: j.PosesInFrame, PointCloud: j.PointCloud, Grid: j.Grid}));')
     run = subprocess.run(["node", "-e", script], cwd=ROOT / "tests" / "browser",
                          capture_output=True, text=True, timeout=60)
     if run.returncode != 0:
@@ -152,6 +154,8 @@ def test_scan_pose_and_route_are_recorded_as_foxglove_types_that_validate_agains
                     wire[channel.topic] = decode(message.data)
                 continue
             assert channel.message_encoding == "json"
+            if schema.name in ("foxglove.PointCloud", "foxglove.Grid"):  # the next tests
+                continue
             assert schema.encoding == "jsonschema" and schema.name in checked, schema.name
             assert json.loads(schema.data)["title"] == schema.name
             fox = json.loads(message.data)
@@ -181,3 +185,89 @@ def test_scan_pose_and_route_are_recorded_as_foxglove_types_that_validate_agains
         assert checked["foxglove.PosesInFrame"] >= 10, checked
         topics = {c.topic for c in summary.channels.values()}
         assert f"wearnav/{USER}/perception/scan/foxglove" in topics
+
+
+def foxglove_messages(recording, name):
+    """(Foxglove message, the wire message it twins or None, topic) of every `name` twin,
+    each validated against Foxglove's JSON schema for it."""
+    import jsonschema
+
+    official = foxglove_json_schemas()[name.split(".")[1]]
+    found = []
+    with open(recording, "rb") as f:
+        wire = {}
+        for schema, channel, message in make_reader(f).iter_messages():
+            if channel.message_encoding == "wearnav-bincode":
+                wire[channel.topic] = decode(message.data)
+            elif schema is not None and schema.name == name:
+                assert (schema.encoding, json.loads(schema.data)["title"]) == ("jsonschema", name)
+                fox = json.loads(message.data)
+                jsonschema.validate(fox, official)
+                found.append((fox, wire.get(channel.topic[: -len("/foxglove")]), channel.topic))
+    return found
+
+
+def test_every_fifteenth_depth_frame_is_a_foxglove_point_cloud_on_the_pixel_grid_it_came_from(recording):
+    clouds = foxglove_messages(recording, "foxglove.PointCloud")
+    assert 7 <= len(clouds) <= 14, f"{len(clouds)} clouds in 5 s of 30 Hz depth, one in 15 expected"
+    for fox, depth, topic in clouds:
+        assert topic.endswith("/depth/foxglove"), topic
+        header, frame = depth.header, depth.body
+        assert header["seq"] % 15 == 0
+        assert (fox["timestamp"]["sec"], fox["timestamp"]["nsec"]) == divmod(header["capture_ns"], 10**9)
+        assert fox["frame_id"] == "wearnav_camera" and fox["point_stride"] == 12
+        assert [(f["name"], f["offset"], f["type"]) for f in fox["fields"]] == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
+        xyz = np.frombuffer(base64.b64decode(fox["data"]), dtype="<f4").reshape(-1, 3)
+        width, height = frame["width"], frame["height"]
+        assert len(xyz) > 0.5 * (width // 4) * (height // 4), f"{len(xyz)} points of a {width}x{height} frame"
+        assert len(xyz) <= -(-width // 4) * -(-height // 4)
+        assert (xyz[:, 2] > 0).all() and (xyz[:, 2] < 20).all()
+        # projected back with the frame's intrinsics, every point lands on a pixel of the
+        # 4-pixel grid it was taken from
+        k = frame["intrinsics"]
+        u = xyz[:, 0] * k["fx"] / xyz[:, 2] + k["cx"]
+        v = xyz[:, 1] * k["fy"] / xyz[:, 2] + k["cy"]
+        for c, size in ((u, width), (v, height)):
+            assert np.abs(c - 4 * np.round(c / 4)).max() < 1e-2
+            assert c.min() > -0.01 and c.max() < size
+
+
+def read_pgm(path):
+    """(width, height, pixels top row first) of a binary 8-bit PGM."""
+    data = path.read_bytes()
+    fields, pos = [], 0
+    while len(fields) < 4:
+        while data[pos:pos + 1].isspace():
+            pos += 1
+        if data[pos:pos + 1] == b"#":
+            pos = data.index(b"\n", pos)
+            continue
+        end = pos
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[pos:end])
+        pos = end
+    assert fields[0] == b"P5" and fields[3] == b"255"
+    width, height = int(fields[1]), int(fields[2])
+    return width, height, np.frombuffer(data[pos + 1:pos + 1 + width * height], dtype=np.uint8).reshape(height, width)
+
+
+def test_each_floor_of_the_map_is_a_foxglove_grid_with_the_cells_map_server_reads_from_its_image(recording):
+    grids = {topic: fox for fox, _, topic in foxglove_messages(recording, "foxglove.Grid")}
+    assert set(grids) == {f"wearnav/{USER}/map/floor0/foxglove", f"wearnav/{USER}/map/floor1/foxglove"}
+    for level in (0, 1):
+        fox = grids[f"wearnav/{USER}/map/floor{level}/foxglove"]
+        meta = dict(line.split(": ", 1) for line in (ROOT / "maps" / "building" / f"floor{level}.yaml").read_text().splitlines())
+        ox, oy, _ = json.loads(meta["origin"])
+        assert (fox["pose"]["position"]["x"], fox["pose"]["position"]["y"]) == pytest.approx((ox, oy))
+        assert fox["cell_size"]["x"] == fox["cell_size"]["y"] == pytest.approx(float(meta["resolution"]))
+        width, height, pixels = read_pgm(ROOT / "maps" / "building" / meta["image"])
+        assert (fox["column_count"], fox["row_stride"], fox["cell_stride"]) == (width, width, 1)
+        cells = np.frombuffer(base64.b64decode(fox["data"]), dtype=np.int8).reshape(height, width)
+        # map_server's trinary reading (negate 0): occupied above 0.65 of black, free
+        # below 0.196, unknown between; the image's top row is the grid's last
+        occupancy = (255 - pixels[::-1].astype(float)) / 255
+        expected = np.where(occupancy > float(meta["occupied_thresh"]), 100,
+                            np.where(occupancy < float(meta["free_thresh"]), 0, -1))
+        assert (cells == expected).all(), f"floor {level}: {(cells != expected).sum()} cells differ"
+        assert (cells == 100).sum() > 1000 and (cells == 0).sum() > 10000
