@@ -102,11 +102,13 @@ pub struct ReplayArgs {
     /// `wearnav/<user>/` (`sensor/**`).
     #[arg(long, value_name = "GLOB", default_value = "**")]
     pub keys: String,
-    /// Move every capture stamp to the replay's clock (each message keeps the age at
-    /// arrival it was recorded with) and give each publisher a new session every round,
-    /// so running agents take the recorded walk as live input instead of refusing it as
-    /// stale and replayed. For development: it defeats the agents' guard against
-    /// exactly this.
+    /// Move every stamp (capture stamps, and the stamps inside IMU, odometry and
+    /// feedback messages) to the replay's clock, all by the same amount at --rate 1, and
+    /// give each publisher a new session every round, so running agents take the
+    /// recorded walk as live input instead of refusing it as stale and replayed, and a
+    /// fresh compute agent given a recording's sensors perceives exactly what the
+    /// original did (docs/recording.md). For development: it defeats the agents' guard
+    /// against exactly this.
     #[arg(long)]
     pub restamp: bool,
     /// Zenoh JSON5 configuration file (default: $ZENOH_CONFIG, else peer mode with
@@ -933,7 +935,7 @@ impl Player<'_> {
         shutdown: &Shutdown,
     ) -> anyhow::Result<u64> {
         let mut clock: Option<(tokio::time::Instant, u64)> = None;
-        let mut sessions = HashMap::new();
+        let mut restamp = Restamp::new(self.rate);
         let mut sent = 0;
         while let Some(m) = tokio::select! { m = rx.recv() => m, _ = shutdown.triggered() => None } {
             let id = (m.topic.clone(), m.zenoh_encoding.clone());
@@ -966,7 +968,7 @@ impl Player<'_> {
                 _ = shutdown.triggered() => break,
             }
             let payload = match self.restamp {
-                true => restamped(&m, &mut sessions)?,
+                true => restamp.payload(&m)?,
                 false => m.data,
             };
             publisher.put(payload).await.map_err(|e| anyhow!("publish on {} failed: {e}", m.topic))?;
@@ -976,33 +978,99 @@ impl Player<'_> {
     }
 }
 
-/// The recorded payload with its capture stamp moved to now (minus the age it arrived
-/// with at the recorder) and its publisher session replaced by a new one (one per
-/// recorded session, kept in `sessions` for the round), checksum resealed. A payload
-/// whose header does not decode goes out as recorded.
-fn restamped(m: &Recorded, sessions: &mut HashMap<u64, u64>) -> anyhow::Result<Vec<u8>> {
-    let Ok((header, used)) = schemas::decode_header(&m.data) else {
-        return Ok(m.data.clone());
-    };
-    let session = *sessions
-        .entry(header.session)
-        .or_insert_with(|| std::collections::hash_map::RandomState::new().hash_one((header.session, bus::now_ns())));
-    let age_ns = m.log_time as i128 - header.capture_ns as i128;
-    let capture_ns = (bus::now_ns() as i128 - age_ns).max(0) as u64;
-    // The envelope ends with session, seq and capture_ns, fixed-width little-endian u64
-    // (bincode's legacy layout, docs/wire.md); the check below proves it for each one.
-    let mut out = m.data.clone();
-    out[used - 24..used - 16].copy_from_slice(&session.to_le_bytes());
-    out[used - 8..used].copy_from_slice(&capture_ns.to_le_bytes());
-    schemas::wire::reseal(&mut out);
-    match schemas::decode_header(&out) {
-        Ok((check, _)) if check == schemas::Header { session, capture_ns, ..header } => Ok(out),
-        _ => bail!("cannot restamp a {} message on {}: its envelope is not laid out as expected", m.schema, m.topic),
+/// What `--restamp` does to one round's messages: every stamp moved to the replay's
+/// clock by one mapping, and every recorded publisher session replaced by a new one.
+struct Restamp {
+    rate: f64,
+    /// (log time of the round's first message, the replay's clock when it was played)
+    clock: Option<(u64, u64)>,
+    /// recorded session -> its new one
+    sessions: HashMap<u64, u64>,
+}
+
+impl Restamp {
+    fn new(rate: f64) -> Self {
+        Self { rate, clock: None, sessions: HashMap::new() }
+    }
+
+    /// A recorded stamp on the replay's clock: `now_at_first + (t - first_log) / rate`,
+    /// so at `--rate 1` every stamp moves by the same amount and the intervals between
+    /// them, the ages messages arrive with and the order of stamps stay as recorded. A
+    /// 0 (no stamp: an effect with no cause) stays 0.
+    fn map(&self, t: u64) -> u64 {
+        let Some((first_log, now_at_first)) = self.clock else { return t };
+        if t == 0 {
+            return 0;
+        }
+        let offset = (t as i128 - first_log as i128) as f64 / self.rate;
+        (now_at_first as i128 + offset.round() as i128).max(0) as u64
+    }
+
+    /// The recorded payload with its capture stamp, the stamps in its body (IMU
+    /// samples, odometry, applied feedback, phone acknowledgements) and its session
+    /// moved to the replay (checksum resealed). A payload whose header does not decode
+    /// goes out as recorded.
+    fn payload(&mut self, m: &Recorded) -> anyhow::Result<Vec<u8>> {
+        let Ok((header, used)) = schemas::decode_header(&m.data) else {
+            return Ok(m.data.clone());
+        };
+        let (first_log, now) = *self.clock.get_or_insert((m.log_time, bus::now_ns()));
+        let session = *self.sessions.entry(header.session).or_insert_with(|| {
+            std::collections::hash_map::RandomState::new().hash_one((header.session, now, first_log))
+        });
+        let capture_ns = self.map(header.capture_ns);
+        let origin = schemas::Origin { sender: &header.sender, session };
+        // bodies with stamps of their own: decoded, moved, encoded again
+        fn again<M: schemas::Message>(
+            data: &[u8],
+            origin: &schemas::Origin,
+            seq: u64,
+            capture_ns: u64,
+            mut shift: impl FnMut(&mut M),
+        ) -> Option<Vec<u8>> {
+            let (_, mut body) = schemas::decode::<M>(data).ok()?;
+            shift(&mut body);
+            Some(schemas::encode(origin, seq, capture_ns, &body))
+        }
+        let (seq, map) = (header.seq, |t| self.map(t));
+        let rewritten = match schemas::SchemaId::from_u16(header.schema) {
+            Some(schemas::SchemaId::ImuBatch) => {
+                again(&m.data, &origin, seq, capture_ns, |b: &mut schemas::ImuBatch| {
+                    b.samples.iter_mut().for_each(|s| s.stamp_ns = map(s.stamp_ns))
+                })
+            }
+            Some(schemas::SchemaId::OdomIncrement) => {
+                again(&m.data, &origin, seq, capture_ns, |o: &mut schemas::OdomIncrement| {
+                    (o.from_ns, o.to_ns) = (map(o.from_ns), map(o.to_ns))
+                })
+            }
+            Some(schemas::SchemaId::Applied) => again(&m.data, &origin, seq, capture_ns, |a: &mut schemas::Applied| {
+                (a.applied_ns, a.cause_capture_ns) = (map(a.applied_ns), map(a.cause_capture_ns))
+            }),
+            Some(schemas::SchemaId::PhoneAck) => {
+                again(&m.data, &origin, seq, capture_ns, |a: &mut schemas::PhoneAck| a.at_ns = map(a.at_ns))
+            }
+            _ => None,
+        };
+        if let Some(out) = rewritten {
+            return Ok(out);
+        }
+        // The envelope ends with session, seq and capture_ns, fixed-width little-endian
+        // u64 (bincode's legacy layout, docs/wire.md); the check below proves it for
+        // each one.
+        let mut out = m.data.clone();
+        out[used - 24..used - 16].copy_from_slice(&session.to_le_bytes());
+        out[used - 8..used].copy_from_slice(&capture_ns.to_le_bytes());
+        schemas::wire::reseal(&mut out);
+        match schemas::decode_header(&out) {
+            Ok((check, _)) if check == schemas::Header { session, capture_ns, ..header } => Ok(out),
+            _ => {
+                bail!("cannot restamp a {} message on {}: its envelope is not laid out as expected", m.schema, m.topic)
+            }
+        }
     }
 }
 
-/// Wait (up to 2 s) until a subscriber matches the first key played, so a recorder or
-/// monitor started alongside the replay misses none of its first messages.
 async fn wait_for_subscribers(publisher: &zenoh::pubsub::Publisher<'_>, shutdown: &Shutdown) {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
     while tokio::time::Instant::now() < deadline && !shutdown.is_triggered() {

@@ -333,62 +333,70 @@ fn agent_bin(name: &str) -> PathBuf {
     path
 }
 
-/// frame_seq -> rumble of every hazard in a recording.
-fn hazards(path: &Path) -> BTreeMap<u64, schemas::Rumble> {
+/// frame_seq -> every hazard in a recording, its latencies (this run's timing) left out.
+fn hazards(path: &Path) -> BTreeMap<u64, schemas::Hazard> {
     let per_key = messages(path);
     let (_, list) = per_key.iter().find(|(k, _)| k.ends_with("perception/hazard")).expect("hazards recorded");
     list.iter()
         .map(|(_, _, bytes)| {
             let (_, hazard) = schemas::decode::<schemas::Hazard>(bytes).expect("a valid hazard");
-            (hazard.frame_seq, hazard.rumble)
+            (hazard.frame_seq, schemas::Hazard { latency: Vec::new(), ..hazard })
         })
         .collect()
 }
 
-/// The sensors of a recorded demo, replayed with `--restamp` into a fresh compute
-/// agent: it perceives every frame (without `--restamp` it would refuse them all as
-/// stale), and its rumble mostly agrees with the original run's. Not exactly: the fresh
-/// agent has none of the history from before the recording started, and which IMU and
-/// odometry messages precede a frame depends on arrival timing (docs/recording.md).
-#[test]
-fn restamped_sensor_replay_drives_a_fresh_compute_agent_like_the_original_run() {
-    let demo_port = free_port();
-    let demo_endpoint = format!("tcp/127.0.0.1:{demo_port}");
-    let demo = start(&["demo", "--duration", "10s", "--user", "again", "--listen", &demo_endpoint]);
-    wait_listening(demo_port, Duration::from_secs(20));
-    std::thread::sleep(Duration::from_secs(1));
-    let original = scratch("original.mcap");
-    let out = wearnav(&[
-        "record",
-        "--user",
-        "again",
-        "--connect",
-        &demo_endpoint,
-        "--no-multicast",
-        "--duration",
-        "6s",
-        "--out",
-        original.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "record failed: {}", String::from_utf8_lossy(&out.stderr));
-    drop(demo);
-
+/// A compute agent listening on a free port: (the process, its endpoint).
+fn compute_agent(user: &str) -> (Proc, String) {
     let port = free_port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let _agent = Proc(
+    let agent = Proc(
         Command::new(agent_bin("compute-agent"))
-            .args(["--user", "again", "--listen", &endpoint, "--no-multicast"])
+            .args(["--user", user, "--listen", &endpoint, "--no-multicast"])
             .env("RUST_LOG", "warn")
             .stdin(Stdio::null())
             .spawn()
             .expect("compute-agent starts"),
     );
     wait_listening(port, Duration::from_secs(20));
+    (agent, endpoint)
+}
+
+/// Deterministic replay: a walk recorded from the first frame a compute agent saw, its
+/// sensors replayed with `--restamp` into a fresh compute agent, gives the same hazard
+/// for every frame, field for field (the latencies aside). The recording starts before
+/// the sensor does, so the fresh agent starts from the same (empty) state as the
+/// original, and `--restamp` moves every stamp by the same amount, inside the IMU and
+/// odometry messages too, so it perceives with the same intervals.
+#[test]
+fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_original_run() {
+    let user = "again";
+    let (original_agent, endpoint) = compute_agent(user);
+    let original = scratch("original.mcap");
+    let recorder =
+        start(&["record", "--user", user, "--connect", &endpoint, "--no-multicast", "--out", original.to_str().unwrap()]);
+    std::thread::sleep(Duration::from_millis(1500));
+    let sensor = Proc(
+        Command::new(agent_bin("sensor-agent"))
+            .args(["--user", user, "--connect", &endpoint, "--no-multicast", "--source", "sim:approach"])
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .spawn()
+            .expect("sensor-agent starts"),
+    );
+    std::thread::sleep(Duration::from_secs(6));
+    drop(sensor);
+    std::thread::sleep(Duration::from_millis(500));
+    sigterm(&recorder);
+    let (status, err) = finish(recorder, Duration::from_secs(20));
+    assert!(status.success(), "record failed: {err}");
+    drop(original_agent);
+
+    let (_agent, endpoint) = compute_agent(user);
     let rerun = scratch("rerun.mcap");
     let recorder = start(&[
         "record",
         "--user",
-        "again",
+        user,
         "--connect",
         &endpoint,
         "--no-multicast",
@@ -416,10 +424,12 @@ fn restamped_sensor_replay_drives_a_fresh_compute_agent_like_the_original_run() 
 
     let (before, after) = (hazards(&original), hazards(&rerun));
     let frames = messages(&original).iter().filter(|(k, _)| k.ends_with("/depth")).map(|(_, v)| v.len()).sum::<usize>();
-    assert!(after.len() as f64 >= 0.95 * frames as f64, "{} hazards from {frames} replayed frames", after.len());
-    let common: Vec<u64> = after.keys().filter(|f| before.contains_key(f)).copied().collect();
-    let agree = common.iter().filter(|f| before[f] == after[f]).count();
-    eprintln!("{} hazards from {frames} frames; rumble agrees on {agree} of {} frames", after.len(), common.len());
-    assert!(common.len() as f64 >= 0.95 * frames as f64, "{} frames in common", common.len());
-    assert!(agree as f64 >= 0.9 * common.len() as f64, "rumble agrees on {agree} of {} frames", common.len());
+    assert!(frames >= 150, "{frames} frames in 6 s of a 30 Hz camera");
+    assert_eq!(before.len(), frames, "the original agent's hazards against the frames recorded");
+    let differ: Vec<_> = before.iter().filter(|(f, h)| after.get(f) != Some(h)).map(|(f, _)| *f).collect();
+    eprintln!("{} hazards from {frames} frames; {} differ from the original's", after.len(), differ.len());
+    if let Some(f) = differ.first() {
+        panic!("frame {f}: originally {:?}, replayed {:?} ({} frames differ)", before[f], after.get(f), differ.len());
+    }
+    assert_eq!(after.len(), before.len());
 }
