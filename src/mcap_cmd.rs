@@ -1123,7 +1123,7 @@ mod tests {
         use base64::Engine as _;
         // 8 x 4 pixels: 2.0 m everywhere but one invalid sample at (4, 2)
         let (width, height) = (8u32, 4u32);
-        let mut samples = vec![2000u16; 32];
+        let mut samples = [2000u16; 32];
         samples[2 * 8 + 4] = 0;
         let data: Vec<u8> = samples.iter().flat_map(|d| d.to_le_bytes()).collect();
         let frame = schemas::DepthFrame {

@@ -208,8 +208,9 @@ fn inspect_refuses_a_file_that_is_not_mcap() {
 
 /// A recording cut short (as by a crash or a full disk) and one with damaged bytes:
 /// inspect says so and exits non-zero, never panics; replay plays what precedes the
-/// cut, and `--loop` replays it again and again. A recorder whose disk is full (`/dev/full`) says so and exits non-zero; one that
-/// rotates files by size leaves every file complete.
+/// cut, and `--loop` replays it again and again. A recorder whose disk fills says so and
+/// exits non-zero, and what it wrote before reads back; one that rotates files by size
+/// leaves every file complete.
 #[test]
 fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_complete() {
     let port = free_port();
@@ -230,22 +231,39 @@ fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_co
         path.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "record failed: {}", String::from_utf8_lossy(&out.stderr));
-    // a full disk: the recorder says so and exits non-zero
-    let out = wearnav(&[
-        "record",
-        "--user",
-        "cut",
-        "--connect",
-        &endpoint,
-        "--no-multicast",
-        "--duration",
-        "3s",
-        "--out",
-        "/dev/full",
-    ]);
+    // a disk that fills: a 3 MB tmpfs in a mount namespace of its own (unshare maps us
+    // to root in a user namespace, so no privilege is needed), about 1.5 s of the demo.
+    // The recorder says so and exits non-zero; the chunks it wrote before read back.
+    let full = scratch("full");
+    std::fs::create_dir_all(&full).unwrap();
+    let kept = scratch("kept-from-full-disk.mcap");
+    let script = r#"mount -t tmpfs -o size=3m tmpfs "$1" || exit 99
+"$2" record --user cut --connect "$3" --no-multicast --duration 8s --out "$1/walk.mcap"
+code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
+    let out = Command::new("unshare")
+        .args(["--user", "--map-root-user", "--mount", "sh", "-c", script, "sh"])
+        .args([full.as_os_str(), Path::new(env!("CARGO_BIN_EXE_wearnav")).as_os_str()])
+        .args([std::ffi::OsStr::new(&endpoint), kept.as_os_str()])
+        .env("RUST_LOG", "warn")
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("unshare (util-linux) runs");
     let err = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(99), "cannot mount a tmpfs in a user namespace here: {err}");
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("No space left on device"), "{err}");
+    let out = wearnav(&["inspect", kept.to_str().unwrap()]);
+    let (table, why) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(1), "{why}");
+    assert!(why.contains("damaged after message") || why.contains("truncated"), "{why}");
+    let count: u64 = table
+        .lines()
+        .next()
+        .and_then(|l| l.split(": ").nth(1)?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no message count in {table}"));
+    // 3 MB at about 2 MB and 260 messages a second, less the chunk being written
+    assert!(count >= 200, "{count} messages read back from the full disk: {table}");
+    assert!(table.contains("perception/hazard"), "{table}");
     // rotation by size: numbered files, each complete, nothing lost between them
     let split = scratch("split.mcap");
     let out = wearnav(&[
@@ -372,8 +390,16 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     let user = "again";
     let (original_agent, endpoint) = compute_agent(user);
     let original = scratch("original.mcap");
-    let recorder =
-        start(&["record", "--user", user, "--connect", &endpoint, "--no-multicast", "--out", original.to_str().unwrap()]);
+    let recorder = start(&[
+        "record",
+        "--user",
+        user,
+        "--connect",
+        &endpoint,
+        "--no-multicast",
+        "--out",
+        original.to_str().unwrap(),
+    ]);
     std::thread::sleep(Duration::from_millis(1500));
     let sensor = Proc(
         Command::new(agent_bin("sensor-agent"))
