@@ -21,7 +21,7 @@ impl ClockOffset {
     /// question, a page echoing a time the bridge never sent) is ignored.
     pub fn observe(&mut self, sent_ms: f64, page_ms: f64, received_ms: f64) {
         let rtt = received_ms - sent_ms;
-        if !(rtt >= 0.0 && rtt < 10_000.0 && page_ms.is_finite()) {
+        if !((0.0..10_000.0).contains(&rtt) && page_ms.is_finite()) {
             return;
         }
         self.samples.push_back((rtt, page_ms - (sent_ms + received_ms) / 2.0));
