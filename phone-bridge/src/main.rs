@@ -3,6 +3,7 @@
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::Parser;
 
 /// Serve the wearnav phone app (pick a destination, hear guidance, feel cues) and
@@ -11,7 +12,9 @@ use clap::Parser;
 /// On start it prints the page's address, a QR code of it and a six-digit pairing
 /// code (also spoken through the feedback agent); the phone enters the code once.
 /// To feel and hear the system on the phone, run the feedback agent with
-/// `--haptic phone` and/or `--speech phone`.
+/// `--haptic phone` and/or `--speech phone`. A desktop browser at `/monitor` shows a
+/// sighted helper the scan, the rumble, what is said, the map with the pose and route,
+/// and the agents' health.
 #[derive(Debug, Parser)]
 #[command(version, about, long_about)]
 struct Cli {
@@ -38,6 +41,14 @@ struct Cli {
     /// a new random one each start.
     #[arg(long, value_name = "CODE", env = "WEARNAV_PAIRING_CODE")]
     pairing_code: Option<String>,
+    /// The floor map the monitor page draws the pose and route on: the compute agent's
+    /// --map (a `building.toml` or its directory).
+    #[arg(long, value_name = "PATH")]
+    map: Option<PathBuf>,
+    /// The compute agent's --perception-config, so the monitor page draws the cost
+    /// regions it uses (default: the thesis's).
+    #[arg(long, value_name = "FILE")]
+    perception_config: Option<PathBuf>,
 }
 
 #[tokio::main]
@@ -55,6 +66,18 @@ async fn main() -> anyhow::Result<()> {
     }
     config.tls = cli.tls_cert.zip(cli.tls_key);
     config.pairing_code = cli.pairing_code;
+    if let Some(path) = cli.map {
+        let manifest = if path.is_dir() { path.join("building.toml") } else { path };
+        let building = map::Building::load(&manifest)
+            .with_context(|| format!("cannot load the floor map {} for the monitor page", manifest.display()))?;
+        config.map = Some(std::sync::Arc::new(building));
+    }
+    if let Some(path) = cli.perception_config {
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read the perception configuration {}", path.display()))?;
+        config.perception = perception::PerceptionConfig::from_toml(&text)
+            .with_context(|| format!("bad perception configuration {}", path.display()))?;
+    }
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     phone_bridge::run(config, shutdown, None).await

@@ -8,6 +8,8 @@ use schemas::{
 use serde::Serialize;
 use serde_json::Value;
 
+use crate::monitor::{Stream, StreamSet};
+
 /// Largest WebSocket message the bridge reads, bytes.
 pub const MAX_MESSAGE_BYTES: usize = 16 * 1024;
 /// Longest destination label a command may carry, characters.
@@ -140,6 +142,8 @@ pub enum FromPage {
     },
     /// Send the destination list again.
     Destinations,
+    /// Send this socket the monitor's streams too (none: only the phone's).
+    Subscribe(StreamSet),
 }
 
 /// Why a page message was refused: a short `kind` for the health counters and a
@@ -177,7 +181,10 @@ fn count(v: &Value, name: &str, what: &str) -> Result<u64, Refusal> {
 pub fn parse(text: &str) -> Result<FromPage, Refusal> {
     let v: Value = serde_json::from_str(text).map_err(|e| refuse("bad_json", format!("not JSON: {e}")))?;
     let kind = v.get("type").and_then(Value::as_str).ok_or_else(|| {
-        refuse("bad_field", "every message needs a \"type\" (command, ack, clock, heading, steps, destinations)")
+        refuse(
+            "bad_field",
+            "every message needs a \"type\" (command, ack, clock, heading, steps, destinations, subscribe)",
+        )
     })?;
     match kind {
         "command" => parse_command(&v).map(FromPage::Command),
@@ -221,9 +228,10 @@ pub fn parse(text: &str) -> Result<FromPage, Refusal> {
         }
         "steps" => Ok(FromPage::Steps { count: count(&v, "count", "steps")? }),
         "destinations" => Ok(FromPage::Destinations),
+        "subscribe" => parse_subscribe(&v).map(FromPage::Subscribe),
         other => Err(refuse(
             "unknown_type",
-            format!("unknown message type {other:?} (command, ack, clock, heading, steps, destinations)"),
+            format!("unknown message type {other:?} (command, ack, clock, heading, steps, destinations, subscribe)"),
         )),
     }
 }
@@ -258,6 +266,20 @@ fn parse_command(v: &Value) -> Result<Command, Refusal> {
             format!("unknown command {other:?} (destination, where-am-i, repeat, cancel, mute)"),
         )),
     }
+}
+
+fn parse_subscribe(v: &Value) -> Result<StreamSet, Refusal> {
+    let names = field(v, "streams", "subscribe")?.as_array().ok_or_else(|| {
+        refuse("bad_field", format!("subscribe: \"streams\" must be a list of names ({})", Stream::names()))
+    })?;
+    let mut streams = Vec::with_capacity(names.len());
+    for name in names {
+        let stream = name.as_str().and_then(Stream::from_name).ok_or_else(|| {
+            refuse("bad_field", format!("subscribe: unknown stream {name} (the streams are {})", Stream::names()))
+        })?;
+        streams.push(stream);
+    }
+    Ok(StreamSet::of(&streams))
 }
 
 /// The page's name of a priority.
@@ -317,20 +339,28 @@ pub fn position(p: &Pose) -> ToPage {
     ToPage::Position { status, floor: p.floor }
 }
 
-/// The obstacle cue of a hazard.
-pub fn obstacle(h: &Hazard) -> ToPage {
-    let rumble = match h.rumble {
+/// The page's name of a rumble state.
+pub fn rumble_name(r: Rumble) -> &'static str {
+    match r {
         Rumble::None => "none",
         Rumble::Left => "left",
         Rumble::Right => "right",
         Rumble::Both => "both",
-    };
-    let ground = match h.ground {
+    }
+}
+
+/// The page's name of a ground state.
+pub fn ground_name(g: GroundState) -> &'static str {
+    match g {
         GroundState::Found => "found",
         GroundState::Lost => "lost",
         GroundState::Degraded => "degraded",
-    };
-    ToPage::Obstacle { rumble, ground }
+    }
+}
+
+/// The obstacle cue of a hazard.
+pub fn obstacle(h: &Hazard) -> ToPage {
+    ToPage::Obstacle { rumble: rumble_name(h.rumble), ground: ground_name(h.ground) }
 }
 
 /// The destination list.
@@ -409,6 +439,24 @@ mod tests {
         assert_eq!(parse(r#"{"type":"heading","deg":400}"#).unwrap_err().kind, "bad_field");
         assert_eq!(parse(r#"{"type":"steps","count":12}"#).unwrap(), FromPage::Steps { count: 12 });
         assert_eq!(parse(r#"{"type":"destinations"}"#).unwrap(), FromPage::Destinations);
+    }
+
+    #[test]
+    fn subscribe_names_the_monitor_streams_and_refuses_others() {
+        assert_eq!(
+            parse(r#"{"type":"subscribe","streams":["scan","health","scan"]}"#).unwrap(),
+            FromPage::Subscribe(StreamSet::of(&[Stream::Scan, Stream::Health]))
+        );
+        assert_eq!(parse(r#"{"type":"subscribe","streams":[]}"#).unwrap(), FromPage::Subscribe(StreamSet::default()));
+        let unknown = parse(r#"{"type":"subscribe","streams":["scan","particles"]}"#).unwrap_err();
+        assert_eq!(unknown.kind, "bad_field");
+        assert_eq!(
+            unknown.message,
+            "subscribe: unknown stream \"particles\" (the streams are map, route, pose, truth, health, speech, hazard, haptic, scan)"
+        );
+        assert_eq!(parse(r#"{"type":"subscribe","streams":"scan"}"#).unwrap_err().kind, "bad_field");
+        assert_eq!(parse(r#"{"type":"subscribe","streams":[7]}"#).unwrap_err().kind, "bad_field");
+        assert_eq!(parse(r#"{"type":"subscribe"}"#).unwrap_err().kind, "bad_field");
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! The bridge's loop: an axum server (the page, `/health`, `/pair`, `/ws`) and the
-//! Zenoh side that carries one user's keys to and from the paired phones.
+//! The bridge's loop: an axum server (the page, `/monitor`, `/health`, `/pair`, `/ws`)
+//! and the Zenoh side that carries one user's keys to and from the paired phones, and
+//! to the monitor pages that subscribed.
 
 use std::collections::{BTreeSet, HashMap};
 use std::net::{IpAddr, SocketAddr};
@@ -16,14 +17,15 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
 use schemas::{
-    Command, Destinations, Hazard, PhoneAck, PhoneHaptic, PhoneMotion, PhoneSpeech, Pose, Priority, RouteState,
-    SpeechIntent,
+    Command, Destinations, GroundTruth, HapticIntent, Hazard, HealthStats, PhoneAck, PhoneHaptic, PhoneMotion,
+    PhoneSpeech, Pose, Priority, RouteState, Scan, SpeechIntent,
 };
 use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
 use zenoh::sample::SampleKind;
 
 use crate::clock::ClockOffset;
+use crate::monitor::{self, MonitorState, Stream, StreamSet, ToMonitor};
 use crate::pairing::{Attempt, Pairing};
 use crate::protocol::{self, FromPage, ToPage, MAX_MESSAGE_BYTES};
 
@@ -37,6 +39,9 @@ pub const COMMAND_BURST: f64 = 10.0;
 /// The bridge sends each page its clock this often; a page that hears nothing for
 /// three periods says the connection is lost.
 pub const CLOCK_PERIOD: Duration = Duration::from_secs(1);
+/// Monitor messages queued for the slowest monitor page before it loses some (about
+/// 4 s of the scan, hazard, intent, truth and pose at 30 Hz).
+const MONITOR_QUEUE: usize = 512;
 
 /// How the page is served.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +70,12 @@ pub struct PhoneConfig {
     pub announce: bool,
     /// A fixed six-digit pairing code instead of a new random one each start.
     pub pairing_code: Option<String>,
+    /// The floor maps the monitor page draws the pose and route on (the compute
+    /// agent's `--map`); none: the monitor draws them on a blank grid.
+    pub map: Option<Arc<map::Building>>,
+    /// The perception configuration whose cost regions the monitor page draws (the
+    /// compute agent's `--perception-config`; default the thesis's).
+    pub perception: perception::PerceptionConfig,
 }
 
 /// `$XDG_STATE_HOME/wearnav/phone-bridge`, else `~/.local/state/wearnav/phone-bridge`.
@@ -88,6 +99,8 @@ impl PhoneConfig {
             health_period: Duration::from_secs(1),
             announce: true,
             pairing_code: None,
+            map: None,
+            perception: perception::PerceptionConfig::default(),
         }
     }
 
@@ -128,8 +141,10 @@ pub struct BridgeView {
     pub last_hazard_age_ms: Option<f64>,
     /// Hazards received.
     pub hazards: u64,
-    /// Pages connected now.
+    /// Phone pages connected now (sockets that subscribed to no monitor stream).
     pub phones_connected: usize,
+    /// Monitor pages connected now (sockets that subscribed to monitor streams).
+    pub monitors_connected: usize,
     /// Phones paired (tokens issued and kept).
     pub phones_paired: usize,
 }
@@ -161,6 +176,10 @@ struct Bridge {
     pairing: Mutex<Pairing>,
     snapshot: Mutex<Snapshot>,
     to_pages: broadcast::Sender<Arc<str>>,
+    /// The latest of each monitor stream, for a page that subscribes.
+    monitor: Mutex<MonitorState>,
+    /// Monitor messages with their stream; each session passes on those it asked for.
+    to_monitors: broadcast::Sender<MonitorNews>,
     to_bus: mpsc::Sender<PageEvent>,
     health: Arc<Health>,
     key_ws: String,
@@ -198,12 +217,30 @@ impl Bridge {
         // no page connected is not an error
         let _ = self.to_pages.send(text);
     }
+
+    /// Keep `m` as its stream's state and send it to the monitors that asked for it.
+    fn publish_monitor(&self, m: ToMonitor) {
+        lock(&self.monitor).keep(&m);
+        let Some(stream) = m.stream() else { return };
+        // nothing is turned into text for no monitor
+        if self.to_monitors.receiver_count() > 0 {
+            let _ = self.to_monitors.send((stream, monitor::to_text(&m).into()));
+        }
+    }
 }
 
+/// A monitor message and the stream it belongs to.
+type MonitorNews = (Stream, Arc<str>);
+
 const PAGE: &str = include_str!("../static/index.html");
+const MONITOR_PAGE: &str = include_str!("../static/monitor.html");
 
 async fn page() -> Response {
     ([(header::CACHE_CONTROL, "no-store")], Html(PAGE)).into_response()
+}
+
+async fn monitor_page() -> Response {
+    ([(header::CACHE_CONTROL, "no-store")], Html(MONITOR_PAGE)).into_response()
 }
 
 async fn health_view(State(bridge): State<Arc<Bridge>>) -> Json<BridgeView> {
@@ -307,7 +344,18 @@ fn wall_ms() -> f64 {
     bus::now_ns() as f64 / 1e6
 }
 
-/// One page's socket: the bus's news out, the page's commands and answers in.
+/// The next monitor message of a socket that subscribed; never, for one that did not.
+async fn monitor_news(
+    news: &mut Option<broadcast::Receiver<MonitorNews>>,
+) -> Result<MonitorNews, broadcast::error::RecvError> {
+    match news {
+        Some(news) => news.recv().await,
+        None => std::future::pending().await,
+    }
+}
+
+/// One page's socket: the bus's news out, the page's commands and answers in; and, once
+/// it subscribed, the monitor streams it asked for.
 async fn page_session(mut socket: WebSocket, bridge: Arc<Bridge>) {
     let mut news = bridge.to_pages.subscribe();
     lock(&bridge.view).phones_connected += 1;
@@ -328,6 +376,8 @@ async fn page_session(mut socket: WebSocket, bridge: Arc<Bridge>) {
     let mut clock = ClockOffset::default();
     let mut limit = RateLimit::new();
     let mut tick = tokio::time::interval(CLOCK_PERIOD);
+    let mut streams = StreamSet::default();
+    let mut monitor_rx: Option<broadcast::Receiver<MonitorNews>> = None;
     while open {
         tokio::select! {
             incoming = socket.recv() => {
@@ -348,8 +398,26 @@ async fn page_session(mut socket: WebSocket, bridge: Arc<Bridge>) {
                     }
                     Some(Ok(_)) => continue, // ping and pong are the socket's own
                 };
-                if let Some(reply) = from_page(&bridge, text.as_str(), &mut clock, &mut limit) {
-                    open = send(&mut socket, &reply).await;
+                match from_page(&bridge, text.as_str(), &mut clock, &mut limit) {
+                    None => {}
+                    Some(Reply::Page(reply)) => open = send(&mut socket, &reply).await,
+                    Some(Reply::Subscribe(asked)) => {
+                        count_role(&bridge, streams, asked);
+                        streams = asked;
+                        // subscribe before taking the state: a message between the two is
+                        // sent twice, never lost
+                        monitor_rx = if asked.is_empty() {
+                            None
+                        } else {
+                            Some(monitor_rx.take().unwrap_or_else(|| bridge.to_monitors.subscribe()))
+                        };
+                        let state = lock(&bridge.monitor).greeting(asked);
+                        for m in &state {
+                            if open {
+                                open = socket.send(WsMessage::Text(monitor::to_text(m).into())).await.is_ok();
+                            }
+                        }
+                    }
                 }
             }
             news = news.recv() => match news {
@@ -360,20 +428,55 @@ async fn page_session(mut socket: WebSocket, bridge: Arc<Bridge>) {
                 }
                 Err(broadcast::error::RecvError::Closed) => break,
             },
+            item = monitor_news(&mut monitor_rx) => match item {
+                Ok((stream, text)) => if streams.contains(stream) {
+                    open = socket.send(WsMessage::Text(text.as_ref().into())).await.is_ok();
+                },
+                Err(broadcast::error::RecvError::Lagged(n)) => {
+                    bridge.health.reject(&bridge.key_ws, "monitor_lagged", &format!("{n} messages not sent to a slow monitor page"));
+                }
+                Err(broadcast::error::RecvError::Closed) => break,
+            },
             _ = tick.tick() => open = send(&mut socket, &ToPage::Clock { t: wall_ms() }).await,
         }
     }
+    count_role(&bridge, streams, StreamSet::default());
     lock(&bridge.view).phones_connected -= 1;
     tracing::info!("phone page disconnected");
 }
 
+/// A socket that subscribes to monitor streams counts as a monitor, not a phone (and
+/// back when it asks for none).
+fn count_role(bridge: &Bridge, was: StreamSet, now: StreamSet) {
+    let mut v = lock(&bridge.view);
+    match (was.is_empty(), now.is_empty()) {
+        (true, false) => {
+            v.phones_connected -= 1;
+            v.monitors_connected += 1;
+        }
+        (false, true) => {
+            v.phones_connected += 1;
+            v.monitors_connected -= 1;
+        }
+        _ => {}
+    }
+}
+
+/// What a session does with a page's message.
+enum Reply {
+    /// Send the page this.
+    Page(ToPage),
+    /// Send the page these monitor streams from now on (and their state at once).
+    Subscribe(StreamSet),
+}
+
 /// Act on one text frame; the reply for the page, if any.
-fn from_page(bridge: &Bridge, text: &str, clock: &mut ClockOffset, limit: &mut RateLimit) -> Option<ToPage> {
+fn from_page(bridge: &Bridge, text: &str, clock: &mut ClockOffset, limit: &mut RateLimit) -> Option<Reply> {
     let message = match protocol::parse(text) {
         Ok(m) => m,
         Err(refusal) => {
             bridge.health.reject(&bridge.key_ws, refusal.kind, &refusal.message);
-            return Some(ToPage::Error { message: refusal.message });
+            return Some(Reply::Page(ToPage::Error { message: refusal.message }));
         }
     };
     let event = match message {
@@ -381,9 +484,18 @@ fn from_page(bridge: &Bridge, text: &str, clock: &mut ClockOffset, limit: &mut R
             if !limit.allow(Instant::now()) {
                 bridge.health.reject(&bridge.key_ws, "rate_limited", &format!("{} command", c.verb()));
                 let message = format!("Too many commands: {} was not sent. Wait a moment.", c.verb());
-                return Some(ToPage::Error { message });
+                return Some(Reply::Page(ToPage::Error { message }));
             }
             PageEvent::Command(c)
+        }
+        FromPage::Subscribe(streams) => {
+            // each answer carries the maps: as limited as commands
+            if !limit.allow(Instant::now()) {
+                bridge.health.reject(&bridge.key_ws, "rate_limited", &"subscribe");
+                let message = "Too many subscriptions at once: that one was not taken. Wait a moment.".to_string();
+                return Some(Reply::Page(ToPage::Error { message }));
+            }
+            return Some(Reply::Subscribe(streams));
         }
         FromPage::Ack { id, event, t_ms } => {
             let at_ns = clock.to_bridge_ns(t_ms, bus::now_ns());
@@ -401,7 +513,9 @@ fn from_page(bridge: &Bridge, text: &str, clock: &mut ClockOffset, limit: &mut R
     };
     if bridge.to_bus.try_send(event).is_err() {
         bridge.health.reject(&bridge.key_ws, "queue_full", &"page event dropped: the bus side is behind");
-        return Some(ToPage::Error { message: "The bridge is busy: that was not sent. Try again.".into() });
+        return Some(Reply::Page(ToPage::Error {
+            message: "The bridge is busy: that was not sent. Try again.".into(),
+        }));
     }
     None
 }
@@ -471,7 +585,14 @@ pub async fn run(
     let health = Health::new(AGENT);
     let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
     let (to_pages, _) = broadcast::channel(256);
+    let (to_monitors, _) = broadcast::channel(MONITOR_QUEUE);
     let (to_bus, mut page_events) = mpsc::channel(256);
+    let maps = config
+        .map
+        .as_ref()
+        .map(|b| b.floors().iter().map(|f| monitor::floor_map(f, monitor::MAX_MAP_CELLS)).collect())
+        .unwrap_or_default();
+    let regions = monitor::regions(&config.perception.ficf, &config.perception.cacf);
     let bridge = Arc::new(Bridge {
         user: config.bus.user.clone(),
         started: Instant::now(),
@@ -479,6 +600,8 @@ pub async fn run(
         pairing: Mutex::new(pairing),
         snapshot: Mutex::new(Snapshot::default()),
         to_pages,
+        monitor: Mutex::new(MonitorState::new(regions, maps)),
+        to_monitors,
         to_bus,
         health: health.clone(),
         key_ws: format!("{}/phone/ws", keys.prefix()),
@@ -497,6 +620,13 @@ pub async fn run(
     let mut motion =
         Publisher::<PhoneMotion>::declare(&session, keys.motion("phone"), AGENT, Lane::Events, Some(&health)).await?;
     let mut commands: HashMap<&'static str, Publisher<Command>> = HashMap::new();
+    // what only the monitor page shows (the speech subscription is declared before the
+    // pairing code is said, so the monitor lists that too)
+    let scans = Subscriber::<Scan>::declare(&session, keys.scan(), true, &health).await?;
+    let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), true, &health).await?;
+    let truths = Subscriber::<GroundTruth>::declare(&session, keys.truth_any(), true, &health).await?;
+    let utterances = Subscriber::<SpeechIntent>::declare(&session, keys.speech(), false, &health).await?;
+    let agent_stats = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &health).await?;
     let liveliness = session
         .liveliness()
         .declare_subscriber(keys.health_any())
@@ -506,6 +636,7 @@ pub async fn run(
 
     let app = Router::new()
         .route("/", get(page))
+        .route("/monitor", get(monitor_page))
         .route("/health", get(health_view))
         .route("/pair", post(pair).layer(DefaultBodyLimit::max(1024)))
         .route("/ws", get(ws))
@@ -575,13 +706,26 @@ pub async fn run(
                     v.last_hazard_age_ms = Some(h.age_ms());
                 }
                 bridge.publish(protocol::obstacle(&h.body));
+                bridge.publish_monitor(monitor::hazard(&h.body, h.header.seq, h.header.capture_ns, h.age_ms()));
             }
             Some(r) = routes.recv() => {
                 if let Some(m) = protocol::route(&r.body) {
                     bridge.publish(m);
                 }
+                bridge.publish_monitor(monitor::route_path(&r.body));
             }
-            Some(p) = poses.recv() => bridge.publish(protocol::position(&p.body)),
+            Some(p) = poses.recv() => {
+                bridge.publish(protocol::position(&p.body));
+                bridge.publish_monitor(monitor::pose(&p.body, p.header.capture_ns));
+            }
+            Some(s) = scans.recv() => bridge.publish_monitor(monitor::scan(&s.body, s.header.seq, s.header.capture_ns)),
+            Some(i) = intents.recv() => bridge.publish_monitor(monitor::haptic(&i.body, i.header.capture_ns)),
+            Some(t) = truths.recv() => bridge.publish_monitor(monitor::truth(&t.body, t.header.capture_ns)),
+            Some(u) = utterances.recv() => bridge.publish_monitor(monitor::utterance(&u.body, u.header.capture_ns)),
+            Some(a) = agent_stats.recv() => {
+                let alive = lock(&bridge.view).agents_alive.contains(&a.body.agent);
+                bridge.publish_monitor(monitor::health(&a.body, alive, keys.prefix(), a.age_ms()));
+            }
             Some(h) = haptic.recv() => bridge.publish(protocol::vibrate(&h.body)),
             Some(s) = speech.recv() => bridge.publish(protocol::speech(&s.body)),
             Some(event) = page_events.recv() => match event {
@@ -628,15 +772,19 @@ pub async fn run(
             }
             Ok(sample) = liveliness.recv_async() => {
                 let Some(agent) = keys.agent_of(sample.key_expr().as_str()) else { continue };
+                let present = sample.kind() == SampleKind::Put;
                 let alive = {
                     let mut v = lock(&bridge.view);
-                    match sample.kind() {
-                        SampleKind::Put => v.agents_alive.insert(agent.to_string()),
-                        SampleKind::Delete => v.agents_alive.remove(agent),
-                    };
+                    if present {
+                        v.agents_alive.insert(agent.to_string());
+                    } else {
+                        v.agents_alive.remove(agent);
+                    }
                     v.agents_alive.iter().cloned().collect()
                 };
                 bridge.publish(ToPage::Agents { alive });
+                let now = lock(&bridge.monitor).set_alive(agent, present);
+                bridge.publish_monitor(now);
             }
         }
     };

@@ -1,21 +1,13 @@
 //! The bridge serves its page and a health view that reflects the bus.
 
+mod common;
+
 use std::time::Duration;
 
 use bus::{BusOptions, Lane, Publisher, Shutdown};
+use common::get;
 use schemas::{CostFunction, GroundState, Hazard, Rumble, SideCosts};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-
-async fn get(addr: std::net::SocketAddr, path: &str) -> (u16, String) {
-    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect to the bridge");
-    let request = format!("GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
-    stream.write_all(request.as_bytes()).await.unwrap();
-    let mut response = String::new();
-    stream.read_to_string(&mut response).await.unwrap();
-    let status = response.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let body = response.split("\r\n\r\n").nth(1).unwrap_or("").to_string();
-    (status, body)
-}
 
 fn state_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("wearnav-bridge-{name}-{}", std::process::id()));

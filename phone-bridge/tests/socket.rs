@@ -4,62 +4,18 @@
 //! closes only that socket, and requests and acknowledgements cross between the JSON
 //! the page speaks and the wire schemas.
 
-use std::net::SocketAddr;
+mod common;
+
 use std::time::Duration;
 
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
+use common::{connect, next_of, pair};
 use futures_util::{SinkExt, StreamExt};
 use schemas::{Command, PhoneAck, PhoneEvent, PhoneHaptic};
 use serde_json::Value;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message;
 
 const CODE: &str = "424242";
-
-async fn http(addr: SocketAddr, request: &str) -> (u16, Value) {
-    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect to the bridge");
-    stream.write_all(request.as_bytes()).await.unwrap();
-    let mut response = String::new();
-    stream.read_to_string(&mut response).await.unwrap();
-    let status = response.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let body = response.split("\r\n\r\n").nth(1).unwrap_or("");
-    (status, serde_json::from_str(body).unwrap_or(Value::Null))
-}
-
-async fn pair(addr: SocketAddr, code: &str) -> (u16, Value) {
-    let body = format!(r#"{{"code":"{code}"}}"#);
-    let request = format!(
-        "POST /pair HTTP/1.1\r\nHost: localhost\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
-        body.len()
-    );
-    http(addr, &request).await
-}
-
-type Socket = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-async fn connect(addr: SocketAddr, token: &str) -> Result<Socket, tokio_tungstenite::tungstenite::Error> {
-    tokio_tungstenite::connect_async(format!("ws://{addr}/ws?token={token}")).await.map(|(s, _)| s)
-}
-
-/// The next message of `type_` within `within`, skipping others (clock ticks, state).
-async fn next_of(socket: &mut Socket, type_: &str, within: Duration) -> Value {
-    tokio::time::timeout(within, async {
-        loop {
-            match socket.next().await {
-                Some(Ok(Message::Text(t))) => {
-                    let v: Value = serde_json::from_str(t.as_str()).expect("the bridge sends JSON");
-                    if v["type"] == type_ {
-                        return v;
-                    }
-                }
-                Some(Ok(_)) => {}
-                other => panic!("socket ended waiting for {type_}: {other:?}"),
-            }
-        }
-    })
-    .await
-    .unwrap_or_else(|_| panic!("no {type_} message within {within:?}"))
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_acks() {
@@ -93,7 +49,7 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
 
     // no token, a made-up token: refused before any socket opens
     for token in ["", "0123456789abcdef0123456789abcdef"] {
-        let e = connect(addr, token).await.err().expect("refused");
+        let e = connect(addr, token).await.expect_err("refused");
         assert!(e.to_string().contains("401"), "{e}");
     }
     // wrong codes: three at once, then each must wait; a try while waiting is not read
@@ -194,8 +150,8 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
     assert!(closed.is_ok(), "an oversized frame must close the socket");
     let mut again = connect(addr, &token).await.expect("the bridge still serves");
     next_of(&mut again, "hello", Duration::from_secs(5)).await;
-    let (status, view) = http(addr, "GET /health HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n").await;
-    assert_eq!((status, view["phones_paired"].as_u64()), (200, Some(1)), "{view}");
+    let view = common::health(addr).await;
+    assert_eq!(view["phones_paired"].as_u64(), Some(1), "{view}");
 
     shutdown.trigger();
     tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
