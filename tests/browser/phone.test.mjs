@@ -10,31 +10,21 @@
 // headless Chromium) records what it is asked to say and plays it at 40 ms a character.
 // Every process's stdout and stderr (monitor.stdout: the bus, one JSON object a line),
 // the page's WebSocket frames (frames.json) and a screenshot go to
-// target/browser-artifacts/.
+// target/browser-artifacts/. The processes, the browser and the waits are harness.mjs's.
 
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
 import fs from 'node:fs';
-import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
-import { after, test } from 'node:test';
-import { fileURLToPath } from 'node:url';
+import { after } from 'node:test';
 import { isDeepStrictEqual } from 'node:util';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const root = path.resolve(here, '../..');
-const binDir = path.resolve(root, process.env.WEARNAV_BIN_DIR || 'target/debug');
-const python = process.env.WEARNAV_PYTHON || 'python3';
-const chromiumPath = process.env.WEARNAV_CHROMIUM || '/usr/bin/chromium';
-const artifacts = path.join(root, 'target/browser-artifacts');
+import { artifacts, binDir, freePort, harness, here, python } from './harness.mjs';
+
 const USER = 'phone-e2e';
 const BUDGET_MS = 170000; // the whole test, start to end
-const deadline = Date.now() + BUDGET_MS;
 const DESTINATION = 'room 204';
 
-const children = [];
-const cleanups = [];
 const framesIn = [];   // {at, msg}: what the bridge sent the page
 const framesOut = [];  // {at, msg}: what the page sent the bridge
 const monitor = [];    // {at, line}: one object per line of monitor.py --json
@@ -43,7 +33,8 @@ let page = null;
 let bridge = null;     // {child, url, code, httpPort}
 let bridgeArgs = null;
 let stateDir = null;
-const passed = new Set(); // keys of the steps that passed
+const { children, start, describeExit, exits, stop, waitFor, step, requireBinaries, launchChromium, startBridge: launchBridge, finish } =
+  harness({ budgetMs: BUDGET_MS, seen: () => seen() });
 
 // ---- Instrumentation, run in the page before its own script.
 function instrument() {
@@ -101,75 +92,6 @@ function instrument() {
 }
 
 // ---- Helpers.
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.once('error', reject);
-    s.listen(0, '127.0.0.1', () => {
-      const { port } = s.address();
-      s.close(() => resolve(port));
-    });
-  });
-}
-
-function tail(file, lines = 15) {
-  try {
-    return fs.readFileSync(file, 'utf8').trimEnd().split('\n').slice(-lines).join('\n');
-  } catch (e) {
-    return `(no ${file})`;
-  }
-}
-
-/** Start `name`; stderr (and stdout unless `onStdout` takes it) go to artifacts. */
-function start(name, program, args, onStdout) {
-  const errFile = path.join(artifacts, `${name}.stderr`);
-  const errFd = fs.openSync(errFile, 'w');
-  const child = spawn(program, args, { cwd: root, stdio: ['ignore', 'pipe', errFd] });
-  fs.closeSync(errFd);
-  const outFile = fs.createWriteStream(path.join(artifacts, `${name}.stdout`));
-  let buffered = '';
-  child.stdout.setEncoding('utf8');
-  child.stdout.on('data', (chunk) => {
-    outFile.write(chunk);
-    if (!onStdout) return;
-    buffered += chunk;
-    const lines = buffered.split('\n');
-    buffered = lines.pop();
-    for (const line of lines) onStdout(line);
-  });
-  child.exited = null;
-  child.spawnError = null;
-  child.on('error', (e) => { child.spawnError = e; });
-  child.on('exit', (code, signal) => { child.exited = { code, signal }; outFile.end(); });
-  child.label = name;
-  child.errFile = errFile;
-  children.push(child);
-  return child;
-}
-
-function describeExit(child) {
-  if (child.spawnError) return `${child.label} could not start: ${child.spawnError.message}`;
-  const { code, signal } = child.exited;
-  return `${child.label} exited (code ${code}, signal ${signal}); its stderr ends:\n${tail(child.errFile)}`;
-}
-
-async function stop(child, ms = 3000) {
-  if (!child || child.exited || child.spawnError) return;
-  child.kill('SIGTERM');
-  const end = Date.now() + ms;
-  while (!child.exited && Date.now() < end) await sleep(50);
-  if (!child.exited) {
-    child.kill('SIGKILL');
-    while (!child.exited && Date.now() < end + 2000) await sleep(50);
-  }
-}
-
-process.on('exit', () => {
-  for (const c of children) if (!c.exited) try { c.kill('SIGKILL'); } catch (e) { /* gone */ }
-});
-
 async function pageState() {
   if (!page) return {};
   try {
@@ -200,32 +122,8 @@ async function seen() {
     `last frames from the bridge:\n  ${brief(framesIn.filter(notClock), 12)}`,
     `last frames from the page:\n  ${brief(framesOut.filter(notClock), 12)}`,
     `page errors: ${JSON.stringify(pageErrors.slice(-5))}`,
-    ...children.filter((c) => c.exited || c.spawnError).map(describeExit),
+    exits(),
   ].join('\n');
-}
-
-/** Poll `check` until it returns something truthy; fail saying what was expected and
- * seen. No wait goes past the whole test's budget. */
-async function waitFor(expected, check, ms) {
-  const end = Math.min(Date.now() + ms, deadline);
-  for (;;) {
-    const got = await check();
-    if (got) return got;
-    if (Date.now() > end) break;
-    await sleep(100);
-  }
-  const why = end === deadline ? ` (the whole test's ${BUDGET_MS / 1000} s ran out)` : '';
-  assert.fail(`expected within ${ms / 1000} s${why}: ${expected}\nseen:\n${await seen()}`);
-}
-
-/** A test that runs only if the steps it `needs` (by key) passed. */
-function step(key, needs, name, ms, fn) {
-  test(name, { timeout: ms + 5000 }, async () => {
-    const first = needs.find((k) => !passed.has(k));
-    if (first) assert.fail(`not run: it needs step "${first}", which did not pass`);
-    await fn();
-    passed.add(key);
-  });
 }
 
 const calls = () => page.evaluate(() => window.__wearnav);
@@ -236,22 +134,11 @@ const appliedFromPhone = () => monitor
 const acks = (event) => framesOut.filter((f) => f.msg.type === 'ack' && f.msg.event === event).map((f) => f.msg);
 
 function startBridge(httpAddress) {
-  const args = [...bridgeArgs, '--http', httpAddress];
-  let url = null;
-  let code = null;
-  const child = start(bridge ? 'phone-bridge-restarted' : 'phone-bridge', path.join(binDir, 'phone-bridge'), args, (line) => {
-    url ??= line.match(/^url: (http:\/\/\S+)/)?.[1] ?? null;
-    code ??= line.match(/pairing code: (\d{6})\b/)?.[1] ?? null;
-  });
-  return waitFor('the bridge prints "url: http://127.0.0.1:<port>/" and "pairing code: <6 digits>" on stdout', () => {
-    if (child.exited || child.spawnError) assert.fail(`the bridge stopped before printing its address: ${describeExit(child)}`);
-    return url && code && { child, url, code, httpPort: Number(new URL(url).port) };
-  }, 30000);
+  return launchBridge(bridge ? 'phone-bridge-restarted' : 'phone-bridge', bridgeArgs, httpAddress);
 }
 
 after(async () => {
-  for (const c of cleanups.splice(0).reverse()) await c().catch(() => {});
-  await Promise.all(children.map((c) => stop(c)));
+  await finish();
   const dump = { framesIn, framesOut, pageErrors };
   try { fs.writeFileSync(path.join(artifacts, 'frames.json'), JSON.stringify(dump, null, 1)); } catch (e) { /* best effort */ }
   if (stateDir) fs.rmSync(stateDir, { recursive: true, force: true });
@@ -260,12 +147,7 @@ after(async () => {
 // ---- The steps.
 
 step('agents', [], 'the bridge and the agents start on a loopback bus', 40000, async () => {
-  fs.mkdirSync(artifacts, { recursive: true });
-  const missing = ['phone-bridge', 'sensor-agent', 'compute-agent', 'feedback-agent']
-    .map((b) => path.join(binDir, b))
-    .filter((b) => !fs.existsSync(b));
-  assert.ok(!missing.length, `missing binaries: ${missing.join(', ')}. Build them first (cargo build --workspace --bins) or point WEARNAV_BIN_DIR at them.`);
-  assert.ok(fs.existsSync(chromiumPath), `no Chromium at ${chromiumPath}: install Debian's (apt-get install chromium) or set WEARNAV_CHROMIUM.`);
+  requireBinaries(['phone-bridge', 'sensor-agent', 'compute-agent', 'feedback-agent']);
   const port = await freePort();
   stateDir = fs.mkdtempSync(path.join(os.tmpdir(), 'wearnav-phone-e2e-'));
   const bus = ['--user', USER, '--connect', `tcp/127.0.0.1:${port}`, '--no-multicast'];
@@ -280,22 +162,9 @@ step('agents', [], 'the bridge and the agents start on a loopback bus', 40000, a
 });
 
 step('pairing', ['agents'], 'the page pairs: a wrong code is refused and said, the right one connects', 30000, async () => {
-  const { chromium } = await import('playwright-core').catch((e) => {
-    assert.fail(`cannot load playwright-core (${e.message}): run npm ci --prefix tests/browser`);
-  });
-  const userDir = fs.mkdtempSync(path.join(os.tmpdir(), 'wearnav-chromium-'));
-  const context = await chromium.launchPersistentContext(userDir, {
-    executablePath: chromiumPath,
-    headless: true,
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
-  cleanups.push(async () => {
-    await context.close();
-    fs.rmSync(userDir, { recursive: true, force: true });
-  });
-  await context.addInitScript(instrument);
-  page = context.pages()[0] || (await context.newPage());
+  const browser = await launchChromium();
+  await browser.context.addInitScript(instrument);
+  page = browser.page;
   page.on('pageerror', (e) => pageErrors.push(e.message));
   page.on('websocket', (ws) => {
     const record = (into) => (f) => {
