@@ -220,6 +220,13 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     };
     // the demo prints the page's address itself; the pairing code goes to its log
     phone_config.announce = false;
+    // the monitor page draws the pose and route on the floor plan the compute agent uses
+    phone_config.map = navigation.as_ref().and_then(|(_, nav)| match &nav.map {
+        compute_agent::nav::MapSource::Loaded(_, building) => Some(std::sync::Arc::new((**building).clone())),
+        compute_agent::nav::MapSource::File(path) => {
+            compute_agent::nav::load_building(path).ok().map(std::sync::Arc::new)
+        }
+    });
     let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
     let sensor = tokio::spawn(sensor_agent::run::run(
         sensor_agent::run::SensorConfig::new(peer_bus.clone()),
