@@ -39,6 +39,8 @@ pub struct PerceptionConfig {
     pub ttc: TtcConfig,
     /// Beyond the thesis: the costs along the heading a turning user will face.
     pub turn_ahead: TurnAheadConfig,
+    /// Beyond the thesis: the costs along the way the user walks, not the swept camera.
+    pub walking_frame: WalkingFrameConfig,
 }
 
 /// A perception configuration that cannot be used: the TOML does not parse, names a
@@ -141,6 +143,9 @@ impl PerceptionConfig {
         c.within("turn_ahead.ahead_s", a.ahead_s, 0.0, 2.0);
         c.within("turn_ahead.min_rate_deg_s", a.min_rate_deg_s, 0.0, 360.0);
         c.within("turn_ahead.max_turn_deg", a.max_turn_deg, 0.0, 180.0);
+        let w = &self.walking_frame;
+        c.above_within("walking_frame.time_constant_s", w.time_constant_s, 0.0, 60.0);
+        c.within("walking_frame.max_sweep_deg", w.max_sweep_deg, 0.0, 90.0);
         c.first.map_or(Ok(()), Err)
     }
 }
@@ -203,6 +208,7 @@ impl Default for PerceptionConfig {
             dropoff: DropoffConfig::default(),
             ttc: TtcConfig::default(),
             turn_ahead: TurnAheadConfig::default(),
+            walking_frame: WalkingFrameConfig::default(),
         }
     }
 }
@@ -624,6 +630,27 @@ pub struct TurnAheadConfig {
 impl Default for TurnAheadConfig {
     fn default() -> Self {
         Self { enabled: true, ahead_s: 0.3, min_rate_deg_s: 25.0, max_turn_deg: 45.0 }
+    }
+}
+
+/// The costs in the frame of the way the user walks (see `walking_frame`): the cane
+/// camera's angle to the body estimated from the camera's and a body-worn gyro's turns.
+/// Needs the body's turn rate; without it the costs look along the camera.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WalkingFrameConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Leak of the estimate back to zero, seconds: 5 keeps a 0.7 Hz sweep's amplitude
+    /// within a degree, as the localization tracker's.
+    pub time_constant_s: f32,
+    /// The estimate never exceeds this, degrees (a cane swept wider is not a cane).
+    pub max_sweep_deg: f32,
+}
+
+impl Default for WalkingFrameConfig {
+    fn default() -> Self {
+        Self { enabled: false, time_constant_s: 5.0, max_sweep_deg: 45.0 }
     }
 }
 

@@ -43,6 +43,7 @@ pub mod synthetic_scene;
 pub mod time_to_collision;
 pub mod timing;
 pub mod turn_ahead;
+pub mod walking_frame;
 
 use schemas::{CostFunction, GroundState, Intrinsics, Rumble, Scan, SideCosts};
 
@@ -239,6 +240,9 @@ pub struct Perception {
     pub turn_ahead: bool,
     /// The body's turn rate this frame was given (`FrameContext::body_yaw_rate_rad_s`).
     pub body_yaw_rate_rad_s: Option<f32>,
+    /// The camera's angle to the way the user walks the costs were taken with, radians,
+    /// positive left (`walking_frame`; 0 when off or not known).
+    pub sweep_rad: f32,
 }
 
 impl Perception {
@@ -283,6 +287,7 @@ impl Perception {
             obstacle_points: 0,
             turn_ahead: false,
             body_yaw_rate_rad_s: None,
+            sweep_rad: 0.0,
         }
     }
 }
@@ -305,6 +310,10 @@ pub struct Pipeline {
     // this frame's edges of lower ground; the memory adds the unseen floor that may be
     // lower to `lower.edge`
     lower: dropoff::LowerGround,
+    /// The camera's angle to the way the user walks.
+    sweep: walking_frame::SweepEstimate,
+    /// `cost_points` in the walking frame.
+    walking_points: Vec<[f32; 2]>,
     /// Motion since the last frame that got as far as the memory: a frame refused
     /// earlier passes its motion on, so what is remembered stays where it is.
     unapplied: Option<Motion>,
@@ -327,6 +336,8 @@ impl Pipeline {
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
             lower: dropoff::LowerGround::default(),
+            sweep: walking_frame::SweepEstimate::default(),
+            walking_points: Vec::new(),
             unapplied: None,
             out: Perception::empty(),
         }
@@ -463,8 +474,12 @@ impl Pipeline {
         timer.stop();
 
         timer.start("cost_function");
-        out.ficf = side_costs(self.cost_points.iter().copied(), &cfg.ficf);
-        out.cacf = side_costs(self.cost_points.iter().copied(), &cfg.cacf);
+        let sweep = self.sweep.update(ctx.stamp_ns, motion, ctx.body_yaw_rate_rad_s, &cfg.walking_frame);
+        out.sweep_rad = sweep;
+        self.walking_points.clear();
+        self.walking_points.extend(self.cost_points.iter().map(|&p| walking_frame::to_walking(sweep)(p)));
+        out.ficf = side_costs(self.walking_points.iter().copied(), &cfg.ficf);
+        out.cacf = side_costs(self.walking_points.iter().copied(), &cfg.cacf);
         out.rumble_ficf = rumble(&out.ficf, &cfg.ficf);
         out.rumble_cacf = rumble(&out.cacf, &cfg.cacf);
         let nearest = self.cost_points.iter().map(|p| (p[0].hypot(p[1]), p)).min_by(|a, b| a.0.total_cmp(&b.0));
@@ -483,7 +498,7 @@ impl Pipeline {
             CostFunction::Cacf => (out.rumble_cacf, &cfg.cacf),
         };
         let ahead = (raw == Rumble::None)
-            .then(|| turn_ahead::rumble_ahead(&self.cost_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs))
+            .then(|| turn_ahead::rumble_ahead(&self.walking_points, ctx.body_yaw_rate_rad_s, &cfg.turn_ahead, costs))
             .flatten();
         out.turn_ahead = ahead.is_some_and(|r| r != Rumble::None);
         out.body_yaw_rate_rad_s = ctx.body_yaw_rate_rad_s;

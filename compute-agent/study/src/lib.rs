@@ -125,6 +125,11 @@ pub struct CourseArgs {
     /// sweep).
     #[arg(long)]
     pub body_gyro: bool,
+    /// Take the costs along the way the user walks, not along the swept camera: the
+    /// camera's angle to the body from the camera's and the body-worn gyro's turns
+    /// (`walking_frame`). Needs --body-gyro.
+    #[arg(long, requires = "body_gyro")]
+    pub walking_frame: bool,
     /// Switch the device off: the hands feel no rumble, and the user walks by the
     /// guide and the cane's touches alone (the baseline the device is measured against).
     #[arg(long)]
@@ -269,6 +274,7 @@ impl CourseArgs {
             no_edges,
             no_ttc,
             body_gyro,
+            walking_frame,
             no_rumble,
             oracle,
             oracle_sees,
@@ -321,6 +327,7 @@ impl CourseArgs {
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
         c.body_gyro = self.body_gyro;
+        c.perception.walking_frame.enabled = self.walking_frame;
         c.rumble = !self.no_rumble;
         anyhow::ensure!(
             self.oracle_turn_rate_deg_s.is_none_or(|r| r > 0.0 && r <= 720.0),
@@ -498,6 +505,7 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
         "edges": !args.no_dropoff && !args.no_edges,
         "ttc": !args.no_ttc,
         "body_gyro": args.body_gyro,
+        "walking_frame": args.walking_frame,
         "rumble": !args.no_rumble,
         "oracle": config.oracle,
         "guide": args.guide,
@@ -569,7 +577,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         g => format!("{g:?}"),
     };
     format!(
-        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {} | guide {} | {} runs from seed {}\n\
+        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {}{} | guide {} | {} runs from seed {}\n\
          user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
         worlds,
         config.camera.name,
@@ -586,6 +594,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         on_off(!args.no_dropoff && !args.no_edges),
         on_off(!args.no_ttc),
         on_off(args.body_gyro),
+        if args.walking_frame { " (costs along the way walked)" } else { "" },
         guide,
         args.runs,
         args.seed,
