@@ -89,7 +89,7 @@ mod tests {
 
     #[test]
     fn deploy_configs_load_and_flags_override_them() {
-        for file in ["peer-lan.json5", "loopback-test.json5"] {
+        for file in ["lan-peer.json5", "peer-lan.json5", "loopback-test.json5", "router.json5", "client.json5"] {
             let mut opts = BusOptions::for_user("x");
             opts.zenoh_config = Some(PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/")).join(file));
             opts.connect = vec!["tcp/127.0.0.1:7447".into()];
