@@ -197,6 +197,10 @@ step('pairing', ['agents'], 'the page pairs: a wrong code is refused and said, t
 });
 
 step('guidance', ['pairing'], `Start guides to ${DESTINATION}: the route is shown and its first words said`, 95000, async () => {
+  // The feedback agent speaks through the phone once it knows the phone is there: an
+  // utterance that comes before is for a phone not connected, and is not sent to it.
+  await waitFor('"Phone connected." said (the feedback agent has the phone as its speech device)', async () =>
+    (await calls()).speak.some((s) => s.text === 'Phone connected.'), 20000);
   const select = page.getByLabel('Destination');
   await waitFor(`an option "${DESTINATION}" in the Destination list`, () =>
     select.evaluate((s, d) => [...s.options].some((o) => o.value === d), DESTINATION), 60000);
