@@ -133,8 +133,10 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
         (keys.speech(), bad_priority),
         (keys.hazard(), vec![0xffu8; 40]),
     ];
+    // Block, not the default drop: a 10 MB put on a loaded machine finds the
+    // transmit queue full and is dropped by the sender, never reaching the agent.
     for (key, bytes) in garbage {
-        session.put(key, bytes).await.unwrap();
+        session.put(key, bytes).congestion_control(zenoh::qos::CongestionControl::Block).await.unwrap();
         tokio::time::sleep(Duration::from_millis(400)).await;
     }
     let deadline = Instant::now() + Duration::from_secs(5);
