@@ -137,6 +137,9 @@ pub struct Received<M> {
     pub body: M,
     /// When it was decoded, ns since the epoch.
     pub received_ns: u64,
+    /// The capture stamp on this host's clock: the sender's clock offset (as
+    /// [`Health`] estimates it) taken out, and never later than `received_ns`.
+    pub captured_ns: u64,
 }
 
 impl<M> Received<M> {
@@ -289,7 +292,9 @@ impl<M: Message> Check<M> {
         // offset estimate is too coarse to correct a few milliseconds with
         let age = clock::age_ms(header.capture_ns, received_ns) as f32;
         self.counter.record(bytes.len(), Some(age));
-        let message = Received { key: key.to_string(), header, body, received_ns };
+        let captured = header.capture_ns as i128 + offset_ns as i128;
+        let captured_ns = captured.clamp(0, received_ns as i128) as u64;
+        let message = Received { key: key.to_string(), header, body, received_ns, captured_ns };
         if let Err(m) = self.inbox.push(message) {
             let why = format!(
                 "{QUEUE_CAPACITY} messages already wait; seq {} from {} refused",

@@ -71,7 +71,8 @@ fn in_agent(n: u64) {
             us.push((w - t) as f64 / 1e3);
         }
         if k % 10 == 0 {
-            f.on_hazard(&hazard(), bus::now_ns());
+            let now = bus::now_ns();
+            f.on_hazard(&hazard(), now, now);
         }
     }
     report("in the agent (decode -> HID write)", us);

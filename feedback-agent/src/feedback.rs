@@ -184,9 +184,10 @@ impl Feedback {
         self.queue.is_muted()
     }
 
-    /// A hazard arrived at `now_ns`.
-    pub fn on_hazard(&mut self, hazard: &Hazard, now_ns: u64) {
-        self.watchdog.on_hazard(now_ns, hazard.ground);
+    /// A hazard arrived at `now_ns`, from a depth frame captured at `captured_ns` on
+    /// this agent's clock (the watchdog's deadline counts from there).
+    pub fn on_hazard(&mut self, hazard: &Hazard, captured_ns: u64, now_ns: u64) {
+        self.watchdog.on_hazard(captured_ns, now_ns, hazard.ground);
         self.check_detection(now_ns);
     }
 
@@ -511,7 +512,7 @@ mod tests {
 
     /// Keep detection online with a fresh hazard at `now`.
     fn fresh(f: &mut Feedback, now: u64) {
-        f.on_hazard(&hazard(GroundState::Found), now);
+        f.on_hazard(&hazard(GroundState::Found), now, now);
     }
 
     #[test]
@@ -661,7 +662,7 @@ mod tests {
         let mut now = T0;
         for &ground in cycle.iter().cycle().take(150) {
             now += 33 * MS;
-            f.on_hazard(&hazard(ground), now);
+            f.on_hazard(&hazard(ground), now, now);
             f.tick(now);
             said.extend(spoken(&mut f));
         }

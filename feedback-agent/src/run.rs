@@ -213,7 +213,7 @@ pub async fn run_with(config: FeedbackConfig, devices: Devices, shutdown: Shutdo
                         Err(r) => health.reject(&haptic_key, r.kind, &r.reason),
                     }
                 }
-                Some(m) = hazard_sub.recv() => feedback.on_hazard(&m.body, now_ns()),
+                Some(m) = hazard_sub.recv() => feedback.on_hazard(&m.body, m.captured_ns, now_ns()),
                 sample = liveliness.recv_async() => match sample {
                     Ok(s) => feedback.on_compute_liveliness(s.kind() == SampleKind::Put, now_ns()),
                     Err(e) => {

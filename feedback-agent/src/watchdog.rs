@@ -1,9 +1,14 @@
 //! The detection watchdog: safety rule 1 of ARCHITECTURE.md ("silence must never mean
 //! path clear when the system is not actually seeing").
 //!
-//! Fed with hazard arrival stamps (the agent's own clock, so skew between machines does
-//! not matter), the compute agent's liveliness and the ground state, it decides when
-//! obstacle detection is offline and when it is back. At start nothing has been seen:
+//! Fed with each hazard's capture instant on the agent's own clock (the depth frame's
+//! capture stamp with the sender's clock offset taken out, clamped between a deadline
+//! before the hazard's arrival and the arrival: a clock stamping ahead counts from the
+//! arrival, as before, and no stamp can stretch the deadline), the compute
+//! agent's liveliness and the ground state, it decides when obstacle detection is
+//! offline and when it is back. Counting from the capture makes "500 ms" mean 500 ms
+//! since the newest frame the user was warned about was taken, the pipeline's own
+//! latency included, as safety rule 1 asks. At start nothing has been seen:
 //! once the deadline passes without a hazard, that too is "offline" (not yet running).
 
 use schemas::GroundState;
@@ -66,6 +71,7 @@ pub enum DetectionState {
 pub struct DetectionWatchdog {
     started_ns: u64,
     deadline_ns: u64,
+    /// Capture instant (own clock) of the newest hazard.
     last_hazard_ns: Option<u64>,
     ground_degraded: bool,
     compute_alive: Option<bool>,
@@ -86,9 +92,11 @@ impl DetectionWatchdog {
         }
     }
 
-    /// A hazard arrived at `arrival_ns` reporting `ground`.
-    pub fn on_hazard(&mut self, arrival_ns: u64, ground: GroundState) {
-        self.last_hazard_ns = Some(self.last_hazard_ns.map_or(arrival_ns, |t| t.max(arrival_ns)));
+    /// A hazard reporting `ground` arrived at `arrival_ns`, from a frame captured at
+    /// `captured_ns` (own clock; clamped into the deadline before arrival).
+    pub fn on_hazard(&mut self, captured_ns: u64, arrival_ns: u64, ground: GroundState) {
+        let captured = captured_ns.clamp(arrival_ns.saturating_sub(self.deadline_ns), arrival_ns);
+        self.last_hazard_ns = Some(self.last_hazard_ns.map_or(captured, |t| t.max(captured)));
         self.ground_degraded = ground == GroundState::Degraded;
     }
 
@@ -169,9 +177,28 @@ mod tests {
     }
 
     #[test]
+    fn the_deadline_counts_from_the_capture_not_the_arrival() {
+        let mut w = DetectionWatchdog::new(T0, 500);
+        // captured at 1000 ms, arrived 40 ms later (the pipeline's latency)
+        w.on_hazard(T0 + 1000 * MS, T0 + 1040 * MS, GroundState::Found);
+        assert_eq!(w.step(T0 + 1040 * MS), None);
+        assert_eq!(w.next_check_ns(), Some(T0 + 1500 * MS + 1));
+        assert_eq!(w.step(T0 + 1500 * MS), None);
+        assert_eq!(w.step(T0 + 1500 * MS + 1), Some(Transition::Offline(OfflineReason::HazardStale)));
+        // a stamp from the future (a clock ahead) counts from the arrival
+        let mut w = DetectionWatchdog::new(T0, 500);
+        w.on_hazard(T0 + 3000 * MS, T0 + 1000 * MS, GroundState::Found);
+        assert_eq!(w.next_check_ns(), Some(T0 + 1500 * MS + 1));
+        // and one from long ago at most a deadline back: stale at once, never later
+        let mut w = DetectionWatchdog::new(T0, 500);
+        w.on_hazard(T0, T0 + 5000 * MS, GroundState::Found);
+        assert_eq!(w.next_check_ns(), Some(T0 + 5000 * MS + 1));
+    }
+
+    #[test]
     fn first_hazard_within_the_grace_period_goes_online_silently() {
         let mut w = DetectionWatchdog::new(T0, 500);
-        w.on_hazard(T0 + 100 * MS, GroundState::Found);
+        w.on_hazard(T0 + 100 * MS, T0 + 100 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 100 * MS), None);
         assert_eq!(w.state(), DetectionState::Online);
     }
@@ -180,7 +207,7 @@ mod tests {
     fn first_hazard_after_not_yet_running_is_announced_as_back() {
         let mut w = DetectionWatchdog::new(T0, 500);
         w.step(T0 + 600 * MS);
-        w.on_hazard(T0 + 700 * MS, GroundState::Found);
+        w.on_hazard(T0 + 700 * MS, T0 + 700 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 700 * MS), Some(Transition::Back));
     }
 
@@ -188,7 +215,7 @@ mod tests {
     fn hazards_stopping_for_more_than_500ms_is_offline_then_back_when_they_resume() {
         let mut w = DetectionWatchdog::new(T0, 500);
         for k in 0..10 {
-            w.on_hazard(T0 + k * 33 * MS, GroundState::Found);
+            w.on_hazard(T0 + k * 33 * MS, T0 + k * 33 * MS, GroundState::Found);
             assert_eq!(w.step(T0 + k * 33 * MS), None);
         }
         let last = T0 + 9 * 33 * MS;
@@ -196,7 +223,7 @@ mod tests {
         assert_eq!(w.next_check_ns(), Some(last + 500 * MS + 1));
         assert_eq!(w.step(last + 500 * MS + 1), Some(Transition::Offline(OfflineReason::HazardStale)));
         assert_eq!(w.next_check_ns(), None, "offline: nothing to wait for but a new hazard");
-        w.on_hazard(last + 2000 * MS, GroundState::Found);
+        w.on_hazard(last + 2000 * MS, last + 2000 * MS, GroundState::Found);
         assert_eq!(w.step(last + 2000 * MS), Some(Transition::Back));
         assert_eq!(w.state(), DetectionState::Online);
     }
@@ -205,7 +232,7 @@ mod tests {
     fn liveliness_loss_is_offline_at_once_even_with_fresh_hazards() {
         let mut w = DetectionWatchdog::new(T0, 500);
         w.on_compute_liveliness(true);
-        w.on_hazard(T0 + 10 * MS, GroundState::Found);
+        w.on_hazard(T0 + 10 * MS, T0 + 10 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 10 * MS), None);
         w.on_compute_liveliness(false);
         assert_eq!(w.step(T0 + 20 * MS), Some(Transition::Offline(OfflineReason::ComputeGone)));
@@ -213,28 +240,28 @@ mod tests {
         w.on_compute_liveliness(true);
         assert_eq!(w.step(T0 + 2000 * MS), None);
         assert_eq!(w.state(), DetectionState::Offline(OfflineReason::ComputeGone));
-        w.on_hazard(T0 + 2010 * MS, GroundState::Found);
+        w.on_hazard(T0 + 2010 * MS, T0 + 2010 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 2010 * MS), Some(Transition::Back));
     }
 
     #[test]
     fn degraded_ground_is_offline_and_found_ground_is_back() {
         let mut w = DetectionWatchdog::new(T0, 500);
-        w.on_hazard(T0, GroundState::Found);
+        w.on_hazard(T0, T0, GroundState::Found);
         w.step(T0);
-        w.on_hazard(T0 + 33 * MS, GroundState::Lost);
+        w.on_hazard(T0 + 33 * MS, T0 + 33 * MS, GroundState::Lost);
         assert_eq!(w.step(T0 + 33 * MS), None, "one lost frame reuses the previous plane");
-        w.on_hazard(T0 + 66 * MS, GroundState::Degraded);
+        w.on_hazard(T0 + 66 * MS, T0 + 66 * MS, GroundState::Degraded);
         assert_eq!(w.step(T0 + 66 * MS), Some(Transition::Offline(OfflineReason::GroundDegraded)));
-        w.on_hazard(T0 + 99 * MS, GroundState::Found);
+        w.on_hazard(T0 + 99 * MS, T0 + 99 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 99 * MS), Some(Transition::Back));
     }
 
     #[test]
     fn late_arrival_stamp_does_not_move_freshness_backwards() {
         let mut w = DetectionWatchdog::new(T0, 500);
-        w.on_hazard(T0 + 400 * MS, GroundState::Found);
-        w.on_hazard(T0 + 100 * MS, GroundState::Found);
+        w.on_hazard(T0 + 400 * MS, T0 + 400 * MS, GroundState::Found);
+        w.on_hazard(T0 + 100 * MS, T0 + 100 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 800 * MS), None);
     }
 }

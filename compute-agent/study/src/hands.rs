@@ -296,7 +296,7 @@ mod tests {
                     _ if ms < back_ms => (GroundState::Degraded, degraded()),
                     _ => (GroundState::Found, intent),
                 };
-                fb.on_hazard(&Hazard::nothing_ahead(ms, ground), now);
+                fb.on_hazard(&Hazard::nothing_ahead(ms, ground), now, now);
                 let _ = fb.on_haptic(&i, now, now);
             }
             fb.tick(now);

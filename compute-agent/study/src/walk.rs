@@ -791,7 +791,9 @@ impl<'w> Walk<'w> {
         while self.pending.front().is_some_and(|(at, _, _)| *at <= t + 1e-9) {
             if let Some((_, hazard, intent)) = self.pending.pop_front() {
                 if let Some(h) = hazard {
-                    self.feedback.on_hazard(&h, now);
+                    // the frame behind it was captured when its intent was made
+                    let captured = intent.as_ref().map_or(now, |(_, capture_ns)| *capture_ns);
+                    self.feedback.on_hazard(&h, captured, now);
                 }
                 if let Some((i, capture_ns)) = intent {
                     // intents from our own cue never carry NaN; a refusal would leave the motors as they are

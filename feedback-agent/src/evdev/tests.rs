@@ -96,7 +96,7 @@ fn ttl_expiry_stops_the_motor_through_the_feedback_step() {
     let speech = ConsoleSpeech::new(Box::new(std::io::sink()), 175);
     let mut f = Feedback::new(StepSettings::default(), vec![Box::new(backend)], vec![Box::new(speech)], T0);
     f.tick(T0);
-    let fresh = |f: &mut Feedback, at: u64| f.on_hazard(&found(), at);
+    let fresh = |f: &mut Feedback, at: u64| f.on_hazard(&found(), at, at);
     fresh(&mut f, T0);
     f.on_haptic(&HapticIntent { left: 1.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 200 }, T0, T0 + MS)
         .unwrap();
@@ -122,11 +122,11 @@ fn pulses_are_timed_by_the_agent_as_on_the_wiimote() {
         pattern: HapticPattern::Pulses { period_ms: 200, duty: 0.5 },
         ttl_ms: 1000,
     };
-    f.on_hazard(&found(), T0);
+    f.on_hazard(&found(), T0, T0);
     f.on_haptic(&pulses, T0, T0).unwrap();
     let mut at = Vec::new();
     for ms in [50, 100, 150, 200, 300] {
-        f.on_hazard(&found(), T0 + ms * MS);
+        f.on_hazard(&found(), T0 + ms * MS, T0 + ms * MS);
         f.tick(T0 + ms * MS);
         at.push(ff.calls_to(RIGHT).last().cloned().unwrap());
     }
