@@ -18,6 +18,9 @@ pub struct PerceptionConfig {
     /// grid, which only cut ~290k points to ~200k on our captures (PCL baseline); striding
     /// the organized image keeps its structure and costs nothing. 2 = 76,800 of 307,200
     /// pixels: a 12 cm box at 1.5 m still covers hundreds of them (measured, synthetic).
+    /// For a VGA-wide image; a narrower one (a QVGA camera mode, or a frame the sensor
+    /// agent halved for a slow link) is sampled with the stride scaled to its width
+    /// ([`PerceptionConfig::stride_for`]), so the same rays are sampled.
     pub stride_px: u32,
     /// Ground-plane search.
     pub ground: GroundConfig,
@@ -64,6 +67,17 @@ pub enum ConfigError {
 }
 
 impl PerceptionConfig {
+    /// The stride for an image `width` pixels wide: `stride_px` from 640 pixels up;
+    /// below, scaled by the width (at least 1): a 320-wide image at 1 samples the rays
+    /// a 640-wide one of the same camera does at 2.
+    pub fn stride_for(&self, width: u32) -> u32 {
+        if width >= 640 {
+            self.stride_px
+        } else {
+            (self.stride_px * width / 640).max(1)
+        }
+    }
+
     /// Parses a TOML configuration (every field optional, defaults as documented) and
     /// checks it with [`PerceptionConfig::validate`].
     pub fn from_toml(text: &str) -> Result<Self, ConfigError> {

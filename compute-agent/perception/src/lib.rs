@@ -369,13 +369,13 @@ impl Pipeline {
         timer.start("sample");
         let sampled = match input {
             DepthInput::Depth { samples, width, height, depth_scale_m, intrinsics } => {
-                self.cloud.from_depth(samples, width, height, depth_scale_m, intrinsics, cfg.stride_px)
+                self.cloud.from_depth(samples, width, height, depth_scale_m, intrinsics, cfg.stride_for(width))
             }
             DepthInput::Xyz { points, width, height } => self.cloud.from_xyz(
                 points,
                 width,
                 height,
-                cfg.stride_px,
+                cfg.stride_for(width),
                 cfg.scan.xyz_horizontal_fov_deg,
                 cfg.memory.xyz_vertical_fov_deg,
             ),

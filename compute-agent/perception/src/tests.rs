@@ -389,6 +389,40 @@ fn simulator_frames_at_10_and_30_deg_pitch_give_the_floor_within_1_deg_and_2_cm(
     }
 }
 
+#[test]
+fn a_frame_halved_to_every_second_pixel_perceives_exactly_what_the_full_frame_does() {
+    // what the sensor agent sends on a slow link: pixels (2u, 2v), intrinsics halved
+    let SimFrame { depth, intrinsics: k, gravity, .. } = simulated(30.0);
+    let half: Vec<u16> =
+        (0..240).flat_map(|v| (0..320).map(move |u| (u, v))).map(|(u, v)| depth[2 * v * 640 + 2 * u]).collect();
+    let kh = Intrinsics { fx: k.fx / 2.0, fy: k.fy / 2.0, cx: k.cx / 2.0, cy: k.cy / 2.0 };
+    let ctx = FrameContext { gravity_camera: Some(gravity), ..Default::default() };
+    let cfg = PerceptionConfig::default();
+    assert_eq!((cfg.stride_for(640), cfg.stride_for(320), cfg.stride_for(100)), (2, 1, 1));
+    let full = Pipeline::new(cfg.clone())
+        .process(
+            DepthInput::Depth { samples: &depth, width: 640, height: 480, depth_scale_m: MM, intrinsics: k },
+            &ctx,
+            &mut NoTimer,
+        )
+        .unwrap()
+        .clone();
+    let mut p = Pipeline::new(cfg);
+    let halved = p
+        .process(
+            DepthInput::Depth { samples: &half, width: 320, height: 240, depth_scale_m: MM, intrinsics: kh },
+            &ctx,
+            &mut NoTimer,
+        )
+        .unwrap();
+    assert_eq!(halved.scan, full.scan);
+    assert_eq!(halved.ficf, full.ficf);
+    assert_eq!(halved.cacf, full.cacf);
+    for (a, b) in halved.plane_camera.iter().zip(full.plane_camera) {
+        assert!((a - b).abs() < 1e-5, "{:?} vs {:?}", halved.plane_camera, full.plane_camera);
+    }
+}
+
 /// The measured case of `GroundPredictionConfig`: a cane camera 0.885 m up, pitched
 /// 30 deg down, 58 x 45 deg field of view, walking at 1 m/s (30 Hz) towards a wall
 /// from 2.0 m down to `stop_m`, then standing there for `stand_s` seconds with the
