@@ -1038,9 +1038,10 @@ fn flows_across_hosts_and_a_monitor_on_a_slow_link_does_not_slow_them() {
 
 /// (b) the cane's link through the fault proxy (50 ms +- 20 ms, a 200 ms stall every
 /// 2.5 s) and capped at 20 Mbit/s: hazards flow, the latency reported and bounded.
-/// Then capped at 2 Mbit/s: the depth stream (65 kB frames at 30 Hz, 16 Mbit/s) does
-/// not fit, no frame arrives fresh, and the user must be told: offline within the
-/// deadline, no stale frame acted on, detection back once the cap goes.
+/// Then capped at 2 Mbit/s: the lossless stream (65 kB frames at 30 Hz, 16 Mbit/s) does
+/// not fit; the camera paces and coarsens its frames until they arrive fresh: hazards
+/// keep flowing, no stale frame is acted on, and lossless frames come back once the cap
+/// goes.
 #[test]
 fn faults_on_the_cane_link_delay_jitter_stalls_and_rate_caps() {
     let faults = Faults {
@@ -1094,69 +1095,76 @@ fn faults_on_the_cane_link_delay_jitter_stalls_and_rate_caps() {
         events.iter().filter(|v| is_offline(v, true) && (t0..t1).contains(&num(v, "applied_ns"))).collect();
     assert!(offline.is_empty(), "200 ms stalls made detection go offline: {offline:?}");
 
-    // 2 Mbit/s: nothing fresh gets through, and the user is told
+    // 2 Mbit/s: the lossless stream (65 kB frames at 30 Hz, 16 Mbit/s) does not fit.
+    // The camera sends a frame only while fewer than three wait for their hazard, and
+    // quantises more coarsely until they arrive fresh: hazards keep coming, fewer.
     let stale_before = stale_count(&events);
     assert!(stale_before >= stale_at_t0, "the compute agent restarted?");
     let capped = now_ns();
     d.net.cap_from("cane", "2mbit");
-    let warned = d.monitor.wait_for(Duration::from_secs(3), |v| is_offline(v, true) && num(v, "applied_ns") > capped);
-    let warned = warned.unwrap_or_else(|| panic!("no offline warning at 2 Mbit/s\n{}", d.logs()));
-    sleep(2.0);
+    sleep(8.0);
+    let settled = now_ns();
+    sleep(6.0);
+    let t3 = now_ns();
     let events = d.monitor.events();
-    let last = events
+    let slow = Latency::of(&events, settled, t3);
+    let kb = |from: u64, to: u64| -> Vec<f64> {
+        let sizes = events.iter().filter(|v| is_depth(v) && (from..to).contains(&num(v, "cap")));
+        sizes.map(|v| num(v, "n") as f64 / 1e3).collect()
+    };
+    let (before, during) = (kb(t0, t1), kb(settled, t3));
+    // the longest wait between hazards from the cap on (what the user went without)
+    let mut rx: Vec<u64> =
+        events.iter().filter(|v| is_hazard(v) && num(v, "rx") > capped).map(|v| num(v, "rx")).collect();
+    rx.sort_unstable();
+    let longest = rx.windows(2).map(|w| ms(w[1] as i128 - w[0] as i128)).fold(0.0, f64::max);
+    let warnings: Vec<(bool, f64)> = events
         .iter()
-        .filter(|v| is_hazard(v) && num(v, "rx") < num(&warned, "applied_ns"))
-        .max_by_key(|v| num(v, "rx"))
-        .cloned()
-        .expect("hazards before the cap");
-    // the deadline runs from the last hazard's arrival on the backpack (the monitor's
-    // link is as fast), and that frame came through the 50 ms proxy
-    let after_frame = ms(num(&warned, "applied_ns") as i128 - num(&last, "cap") as i128);
-    let after_arrival = ms(num(&warned, "applied_ns") as i128 - num(&last, "rx") as i128);
-    let during = Latency::of(&events, capped + 1_000_000_000, now_ns());
-    let refused = stale_count(&events) - stale_before;
-    // frames that reached the router during the cap, however late
-    let late: Vec<f64> = events
-        .iter()
-        .filter(|v| is_depth(v) && num(v, "rx") > capped)
-        .map(|v| ms(num(v, "rx") as i128 - num(v, "cap") as i128))
+        .filter(|v| schema(v) == "applied" && v["action"] == "OfflineWarning" && num(v, "applied_ns") > capped)
+        .map(|v| (v["offline"].as_bool() == Some(true), ms(num(v, "applied_ns") as i128 - capped as i128)))
         .collect();
-    eprintln!(
-        "netns: 2 Mbit/s: offline warning applied {after_arrival:.0} ms after the last hazard arrived \
-         ({after_frame:.0} ms after its frame's capture); then {} hazards, {} depth frames captured after the first second seen, {refused} refused as stale; \
-         {} frames reached the monitor during the cap, {:.0} ms old at p50",
-        during.hazards.len(),
-        during.frames,
-        late.len(),
-        quantile(&late, 0.5)
-    );
-    assert!(after_arrival < DEADLINE_MS + 100.0, "offline warned {after_arrival:.0} ms after the last hazard");
-    let oldest = quantile(&during.arrivals, 1.0);
+    let refused = stale_count(&events) - stale_before;
     let trip = shortest_trip(&events, "sensor-agent", capped);
-    assert!(oldest.is_nan() || oldest <= FRESHNESS_MS + trip + 10.0, "a frame {oldest:.0} ms old was perceived");
+    eprintln!(
+        "netns: 2 Mbit/s (with the proxy's faults): {}; depth frames p50 {:.1} kB (before the cap {:.1} kB); \
+         longest wait between hazards from the cap on {longest:.0} ms; offline warnings (offline, ms after the cap) \
+         {warnings:?}; {refused} frames refused as stale",
+        slow.report("from 8 s after the cap, 6 s"),
+        quantile(&during, 0.5),
+        quantile(&before, 0.5),
+    );
+    assert!(slow.hazards.len() >= 6 * 6, "{} hazards in 6 s at 2 Mbit/s\n{}", slow.hazards.len(), d.logs());
+    assert!(quantile(&during, 0.5) < quantile(&before, 0.5) / 2.0, "frames not made smaller at 2 Mbit/s");
+    let oldest = quantile(&slow.arrivals, 1.0);
+    assert!(oldest <= FRESHNESS_MS + trip + 10.0, "a frame {oldest:.0} ms old was perceived");
+    let late: Vec<&(bool, f64)> =
+        warnings.iter().filter(|(_, after)| *after > ms((settled - capped) as i128)).collect();
+    assert!(late.is_empty(), "detection went offline or came back after the camera had adapted: {warnings:?}");
+    assert!(
+        warnings.iter().filter(|(offline, _)| *offline).count() == warnings.iter().filter(|(o, _)| !o).count(),
+        "detection still offline at 2 Mbit/s: {warnings:?}"
+    );
 
+    // the cap lifted: every frame again once the link has had room for a while (10 s
+    // before the first step down, 3 s for each next)
     let uncapped = now_ns();
     d.net.uncap_from("cane");
-    let back = d.monitor.wait_for(Duration::from_secs(10), |v| is_offline(v, false) && num(v, "applied_ns") > uncapped);
-    let back = back.unwrap_or_else(|| panic!("detection not back 10 s after the cap went\n{}", d.logs()));
-    let back_after = ms(num(&back, "applied_ns") as i128 - uncapped as i128);
-    // the camera's session dropped by the router (its keep-alives queued behind frames
-    // longer than the 1 s lease): its liveliness token goes
-    let dropped = d
-        .monitor
-        .events()
-        .iter()
-        .filter(|v| {
-            v["live"].as_str().is_some_and(|k| k.ends_with("/health/sensor-agent"))
-                && v["alive"] == false
-                && num(v, "rx") > capped
-        })
-        .count();
+    let mut full = None;
+    for _ in 0..25 {
+        sleep(1.0);
+        let now = now_ns();
+        let last = Latency::of(&d.monitor.events(), now - 1_000_000_000, now);
+        if last.hazards.len() >= 25 {
+            full = Some((ms((now - uncapped) as i128) / 1e3, last));
+            break;
+        }
+    }
+    let (after_s, last) =
+        full.unwrap_or_else(|| panic!("not 25 hazards a second 25 s after the cap went\n{}", d.logs()));
     eprintln!(
-        "netns: the 2 Mbit/s cap lifted: detection back after {back_after:.0} ms; the camera's session was dropped \
-         {dropped} times meanwhile"
+        "netns: the 2 Mbit/s cap lifted: 25 or more hazards a second again after {after_s:.0} s ({})",
+        last.report("1 s")
     );
-    assert!(back_after < 5000.0, "detection back only {back_after:.0} ms after the cap went");
 }
 
 /// (c) the cane's link cut for 2 s: the offline warning is applied at the deadline
@@ -1195,9 +1203,10 @@ fn a_cut_cane_link_is_warned_within_the_deadline_and_recovers_within_2_s() {
         warned["reason"]
     );
     assert_eq!(during, 0, "hazards while the cane was cut off");
-    // the deadline runs from the last hazard's arrival on the backpack, a few ms after
-    // its frame's capture
-    assert!(warned_after < DEADLINE_MS + 100.0, "offline warned {warned_after:.0} ms after the last frame");
+    // the deadline runs from the last frame's capture (the feedback agent reads the
+    // hazard's capture stamp through the clock offset); what is left is the agent's
+    // wake-up and the applied message's stamp
+    assert!(warned_after < DEADLINE_MS + 50.0, "offline warned {warned_after:.0} ms after the last frame");
     assert!(back_after < 2000.0 && first_after < 2000.0, "recovery took {first_after:.0} / {back_after:.0} ms");
 }
 

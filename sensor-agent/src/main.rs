@@ -48,6 +48,17 @@ struct Cli {
     /// Quantisation step of --codec bounded, millimetres (max error is half of it).
     #[arg(long, default_value_t = 5)]
     step_mm: u16,
+    /// Send every frame at --codec, however slow the link. By default a frame goes
+    /// only while fewer than three sent ones wait for the compute agent's hazard, and
+    /// on a link too slow for that the frames are quantised more coarsely (bounded
+    /// steps of 10, then 25 mm) until they arrive fresh, and finer again when the link
+    /// has room: a slow Wi-Fi gives fewer, coarser frames instead of none.
+    #[arg(long)]
+    no_pacing: bool,
+    /// Name of the compute agent whose hazards answer the frames (its liveliness
+    /// token `health/<name>`; without it every frame goes).
+    #[arg(long, default_value = "compute-agent")]
+    compute_agent: String,
     /// Simulated camera profile: xtion (Asus Xtion Pro Live, the thesis's) or d435.
     #[arg(long, default_value = "xtion")]
     camera: String,
@@ -102,6 +113,8 @@ async fn main() -> anyhow::Result<()> {
     config.device = cli.device;
     config.body_device = cli.body_device;
     config.stall_after = Duration::from_millis(cli.stall_after_ms);
+    config.pacing = !cli.no_pacing;
+    config.compute_agent = cli.compute_agent;
     config.codec = match cli.codec {
         Codec::Lossless => WireCodec::Lossless,
         Codec::Raw => WireCodec::Raw,

@@ -2,13 +2,16 @@
 //! side publishes depth, IMU, odometry and ground truth, and says in its health when
 //! the source stalls.
 
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use anyhow::Context;
-use bus::{BusOptions, Health, Lane, Publisher, Shutdown};
-use schemas::{DepthEncoding, DepthFrame, GroundTruth, ImuBatch, OdomIncrement};
+use anyhow::{anyhow, Context};
+use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
+use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, OdomIncrement};
 use tokio::sync::mpsc;
+use zenoh::sample::SampleKind;
 
+use crate::pacing::{Level, LevelChange, Pacer, PacingConfig};
 use crate::source::{FrameSource, SourceError, SourceFrame};
 
 /// Agent name: liveliness token `health/sensor-agent` and sender of its messages.
@@ -24,8 +27,14 @@ pub struct SensorConfig {
     /// Device name of the IMU worn on the body, when the source has one (the
     /// simulator's): `sensor/<body_device>/imu`.
     pub body_device: String,
-    /// How depth is packed on the wire.
+    /// How depth is packed on the wire (the finest level when pacing).
     pub codec: WireCodec,
+    /// Send a frame only when the link has room, and coarsen the codec when it has
+    /// too little ([`crate::pacing`]); off: every frame, always `codec`.
+    pub pacing: bool,
+    /// The compute agent whose hazards answer the frames (its liveliness token
+    /// `health/<name>` says whether anything will).
+    pub compute_agent: String,
     /// Health says "stalled" when no frame came for this long (safety rule 1).
     pub stall_after: Duration,
     /// Period of health stats.
@@ -40,6 +49,8 @@ impl SensorConfig {
             device: "cane".to_string(),
             body_device: "body".to_string(),
             codec: WireCodec::Lossless,
+            pacing: true,
+            compute_agent: "compute-agent".to_string(),
             stall_after: Duration::from_millis(500),
             health_period: Duration::from_secs(1),
         }
@@ -78,20 +89,37 @@ impl WireCodec {
 /// What the source thread hands to the publisher.
 enum Produced {
     // boxed: a frame is ~300 bytes of metadata, the other variants a string
-    Frame { frame: Box<SourceFrame>, depth: DepthFrame },
+    // `depth` is None when the pacer held the frame back (its motion still goes)
+    Frame { frame: Box<SourceFrame>, depth: Option<DepthFrame> },
     Skipped(String),
     End,
     Failed(String),
 }
 
-fn pack(frame: &SourceFrame, codec: WireCodec, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
-    let encoding = codec.encoding_for(frame.depth_scale_m);
-    schemas::depth_codec::encode(&frame.depth, frame.width, frame.height, encoding, buf).map_err(|e| e.to_string())?;
+/// Pack `frame` at `level`: halved to every second pixel of every second row (the
+/// intrinsics with it) when the level says so, then compressed with its codec.
+fn pack(frame: &SourceFrame, level: Level, halved: &mut Vec<u16>, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
+    let encoding = level.codec.encoding_for(frame.depth_scale_m);
+    let (mut width, mut height, mut k) = (frame.width, frame.height, frame.intrinsics);
+    let samples = if level.half {
+        if frame.width == 0 || frame.depth.len() != frame.width as usize * frame.height as usize {
+            return Err(format!("{} samples for {}x{}", frame.depth.len(), frame.width, frame.height));
+        }
+        (width, height) = (frame.width.div_ceil(2), frame.height.div_ceil(2));
+        let w = frame.width as usize;
+        halved.clear();
+        halved.extend(frame.depth.chunks(w).step_by(2).flat_map(|row| row.iter().step_by(2)));
+        k = schemas::Intrinsics { fx: k.fx / 2.0, fy: k.fy / 2.0, cx: k.cx / 2.0, cy: k.cy / 2.0 };
+        &halved[..]
+    } else {
+        &frame.depth[..]
+    };
+    schemas::depth_codec::encode(samples, width, height, encoding, buf).map_err(|e| e.to_string())?;
     Ok(DepthFrame {
-        width: frame.width,
-        height: frame.height,
+        width,
+        height,
         depth_scale_m: frame.depth_scale_m,
-        intrinsics: frame.intrinsics,
+        intrinsics: k,
         gravity_camera: frame.gravity_camera,
         mount: frame.mount,
         encoding,
@@ -102,8 +130,8 @@ fn pack(frame: &SourceFrame, codec: WireCodec, buf: &mut Vec<u8>) -> Result<Dept
 /// Pull frames from `source` at its pace (sleeping until each frame's stamp), pack
 /// them, hand them over. Runs on its own thread: rendering and compression are CPU
 /// work that must not stall the async publishers.
-fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
-    let mut buf = Vec::new();
+fn produce(mut source: Box<dyn FrameSource>, pacer: Arc<Mutex<Pacer>>, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
+    let (mut buf, mut halved) = (Vec::new(), Vec::new());
     let period_ns = source.period_ns();
     // Paced sources (simulator, replay) are asked for the frame of the next capture
     // moment a little ahead of it, so a frame of time t is in hand at t, like a camera
@@ -119,7 +147,8 @@ fn produce(mut source: Box<dyn FrameSource>, codec: WireCodec, tx: mpsc::Sender<
         let item = match source.next_frame(next_due_ns.max(bus::now_ns())) {
             Ok(Some(frame)) => {
                 sleep_until_ns(frame.stamp_ns);
-                match pack(&frame, codec, &mut buf) {
+                let level = pacer.lock().unwrap_or_else(|e| e.into_inner()).admit(frame.stamp_ns, bus::now_ns());
+                match level.map(|level| pack(&frame, level, &mut halved, &mut buf)).transpose() {
                     Ok(depth) => Produced::Frame { frame: Box::new(frame), depth },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
                 }
@@ -181,23 +210,59 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     tracing::info!(user = %config.bus.user, "sensor agent publishing {described} on {}", keys.depth(dev));
     health.set_status(true, format!("streaming {described}"));
 
+    // Without pacing nothing ever says a compute agent is there: every frame goes, at
+    // the configured codec.
+    let pacer = Arc::new(Mutex::new(Pacer::new(PacingConfig::for_codec(config.codec))));
+    // The compute agent's answers: its hazards (each with the capture stamp of the
+    // frame it perceived) and its liveliness (nothing answers without it).
+    let answers = match config.pacing {
+        true => Some(Subscriber::<Hazard>::declare(&session, keys.hazard(), true, &health).await?),
+        false => None,
+    };
+    let compute_key = keys.health(&config.compute_agent);
+    let compute_alive = match config.pacing {
+        true => Some(
+            session
+                .liveliness()
+                .declare_subscriber(compute_key.clone())
+                .history(true)
+                .await
+                .map_err(|e| anyhow!("cannot watch the liveliness of {compute_key}: {e}"))?,
+        ),
+        false => None,
+    };
+
     let (tx, mut rx) = mpsc::channel(2);
     let producer = {
         let shutdown = shutdown.clone();
-        let codec = config.codec;
+        let pacer = pacer.clone();
         std::thread::Builder::new()
             .name("frame-source".into())
-            .spawn(move || produce(source, codec, tx, shutdown))
+            .spawn(move || produce(source, pacer, tx, shutdown))
             .context("cannot start the frame source thread")?
     };
 
     let mut stalled = false;
+    // the stall deadline runs from the last item of the source, whatever else arrives
+    let mut stall_at = tokio::time::Instant::now() + config.stall_after;
     loop {
         let item = tokio::select! {
             _ = shutdown.triggered() => break,
             e = health_task.failed() => return Err(e),
-            item = tokio::time::timeout(config.stall_after, rx.recv()) => item,
+            Some(hazard) = maybe(answers.as_ref().map(|a| a.recv())) => {
+                pacer.lock().unwrap_or_else(|e| e.into_inner()).answered(hazard.header.capture_ns, bus::now_ns());
+                continue;
+            }
+            sample = maybe(compute_alive.as_ref().map(|l| l.recv_async())) => {
+                match sample {
+                    Ok(s) => pacer.lock().unwrap_or_else(|e| e.into_inner()).set_consumer(s.kind() == SampleKind::Put),
+                    Err(e) => anyhow::bail!("liveliness subscription of {compute_key} closed: {e}"),
+                }
+                continue;
+            }
+            item = tokio::time::timeout_at(stall_at, rx.recv()) => item,
         };
+        stall_at = tokio::time::Instant::now() + config.stall_after;
         match item {
             Err(_elapsed) => {
                 if !stalled {
@@ -226,6 +291,10 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
                     health.set_status(true, format!("streaming {described}"));
                 }
                 publish(&mut out, *frame, depth).await;
+                let mut pacer = pacer.lock().unwrap_or_else(|e| e.into_inner());
+                if let Some(change) = pacer.tick(bus::now_ns()) {
+                    report_level(&change, &pacer, &health, &described);
+                }
             }
         }
     }
@@ -238,7 +307,38 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     Ok(())
 }
 
-async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
+/// `future` when there is one, else never: a branch of the loop that only exists
+/// with pacing on.
+async fn maybe<T>(future: Option<impl std::future::Future<Output = T>>) -> T {
+    match future {
+        Some(f) => f.await,
+        None => std::future::pending().await,
+    }
+}
+
+/// A codec change: logged, and said in the health status (what a monitor shows).
+fn report_level(change: &LevelChange, pacer: &Pacer, health: &Health, described: &str) {
+    let why = format!(
+        "of {} frames due in the last second {} held back, {} unanswered; since start {} held back, {} left out",
+        change.due,
+        change.held,
+        change.lost,
+        pacer.held_total(),
+        pacer.skipped_total()
+    );
+    let level = |l: &Level| {
+        let size = if l.half { "halved" } else { "full size" };
+        format!("{:?} {size} at one frame in {}", l.codec, l.every)
+    };
+    tracing::warn!("link pacing: depth frames now {}, were {} ({why})", level(&change.to), level(&change.from));
+    let status = match pacer.level() {
+        0 => format!("streaming {described}"),
+        _ => format!("streaming {described}; slow link: depth sent {} ({why})", level(&change.to)),
+    };
+    health.set_status(true, status);
+}
+
+async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame>) {
     let stamp = frame.stamp_ns;
     let mut results = Vec::with_capacity(5);
     // the motion leading up to the frame first, so it is there when the frame is processed
@@ -251,7 +351,9 @@ async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
     if !frame.body_imu.is_empty() {
         results.push(out.body_imu.put(stamp, &ImuBatch { samples: frame.body_imu }).await);
     }
-    results.push(out.depth.put(stamp, &depth).await);
+    if let Some(depth) = depth {
+        results.push(out.depth.put(stamp, &depth).await);
+    }
     if let Some(truth) = frame.truth {
         results.push(out.truth.put(stamp, &truth).await);
     }
@@ -265,6 +367,40 @@ async fn publish(out: &mut Outputs, frame: SourceFrame, depth: DepthFrame) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_halved_frame_keeps_every_second_pixel_of_every_second_row_and_halves_the_intrinsics() {
+        let k = schemas::Intrinsics { fx: 500.0, fy: 480.0, cx: 320.0, cy: 240.0 };
+        let frame = SourceFrame {
+            stamp_ns: 1,
+            width: 5,
+            height: 3,
+            depth_scale_m: 0.001,
+            intrinsics: k,
+            depth: (1..=15).collect(),
+            gravity_camera: None,
+            mount: None,
+            imu: vec![],
+            body_imu: vec![],
+            odom: None,
+            truth: None,
+        };
+        let (mut halved, mut buf) = (Vec::new(), Vec::new());
+        let level = Level { codec: WireCodec::Lossless, half: true, every: 1 };
+        let packed = pack(&frame, level, &mut halved, &mut buf).unwrap();
+        assert_eq!((packed.width, packed.height), (3, 2));
+        assert_eq!(halved, [1, 3, 5, 11, 13, 15]);
+        assert_eq!(packed.intrinsics, schemas::Intrinsics { fx: 250.0, fy: 240.0, cx: 160.0, cy: 120.0 });
+        let mut decoded = Vec::new();
+        schemas::depth_codec::decode(&packed.data, 3, 2, packed.encoding, &mut decoded).unwrap();
+        assert_eq!(decoded, [1, 3, 5, 11, 13, 15]);
+        // full size: the frame as it is
+        let packed = pack(&frame, Level { half: false, ..level }, &mut halved, &mut buf).unwrap();
+        assert_eq!((packed.width, packed.height, packed.intrinsics), (5, 3, k));
+        // a frame whose samples do not fill it is refused, not sliced
+        let short = SourceFrame { depth: vec![1; 14], ..frame };
+        assert!(pack(&short, level, &mut halved, &mut buf).unwrap_err().contains("14 samples for 5x3"));
+    }
 
     #[test]
     fn millimetre_step_becomes_whole_depth_units_without_loosening_the_bound() {
