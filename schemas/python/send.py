@@ -35,7 +35,8 @@ def parse(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--user", required=True, help="whose agents to talk to")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                        help="also connect to this Zenoh endpoint, e.g. tcp/192.168.1.20:7447")
+                        help="send through this Zenoh endpoint (an agent's or router's listener), "
+                             "as its client, e.g. tcp/192.168.1.20:7447")
     parser.add_argument("--wait", type=float, default=3.0, metavar="S",
                         help="wait up to S seconds for a subscriber to appear (default 3)")
     parser.add_argument("--dry-run", action="store_true",
@@ -106,6 +107,13 @@ def main(argv=None):
 
     config = zenoh.Config()
     if args.connect:
+        # A client of the node it names, which routes the put to every subscriber it
+        # knows. As a peer, the one put went only to peers linked directly by then: the
+        # listener's own subscriptions satisfied the matching check at once, and an
+        # agent that only connects to that listener (the compute agent, for commands)
+        # was reached only once gossip had linked it too, about a second later: the
+        # command was reported sent and never arrived (tests/browser/monitor.test.mjs).
+        config.insert_json5("mode", json.dumps("client"))
         config.insert_json5("connect/endpoints", json.dumps(args.connect))
     if name == "speech_intent":
         qos = dict(priority=zenoh.Priority.REAL_TIME, congestion_control=zenoh.CongestionControl.DROP,
