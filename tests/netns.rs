@@ -11,8 +11,9 @@
 //! the stamps (one kernel, one clock: a capture stamp taken on the cane and an
 //! `applied_ns` taken on the backpack are comparable to the nanosecond).
 //!
-//! Faults: a TCP proxy written here (delay with jitter, stalls) on the backpack between
-//! the cane's client and the router, `tbf` rate caps, the cane's link set down, `kill -9`.
+//! Faults: a TCP proxy written here (delay with jitter, stalls, resets) on the backpack
+//! between the cane's client and the router, `tbf` rate caps, the cane's link set down,
+//! `kill -9`.
 //! The kernel here has no `netem`, hence the proxy.
 //!
 //! Needs root (namespaces, veths, qdiscs): without it every test fails and says so.
@@ -345,6 +346,30 @@ impl Proxy {
         });
         ready.recv_timeout(Duration::from_secs(5)).expect("the proxy listens");
         Proxy { stop, streams, accept: Some(accept) }
+    }
+}
+
+impl Proxy {
+    /// Tears down every connection through the proxy at once, as a reset: linger 0 so
+    /// the last close sends RST, both ways shut now (the pumps end and drop theirs).
+    fn reset_all(&self) -> usize {
+        let streams: Vec<TcpStream> = std::mem::take(&mut *self.streams.lock().unwrap());
+        let linger = libc::linger { l_onoff: 1, l_linger: 0 };
+        for s in &streams {
+            // SAFETY: setsockopt on a socket this proxy owns, with a value of the
+            // size given.
+            unsafe {
+                libc::setsockopt(
+                    s.as_raw_fd(),
+                    libc::SOL_SOCKET,
+                    libc::SO_LINGER,
+                    (&linger as *const libc::linger).cast(),
+                    std::mem::size_of::<libc::linger>() as libc::socklen_t,
+                );
+            }
+            let _ = s.shutdown(Shutdown::Both);
+        }
+        streams.len() / 2
     }
 }
 
@@ -747,7 +772,7 @@ impl Drop for Scratch {
 struct Deployment {
     monitor: Monitor,
     ups: Vec<Up>,
-    _proxy: Option<Proxy>,
+    proxy: Option<Proxy>,
     /// When the hosts were started.
     started: Instant,
     net: Net,
@@ -895,7 +920,7 @@ args = ["--state-dir", "{d}/bridge"]
         assert!(listening.is_some(), "the router did not start\n{}", backpack.log(40));
         let ups = vec![backpack, Up::start(&net, manifest, "cane"), Up::start(&net, manifest, "phone")];
         let monitor = Monitor::start(&net, "monitor", monitor_config, &user, keys);
-        Deployment { monitor, ups, _proxy: proxy, started, net, user, dir }
+        Deployment { monitor, ups, proxy, started, net, user, dir }
     }
 
     fn up(&self, host: &str) -> &Up {
@@ -1208,6 +1233,61 @@ fn a_cut_cane_link_is_warned_within_the_deadline_and_recovers_within_2_s() {
     // wake-up and the applied message's stamp
     assert!(warned_after < DEADLINE_MS + 50.0, "offline warned {warned_after:.0} ms after the last frame");
     assert!(back_after < 2000.0 && first_after < 2000.0, "recovery took {first_after:.0} / {back_after:.0} ms");
+}
+
+/// (c') the cane's connection reset (through the proxy, no other fault): the camera's
+/// client reconnects and hazards are back within 2 s; until then the user is told.
+#[test]
+fn a_reset_cane_connection_reconnects_and_hazards_are_back_within_2_s() {
+    let faults = Faults {
+        delay: Duration::ZERO,
+        jitter: Duration::ZERO,
+        stall_every: Duration::from_secs(3600),
+        stall_for: Duration::ZERO,
+    };
+    let d = Deployment::plain(
+        "netns_reset",
+        Options {
+            cane_endpoint: Some(format!("tcp/{}:{PROXY_PORT}", address("backpack"))),
+            proxy: Some(faults),
+            ..Default::default()
+        },
+    );
+    d.wait_flowing();
+    sleep(1.0);
+    let reset = now_ns();
+    let connections = d.proxy.as_ref().expect("the proxy").reset_all();
+    let first = d.monitor.wait_for(Duration::from_secs(5), |v| is_hazard(v) && num(v, "cap") > reset);
+    sleep(1.0);
+    let events = d.monitor.events();
+    let first = first.unwrap_or_else(|| panic!("no hazard 5 s after the cane's connection was reset\n{}", d.logs()));
+    let back_after = ms(num(&first, "rx") as i128 - reset as i128);
+    let last = events.iter().filter(|v| is_hazard(v) && num(v, "rx") < reset).map(|v| num(v, "cap")).max();
+    let warnings: Vec<(bool, f64)> = events
+        .iter()
+        .filter(|v| schema(v) == "applied" && v["action"] == "OfflineWarning" && num(v, "applied_ns") > reset)
+        .map(|v| (v["offline"].as_bool() == Some(true), ms(num(v, "applied_ns") as i128 - reset as i128)))
+        .collect();
+    // the router saw the camera's link end: its liveliness token went, and came back
+    let token: Vec<(bool, f64)> = events
+        .iter()
+        .filter(|v| v["live"].as_str().is_some_and(|k| k.ends_with("/health/sensor-agent")) && num(v, "rx") > reset)
+        .map(|v| (v["alive"] == true, ms(num(v, "rx") as i128 - reset as i128)))
+        .collect();
+    eprintln!(
+        "netns: cane connection reset ({connections} through the proxy): the camera's token (alive, ms after) \
+         {token:?}; first hazard at the monitor {back_after:.0} ms after; offline warnings (offline, ms after) {warnings:?}"
+    );
+    assert!(connections >= 1 && last.is_some(), "nothing went through the proxy before the reset");
+    assert!(
+        token.first().is_some_and(|t| !t.0) && token.last().is_some_and(|t| t.0),
+        "the reset did not end the camera's link: {token:?}"
+    );
+    assert!(back_after < 2000.0, "hazards back only {back_after:.0} ms after the reset");
+    // silence longer than the deadline is said, and said to be over
+    let offline = warnings.iter().filter(|(o, _)| *o).count();
+    assert_eq!(offline, warnings.len() - offline, "detection left offline: {warnings:?}");
+    assert!(back_after < DEADLINE_MS || offline >= 1, "{back_after:.0} ms without hazards and no warning");
 }
 
 /// (d) `kill -9` of the compute agent on the backpack: the feedback agent warns,
