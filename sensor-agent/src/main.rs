@@ -48,11 +48,14 @@ struct Cli {
     /// Quantisation step of --codec bounded, millimetres (max error is half of it).
     #[arg(long, default_value_t = 5)]
     step_mm: u16,
-    /// Send every frame at --codec, however slow the link. By default a frame goes
-    /// only while fewer than three sent ones wait for the compute agent's hazard, and
-    /// on a link too slow for that the frames are quantised more coarsely (bounded
-    /// steps of 10, then 25 mm) until they arrive fresh, and finer again when the link
-    /// has room: a slow Wi-Fi gives fewer, coarser frames instead of none.
+    /// Send every frame, full size, at --codec, however slow the link. By default a
+    /// frame goes only while fewer than six sent ones wait for the compute agent's
+    /// hazard, and on a link too slow for that the frames are halved (every second
+    /// pixel of every second row: what the perception samples anyway), quantised in
+    /// bounded steps of 10 then 25 mm, and thinned to every 2nd, 3rd or 6th, until
+    /// they arrive fresh; finer again, a step at a time, once the link has had room for
+    /// 10 s. A slow Wi-Fi gives fewer, coarser frames instead of none
+    /// (docs/deployment.md).
     #[arg(long)]
     no_pacing: bool,
     /// Name of the compute agent whose hazards answer the frames (its liveliness
