@@ -658,6 +658,15 @@ fn is_caused_rumble(v: &Value) -> bool {
     schema(v) == "applied" && v["action"] == "Rumble" && num(v, "cause_ns") > 0
 }
 
+/// The offline warnings applied after `after_ns`: (offline or back, ms after it).
+fn warnings_after(events: &[Value], after_ns: u64) -> Vec<(bool, f64)> {
+    events
+        .iter()
+        .filter(|v| (is_offline(v, true) || is_offline(v, false)) && num(v, "applied_ns") > after_ns)
+        .map(|v| (v["offline"].as_bool() == Some(true), ms(num(v, "applied_ns") as i128 - after_ns as i128)))
+        .collect()
+}
+
 /// An offline warning (`offline == want`).
 fn is_offline(v: &Value, want: bool) -> bool {
     schema(v) == "applied" && v["action"] == "OfflineWarning" && v["offline"].as_bool() == Some(want)
@@ -1143,11 +1152,7 @@ fn faults_on_the_cane_link_delay_jitter_stalls_and_rate_caps() {
         events.iter().filter(|v| is_hazard(v) && num(v, "rx") > capped).map(|v| num(v, "rx")).collect();
     rx.sort_unstable();
     let longest = rx.windows(2).map(|w| ms(w[1] as i128 - w[0] as i128)).fold(0.0, f64::max);
-    let warnings: Vec<(bool, f64)> = events
-        .iter()
-        .filter(|v| schema(v) == "applied" && v["action"] == "OfflineWarning" && num(v, "applied_ns") > capped)
-        .map(|v| (v["offline"].as_bool() == Some(true), ms(num(v, "applied_ns") as i128 - capped as i128)))
-        .collect();
+    let warnings = warnings_after(&events, capped);
     let refused = stale_count(&events) - stale_before;
     let trip = shortest_trip(&events, "sensor-agent", capped);
     eprintln!(
@@ -1263,11 +1268,7 @@ fn a_reset_cane_connection_reconnects_and_hazards_are_back_within_2_s() {
     let first = first.unwrap_or_else(|| panic!("no hazard 5 s after the cane's connection was reset\n{}", d.logs()));
     let back_after = ms(num(&first, "rx") as i128 - reset as i128);
     let last = events.iter().filter(|v| is_hazard(v) && num(v, "rx") < reset).map(|v| num(v, "cap")).max();
-    let warnings: Vec<(bool, f64)> = events
-        .iter()
-        .filter(|v| schema(v) == "applied" && v["action"] == "OfflineWarning" && num(v, "applied_ns") > reset)
-        .map(|v| (v["offline"].as_bool() == Some(true), ms(num(v, "applied_ns") as i128 - reset as i128)))
-        .collect();
+    let warnings = warnings_after(&events, reset);
     // the router saw the camera's link end: its liveliness token went, and came back
     let token: Vec<(bool, f64)> = events
         .iter()
