@@ -15,6 +15,8 @@ pub struct FloorModel {
     pub(crate) field: LikelihoodField,
     /// centres of the free cells, metres
     pub(crate) free_cells: Vec<[f64; 2]>,
+    /// the grid, for "is this place free"
+    grid: OccupancyGrid,
     pub(crate) cell_m: f64,
     pub(crate) doors: Vec<(String, [f64; 2])>,
     pub(crate) corners: Vec<[f64; 2]>,
@@ -49,6 +51,7 @@ impl FloorModel {
             level,
             field: LikelihoodField::new(grid, config),
             free_cells,
+            grid: grid.clone(),
             cell_m: grid.resolution_m(),
             doors: on_floor.doors.iter().map(|d| (d.number.clone(), [d.x, d.y])).collect(),
             corners: on_floor.corners.iter().map(|c| [c.x, c.y]).collect(),
@@ -70,6 +73,12 @@ impl FloorModel {
     /// The map position of door `number` on this floor.
     pub fn door(&self, number: &str) -> Option<[f64; 2]> {
         self.doors.iter().find(|(n, _)| n == number).map(|(_, p)| *p)
+    }
+
+    /// Whether map (x, y) is in a free cell (not a wall, not unknown, not off the map):
+    /// somewhere a person can stand.
+    pub fn is_free(&self, x_m: f64, y_m: f64) -> bool {
+        self.grid.world_to_cell(x_m, y_m).and_then(|(c, r)| self.grid.get(c, r)) == Some(Cell::Free)
     }
 
     /// The likelihood field of the floor's grid.

@@ -26,6 +26,7 @@
 //! # let _ = estimate; Ok(()) }
 //! ```
 
+mod bin_sums;
 pub mod carmen;
 pub mod floor_model;
 pub mod landmarks;
@@ -41,7 +42,7 @@ pub mod tracker;
 
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
-pub use likelihood_field::{LikelihoodField, LikelihoodFieldConfig};
+pub use likelihood_field::{GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
     Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, Rejected, Status,

@@ -132,28 +132,53 @@ pub fn sample_motion(
     noise: &MotionNoise,
     rng: &mut Rng,
 ) -> Pose2 {
-    let RotTransRot { rot1, trans, rot2 } = *motion;
-    // AMCL takes the smaller of a turn and its reverse, so reversing is not "a big turn"
-    let small = |r: f64| r.abs().min((std::f64::consts::PI - r.abs()).abs());
-    let t = trans.abs();
-    let yaw = wrap_angle(rot1 + rot2);
-    let sd_rot = |r: f64| (noise.alpha1 * r * r + noise.alpha2 * t * t).sqrt();
-    let sd_trans = (noise.alpha3 * t * t + noise.alpha4 * yaw * yaw).sqrt();
-    let trans_hat = trans + rng.normal(sd_trans);
-    // the direction of travel is perturbed as AMCL's rot1; the total turn by a noise
-    // that grows with the total turn (see the module doc)
-    let rot1_hat = rot1 + rng.normal(sd_rot(small(rot1)));
-    let total = match imu_yaw_rad {
-        None => yaw + rng.normal(sd_rot(yaw.abs())),
-        Some(gyro) => {
-            let share = noise.imu_odometry_rotation_share;
-            let sd = (noise.imu_yaw_sigma_rad_per_sqrt_s * dt_s.max(0.0).sqrt()).hypot(share * sd_rot(gyro.abs()));
-            gyro + rng.normal(sd)
-        }
-    };
-    // = pose.compose(0, 0, rot1_hat).compose(trans_hat, 0, total - rot1_hat), one sin_cos
-    let (s, c) = fast_sin_cos(pose.heading_rad + rot1_hat);
-    Pose2::new(pose.x_m + trans_hat * c, pose.y_m + trans_hat * s, pose.heading_rad + total)
+    MotionDraw::new(motion, imu_yaw_rad, dt_s, noise).sample(pose, rng)
+}
+
+/// One motion's means and spreads, worked out once for every particle of an update.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionDraw {
+    rot1: f64,
+    trans: f64,
+    total: f64,
+    sd_trans: f64,
+    sd_rot1: f64,
+    sd_total: f64,
+}
+
+impl MotionDraw {
+    /// The draw of `motion` (and the gyro's yaw over `dt_s`, if any) under `noise`.
+    pub fn new(motion: &RotTransRot, imu_yaw_rad: Option<f64>, dt_s: f64, noise: &MotionNoise) -> Self {
+        let RotTransRot { rot1, trans, rot2 } = *motion;
+        // AMCL takes the smaller of a turn and its reverse, so reversing is not "a big turn"
+        let small = |r: f64| r.abs().min((std::f64::consts::PI - r.abs()).abs());
+        let t = trans.abs();
+        let yaw = wrap_angle(rot1 + rot2);
+        let sd_rot = |r: f64| (noise.alpha1 * r * r + noise.alpha2 * t * t).sqrt();
+        let sd_trans = (noise.alpha3 * t * t + noise.alpha4 * yaw * yaw).sqrt();
+        // the direction of travel is perturbed as AMCL's rot1; the total turn by a noise
+        // that grows with the total turn (see the module doc)
+        let sd_rot1 = sd_rot(small(rot1));
+        let (total, sd_total) = match imu_yaw_rad {
+            None => (yaw, sd_rot(yaw.abs())),
+            Some(gyro) => {
+                let share = noise.imu_odometry_rotation_share;
+                (gyro, (noise.imu_yaw_sigma_rad_per_sqrt_s * dt_s.max(0.0).sqrt()).hypot(share * sd_rot(gyro.abs())))
+            }
+        };
+        Self { rot1, trans, total, sd_trans, sd_rot1, sd_total }
+    }
+
+    /// `pose` moved by one noisy draw.
+    #[inline]
+    pub fn sample(&self, pose: &Pose2, rng: &mut Rng) -> Pose2 {
+        let trans_hat = self.trans + rng.normal(self.sd_trans);
+        let rot1_hat = self.rot1 + rng.normal(self.sd_rot1);
+        let total = self.total + rng.normal(self.sd_total);
+        // = pose.compose(0, 0, rot1_hat).compose(trans_hat, 0, total - rot1_hat), one sin_cos
+        let (s, c) = fast_sin_cos(pose.heading_rad + rot1_hat);
+        Pose2::new(pose.x_m + trans_hat * c, pose.y_m + trans_hat * s, pose.heading_rad + total)
+    }
 }
 
 #[cfg(test)]

@@ -24,9 +24,11 @@
 use map::Gateway;
 use serde::{Deserialize, Serialize};
 
+use crate::bin_sums::BinSums;
 use crate::floor_model::FloorModel;
 use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
-use crate::motion::{sample_motion, MotionNoise, OdometryIncrement, RotTransRot};
+use crate::likelihood_field::GridPoses;
+use crate::motion::{MotionDraw, MotionNoise, OdometryIncrement, RotTransRot};
 use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
 use crate::rng::Rng;
 use crate::scan::Scan;
@@ -320,7 +322,13 @@ pub struct ParticleFilter {
     log_w: Vec<f64>,
     scan_fit: Vec<f64>,
     endpoints: Vec<[f64; 2]>,
-    bins: Vec<(u64, f64)>,
+    /// the same in f32, for the likelihood field's inner loop
+    endpoints32: Vec<[f32; 2]>,
+    /// one floor's particles at a time: their indices, grid poses and sums
+    batch_index: Vec<usize>,
+    batch_pose: GridPoses,
+    batch_sums: Vec<[f32; 2]>,
+    bins: BinSums,
     next: Vec<Particle>,
     /// door readings few particles agreed with: (floor index, door, body-frame offset)
     door_resets: Vec<(u16, [f64; 2], [f64; 2])>,
@@ -378,7 +386,11 @@ impl ParticleFilter {
             log_w: Vec::new(),
             scan_fit: Vec::new(),
             endpoints: Vec::new(),
-            bins: Vec::new(),
+            endpoints32: Vec::new(),
+            batch_index: Vec::new(),
+            batch_pose: GridPoses::default(),
+            batch_sums: Vec::new(),
+            bins: BinSums::default(),
             next: Vec::new(),
             door_resets: Vec::new(),
         };
@@ -414,11 +426,19 @@ impl ParticleFilter {
         let n = self.config.min_particles.max(1000).min(self.config.max_particles);
         self.particles.clear();
         for _ in 0..n {
-            let p = Pose2::new(
-                pose.x_m + self.rng.normal(sigma_xy_m),
-                pose.y_m + self.rng.normal(sigma_xy_m),
-                pose.heading_rad + self.rng.normal(sigma_heading_rad),
-            );
+            // a person stands in free space: a draw in a wall or off the map is drawn
+            // again (a few times: a start given in a wall keeps its spread)
+            let mut p = Pose2::default();
+            for _ in 0..START_DRAWS {
+                p = Pose2::new(
+                    pose.x_m + self.rng.normal(sigma_xy_m),
+                    pose.y_m + self.rng.normal(sigma_xy_m),
+                    pose.heading_rad + self.rng.normal(sigma_heading_rad),
+                );
+                if self.floors[floor].is_free(p.x_m, p.y_m) {
+                    break;
+                }
+            }
             self.particles.push(Particle { pose: p, level, weight: 1.0 / n as f64, floor: floor as u16 });
         }
         self.after_init();
@@ -702,8 +722,9 @@ impl ParticleFilter {
         let motion = RotTransRot::from_motion(f, l, y);
         let imu = self.pending_imu_yaw;
         let dt = self.pending_dt_s;
+        let draw = MotionDraw::new(&motion, imu, dt, &self.config.motion);
         for p in &mut self.particles {
-            p.pose = sample_motion(&p.pose, &motion, imu, dt, &self.config.motion, &mut self.rng);
+            p.pose = draw.sample(&p.pose, &mut self.rng);
         }
         self.pending = Pose2::default();
         self.pending_imu_yaw = Some(0.0);
@@ -722,12 +743,29 @@ impl ParticleFilter {
         }
         let k = self.config.scan_weight_exponent;
         self.scan_fit.clear();
-        for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
-            let field = &self.floors[p.floor as usize].field;
-            let (s, c) = p.pose.heading_rad.sin_cos();
-            let (ll, fit) = field.scan_log_p(p.pose.x_m, p.pose.y_m, c, s, &self.endpoints);
-            *lw += k * ll;
-            self.scan_fit.push(fit / nb as f64);
+        self.scan_fit.resize(self.particles.len(), 0.0);
+        self.endpoints32.clear();
+        self.endpoints32.extend(self.endpoints.iter().map(|&[x, y]| [x as f32, y as f32]));
+        for (fi, floor) in self.floors.iter().enumerate() {
+            self.batch_index.clear();
+            self.batch_pose.clear();
+            for (i, (p, &(s, c))) in self.particles.iter().zip(&self.trig).enumerate() {
+                if p.floor as usize == fi {
+                    self.batch_index.push(i);
+                    self.batch_pose.push(floor.field.grid_pose(p.pose.x_m, p.pose.y_m, c, s));
+                }
+            }
+            let m = self.batch_index.len();
+            if m == 0 {
+                continue;
+            }
+            self.batch_sums.clear();
+            self.batch_sums.resize(m, [0.0; 2]);
+            floor.field.add_scan_log_p(&mut self.batch_pose, &self.endpoints32, &mut self.batch_sums);
+            for (&i, &[ll, fit]) in self.batch_index.iter().zip(&self.batch_sums) {
+                self.log_w[i] += k * ll as f64;
+                self.scan_fit[i] = fit as f64 / nb as f64;
+            }
         }
         true
     }
@@ -802,29 +840,16 @@ impl ParticleFilter {
     /// (one pass, deterministic, no per-draw bookkeeping).
     fn kld_count(&mut self) -> usize {
         let (bm, br) = (self.config.kld_bin_m, self.config.kld_bin_rad);
-        self.bins.clear();
+        self.bins.reset(self.particles.len());
         for p in &self.particles {
             let ix = floor_i64(p.pose.x_m / bm) & 0xFFFFF;
             let iy = floor_i64(p.pose.y_m / bm) & 0xFFFFF;
             let ih = floor_i64(p.pose.heading_rad / br) & 0xFF;
             let key = ((p.floor as u64) << 48) ^ ((ix as u64) << 28) ^ ((iy as u64) << 8) ^ ih as u64;
-            self.bins.push((key, p.weight));
+            self.bins.add(key, p.weight);
         }
-        self.bins.sort_unstable_by_key(|b| b.0);
         let threshold = 1.0 / self.config.max_particles as f64;
-        let mut k = 0usize;
-        let mut i = 0;
-        while i < self.bins.len() {
-            let key = self.bins[i].0;
-            let mut w = 0.0;
-            while i < self.bins.len() && self.bins[i].0 == key {
-                w += self.bins[i].1;
-                i += 1;
-            }
-            if w >= threshold {
-                k += 1;
-            }
-        }
+        let k = self.bins.iter().filter(|&(_, w)| w >= threshold).count();
         let n = if k <= 1 {
             self.config.min_particles
         } else {
@@ -947,31 +972,23 @@ impl ParticleFilter {
     /// compact wrong one).
     fn heaviest_block(&mut self, fi: u16) -> (u64, u64) {
         const MASK: u64 = 0xFFFF_FFFF;
-        self.bins.clear();
+        self.bins.reset(self.particles.len());
         for p in self.particles.iter().filter(|p| p.floor == fi) {
             let ix = floor_i64(p.pose.x_m) as u64 & MASK;
             let iy = floor_i64(p.pose.y_m) as u64 & MASK;
-            self.bins.push(((ix << 32) | iy, p.weight));
+            self.bins.add((ix << 32) | iy, p.weight);
         }
-        self.bins.sort_unstable_by_key(|b| b.0);
-        let mut merged: Vec<(u64, f64)> = Vec::new();
-        for &(key, w) in &self.bins {
-            match merged.last_mut() {
-                Some((k, sum)) if *k == key => *sum += w,
-                _ => merged.push((key, w)),
-            }
-        }
-        let weight_of = |key: u64| merged.binary_search_by_key(&key, |b| b.0).map(|j| merged[j].1).unwrap_or(0.0);
+        // the heaviest neighbourhood; of equals, the smallest key (as when sorted)
         let (mut best_key, mut best_w) = (0u64, -1.0);
-        for &(key, _) in &merged {
+        for (key, _) in self.bins.iter() {
             let (ix, iy) = (key >> 32, key & MASK);
             let mut w = 0.0;
             for dx in [MASK, 0, 1] {
                 for dy in [MASK, 0, 1] {
-                    w += weight_of((((ix + dx) & MASK) << 32) | ((iy + dy) & MASK));
+                    w += self.bins.get((((ix + dx) & MASK) << 32) | ((iy + dy) & MASK));
                 }
             }
-            if w > best_w {
+            if w > best_w || (w == best_w && key < best_key) {
                 (best_key, best_w) = (key, w);
             }
         }
@@ -1042,6 +1059,9 @@ impl ParticleFilter {
         (self.w_fast, self.w_slow, self.last_w_avg)
     }
 }
+
+/// Draws per particle of a start spread before one in a wall is kept.
+const START_DRAWS: usize = 20;
 
 /// Weighted mean position and circular-mean heading (the origin for an empty set).
 /// Takes each particle with the (sin, cos) of its heading.

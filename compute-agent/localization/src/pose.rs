@@ -64,8 +64,11 @@ pub fn wrap_angle(a: f64) -> f64 {
 #[inline]
 pub fn fast_sin_cos(a: f64) -> (f64, f64) {
     use std::f64::consts::FRAC_PI_2;
-    let q = (a * (1.0 / FRAC_PI_2)).round();
-    let x = a - q * FRAC_PI_2;
+    // the nearest quadrant, rounding half away from zero like `f64::round` (which is a
+    // libm call on baseline x86-64: 1.6 % of an update)
+    let t = a * (1.0 / FRAC_PI_2);
+    let qi = (t + 0.5f64.copysign(t)) as i64;
+    let x = a - qi as f64 * FRAC_PI_2;
     let x2 = x * x;
     let s = x
         * (1.0
@@ -76,7 +79,7 @@ pub fn fast_sin_cos(a: f64) -> (f64, f64) {
             + x2 * (1.0 / 24.0
                 + x2 * (-1.0 / 720.0
                     + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0 + x2 * (1.0 / 479_001_600.0))))));
-    match (q as i64).rem_euclid(4) {
+    match qi & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),

@@ -1,14 +1,16 @@
 //! A small, seedable random number generator, so a filter run is reproducible from
 //! its seed (replay tests, the study). xoshiro256++ (Blackman & Vigna 2019), seeded
-//! through SplitMix64 as its authors recommend; Gaussian draws by Marsaglia's polar
-//! method (no sine or cosine: the motion model draws three per particle per update).
+//! through SplitMix64 as its authors recommend; Gaussian draws by `rand_distr`'s
+//! ziggurat (the motion model draws three per particle per update: Marsaglia's polar
+//! method, with a logarithm per pair, was 11 % of an update).
+
+use rand_core::{impls, RngCore};
+use rand_distr::{Distribution, StandardNormal};
 
 /// xoshiro256++: fast, 256 bits of state, passes BigCrush; not for cryptography.
 #[derive(Clone, Debug)]
 pub struct Rng {
     s: [u64; 4],
-    /// the second value of a polar-method pair, kept for the next Gaussian draw
-    spare: Option<f64>,
 }
 
 impl Rng {
@@ -22,7 +24,7 @@ impl Rng {
             x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
             x ^ (x >> 31)
         };
-        Self { s: [next(), next(), next(), next()], spare: None }
+        Self { s: [next(), next(), next(), next()] }
     }
 
     /// The next 64 random bits.
@@ -57,19 +59,7 @@ impl Rng {
 
     /// Standard normal (mean 0, standard deviation 1).
     pub fn gaussian(&mut self) -> f64 {
-        if let Some(v) = self.spare.take() {
-            return v;
-        }
-        loop {
-            let u = 2.0 * self.uniform() - 1.0;
-            let v = 2.0 * self.uniform() - 1.0;
-            let s = u * u + v * v;
-            if s > 0.0 && s < 1.0 {
-                let f = (-2.0 * s.ln() / s).sqrt();
-                self.spare = Some(v * f);
-                return u * f;
-            }
-        }
+        StandardNormal.sample(self)
     }
 
     /// Normal with mean 0 and standard deviation `sigma` (0 when `sigma` <= 0).
@@ -79,6 +69,21 @@ impl Rng {
         } else {
             0.0
         }
+    }
+}
+
+/// So `rand_distr`'s distributions can draw from it.
+impl RngCore for Rng {
+    fn next_u32(&mut self) -> u32 {
+        (self.next_u64() >> 32) as u32
+    }
+
+    fn next_u64(&mut self) -> u64 {
+        Rng::next_u64(self)
+    }
+
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        impls::fill_bytes_via_next(self, dst)
     }
 }
 

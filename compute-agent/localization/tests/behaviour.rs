@@ -93,16 +93,23 @@ fn corners_are_matched_to_the_nearest_one() {
     // Corners are not unique: the reading is matched to whichever map corner is
     // nearest each particle's prediction, so only places near a corridor end, facing
     // it, gain weight.
-    let (mut pf, _) = corridor_filter(FilterConfig::default(), 8);
+    // Alone, the reading fits two places: this one and one 1.9 m south, outside the
+    // corridor (the other wall's corner); the start spread is drawn in free space only.
     let truth = Pose2::new(1.0, 1.5, std::f64::consts::PI);
-    pf.init_pose(0, Pose2::new(8.0, 1.5, std::f64::consts::PI), 5.0, 0.05).expect("start");
     let seen = [Landmark::Corner { forward_m: 0.7, left_m: -0.95 }];
-    for _ in 0..3 {
-        pf.correct(&Observations { landmarks: &seen, ..Default::default() });
-    }
-    let e = pf.estimate();
-    eprintln!("corner: error {:.2} m after three readings (start 7 m off)", e.pose.distance_m(&truth));
-    assert!(e.pose.distance_m(&truth) < 0.75, "{:?}", e.pose);
+    let errors: Vec<f64> = (1..=10)
+        .map(|seed| {
+            let (mut pf, _) = corridor_filter(FilterConfig::default(), seed);
+            pf.init_pose(0, Pose2::new(8.0, 1.5, std::f64::consts::PI), 5.0, 0.05).expect("start");
+            for _ in 0..3 {
+                pf.correct(&Observations { landmarks: &seen, ..Default::default() });
+            }
+            pf.estimate().pose.distance_m(&truth)
+        })
+        .collect();
+    eprintln!("corner: error after three readings (start 7 m off), seeds 1-10: {errors:.2?}");
+    // before the start was drawn in free space, 12 of 30 seeds came within 0.75 m
+    assert!(errors.iter().all(|&e| e < 0.5), "{errors:?}");
 }
 
 #[test]
@@ -222,7 +229,7 @@ fn kidnap_seeds() {
 /// A kidnap is a search: whether the injected particles land near the true place soon
 /// is luck, so this asserts over ten seeds rather than one. Measured over seeds 1 to 20
 /// (the `kidnap_seeds` diagnostic): lost at once in all 20; back within 0.5 m and
-/// tracking after 12 to 82 updates in 19 (median 27), the 20th not within the
+/// tracking after 17 to 72 updates in 18 (median 34), the other two not within the
 /// 100-update walk.
 #[test]
 fn status_goes_lost_when_the_likelihood_collapses_and_recovers() {

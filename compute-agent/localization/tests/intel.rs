@@ -91,10 +91,9 @@ fn trace_known_start() {
     }
 }
 
-
 /// Updates a global start may take to be within 0.5 m (and stay there for 20 updates).
-/// Measured with 40,000 global particles: seeds 1 to 10 all within 14 updates (the
-/// `global_seeds` diagnostic; docs/localization.md).
+/// Measured with 40,000 global particles: 29 of seeds 1 to 30 within 18 updates, one
+/// after 92 (the `global_seeds` diagnostic; docs/localization.md).
 const GLOBAL_MAX_UPDATES: usize = 30;
 
 #[test]
@@ -158,15 +157,14 @@ fn recovery_variants() {
     ];
     for (name, cfg) in variants {
         let mut line = String::new();
-        for seed in 1..=6 {
+        for seed in 1..=16 {
             let mut pf = filter(cfg.clone(), seed);
             pf.init_pose(0, intel().lasers[0].pose, 0.1, 0.05).expect("start");
             let t = run(&mut pf, &noisy_increments(0.1, seed + 5));
             let e = &t.position_error_m;
-            line +=
-                &format!(" [{:.3} {:.3} {:.3} {:.1}]", quantile(e, 0.5), quantile(e, 0.95), rmse(e), quantile(e, 1.0));
+            line += &format!(" {:.3}/{:.1}", rmse(e), quantile(e, 1.0));
         }
-        eprintln!("{name:>18}: median p95 rmse max per seed:{line}");
+        eprintln!("{name:>20}: RMSE / max per seed (1-16):{line}");
     }
 }
 
@@ -196,12 +194,12 @@ fn trace_heading() {
 }
 
 #[test]
-// diagnostics (global start over ten seeds): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+// diagnostics (global start over thirty seeds): `cargo test -p localization --features diagnostics -- --nocapture NAME`
 #[cfg(feature = "diagnostics")]
 fn global_seeds() {
     for n in [10_000, 20_000, 40_000] {
         let mut line = String::new();
-        for seed in 1..=10 {
+        for seed in 1..=30 {
             let mut pf = filter(FilterConfig { global_particles: n, ..Default::default() }, seed);
             pf.init_global();
             let r = run(&mut pf, &noisy_increments(0.1, seed + 5));

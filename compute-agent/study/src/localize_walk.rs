@@ -11,6 +11,10 @@
 //! gives; here taken from the simulator, so exact), and the odometry of the camera's
 //! floor frame is turned into the body's with the sweep at both ends of the interval.
 //!
+//! A simulated door-sign reader ([`DoorSignReader`]: a chest camera reading each sign
+//! as it comes into view, with noise and misreads) gives the filter door numbers, the
+//! landmark that fixes the place along a corridor, which two parallel walls cannot.
+//!
 //! The walk is run first (recording its frames); the recorded frames are then replayed
 //! through a fresh copy of the same frame step to get the scans (the walk keeps its
 //! perception to itself; the step is deterministic, and every replayed hazard is
@@ -18,11 +22,11 @@
 
 use localization::log_run::{quantile, rmse};
 use localization::{
-    wrap_angle, Beam, FilterConfig, FloorModel, LikelihoodFieldConfig, LocalizationError, Observations,
+    wrap_angle, Beam, FilterConfig, FloorModel, Landmark, LikelihoodFieldConfig, LocalizationError, Observations,
     OdometryIncrement, ParticleFilter, Pose2, Scan, Status,
 };
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
-use sensor_agent::sim::{CaneMount, SimRng, UserPose, World};
+use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
 
 use crate::floor_plan::{self, FloorPlanError};
 use crate::walk::{BodyGyro, FedFrame, GuideKind, TraceRow, Walk, WalkConfig};
@@ -53,11 +57,16 @@ pub struct LocalizeWalkConfig {
     pub end_radius_m: f64,
     /// ... or when the user has moved less than 0.2 m in this many seconds (stuck).
     pub stuck_s: f64,
+    /// The door-sign reader, `None` for no door numbers.
+    pub signs: Option<SignReaderConfig>,
+    /// The first sign read after this many metres of walking is misread (another
+    /// door's number): the issue's injected misread.
+    pub misread_after_m: Option<f64>,
 }
 
 impl Default for LocalizeWalkConfig {
     /// The study's default walk kept on the world's route, 120 s at most; AMCL's filter;
-    /// a 0.1 m / 2° known start; the gyro on.
+    /// a 0.1 m / 2° known start; the gyro on; the door-sign reader's defaults.
     fn default() -> Self {
         Self {
             walk: WalkConfig { guide: GuideKind::Route, timeout_s: 120.0, ..WalkConfig::default() },
@@ -70,6 +79,8 @@ impl Default for LocalizeWalkConfig {
             scans: ScanUse::Frame,
             end_radius_m: 0.5,
             stuck_s: 10.0,
+            signs: Some(SignReaderConfig::default()),
+            misread_after_m: None,
         }
     }
 }
@@ -115,6 +126,12 @@ pub enum LocalizeWalkError {
 pub struct FrameLocalization {
     /// Seconds into the walk.
     pub t_s: f64,
+    /// Metres walked so far (truth).
+    pub walked_m: f64,
+    /// Door signs read at this frame, as read (a misread number is shown as read).
+    pub doors_read: Vec<String>,
+    /// One of them was misread.
+    pub misread: bool,
     /// The simulator's truth: x, y (metres), heading (degrees).
     pub truth: [f64; 3],
     /// The filter's estimate: x, y (metres), heading (degrees).
@@ -179,6 +196,18 @@ pub struct LocalizeSummary {
     pub update_ms_median: f64,
     /// Odometry increments or gyro rates the filter refused.
     pub odometry_rejected: u64,
+    /// Door signs read, and how many of them misread.
+    pub doors_read: usize,
+    /// Misread door signs.
+    pub doors_misread: usize,
+    /// Landmarks the filter refused (a number not on its map).
+    pub landmarks_rejected: u64,
+    /// The largest error in the 5 m walked after a misread, metres (`None`: no misread).
+    pub misread_worst_m: Option<f64>,
+    /// Metres walked after a misread until the error was back within 0.5 m, if it left
+    /// that bound within 5 m of the misread (0: it did not; the largest over the
+    /// misreads; `None`: no misread, or not back by the walk's end).
+    pub misread_back_within_m: Option<f64>,
     /// Replayed frames whose hazard differed from the walk's (0: the replay is exact).
     pub replay_mismatches: usize,
 }
@@ -204,6 +233,7 @@ impl WalkLocalization {
             "world {} seed {}: {} frames, {:.1} s, {:.1} m walked, {} updates\n\
              position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
              tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
+             door signs: {} read, {} misread, {} refused by the filter{}\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose\n",
             self.world,
             self.seed,
@@ -221,6 +251,15 @@ impl WalkLocalization {
             100.0 * s.tracking_fraction,
             s.tracking_over_1m,
             s.update_ms_median,
+            s.doors_read,
+            s.doors_misread,
+            s.landmarks_rejected,
+            match (s.misread_worst_m, s.misread_back_within_m) {
+                (Some(w), Some(0.0)) => format!("; after a misread: worst error {w:.2} m within 5 m (within 0.5 m throughout)"),
+                (Some(w), Some(b)) => format!("; after a misread: worst error {w:.2} m within 5 m, back within 0.5 m after {b:.1} m"),
+                (Some(w), None) => format!("; after a misread: worst error {w:.2} m within 5 m, NOT back within 0.5 m by the end"),
+                _ => String::new(),
+            },
             s.beams_median,
             s.truth_fit_median_m,
         )
@@ -260,6 +299,8 @@ pub fn localize_walk(
     );
     pf.init_pose(level, start, config.start_sigma_m.max(0.01), sigma_heading.max(0.2f64.to_radians()))?;
 
+    let mut reader = config.signs.map(|c| DoorSignReader::new(c, world, rng.fork()));
+    let mut misread_pending = config.misread_after_m;
     let mount = config.walk.mount;
     let mut frames = Vec::with_capacity(trace.len());
     let mut walked_m = 0.0;
@@ -302,7 +343,22 @@ pub fn localize_walk(
                 Some(&merged)
             }
         };
-        let c = pf.correct(&Observations { scan: observed, ..Default::default() });
+        let readings = match reader.as_mut() {
+            Some(r) => {
+                if misread_pending.is_some_and(|m| walked_m >= m) {
+                    r.misread_next();
+                    misread_pending = None;
+                }
+                let body = UserPose { x_m: truth.x_m, y_m: truth.y_m, yaw_rad: truth.heading_rad, floor: level };
+                r.read(world, &body, row.t_s)
+            }
+            None => Vec::new(),
+        };
+        let landmarks: Vec<Landmark> = readings
+            .iter()
+            .map(|r| Landmark::Door { number: r.number.clone(), forward_m: r.forward_m, left_m: r.left_m })
+            .collect();
+        let c = pf.correct(&Observations { scan: observed, landmarks: &landmarks, ..Default::default() });
         if c.updated || config.scans != ScanUse::Sweep {
             swept.clear();
             since_update = Pose2::default();
@@ -327,6 +383,9 @@ pub fn localize_walk(
         let (dx, dy) = (e.pose.x_m - truth.x_m, e.pose.y_m - truth.y_m);
         frames.push(FrameLocalization {
             t_s: row.t_s,
+            walked_m,
+            doors_read: readings.iter().map(|r| r.number.clone()).collect(),
+            misread: readings.iter().any(|r| r.misread),
             truth: [truth.x_m, truth.y_m, truth.heading_rad.to_degrees()],
             estimate: [e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()],
             position_error_m: e.pose.distance_m(&truth),
@@ -510,6 +569,46 @@ fn summarize(
         truth_fit_median_m: quantile(&fit, 0.5),
         update_ms_median: quantile(&updates, 0.5),
         odometry_rejected: counters.odometry_rejected,
+        doors_read: frames.iter().map(|f| f.doors_read.len()).sum(),
+        doors_misread: frames.iter().filter(|f| f.misread).count(),
+        landmarks_rejected: counters.landmarks_rejected,
+        misread_worst_m: misread_worst(frames, 5.0),
+        misread_back_within_m: misread_back_within(frames, 0.5, 5.0),
         replay_mismatches,
     }
+}
+
+/// The largest position error within `window_m` of walking after each misread.
+fn misread_worst(frames: &[FrameLocalization], window_m: f64) -> Option<f64> {
+    let starts: Vec<usize> = (0..frames.len()).filter(|&k| frames[k].misread).collect();
+    starts
+        .iter()
+        .map(|&k| {
+            frames[k..]
+                .iter()
+                .take_while(|f| f.walked_m - frames[k].walked_m <= window_m)
+                .map(|f| f.position_error_m)
+                .fold(0.0, f64::max)
+        })
+        .reduce(f64::max)
+}
+
+/// Metres walked after each misread until the error is back within `bound_m`, when it
+/// left that bound within `window_m` of the misread (0: it did not); the largest over
+/// the misreads. `None` when there was no misread, or the error had not come back by
+/// the walk's end.
+fn misread_back_within(frames: &[FrameLocalization], bound_m: f64, window_m: f64) -> Option<f64> {
+    let starts: Vec<usize> = (0..frames.len()).filter(|&k| frames[k].misread).collect();
+    let mut worst: Option<f64> = None;
+    for &k in &starts {
+        let w0 = frames[k].walked_m;
+        let left =
+            frames[k..].iter().take_while(|f| f.walked_m - w0 <= window_m).position(|f| f.position_error_m > bound_m);
+        let back = match left {
+            None => 0.0,
+            Some(j) => frames[k + j..].iter().find(|f| f.position_error_m <= bound_m)?.walked_m - w0,
+        };
+        worst = Some(worst.map_or(back, |w: f64| w.max(back)));
+    }
+    worst
 }
