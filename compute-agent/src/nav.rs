@@ -230,6 +230,20 @@ impl Nav {
                 self.say(stamp, speech).await;
             }
         }
+        if let Some(number) = &response.door {
+            let text = match self.tracker.door(number) {
+                Ok(()) => {
+                    tracing::info!("localization: door {number:?} taken");
+                    format!("Door {number}.")
+                }
+                Err(e) => {
+                    tracing::warn!("localization: {e}");
+                    format!("Door {number} is not on my map.")
+                }
+            };
+            let speech = self.speech(&text, "door");
+            self.say(stamp, speech).await;
+        }
         for speech in response.speech {
             tracing::info!("answer: {}", speech.text);
             self.say(stamp, speech).await;

@@ -251,6 +251,21 @@ fn parse_command(v: &Value) -> Result<Command, Refusal> {
             }
             Ok(Command::Destination { label: label.to_string() })
         }
+        "door" => {
+            let number = v
+                .get("number")
+                .and_then(Value::as_str)
+                .map(str::trim)
+                .filter(|n| !n.is_empty())
+                .ok_or_else(|| refuse("bad_field", "door needs a \"number\": the number on the door's sign"))?;
+            if number.chars().count() > schemas::wire::MAX_DOOR_NUMBER_CHARS {
+                return Err(refuse(
+                    "bad_field",
+                    format!("a door number is at most {} characters", schemas::wire::MAX_DOOR_NUMBER_CHARS),
+                ));
+            }
+            Ok(Command::Door { number: number.to_string() })
+        }
         "where-am-i" => Ok(Command::WhereAmI),
         "repeat" => Ok(Command::Repeat),
         "cancel" => Ok(Command::Cancel),
@@ -263,7 +278,7 @@ fn parse_command(v: &Value) -> Result<Command, Refusal> {
         }
         other => Err(refuse(
             "unknown_verb",
-            format!("unknown command {other:?} (destination, where-am-i, repeat, cancel, mute)"),
+            format!("unknown command {other:?} (destination, where-am-i, door, repeat, cancel, mute)"),
         )),
     }
 }
@@ -414,6 +429,12 @@ mod tests {
         let long = format!(r#"{{"type":"command","verb":"destination","label":"{}"}}"#, "a".repeat(201));
         assert_eq!(bad(&long).kind, "bad_field");
         assert_eq!(bad(r#"{"type":"command","verb":"mute","muted":"yes"}"#).kind, "bad_field");
+        assert_eq!(
+            ok(r#"{"type":"command","verb":"door","number":" 214 "}"#),
+            FromPage::Command(Command::Door { number: "214".into() })
+        );
+        assert_eq!(bad(r#"{"type":"command","verb":"door","number":""}"#).kind, "bad_field");
+        assert_eq!(bad(r#"{"type":"command","verb":"door","number":"12345678901234567"}"#).kind, "bad_field");
     }
 
     #[test]

@@ -5,6 +5,7 @@
     python3 schemas/python/send.py --user alice cmd destination kitchen
     python3 schemas/python/send.py --user alice cmd mute off
     python3 schemas/python/send.py --user alice cmd floor 1
+    python3 schemas/python/send.py --user alice cmd door 214
     python3 schemas/python/send.py --user alice --dry-run cmd where-am-i
 
 Encodes with wearnav_schemas (the same bytes a Rust agent would send), then puts it
@@ -63,6 +64,8 @@ def parse(argv):
     verbs.add_parser("cancel", help="stop guidance")
     verbs.add_parser("floor", help="say which floor I am on (after an elevator or stairs)").add_argument(
         "floor", type=int)
+    verbs.add_parser("door", help="say the number of the door I am at (read on its sign)").add_argument(
+        "number")
 
     args = parser.parse_args(argv)
     if args.what == "speech" and not args.text.strip():
@@ -92,6 +95,7 @@ def message(args):
         "repeat": lambda: "Repeat",
         "cancel": lambda: "Cancel",
         "floor": lambda: {"Floor": {"floor": args.floor}},
+        "door": lambda: {"Door": {"number": args.number}},
     }
     return keys.cmd(args.verb), "command", commands[args.verb]()
 

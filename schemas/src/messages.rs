@@ -480,6 +480,13 @@ pub enum Command {
         /// Floor index.
         floor: i32,
     },
+    /// The user is at a door and says its number (read on its tactile or printed
+    /// sign): a landmark for localization (Zhang et al.'s "verify door number").
+    Door {
+        /// The number as on the sign ("214", "B1.07"), at most
+        /// [`crate::wire::MAX_DOOR_NUMBER_CHARS`] characters.
+        number: String,
+    },
 }
 
 impl Command {
@@ -492,6 +499,7 @@ impl Command {
             Command::Repeat => "repeat",
             Command::Cancel => "cancel",
             Command::Floor { .. } => "floor",
+            Command::Door { .. } => "door",
         }
     }
 }

@@ -150,11 +150,12 @@ impl SchemaId {
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
     /// `turn_ahead` and `body_turn_deg_s`; every schema went up one when the envelope
     /// gained the sender's `session` and the checksum trailer; `pose` v3 added `status`,
-    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`,
-    /// `speech_intent` v3 `notice`.
+    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`
+    /// and v4 `Door`, `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
-            SchemaId::Hazard | SchemaId::Pose | SchemaId::RouteState | SchemaId::Command | SchemaId::SpeechIntent => 3,
+            SchemaId::Command => 4,
+            SchemaId::Hazard | SchemaId::Pose | SchemaId::RouteState | SchemaId::SpeechIntent => 3,
             _ => 2,
         }
     }
@@ -525,8 +526,28 @@ impl Message for Applied {
     const SCHEMA: SchemaId = SchemaId::Applied;
 }
 
+/// Longest door number a `Door` command carries (signs say "214", "B1.07", "Lab 3").
+pub const MAX_DOOR_NUMBER_CHARS: usize = 16;
+
 impl Message for Command {
     const SCHEMA: SchemaId = SchemaId::Command;
+    fn validate(&self) -> Result<(), String> {
+        match self {
+            Command::Door { number } => {
+                let n = number.trim();
+                if n.is_empty() {
+                    Err("door number is empty".into())
+                } else if n.chars().count() > MAX_DOOR_NUMBER_CHARS {
+                    Err(format!("door number is longer than {MAX_DOOR_NUMBER_CHARS} characters"))
+                } else if n.chars().any(char::is_control) {
+                    Err("door number has control characters".into())
+                } else {
+                    Ok(())
+                }
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 impl Message for Destinations {
@@ -628,12 +649,26 @@ mod tests {
     }
 
     #[test]
+    fn a_door_command_needs_a_short_printable_number() {
+        let long = "1".repeat(MAX_DOOR_NUMBER_CHARS + 1);
+        for (number, ok) in
+            [("214", true), ("B1.07", true), ("", false), ("   ", false), (&long[..], false), ("2\u{7}1", false)]
+        {
+            let bytes = encode(&X, 0, 0, &Command::Door { number: number.into() });
+            match decode::<Command>(&bytes) {
+                Ok((_, body)) => assert!(ok && body == Command::Door { number: number.into() }, "{number:?} accepted"),
+                Err(e) => assert!(!ok && e.kind() == "invalid", "{number:?}: {e}"),
+            }
+        }
+    }
+
+    #[test]
     fn header_layout_is_bincode_legacy() {
         let bytes = encode(&Origin { sender: "ab", session: 9 }, 1, 2, &Command::Repeat);
         // schema u16, version u16, sender (u64 len + bytes), session u64, seq u64,
         // capture u64, variant u32, then the CRC-32 of all that.
         assert_eq!(&bytes[0..2], &12u16.to_le_bytes());
-        assert_eq!(&bytes[2..4], &3u16.to_le_bytes());
+        assert_eq!(&bytes[2..4], &4u16.to_le_bytes());
         assert_eq!(&bytes[4..12], &2u64.to_le_bytes());
         assert_eq!(&bytes[12..14], b"ab");
         assert_eq!(&bytes[14..22], &9u64.to_le_bytes());

@@ -476,6 +476,7 @@ fn command_and_health_vectors() -> Vec<[Golden; 2]> {
         vector("command_repeat", 34, Command::Repeat),
         vector("command_cancel", 37, Command::Cancel),
         vector("command_floor", 38, Command::Floor { floor: -1 }),
+        vector("command_door", 39, Command::Door { number: "B1.07".into() }),
         vector(
             "health_stats",
             35,
@@ -727,6 +728,7 @@ fn key_vectors() -> Golden {
         ("Repeat", Command::Repeat.verb()),
         ("Cancel", Command::Cancel.verb()),
         ("Floor", Command::Floor { floor: 0 }.verb()),
+        ("Door", Command::Door { number: "1".into() }.verb()),
     ];
     let table = KeysJson { user: "alice", cases, command_verbs };
     Golden::plain("keys.json".into(), json_text(&table))

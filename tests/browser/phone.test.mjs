@@ -218,6 +218,15 @@ step('guidance', ['pairing'], `Start guides to ${DESTINATION}: the route is show
     (await calls()).speak.some((s) => isGuidance(s.text)), 10000);
 });
 
+step('door', ['guidance'], 'a door number typed at "At a door" reaches the localization and is answered aloud', 30000, async () => {
+  await page.getByLabel('At a door: its number').fill(' 101 ');
+  await page.getByRole('button', { name: 'I am at this door', exact: true }).click();
+  await waitFor('a command frame {verb: "door", number: "101"} sent by the page', () =>
+    framesOut.some((f) => f.msg.type === 'command' && f.msg.verb === 'door' && f.msg.number === '101'), 5000);
+  await waitFor('speechSynthesis asked to say "Door 101." (the compute agent took it)', async () =>
+    (await calls()).speak.some((s) => s.text === 'Door 101.'), 20000);
+});
+
 step('haptics', ['guidance'], 'the phone vibrates what the feedback agent asks, and feedback/applied reports it at the page\'s time', 30000, async () => {
   const match = await waitFor('a navigator.vibrate call with the pattern of a received vibrate message', async () => {
     const made = (await calls()).vibrate;

@@ -1,7 +1,8 @@
 """Guidance from Python against a running `wearnav demo --source sim:building`: real
 processes, real Zenoh. `send.py cmd destination` starts guidance (what the user hears
 comes back on ``feedback/speech``, the route on ``route/state``), and the destinations
-and a route preview are asked for with Zenoh queries and decoded with wearnav_schemas.
+and a route preview are asked for with Zenoh queries and decoded with wearnav_schemas;
+`send.py cmd door` gives the localization a door number.
 """
 
 import os
@@ -131,6 +132,25 @@ def test_send_py_starts_guidance_and_queries_answer(demo):
             guiding = [r for r in routes if r.get("status") == "Guiding"]
         assert started and started[0]["priority"] == "Message", said
         assert guiding and guiding[-1]["destination"] == "room 204", routes[-3:]
+
+        # the user at a door says its number (a landmark for localization): the agent
+        # acknowledges one its map has and refuses one it has not, saying so
+        for number in ["101", "999"]:
+            run = subprocess.run(
+                [sys.executable, str(SEND), "--user", USER, "--connect", demo, "cmd", "door", number],
+                capture_output=True, text=True, timeout=30,
+            )
+            assert run.returncode == 0, run.stderr
+        wanted = ["Door 101.", "Door 999 is not on my map."]
+        deadline = time.time() + 10
+        while time.time() < deadline:
+            with lock:
+                if all(any(h.get("text") == w for h in heard) for w in wanted):
+                    break
+            time.sleep(0.2)
+        with lock:
+            said = [h.get("text") for h in heard]
+        assert all(w in said for w in wanted), said
         assert not any("undecodable" in m for m in heard + routes + poses)
         for sub in subs:
             sub.undeclare()

@@ -27,6 +27,9 @@ pub struct Response {
     pub speech: Vec<SpeechIntent>,
     /// the user said they are on this floor: localization should move there
     pub floor_confirmed: Option<i32>,
+    /// the user said the number of the door they are at: a landmark for localization
+    /// (the agent answers once the filter has taken it, or refused it)
+    pub door: Option<String>,
 }
 
 /// One trip: where to, and how far it got.
@@ -147,9 +150,8 @@ impl Navigator {
                             out.speech.push(s);
                         }
                     } else {
-                        let text = format!(
-                            "Going to {name}. Finding your position first: I will tell you when I have it."
-                        );
+                        let text =
+                            format!("Going to {name}. Finding your position first: I will tell you when I have it.");
                         out.speech.push(self.say(text, "destination/waiting"));
                     }
                 }
@@ -194,6 +196,7 @@ impl Navigator {
                 }
                 out.speech.push(self.say(format!("Floor {floor}."), "floor"));
             }
+            Command::Door { number } => out.door = Some(number.trim().to_string()),
             Command::Mute { .. } => {}
         }
         out

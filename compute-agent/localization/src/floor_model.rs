@@ -70,9 +70,12 @@ impl FloorModel {
         &self.wall_directions_rad
     }
 
-    /// The map position of door `number` on this floor.
+    /// The map position of door `number` on this floor: matched without regard to case
+    /// or spaces ("b1.07" is "B1.07", "lab 3" is "Lab3"), as a user types or says it.
     pub fn door(&self, number: &str) -> Option<[f64; 2]> {
-        self.doors.iter().find(|(n, _)| n == number).map(|(_, p)| *p)
+        let plain = |s: &str| s.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase).collect::<String>();
+        let wanted = plain(number);
+        self.doors.iter().find(|(n, _)| plain(n) == wanted).map(|(_, p)| *p)
     }
 
     /// Whether map (x, y) is in a free cell (not a wall, not unknown, not off the map):

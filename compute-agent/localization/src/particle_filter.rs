@@ -609,7 +609,18 @@ impl ParticleFilter {
     /// landmark was seen); otherwise does nothing. Landmarks not on the map and
     /// non-finite wall angles are refused and counted; the rest still apply.
     pub fn correct(&mut self, obs: &Observations) -> Correction {
-        let has_landmark = !obs.landmarks.is_empty();
+        // landmarks the maps cannot place (a door number on no floor, a non-finite
+        // offset) are refused and counted before anything moves: a refused reading
+        // must not even trigger a resampling
+        let mut landmarks = Vec::with_capacity(obs.landmarks.len());
+        for lm in obs.landmarks {
+            if self.landmark_usable(lm) {
+                landmarks.push(lm);
+            } else {
+                self.counters.landmarks_rejected += 1;
+            }
+        }
+        let has_landmark = !landmarks.is_empty();
         if !(self.update_due() || has_landmark) {
             return Correction::default();
         }
@@ -626,7 +637,7 @@ impl ParticleFilter {
             Some(scan) => self.weigh_scan(scan),
             None => false,
         };
-        for lm in obs.landmarks {
+        for lm in landmarks {
             self.weigh_landmark(lm);
         }
         for wall in obs.wall_angles {
@@ -770,21 +781,25 @@ impl ParticleFilter {
         true
     }
 
+    /// Whether a landmark can be weighed: finite offsets, and a door number some floor has.
+    fn landmark_usable(&self, lm: &Landmark) -> bool {
+        let (fwd, left) = lm.offset_m();
+        fwd.is_finite()
+            && left.is_finite()
+            && match lm {
+                Landmark::Door { number, .. } => self.floors.iter().any(|f| f.door(number).is_some()),
+                Landmark::Corner { .. } => true,
+            }
+    }
+
+    /// Adds a usable landmark's log-likelihood ([`ParticleFilter::landmark_usable`]).
     fn weigh_landmark(&mut self, lm: &Landmark) {
         let (fwd, left) = lm.offset_m();
         let cfg = self.config.landmarks;
-        if !(fwd.is_finite() && left.is_finite()) {
-            self.counters.landmarks_rejected += 1;
-            return;
-        }
         match lm {
             Landmark::Door { number, .. } => {
                 // the door on each floor, once per floor, not once per particle
                 let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
-                if doors.iter().all(Option::is_none) {
-                    self.counters.landmarks_rejected += 1;
-                    return;
-                }
                 let floor_miss = cfg.door_misread_probability.max(1e-6).ln();
                 let mut support = 0.0;
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {

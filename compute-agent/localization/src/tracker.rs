@@ -14,6 +14,7 @@ use map::{Building, Gateway};
 use serde::{Deserialize, Serialize};
 
 use crate::floor_model::FloorModel;
+use crate::landmarks::Landmark;
 use crate::likelihood_field::LikelihoodFieldConfig;
 use crate::motion::{MotionNoise, OdometryIncrement};
 use crate::particle_filter::{Correction, Estimate, FilterConfig, Observations, ParticleFilter, Rejected, Status};
@@ -237,6 +238,21 @@ impl Tracker {
         self.pf.take_gateway(gateway, level).map(|_| ()).map_err(|e| e.to_string())
     }
 
+    /// The user is at door `number` (read on its sign, said through a command): the
+    /// filter takes it as a door landmark within arm's reach of the body (no direction:
+    /// the user may face the door or stand beside it; the landmark's sigma, 0.5 m,
+    /// covers the reach). A number on none of the floors is refused, counted by the
+    /// filter, and changes nothing.
+    pub fn door(&mut self, number: &str) -> Result<(), String> {
+        let before = self.pf.counters().landmarks_rejected;
+        let seen = [Landmark::Door { number: number.to_string(), forward_m: 0.0, left_m: 0.0 }];
+        self.pf.correct(&Observations { landmarks: &seen, ..Default::default() });
+        if self.pf.counters().landmarks_rejected > before {
+            return Err(format!("door {number:?} is on none of the floor maps"));
+        }
+        Ok(())
+    }
+
     /// The filter's answer.
     pub fn estimate(&self) -> Estimate {
         self.pf.estimate()
@@ -352,6 +368,20 @@ mod tests {
 name = "lift"
 type = "elevator"
 stops = [ { floor = 0, x = 16.0, y = 11.0 }, { floor = 1, x = 16.0, y = 11.0 } ]
+
+[[door]]
+number = "104"
+x = 4.0
+y = 1.0
+floor = 0
+normal = [0.0, 1.0]
+
+[[door]]
+number = "112"
+x = 12.0
+y = 3.0
+floor = 0
+normal = [0.0, -1.0]
 "#;
 
     fn building() -> Building {
@@ -463,6 +493,28 @@ stops = [ { floor = 0, x = 16.0, y = 11.0 }, { floor = 1, x = 16.0, y = 11.0 } ]
         let err = t.floor_confirmed(4).unwrap_err();
         assert_eq!(err, "no elevator, stairs or ramp joins floor 1 and floor 4");
         assert_eq!(t.estimate().level, 1);
+    }
+
+    #[test]
+    fn a_door_number_said_at_a_door_finds_the_user_and_one_not_on_the_map_is_refused() {
+        // nothing known: particles over both floors; the user stands at door 112 and
+        // says its number twice (one reading moves belief at most tenfold, see the
+        // filter's door model), then a number no floor has
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 3).unwrap();
+        t.start_global();
+        let at_door = Pose2::new(12.0, 2.6, 1.5);
+        t.door("112").unwrap();
+        // as a user may type it: spaces and case do not matter
+        t.door(" 1 12").unwrap();
+        let e = t.estimate();
+        assert_eq!(e.level, 0, "door 112 is on floor 0 only");
+        let d = e.pose.distance_m(&at_door);
+        assert!(d < 0.75, "{d} m from the door after two readings: {:?}", e.pose);
+        let refused = t.filter().counters().landmarks_rejected;
+        let err = t.door("999").unwrap_err();
+        assert!(err.contains("999"), "{err}");
+        assert_eq!(t.filter().counters().landmarks_rejected, refused + 1);
+        assert!(t.estimate().pose.distance_m(&e.pose) < 1e-9, "a refused door moved the estimate");
     }
 
     #[test]

@@ -47,6 +47,8 @@ def test_speech_from_the_command_line_decodes_as_that_speech_intent():
         (["mute"], "wearnav/alice/cmd/mute", {"Mute": {"muted": True}}),
         (["mute", "off"], "wearnav/alice/cmd/mute", {"Mute": {"muted": False}}),
         (["repeat"], "wearnav/alice/cmd/repeat", "Repeat"),
+        (["floor", "-1"], "wearnav/alice/cmd/floor", {"Floor": {"floor": -1}}),
+        (["door", "B1.07"], "wearnav/alice/cmd/door", {"Door": {"number": "B1.07"}}),
     ],
 )
 def test_command_goes_on_its_verb_key_and_decodes(argv, key, body):

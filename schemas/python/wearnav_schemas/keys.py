@@ -121,7 +121,7 @@ class Keys:
 
     def cmd(self, verb):
         """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``,
-        ``cancel``, ``floor``)."""
+        ``cancel``, ``floor``, ``door``)."""
         return f"{self._prefix}/cmd/{verb}"
 
     def cmd_any(self):
@@ -159,6 +159,7 @@ COMMAND_VERBS = {
     "Repeat": "repeat",
     "Cancel": "cancel",
     "Floor": "floor",
+    "Door": "door",
 }
 
 

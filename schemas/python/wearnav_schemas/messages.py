@@ -184,6 +184,7 @@ COMMAND = Enum(
         "Repeat": None,
         "Cancel": None,
         "Floor": {"floor": I32},
+        "Door": {"number": STRING},
     },
 )
 
@@ -274,8 +275,8 @@ SCHEMAS = (
     # v3 added notice
     Schema(10, "speech_intent", SPEECH_INTENT, 16 * 1024, version=3),
     Schema(11, "applied", APPLIED),
-    # v3 added Cancel and Floor
-    Schema(12, "command", COMMAND, version=3),
+    # v3 added Cancel and Floor, v4 Door
+    Schema(12, "command", COMMAND, version=4),
     Schema(13, "health_stats", HEALTH_STATS, 256 * 1024),
     Schema(14, "destinations", DESTINATIONS, 256 * 1024),
     Schema(15, "phone_haptic", PHONE_HAPTIC, 1024),
