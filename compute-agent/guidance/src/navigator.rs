@@ -150,8 +150,10 @@ impl Navigator {
                             out.speech.push(s);
                         }
                     } else {
-                        let text =
-                            format!("Going to {name}. Finding your position first: I will tell you when I have it.");
+                        let text = format!(
+                            "Going to {name}. Finding your position first: I will tell you when I have it. \
+                             At a door, you can tell me its number."
+                        );
                         out.speech.push(self.say(text, "destination/waiting"));
                     }
                 }

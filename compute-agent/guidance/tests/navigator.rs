@@ -132,7 +132,7 @@ fn a_destination_waits_for_the_position_then_guides_across_floors_to_arrival() {
     let r = nav.command(&go("room 214"), &lost, 0);
     assert_eq!(
         texts(&r.speech),
-        ["Going to room 214. Finding your position first: I will tell you when I have it."]
+        ["Going to room 214. Finding your position first: I will tell you when I have it. At a door, you can tell me its number."]
     );
     let waiting = nav.state(&lost);
     assert_eq!(

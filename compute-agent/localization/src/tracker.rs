@@ -294,7 +294,9 @@ impl Tracker {
         let said = match (self.announced, now) {
             (Some(Status::Tracking), Status::Tracking) => None,
             (_, Status::Tracking) => Some("Position found."),
-            (Some(Status::Tracking), Status::Lost) => Some("Position lost: walk on slowly while I look for it."),
+            (Some(Status::Tracking), Status::Lost) => {
+                Some("Position lost: walk on slowly while I look for it, or tell me the number of a door you are at.")
+            }
             _ => None,
         };
         if said.is_some() || now == Status::Lost {
