@@ -871,8 +871,49 @@ fn validate(scene: &SceneFile, text: &str, origin: &str) -> Result<(), SceneErro
         for p in &r.get_ref().waypoints {
             c.finite("waypoints", p)?;
         }
+        // the route is laid on the walls: none of its legs may go through one (a
+        // doorway is a gap between two walls, not a wall)
+        let (start, goal) = (scene.start.get_ref(), scene.goal.get_ref());
+        let mut points = vec![[start.x_m, start.y_m]];
+        points.extend(r.get_ref().waypoints.iter().copied());
+        if goal.floor == start.floor {
+            points.push([goal.x_m, goal.y_m]);
+        }
+        for leg in points.windows(2) {
+            for (i, w) in scene.walls.iter().map(|w| w.get_ref()).enumerate() {
+                if w.floor == start.floor && segment_distance_m(leg[0], leg[1], w.from, w.to) < w.thickness_m / 2.0 {
+                    let name = if w.label.is_empty() { String::new() } else { format!(" \"{}\"", w.label) };
+                    return Err(c.fail(format!(
+                        "the leg from ({}, {}) to ({}, {}) crosses walls[{i}]{name} (line {})",
+                        leg[0][0],
+                        leg[0][1],
+                        leg[1][0],
+                        leg[1][1],
+                        line_of(text, scene.walls[i].span().start)
+                    )));
+                }
+            }
+        }
     }
     Ok(())
+}
+
+/// Shortest distance between the segments a0-a1 and b0-b1 in the plane (0 when they
+/// cross).
+fn segment_distance_m(a0: [f64; 2], a1: [f64; 2], b0: [f64; 2], b1: [f64; 2]) -> f64 {
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+    let (d1, d2) = (cross(b0, b1, a0), cross(b0, b1, a1));
+    let (d3, d4) = (cross(a0, a1, b0), cross(a0, a1, b1));
+    if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+        return 0.0;
+    }
+    let point_to = |p: [f64; 2], s0: [f64; 2], s1: [f64; 2]| {
+        let (dx, dy) = (s1[0] - s0[0], s1[1] - s0[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 { (((p[0] - s0[0]) * dx + (p[1] - s0[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        (p[0] - s0[0] - t * dx).hypot(p[1] - s0[1] - t * dy)
+    };
+    point_to(a0, b0, b1).min(point_to(a1, b0, b1)).min(point_to(b0, a0, a1)).min(point_to(b1, a0, a1))
 }
 
 /// Elevation of a floor index (0 for an undeclared floor 0).
@@ -953,6 +994,32 @@ mod tests {
             .unwrap_or_else(|| panic!("README has no toml example"));
         let scene = parse_scene(example, "README.md").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((scene.walls.len(), scene.hanging.len(), scene.floor_regions.len()), (1, 1, 1));
+    }
+
+    #[test]
+    fn a_floor_plan_route_through_a_wall_is_refused_with_both_lines_and_one_through_a_doorway_is_not() {
+        // a wall across the way at x = 0.5 from y = -2 to 2, and one with a doorway gap
+        // at y -0.5..0.5 (two walls)
+        let solid = "[[walls]]\nlabel = \"partition\"\nfrom = [0.5, -2.0]\nto = [0.5, 2.0]\n";
+        let gap = "[[walls]]\nfrom = [0.5, -2.0]\nto = [0.5, -0.5]\n[[walls]]\nfrom = [0.5, 0.5]\nto = [0.5, 2.0]\n";
+        let route = "[floor_plan_route]\nwaypoints = [[0.2, 0.0], [0.8, 0.1]]\n";
+        let err = parse_scene(&format!("{HEAD}{solid}{route}"), "x").unwrap_err().to_string();
+        assert!(
+            err.starts_with(
+                "x:8: floor_plan_route: the leg from (0.2, 0) to (0.8, 0.1) crosses walls[0] \"partition\" (line 4)"
+            ),
+            "{err}"
+        );
+        assert!(parse_scene(&format!("{HEAD}{gap}{route}"), "x").is_ok());
+        // the leg from the last waypoint to the goal is a leg too
+        let last = "[floor_plan_route]\nwaypoints = [[0.0, 1.0]]\n";
+        let err = parse_scene(&format!("{HEAD}{solid}{last}"), "x").unwrap_err().to_string();
+        assert!(err.contains("the leg from (0, 1) to (1, 0) crosses"), "{err}");
+        // round the wall's end: no leg crosses it
+        let around = "[floor_plan_route]\nwaypoints = [[0.0, 3.0], [1.0, 3.0]]\n";
+        assert!(parse_scene(&format!("{HEAD}{solid}{around}"), "x").is_ok());
+        assert_eq!(segment_distance_m([0.0, 0.0], [1.0, 0.0], [0.5, 0.3], [0.5, 1.0]), 0.3);
+        assert_eq!(segment_distance_m([0.0, 0.0], [1.0, 1.0], [0.0, 1.0], [1.0, 0.0]), 0.0);
     }
 
     #[test]
