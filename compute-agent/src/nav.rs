@@ -129,7 +129,7 @@ impl Nav {
             Some((level, pose)) => tracker.start_at(level, pose).context("bad start pose")?,
             None => tracker.start_global(),
         }
-        let navigator = Navigator::new(&building, config.route.clone(), config.guidance);
+        let navigator = Navigator::new(&building, config.route, config.guidance);
         let floors: Vec<String> = building.floors().iter().map(|f| f.level.to_string()).collect();
         tracing::info!(
             "floor map {}: floors {}, {} destinations; {}",

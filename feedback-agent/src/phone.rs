@@ -308,7 +308,7 @@ impl HapticDevice for PhoneHaptic {
         for ack in self.link.take_haptic_acks() {
             let Some(k) = self.unanswered.iter().position(|s| s.id == ack.id) else { continue };
             // everything sent before it is answered too (or lost for good)
-            let sent = self.unanswered.drain(..=k).last().expect("position found");
+            let sent = self.unanswered.drain(..=k).next_back().expect("position found");
             self.answered = true;
             if self.lost {
                 self.lost = false;

@@ -409,6 +409,13 @@ fn check_world(world: &World, configs: &[&WalkConfig]) -> anyhow::Result<()> {
         goal.floor,
         start.floor
     );
+    if world.way_through() == Some(false) {
+        tracing::warn!(
+            "world `{}`: no way through from the start to the goal for a 0.5 m wide body; its walks cannot \
+             reach the goal and will say so",
+            world.name()
+        );
+    }
     for c in configs {
         if c.route_map == RouteMap::FloorPlan && c.guide != GuideKind::Sound {
             anyhow::ensure!(
@@ -535,9 +542,11 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
     s.push_str(&LeadTimes::of(&result.walks, Part::Body).line("body"));
     s.push('\n');
     for w in result.walks.iter().filter(|w| !w.completed) {
+        let why =
+            if w.way_through == Some(false) { ": there is no way through (0.5 m wide) from the start" } else { "" };
         let _ = writeln!(
             s,
-            "seed {}: goal not reached within {:.0} s (ended at {:.2}, {:.2}, {:.1} m from the goal)",
+            "seed {}: goal not reached within {:.0} s (ended at {:.2}, {:.2}, {:.1} m from the goal){why}",
             w.seed,
             w.time_s,
             w.end_xy_m[0],
@@ -661,7 +670,7 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
     format!(
         "seed {}: {} in {:.1} s, {} cane and {} body contacts",
         w.seed,
-        if w.completed { "goal reached" } else { "goal not reached" },
+        w.verdict(),
         w.time_s,
         w.count(Part::Cane, None),
         w.count(Part::Body, None)

@@ -271,6 +271,7 @@ mod tests {
             path_m: 8.0,
             reaction_s,
             end_xy_m: [0.0, 0.0],
+            way_through: Some(true),
             trace: Vec::new(),
         }
     }

@@ -320,6 +320,9 @@ pub struct WalkOutcome {
     pub reaction_s: f64,
     /// Where the user ended.
     pub end_xy_m: [f64; 2],
+    /// Whether the world has a way through from the start to the goal for a 0.5 m wide
+    /// body ([`World::way_through`]; `None`: not searched).
+    pub way_through: Option<bool>,
     /// One row per camera frame when [`WalkConfig::trace`] asked for it.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
@@ -331,12 +334,13 @@ impl WalkOutcome {
         self.contacts.iter().filter(|c| c.part == part && in_fov.is_none_or(|v| c.in_fov == v)).count()
     }
 
-    /// "goal reached" or "goal not reached".
+    /// "goal reached", "goal not reached", or, when the world has no way through, why
+    /// not.
     pub fn verdict(&self) -> &'static str {
-        if self.completed {
-            "goal reached"
-        } else {
-            "goal not reached"
+        match (self.completed, self.way_through) {
+            (true, _) => "goal reached",
+            (false, Some(false)) => "goal not reached: there is no way through (0.5 m wide) from the start to the goal",
+            (false, _) => "goal not reached",
         }
     }
 }
@@ -553,6 +557,7 @@ impl<'w> Walk<'w> {
             path_m: 0.0,
             reaction_s: params.reaction_s,
             end_xy_m: [start.x_m, start.y_m],
+            way_through: world.way_through(),
             trace: Vec::new(),
         };
         Self {

@@ -81,10 +81,11 @@ fn user_stops_and_turns_before_touching_the_wall_across_a_corridor() {
 }
 
 #[test]
-fn unreachable_goal_ends_with_a_timeout_verdict() {
+fn unreachable_goal_ends_with_a_timeout_and_says_there_is_no_way_through() {
     let out = walk(&dead_end(), &quick(8.0), 3);
     assert!(!out.completed);
-    assert_eq!(out.verdict(), "goal not reached");
+    assert_eq!(out.way_through, Some(false));
+    assert_eq!(out.verdict(), "goal not reached: there is no way through (0.5 m wide) from the start to the goal");
     assert_eq!(out.time_s, 8.0);
     assert_eq!(out.frames, 8 * 30, "frames at 30 Hz of simulated time, from t = 0 to the last before 8 s");
     assert!(out.contacts.iter().all(|c| c.t_s <= 8.0), "nothing counted past the limit: {:?}", out.contacts);

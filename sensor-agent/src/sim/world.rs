@@ -184,6 +184,8 @@ pub struct World {
     stairs: Vec<StairsSpec>,
     walker: Option<WalkerSpec>,
     floor_plan_route: Option<Vec<[f64; 2]>>,
+    /// [`World::way_through`], worked out the first time it is asked
+    way_through: std::sync::OnceLock<Option<bool>>,
 }
 
 static NO_GEOMETRY: FloorGeometry = FloorGeometry {
@@ -420,7 +422,42 @@ impl World {
             stairs: scene.stairs.iter().map(|d| d.get_ref().clone()).collect(),
             walker: scene.walker.as_ref().map(|w| w.get_ref().clone()),
             floor_plan_route: scene.floor_plan_route.as_ref().map(|r| r.get_ref().waypoints.clone()),
+            way_through: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Whether a body 0.5 m wide and 1.85 m tall can get from the start to the goal
+    /// past every fixed obstacle (people move aside): the generator's own test
+    /// ([`generate::way_through`](super::generate::way_through): a 5 cm grid, every
+    /// obstacle grown by the body's half width and 5 cm, a search). `None` when the goal
+    /// is on another floor (not searched). Worked out once per world (milliseconds).
+    pub fn way_through(&self) -> Option<bool> {
+        *self.way_through.get_or_init(|| {
+            use super::generate::way_through::Grid;
+            let (start, goal) = (self.start, &self.goal);
+            if goal.floor != start.floor {
+                return None;
+            }
+            let fixed: Vec<Shape> = self
+                .obstacles_at(start.floor, 0.0)
+                .filter(|(id, _)| self.obstacles[id.0 as usize].kind != ObstacleKind::Person)
+                .map(|(_, shape)| shape)
+                .collect();
+            let (mut lo, mut hi) = (
+                [start.x_m.min(goal.x_m), start.y_m.min(goal.y_m)],
+                [start.x_m.max(goal.x_m), start.y_m.max(goal.y_m)],
+            );
+            for shape in &fixed {
+                let (a, b) = shape.bounds_m();
+                (lo[0], lo[1], hi[0], hi[1]) = (lo[0].min(a[0]), lo[1].min(a[1]), hi[0].max(b[0]), hi[1].max(b[1]));
+            }
+            let mut grid = Grid::covering([lo[0] - 1.0, lo[1] - 1.0], [hi[0] + 1.0, hi[1] + 1.0]);
+            for shape in &fixed {
+                let cells = grid.cells_of(shape);
+                grid.add(&cells);
+            }
+            Some(grid.way([start.x_m, start.y_m], [goal.x_m, goal.y_m]).is_some())
+        })
     }
 
     /// World name (`taylor-course`).
@@ -691,6 +728,34 @@ mod tests {
             }
         }
         (touched, nearest_m)
+    }
+
+    #[test]
+    fn a_world_says_whether_there_is_a_way_through() {
+        // built-in and generated worlds have one; a goal on another floor is not searched
+        assert_eq!(World::load("corridor").unwrap().way_through(), Some(true));
+        assert_eq!(World::load("gen:lobby:7").unwrap().way_through(), Some(true));
+        assert_eq!(World::load("building").unwrap().way_through(), None);
+        // a corridor closed by a wall across it; then with a 0.45 m gap (too narrow for
+        // a 0.5 m wide body), then a 0.8 m one
+        // (the corridor closed at both ends: the simulated floor goes on outside the walls)
+        let head = "name = \"w\"\nstart = { x_m = 0.0, y_m = 0.0 }\ngoal = { x_m = 6.0, y_m = 0.0 }\n\
+                    [[walls]]\nfrom = [-1.0, -1.0]\nto = [7.0, -1.0]\n[[walls]]\nfrom = [-1.0, 1.0]\nto = [7.0, 1.0]\n\
+                    [[walls]]\nfrom = [-1.0, -1.0]\nto = [-1.0, 1.0]\n[[walls]]\nfrom = [7.0, -1.0]\nto = [7.0, 1.0]\n";
+        let across = |gap: f64| {
+            format!(
+                "[[walls]]\nfrom = [3.0, -1.0]\nto = [3.0, {}]\n[[walls]]\nfrom = [3.0, {}]\nto = [3.0, 1.0]\n",
+                -gap / 2.0,
+                gap / 2.0
+            )
+        };
+        let world = |extra: &str| World::from_toml(&format!("{head}{extra}"), "t").unwrap();
+        assert_eq!(world("[[walls]]\nfrom = [3.0, -1.0]\nto = [3.0, 1.0]\n").way_through(), Some(false));
+        assert_eq!(world(&across(0.45)).way_through(), Some(false));
+        assert_eq!(world(&across(0.8)).way_through(), Some(true));
+        // people are not in the way: they give way
+        let person = "[[people]]\nwaypoints = [[3.0, 0.0], [3.0, 0.1]]\n";
+        assert_eq!(world(person).way_through(), Some(true));
     }
 
     #[test]
