@@ -53,14 +53,6 @@ pub struct DemoArgs {
     pub destination: Option<String>,
 }
 
-/// `future` when there is one, else never.
-async fn maybe<T>(future: Option<impl std::future::Future<Output = Option<T>>>) -> Option<T> {
-    match future {
-        Some(f) => f.await,
-        None => std::future::pending().await,
-    }
-}
-
 fn free_loopback_port() -> anyhow::Result<u16> {
     let probe = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).context("no free loopback port")?;
     Ok(probe.local_addr()?.port())
@@ -288,16 +280,16 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
                 tally.on_health(&h.body);
             }
             _ = tick.tick() => eprintln!("{}", tally.status_line(started.elapsed(), period)),
-            Some(r) = maybe(guide.as_ref().map(|g| g.route.recv())) => {
+            Some(r) = bus::maybe(guide.as_ref().map(|g| g.route.recv())) => {
                 if let Some(g) = guide.as_mut() { g.on_route(r.body) }
             }
-            Some(p) = maybe(guide.as_ref().map(|g| g.pose.recv())) => {
+            Some(p) = bus::maybe(guide.as_ref().map(|g| g.pose.recv())) => {
                 if let Some(g) = guide.as_mut() { g.on_pose(p.body) }
             }
-            Some(s) = maybe(guide.as_ref().map(|g| g.speech.recv())) => {
+            Some(s) = bus::maybe(guide.as_ref().map(|g| g.speech.recv())) => {
                 if let Some(g) = guide.as_mut() { g.on_speech(&s.body) }
             }
-            Some(t) = maybe(guide.as_ref().map(|g| g.truth.recv())) => {
+            Some(t) = bus::maybe(guide.as_ref().map(|g| g.truth.recv())) => {
                 if let Some(g) = guide.as_mut() { g.on_truth(t.body) }
             }
             _ = guide_tick.tick(), if guide.is_some() => {

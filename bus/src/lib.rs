@@ -14,8 +14,18 @@ pub mod stream;
 
 pub use clock::now_ns;
 pub use health::{Health, HealthTask, StreamCounter};
+pub use query::{Query, Queryable};
 pub use schemas::guard::{self, Freshness, InputError};
 pub use session::{open_session, BusOptions};
 pub use shutdown::Shutdown;
-pub use query::{Query, Queryable};
 pub use stream::{Lane, Publisher, Received, Subscriber};
+
+/// `future` when there is one, else a future that never ends: a branch of a
+/// `tokio::select!` loop that exists only with some option on (navigation, pacing,
+/// the demo's guided user).
+pub async fn maybe<T>(future: Option<impl std::future::Future<Output = T>>) -> T {
+    match future {
+        Some(f) => f.await,
+        None => std::future::pending().await,
+    }
+}

@@ -173,22 +173,22 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             e = health_task.failed() => return Err(e),
             Some(inc) = odom.recv() => add_step(&mut step, nav.as_mut(), &mut body, &inc, &health),
             Some(batch) = body.recv() => body.add(&batch, &health),
-            Some(batch) = maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
+            Some(batch) = bus::maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
                 if let Some(n) = nav.as_mut() {
                     n.imu(&batch, &health);
                 }
             }
-            Some(cmd) = maybe(nav.as_ref().map(|n| n.commands.recv())) => {
+            Some(cmd) = bus::maybe(nav.as_ref().map(|n| n.commands.recv())) => {
                 if let Some(n) = nav.as_mut() {
                     n.command(&cmd).await;
                 }
             }
-            Some(query) = maybe(nav.as_ref().map(|n| n.destinations.recv())) => {
+            Some(query) = bus::maybe(nav.as_ref().map(|n| n.destinations.recv())) => {
                 if let Some(n) = nav.as_ref() {
                     n.answer_destinations(query).await;
                 }
             }
-            Some(query) = maybe(nav.as_ref().map(|n| n.routes.recv())) => {
+            Some(query) = bus::maybe(nav.as_ref().map(|n| n.routes.recv())) => {
                 if let Some(n) = nav.as_mut() {
                     n.answer_route(query).await;
                 }
@@ -240,15 +240,6 @@ fn still_fresh(frame: &Received<DepthFrame>, max_age: Duration, health: &Health)
         });
     }
     Ok(())
-}
-
-/// `future` when there is one, else never: a branch of the loop that only exists
-/// with navigation on.
-async fn maybe<T>(future: Option<impl std::future::Future<Output = Option<T>>>) -> Option<T> {
-    match future {
-        Some(f) => f.await,
-        None => std::future::pending().await,
-    }
 }
 
 fn add_step(

@@ -249,11 +249,11 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
         let item = tokio::select! {
             _ = shutdown.triggered() => break,
             e = health_task.failed() => return Err(e),
-            Some(hazard) = maybe(answers.as_ref().map(|a| a.recv())) => {
+            Some(hazard) = bus::maybe(answers.as_ref().map(|a| a.recv())) => {
                 pacer.lock().unwrap_or_else(|e| e.into_inner()).answered(hazard.header.capture_ns, bus::now_ns());
                 continue;
             }
-            sample = maybe(compute_alive.as_ref().map(|l| l.recv_async())) => {
+            sample = bus::maybe(compute_alive.as_ref().map(|l| l.recv_async())) => {
                 match sample {
                     Ok(s) => pacer.lock().unwrap_or_else(|e| e.into_inner()).set_consumer(s.kind() == SampleKind::Put),
                     Err(e) => anyhow::bail!("liveliness subscription of {compute_key} closed: {e}"),
@@ -305,15 +305,6 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
-}
-
-/// `future` when there is one, else never: a branch of the loop that only exists
-/// with pacing on.
-async fn maybe<T>(future: Option<impl std::future::Future<Output = T>>) -> T {
-    match future {
-        Some(f) => f.await,
-        None => std::future::pending().await,
-    }
 }
 
 /// A codec change: logged, and said in the health status (what a monitor shows).
