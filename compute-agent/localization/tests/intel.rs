@@ -154,6 +154,8 @@ fn recovery_variants() {
         ("dead band 0.6", FilterConfig { recovery_ratio: 0.6, ..Default::default() }),
         ("no inject", FilterConfig { max_inject_fraction: 0.0, ..Default::default() }),
         ("k 1/3", FilterConfig { scan_weight_exponent: 1.0 / 3.0, ..Default::default() }),
+        ("61 beams", FilterConfig { max_beams: 61, ..Default::default() }),
+        ("61 beams, k 1/6", FilterConfig { max_beams: 61, scan_weight_exponent: 1.0 / 6.0, ..Default::default() }),
     ];
     for (name, cfg) in variants {
         let mut line = String::new();
