@@ -65,6 +65,11 @@ pub struct LocalizeArgs {
     /// logged pose; reports when the estimate came within 0.5 m to stay.
     #[arg(long, requires = "carmen")]
     global: bool,
+    /// With `--world`: also write every camera frame (time, metres walked, truth,
+    /// estimate, errors along and across, status, whether the filter corrected, usable
+    /// beams, door signs read) to FILE as CSV, for plotting where the estimate went.
+    #[arg(long, value_name = "FILE", requires = "world")]
+    frames: Option<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -133,11 +138,59 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
     };
     let clock = Instant::now();
     let r = localize_walk(&world, args.seed, &config, || clock.elapsed().as_secs_f64() * 1e3)?;
+    if let Some(path) = &args.frames {
+        write_frames(path, &r.frames).with_context(|| format!("cannot write {}", path.display()))?;
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&r.summary)?);
     } else {
         println!("{}", r.summary_text());
     }
+    Ok(())
+}
+
+/// A CSV field: quoted (quotes doubled) when it holds a comma, a quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// The walk's frames as CSV, one row per camera frame.
+fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLocalization]) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(
+        out,
+        "t_s,walked_m,truth_x_m,truth_y_m,truth_heading_deg,estimate_x_m,estimate_y_m,estimate_heading_deg,\
+         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread"
+    )?;
+    for f in frames {
+        writeln!(
+            out,
+            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{}",
+            f.t_s,
+            f.walked_m,
+            f.truth[0],
+            f.truth[1],
+            f.truth[2],
+            f.estimate[0],
+            f.estimate[1],
+            f.estimate[2],
+            f.position_error_m,
+            f.along_error_m,
+            f.across_error_m,
+            f.heading_error_deg,
+            f.status,
+            f.updated,
+            f.beams,
+            csv_field(&f.doors_read.join(" ")),
+            f.misread
+        )?;
+    }
+    out.flush()?;
     Ok(())
 }
 

@@ -69,13 +69,26 @@ fn bad_input_is_refused_with_its_reason() {
 
 #[test]
 fn on_a_simulated_walk_the_scan_holds_the_user_on_the_floor_plan() {
+    let frames_csv = std::env::temp_dir().join(format!("wearnav-localize-frames-{}.csv", std::process::id()));
     let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
-        .args(["localize", "--world", "building", "--seed", "1", "--json"])
+        .args(["localize", "--world", "building", "--seed", "1", "--json", "--frames"])
+        .arg(&frames_csv)
         .env("RUST_BACKTRACE", "0")
         .output()
         .expect("wearnav runs");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let with_scan = report(&String::from_utf8_lossy(&out.stdout));
+    // every frame in the CSV, with the summary's walk and door signs in it
+    let csv = std::fs::read_to_string(&frames_csv).expect("the frames file");
+    let _ = std::fs::remove_file(&frames_csv);
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert!(rows[0].starts_with(&["t_s", "walked_m", "truth_x_m"]) && rows[0].len() == 17, "{:?}", rows[0]);
+    assert_eq!(rows.len() - 1, with_scan["frames"].as_u64().unwrap() as usize);
+    let walked: f64 = rows.last().unwrap()[1].parse().unwrap();
+    assert!((walked - with_scan["walked_m"].as_f64().unwrap()).abs() < 0.01, "{walked}");
+    // (the building's door numbers have no spaces: one word per sign read)
+    let read: usize = rows[1..].iter().map(|r| r[15].split_whitespace().count()).sum();
+    assert_eq!(read as u64, with_scan["doors_read"].as_u64().unwrap());
     let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
         .args(["localize", "--world", "building", "--seed", "1", "--scans", "none", "--no-signs", "--json"])
         .env("RUST_BACKTRACE", "0")
