@@ -111,6 +111,12 @@ pub struct FilterConfig {
     /// after a global start or a kidnap fits for a few updates before it fails
     /// (docs/localization.md: "Tracking while > 1 m off")
     pub tracking_min_updates: u32,
+    /// A correction whose scan had fewer usable beams than this neither extends nor ends
+    /// a `Tracking` streak: a handful of beams (a cane camera facing open space, or a
+    /// person close in front) cannot support the claim. On a simulated corridor walk the
+    /// streak was completed by a correction on 7 beams, with the estimate 1 m off
+    /// (docs/localization.md).
+    pub tracking_min_beams: usize,
     /// `Lost` when the main cluster holds less than this share of the weight
     pub lost_max_cluster_weight: f64,
     /// how far from a gateway's stop a particle may be and still be taken through it by
@@ -158,6 +164,7 @@ impl Default for FilterConfig {
             tracking_min_fit: 0.25,
             tracking_min_cluster_weight: 0.8,
             tracking_min_updates: 5,
+            tracking_min_beams: 15,
             lost_max_cluster_weight: 0.25,
             gateway_radius_m: 3.0,
             cluster_radius_m: 1.5,
@@ -313,6 +320,8 @@ pub struct ParticleFilter {
     hold_left: u32,
     /// corrections in a row that met the `Tracking` conditions
     tracking_streak: u32,
+    /// usable beams of this correction's scan (`None`: no scan in it)
+    scan_beams: Option<usize>,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -371,6 +380,7 @@ impl ParticleFilter {
             scans_since_init: 0,
             hold_left: 0,
             tracking_streak: 0,
+            scan_beams: None,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -637,6 +647,7 @@ impl ParticleFilter {
             Some(scan) => self.weigh_scan(scan),
             None => false,
         };
+        self.scan_beams = obs.scan.map(|_| self.endpoints.len());
         for lm in landmarks {
             self.weigh_landmark(lm);
         }
@@ -1031,7 +1042,16 @@ impl ParticleFilter {
             && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
             && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit);
-        self.tracking_streak = if tracking_now && !collapsed { self.tracking_streak.saturating_add(1) } else { 0 };
+        let few_beams = self.scan_beams.is_some_and(|n| n < c.tracking_min_beams);
+        self.tracking_streak = if tracking_now && !collapsed {
+            if few_beams {
+                self.tracking_streak
+            } else {
+                self.tracking_streak.saturating_add(1)
+            }
+        } else {
+            0
+        };
         self.estimate.status = if share < c.lost_max_cluster_weight || collapsed {
             Status::Lost
         } else if self.tracking_streak >= c.tracking_min_updates {
