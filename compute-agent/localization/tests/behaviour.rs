@@ -88,6 +88,34 @@ fn a_door_number_localizes_and_a_misread_one_is_recovered_from() {
 }
 
 #[test]
+fn a_few_beams_do_not_make_tracking() {
+    // a known start in the corridor, stepping along it: with scans of 10 usable beams
+    // the status never becomes `Tracking`; with 61 it does after the streak
+    let status_after = |beams: usize, min_beams: usize| {
+        let (mut pf, g) = corridor_filter(FilterConfig { tracking_min_beams: min_beams, ..Default::default() }, 4);
+        let mut truth = Pose2::new(2.0, 1.5, 0.0);
+        pf.init_pose(0, truth, 0.1, 0.05).expect("start");
+        let mut seen = Vec::new();
+        for _ in 0..12 {
+            truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+            pf.predict(&STEP, Some(0.0)).expect("plausible");
+            let scan = cast(&g, &truth, beams, 120f64.to_radians(), 8.0);
+            pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+            seen.push(pf.estimate().status);
+        }
+        seen
+    };
+    let min = FilterConfig::default().tracking_min_beams;
+    let few = status_after(10, min);
+    assert!(few.iter().all(|s| *s != Status::Tracking), "{few:?}");
+    let many = status_after(61, min);
+    assert_eq!(many.last(), Some(&Status::Tracking), "{many:?}");
+    // the rule is what holds it back: without it the 10 beams make `Tracking`
+    let unguarded = status_after(10, 0);
+    assert_eq!(unguarded.last(), Some(&Status::Tracking), "{unguarded:?}");
+}
+
+#[test]
 fn corners_are_matched_to_the_nearest_one() {
     // no scans; facing west 0.7 m from the corridor's west end, a corner ahead-right.
     // Corners are not unique: the reading is matched to whichever map corner is
