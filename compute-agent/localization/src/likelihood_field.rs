@@ -196,17 +196,8 @@ impl LikelihoodField {
         }
     }
 
-    /// The cell index of grid coordinates (gx, gy), `outside` for none.
-    #[inline]
-    fn cell(&self, gx: f32, gy: f32, outside: i32) -> i32 {
-        if self.narrow {
-            self.cell_narrow(gx, gy, outside)
-        } else {
-            self.cell_wide(gx, gy, outside)
-        }
-    }
-
-    /// [`LikelihoodField::cell`] when both sides are under 2^22 cells: branch-free.
+    /// The cell index of grid coordinates (gx, gy), `outside` for none, when both sides
+    /// are under 2^22 cells: branch-free.
     #[inline]
     fn cell_narrow(&self, gx: f32, gy: f32, outside: i32) -> i32 {
         let inside = gx >= 0.0 && gy >= 0.0 && gx < self.width as f32 && gy < self.height as f32;
@@ -218,7 +209,7 @@ impl LikelihoodField {
         }
     }
 
-    /// [`LikelihoodField::cell`] for any grid.
+    /// The cell index of grid coordinates (gx, gy), `outside` for none, on any grid.
     #[inline]
     fn cell_wide(&self, gx: f32, gy: f32, outside: i32) -> i32 {
         if gx >= 0.0 && gy >= 0.0 && gx < self.width as f32 && gy < self.height as f32 {
@@ -228,32 +219,9 @@ impl LikelihoodField {
         }
     }
 
-    /// (log-likelihood, fit) of the body-frame end point (bx, by) seen from `p`.
-    #[inline]
-    fn lookup(&self, p: &GridPose, bx: f32, by: f32) -> [f32; 2] {
-        let gx = p.gx + p.c * bx - p.s * by;
-        let gy = p.gy + p.s * bx + p.c * by;
-        let cell = self.cell(gx, gy, -1);
-        self.table[self.codes.get(cell as usize).copied().unwrap_or(255) as usize]
-    }
-
-    /// Sum of the log-likelihoods and of the fits of body-frame end points seen from
-    /// a pose (x, y, cos heading, sin heading): a beam costs two multiply-adds per axis
-    /// and a lookup.
-    pub fn scan_log_p(&self, x_m: f64, y_m: f64, cos_h: f64, sin_h: f64, endpoints: &[[f32; 2]]) -> (f64, f64) {
-        let p = self.grid_pose(x_m, y_m, cos_h, sin_h);
-        let (mut ll, mut fit) = (0.0f32, 0.0f32);
-        for &[bx, by] in endpoints {
-            let [l, f] = self.lookup(&p, bx, by);
-            ll += l;
-            fit += f;
-        }
-        (ll as f64, fit as f64)
-    }
-
-    /// [`LikelihoodField::scan_log_p`] for many poses at once, added into `sums`
-    /// ((log-likelihood, fit), one per pose; the same sums, in the same order, as one pose at a
-    /// time). Beam by beam over all poses, in two passes: the cells (arithmetic only,
+    /// Sums of the log-likelihoods and of the fits of body-frame end points seen from
+    /// each pose, added into `sums` ((log-likelihood, fit), one per pose). Beam by beam
+    /// over all poses, in two passes: the cells (arithmetic only,
     /// which the compiler vectorises over the poses), then the lookups (independent
     /// loads). Pose by pose, the compare-and-branch per beam kept one lookup at ~10
     /// cycles (2,000 particles x 61 beams: see docs/localization.md).
@@ -326,25 +294,26 @@ mod tests {
         assert!((on - near - 0.5).abs() < 0.02, "one sigma costs 1/2 in log: {on} {near}");
         assert!((far - f.log_p_min()).abs() < 1e-6);
         assert!(far < near);
-        // the whole-scan path agrees with the per-point one, here on a rotated heading
+        // the whole-scan path agrees with the per-point one, pose by pose, here on a
+        // rotated heading and on a straight one
         let (s, c) = 0.7f64.sin_cos();
         let ends = [[0.5f32, 0.1], [1.0, -0.4], [30.0, 0.0]];
-        let (ll, _) = f.scan_log_p(2.0, 1.0, c, s, &ends);
-        let one_by_one: f64 = ends
-            .iter()
-            .map(|&[bx, by]| {
-                let (bx, by) = (bx as f64, by as f64);
-                f.log_p(2.0 + c * bx - s * by, 1.0 + s * bx + c * by) as f64
-            })
-            .sum();
-        assert!((ll - one_by_one).abs() < 1e-4, "{ll} vs {one_by_one}");
-        // and the batch path gives the same sums, bit for bit, pose by pose
+        let poses_m = [(2.0, 1.0, c, s), (-3.0, 0.5, 1.0, 0.0)];
         let mut poses = GridPoses::default();
-        poses.push(f.grid_pose(2.0, 1.0, c, s));
-        poses.push(f.grid_pose(-3.0, 0.5, 1.0, 0.0));
+        for &(x, y, c, s) in &poses_m {
+            poses.push(f.grid_pose(x, y, c, s));
+        }
         let mut sums = [[0.0f32; 2]; 2];
         f.add_scan_log_p(&mut poses, &ends, &mut sums);
-        assert_eq!(sums[0][0] as f64, ll);
-        assert_eq!((sums[1][0] as f64, sums[1][1] as f64), f.scan_log_p(-3.0, 0.5, 1.0, 0.0, &ends));
+        for (&(x, y, c, s), [ll, fit]) in poses_m.iter().zip(sums) {
+            let (mut one_ll, mut one_fit) = (0.0, 0.0);
+            for &[bx, by] in &ends {
+                let (bx, by) = (bx as f64, by as f64);
+                let [l, fi] = f.at(x + c * bx - s * by, y + s * bx + c * by);
+                (one_ll, one_fit) = (one_ll + l as f64, one_fit + fi as f64);
+            }
+            assert!((ll as f64 - one_ll).abs() < 1e-4, "{ll} vs {one_ll}");
+            assert!((fit as f64 - one_fit).abs() < 1e-4, "{fit} vs {one_fit}");
+        }
     }
 }
