@@ -18,6 +18,7 @@ pub struct FloorModel {
     /// the grid, for "is this place free"
     grid: OccupancyGrid,
     pub(crate) cell_m: f64,
+    /// (number as [`door_key`] has it, place)
     pub(crate) doors: Vec<(String, [f64; 2])>,
     pub(crate) corners: Vec<[f64; 2]>,
     /// wall directions in the map frame, radians, each modulo pi
@@ -53,7 +54,7 @@ impl FloorModel {
             free_cells,
             grid: grid.clone(),
             cell_m: grid.resolution_m(),
-            doors: on_floor.doors.iter().map(|d| (d.number.clone(), [d.x, d.y])).collect(),
+            doors: on_floor.doors.iter().map(|d| (door_key(&d.number), [d.x, d.y])).collect(),
             corners: on_floor.corners.iter().map(|c| [c.x, c.y]).collect(),
             wall_directions_rad: dominant_wall_directions(grid),
         })
@@ -73,9 +74,8 @@ impl FloorModel {
     /// The map position of door `number` on this floor: matched without regard to case
     /// or spaces ("b1.07" is "B1.07", "lab 3" is "Lab3"), as a user types or says it.
     pub fn door(&self, number: &str) -> Option<[f64; 2]> {
-        let plain = |s: &str| s.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase).collect::<String>();
-        let wanted = plain(number);
-        self.doors.iter().find(|(n, _)| plain(n) == wanted).map(|(_, p)| *p)
+        let wanted = door_key(number);
+        self.doors.iter().find(|(n, _)| *n == wanted).map(|(_, p)| *p)
     }
 
     /// Whether map (x, y) is in a free cell (not a wall, not unknown, not off the map):
@@ -144,6 +144,11 @@ pub fn dominant_wall_directions(grid: &OccupancyGrid) -> Vec<f64> {
     let theta = (sy.atan2(sx) / 4.0).rem_euclid(std::f64::consts::FRAC_PI_2);
     // the normal's direction folded modulo 90 degrees is also the wall's
     vec![theta, theta + std::f64::consts::FRAC_PI_2]
+}
+
+/// A door number as lookups compare it: no spaces, lower case.
+fn door_key(number: &str) -> String {
+    number.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase).collect()
 }
 
 #[cfg(test)]

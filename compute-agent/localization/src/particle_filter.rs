@@ -274,6 +274,9 @@ pub struct Correction {
     pub injected: usize,
     /// particles drawn where a door reading puts the user
     pub at_doors: usize,
+    /// landmarks refused (a door number on no floor, a non-finite offset); also counted
+    /// in [`Counters::landmarks_rejected`]
+    pub landmarks_refused: usize,
 }
 
 /// Observations offered to [`ParticleFilter::correct`].
@@ -630,9 +633,10 @@ impl ParticleFilter {
                 self.counters.landmarks_rejected += 1;
             }
         }
+        let landmarks_refused = obs.landmarks.len() - landmarks.len();
         let has_landmark = !landmarks.is_empty();
         if !(self.update_due() || has_landmark) {
-            return Correction::default();
+            return Correction { landmarks_refused, ..Default::default() };
         }
         self.apply_motion();
         self.fill_trig();
@@ -666,7 +670,7 @@ impl ParticleFilter {
 
         let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
         let inject_fraction = self.recovery_fraction();
-        let mut out = Correction { updated: true, ..Default::default() };
+        let mut out = Correction { updated: true, landmarks_refused, ..Default::default() };
         let inject_wanted = (inject_fraction * self.config.min_particles as f64) >= 1.0;
         let door_fraction = if self.door_resets.is_empty() { 0.0 } else { self.config.landmarks.door_reset_fraction };
         let door_wanted = door_fraction * self.config.min_particles as f64 >= 1.0;

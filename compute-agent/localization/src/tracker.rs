@@ -244,10 +244,8 @@ impl Tracker {
     /// covers the reach). A number on none of the floors is refused, counted by the
     /// filter, and changes nothing.
     pub fn door(&mut self, number: &str) -> Result<(), String> {
-        let before = self.pf.counters().landmarks_rejected;
         let seen = [Landmark::Door { number: number.to_string(), forward_m: 0.0, left_m: 0.0 }];
-        self.pf.correct(&Observations { landmarks: &seen, ..Default::default() });
-        if self.pf.counters().landmarks_rejected > before {
+        if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
             return Err(format!("door {number:?} is on none of the floor maps"));
         }
         Ok(())
