@@ -236,35 +236,33 @@ pub fn parse(text: &str) -> Result<FromPage, Refusal> {
     }
 }
 
+/// A command's text field, trimmed: refused with `missing` when absent or blank, and
+/// as "`what` is at most N characters" when longer than `max_chars`.
+fn text_field(v: &Value, name: &str, missing: &str, what: &str, max_chars: usize) -> Result<String, Refusal> {
+    let text = v
+        .get(name)
+        .and_then(Value::as_str)
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .ok_or_else(|| refuse("bad_field", missing))?;
+    if text.chars().count() > max_chars {
+        return Err(refuse("bad_field", format!("{what} is at most {max_chars} characters")));
+    }
+    Ok(text.to_string())
+}
+
 fn parse_command(v: &Value) -> Result<Command, Refusal> {
     let verb = v.get("verb").and_then(Value::as_str).ok_or_else(|| refuse("bad_field", "command needs a \"verb\""))?;
     match verb {
         "destination" => {
-            let label = v
-                .get("label")
-                .and_then(Value::as_str)
-                .map(str::trim)
-                .filter(|l| !l.is_empty())
-                .ok_or_else(|| refuse("bad_field", "destination needs a \"label\": the place to go to"))?;
-            if label.chars().count() > MAX_LABEL_CHARS {
-                return Err(refuse("bad_field", format!("a destination name is at most {MAX_LABEL_CHARS} characters")));
-            }
-            Ok(Command::Destination { label: label.to_string() })
+            let missing = "destination needs a \"label\": the place to go to";
+            let label = text_field(v, "label", missing, "a destination name", MAX_LABEL_CHARS)?;
+            Ok(Command::Destination { label })
         }
         "door" => {
-            let number = v
-                .get("number")
-                .and_then(Value::as_str)
-                .map(str::trim)
-                .filter(|n| !n.is_empty())
-                .ok_or_else(|| refuse("bad_field", "door needs a \"number\": the number on the door's sign"))?;
-            if number.chars().count() > schemas::wire::MAX_DOOR_NUMBER_CHARS {
-                return Err(refuse(
-                    "bad_field",
-                    format!("a door number is at most {} characters", schemas::wire::MAX_DOOR_NUMBER_CHARS),
-                ));
-            }
-            Ok(Command::Door { number: number.to_string() })
+            let missing = "door needs a \"number\": the number on the door's sign";
+            let number = text_field(v, "number", missing, "a door number", schemas::wire::MAX_DOOR_NUMBER_CHARS)?;
+            Ok(Command::Door { number })
         }
         "where-am-i" => Ok(Command::WhereAmI),
         "repeat" => Ok(Command::Repeat),
