@@ -64,7 +64,11 @@ pub fn run(args: &PerceiveArgs) -> anyhow::Result<()> {
 enum Frame {
     /// A depth image, packed as the sensor agent would send it (uncompressed).
     Depth(DepthFrame),
-    Xyz { points: Vec<[f32; 3]>, width: u32, height: u32 },
+    Xyz {
+        points: Vec<[f32; 3]>,
+        width: u32,
+        height: u32,
+    },
 }
 
 fn load(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Frame> {
@@ -119,7 +123,8 @@ pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> 
                 FrameData::Xyz { points, width: *width, height: *height, gravity_camera: args.gravity }
             }
         };
-        let input = FrameIn { data, seq: k as u64, capture_ns: k as u64 * 33_333_333, body_yaw_rate_rad_s: None };
+        let input =
+            FrameIn { data, seq: k as u64, capture_ns: k as u64 * 33_333_333, body_yaw_rate_rad_s: None, way: None };
         timer.clear();
         let t0 = Instant::now();
         let result = step.process(input, &mut timer);

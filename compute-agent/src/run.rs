@@ -279,7 +279,13 @@ async fn process(
     let started_ns = bus::now_ns();
     clock.stages.push(("arrival", Duration::from_nanos(frame.received_ns.saturating_sub(capture_ns))));
     clock.stages.push(("queue", Duration::from_nanos(started_ns.saturating_sub(frame.received_ns))));
-    let input = FrameIn { data: FrameData::Wire(&frame.body), seq: frame.header.seq, capture_ns, body_yaw_rate_rad_s };
+    let input = FrameIn {
+        data: FrameData::Wire(&frame.body),
+        seq: frame.header.seq,
+        capture_ns,
+        body_yaw_rate_rad_s,
+        way: None,
+    };
     let (perception, mut hazard, intent) = match step.process(input, &mut clock) {
         StepOutput::Perceived { perception, hazard, intent } => (perception, hazard, intent),
         StepOutput::Refused { error, blind } => {

@@ -8,9 +8,10 @@
 //! Only the stamping of latencies and the publishing are the agent's.
 
 use schemas::depth_codec::{self, CodecError};
-use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement};
+use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Rumble};
 
 use crate::odometry::{ImplausibleStep, MotionSince};
+use crate::predictive::{Ahead, PredictiveConfig, PredictiveCue, Way};
 use crate::rejections::{self, Rejections};
 use crate::{cue, cue_unavailable, CueConfig, DepthInput, FrameContext, Perception, PerceptionConfig, PerceptionError};
 use crate::{Pipeline, StageTimer};
@@ -27,6 +28,10 @@ pub struct FrameIn<'a> {
     /// The body's turn rate about gravity at capture, rad/s, positive left, from a
     /// body-worn gyro ([`FrameContext::body_yaw_rate_rad_s`]).
     pub body_yaw_rate_rad_s: Option<f32>,
+    /// Where the user heads, body frame at capture (from the route and the user's place
+    /// on the map): with a [`ComputeStep::with_predictive`] step the cue comes from it
+    /// ([`crate::predictive`]); `None`: from the cost functions.
+    pub way: Option<Way<'a>>,
 }
 
 /// A frame as it comes.
@@ -109,6 +114,7 @@ pub struct ComputeStep {
     motion: MotionSince,
     rejections: Rejections,
     depth: Vec<u16>,
+    predictive: Option<PredictiveCue>,
 }
 
 impl ComputeStep {
@@ -120,7 +126,16 @@ impl ComputeStep {
             motion: MotionSince::default(),
             rejections: Rejections::default(),
             depth: Vec::new(),
+            predictive: None,
         }
+    }
+
+    /// The same step with the cue from where the user heads: frames that come with a
+    /// [`FrameIn::way`] get the [`PredictiveCue`]'s state (a drop-off in the step zone
+    /// still stops the user), frames without one the cost functions'.
+    pub fn with_predictive(mut self, config: PredictiveConfig) -> Self {
+        self.predictive = Some(PredictiveCue::new(config));
+        self
     }
 
     /// The perception settings in use.
@@ -174,8 +189,22 @@ impl ComputeStep {
         };
         let active = self.pipeline.config().cost_function;
         match perceived {
-            Ok(perception) => {
+            Ok(mut perception) => {
                 self.rejections.record(true);
+                let t_s = input.capture_ns as f64 * 1e-9;
+                if let Some(p) = self.predictive.as_mut() {
+                    if let Some(way) = input.way.filter(|_| !perception.dropoff_ahead) {
+                        perception.rumble = p.decide(&Ahead {
+                            t_s,
+                            way,
+                            points: self.pipeline.obstacle_points(),
+                            sweep_rad: f64::from(perception.sweep_rad),
+                            speed_m_s: f64::from(perception.speed_m_s),
+                            yaw_rate_rad_s: perception.body_yaw_rate_rad_s.map(f64::from),
+                        });
+                    }
+                    p.sent(t_s, perception.rumble);
+                }
                 let hazard = perception.hazard(input.seq, active, Vec::new());
                 let intent = cue(&perception, &self.cue);
                 StepOutput::Perceived { perception, hazard, intent }
@@ -185,6 +214,9 @@ impl ComputeStep {
                     hazard: rejections::blind().hazard(input.seq, active, Vec::new()),
                     intent: cue_unavailable(&self.cue),
                 });
+                if let (Some(p), Some(_)) = (self.predictive.as_mut(), &blind) {
+                    p.sent(input.capture_ns as f64 * 1e-9, Rumble::Both);
+                }
                 StepOutput::Refused { error, blind }
             }
         }
@@ -226,7 +258,13 @@ mod tests {
     }
 
     fn input(frame: &DepthFrame, seq: u64) -> FrameIn<'_> {
-        FrameIn { data: FrameData::Wire(frame), seq, capture_ns: seq * 33_333_333, body_yaw_rate_rad_s: None }
+        FrameIn {
+            data: FrameData::Wire(frame),
+            seq,
+            capture_ns: seq * 33_333_333,
+            body_yaw_rate_rad_s: None,
+            way: None,
+        }
     }
 
     #[test]
@@ -254,6 +292,29 @@ mod tests {
         assert_eq!(hazard.ground, GroundState::Found);
         assert!(hazard.ficf.forward > 0.0, "{hazard:?}");
         assert!((hazard.nearest_m - 1.2).abs() < 0.05, "{}", hazard.nearest_m);
+    }
+
+    #[test]
+    fn with_a_way_the_cue_comes_from_where_the_user_heads() {
+        // the wall 1.2 m ahead: the cost functions warn; a user standing before it whose
+        // way leads back the way they came turns round without the cane reaching it, so
+        // the predictive cue sends nothing; a way into the wall is warned
+        let frame = wall_frame(DepthEncoding::Lossless);
+        let rumble = |way: Option<&[[f64; 2]]>| {
+            let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default())
+                .with_predictive(PredictiveConfig::default());
+            let way = way.map(|points| Way { points, ends_at_goal: true, walls: &[] });
+            match step.process(FrameIn { way, ..input(&frame, 7) }, &mut NoTimer) {
+                StepOutput::Perceived { perception, hazard, .. } => {
+                    assert_eq!(hazard.rumble, perception.rumble);
+                    perception.rumble
+                }
+                StepOutput::Refused { error, .. } => panic!("{error}"),
+            }
+        };
+        assert_ne!(rumble(None), Rumble::None, "the cost functions");
+        assert_eq!(rumble(Some(&[[0.0, 0.0], [-5.0, 0.0]])), Rumble::None, "a way back");
+        assert_ne!(rumble(Some(&[[0.0, 0.0], [5.0, 0.0]])), Rumble::None, "a way into the wall");
     }
 
     #[test]

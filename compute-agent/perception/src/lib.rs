@@ -38,6 +38,7 @@ pub mod nearest_scan;
 pub mod obstacle_memory;
 pub mod odometry;
 pub mod organized_cloud;
+pub mod predictive;
 pub mod rejections;
 pub mod synthetic_scene;
 pub mod time_to_collision;
@@ -196,6 +197,11 @@ impl PerceptionError {
     }
 }
 
+/// Frames further apart than this do not give a speed, ns.
+const SPEED_GAP_NS: u64 = 500_000_000;
+/// The speed is smoothed over about this long, seconds.
+const SPEED_SMOOTHING_S: f32 = 0.15;
+
 /// Perception of one frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Perception {
@@ -240,9 +246,13 @@ pub struct Perception {
     pub turn_ahead: bool,
     /// The body's turn rate this frame was given (`FrameContext::body_yaw_rate_rad_s`).
     pub body_yaw_rate_rad_s: Option<f32>,
-    /// The camera's angle to the way the user walks the costs were taken with, radians,
-    /// positive left (`walking_frame`; 0 when off or not known).
+    /// The camera's angle to the body's heading, radians, positive left: estimated
+    /// whenever the body's turn rate is given (0 when it is not), and taken by the
+    /// costs with `walking_frame` on.
     pub sweep_rad: f32,
+    /// The camera's speed over the floor, from the odometry, smoothed over about 0.15 s,
+    /// m/s (0 for a frame without odometry).
+    pub speed_m_s: f32,
 }
 
 impl Perception {
@@ -288,6 +298,7 @@ impl Perception {
             turn_ahead: false,
             body_yaw_rate_rad_s: None,
             sweep_rad: 0.0,
+            speed_m_s: 0.0,
         }
     }
 }
@@ -314,6 +325,8 @@ pub struct Pipeline {
     sweep: walking_frame::SweepEstimate,
     /// `cost_points` in the walking frame.
     walking_points: Vec<[f32; 2]>,
+    /// The stamp of the last frame whose motion was applied, ns.
+    moved_ns: Option<u64>,
     /// Motion since the last frame that got as far as the memory: a frame refused
     /// earlier passes its motion on, so what is remembered stays where it is.
     unapplied: Option<Motion>,
@@ -338,6 +351,7 @@ impl Pipeline {
             lower: dropoff::LowerGround::default(),
             sweep: walking_frame::SweepEstimate::default(),
             walking_points: Vec::new(),
+            moved_ns: None,
             unapplied: None,
             out: Perception::empty(),
         }
@@ -435,6 +449,19 @@ impl Pipeline {
 
         timer.start("memory");
         let motion = self.unapplied.take();
+        let since_ns = self.moved_ns.and_then(|t| ctx.stamp_ns.checked_sub(t));
+        match (motion, since_ns) {
+            (Some(m), Some(dt_ns)) if dt_ns > 0 && dt_ns <= SPEED_GAP_NS => {
+                let dt_s = dt_ns as f32 * 1e-9;
+                let k = dt_s / (dt_s + SPEED_SMOOTHING_S);
+                out.speed_m_s += k * (m.forward_m.hypot(m.left_m) / dt_s - out.speed_m_s);
+            }
+            (Some(_), _) => {}
+            (None, _) => out.speed_m_s = 0.0,
+        }
+        if motion.is_some() {
+            self.moved_ns = Some(ctx.stamp_ns);
+        }
         self.cost_points.clear();
         self.cost_points.extend(scan_points(&out.scan));
         let seen_points = self.cost_points.len();
@@ -474,8 +501,11 @@ impl Pipeline {
         timer.stop();
 
         timer.start("cost_function");
-        let sweep = self.sweep.update(ctx.stamp_ns, motion, ctx.body_yaw_rate_rad_s, &cfg.walking_frame);
-        out.sweep_rad = sweep;
+        // estimated whenever the body's rate is given (the predictive cue needs it); the
+        // costs take it only with the walking frame on
+        let estimate = config::WalkingFrameConfig { enabled: true, ..cfg.walking_frame.clone() };
+        out.sweep_rad = self.sweep.update(ctx.stamp_ns, motion, ctx.body_yaw_rate_rad_s, &estimate);
+        let sweep = if cfg.walking_frame.enabled { out.sweep_rad } else { 0.0 };
         self.walking_points.clear();
         self.walking_points.extend(self.cost_points.iter().map(|&p| walking_frame::to_walking(sweep)(p)));
         out.ficf = side_costs(self.walking_points.iter().copied(), &cfg.ficf);

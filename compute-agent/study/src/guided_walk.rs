@@ -107,8 +107,13 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
             encoding: DepthEncoding::Raw,
             data,
         };
-        let input =
-            FrameIn { data: FrameData::Wire(&frame), seq: k, capture_ns: f.stamp_ns, body_yaw_rate_rad_s: body_rate };
+        let input = FrameIn {
+            data: FrameData::Wire(&frame),
+            seq: k,
+            capture_ns: f.stamp_ns,
+            body_yaw_rate_rad_s: body_rate,
+            way: None,
+        };
         if let StepOutput::Perceived { perception, .. } = step.process(input, &mut NoTimer) {
             tracker.frame(
                 &perception.scan,

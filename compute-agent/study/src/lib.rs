@@ -151,6 +151,14 @@ pub struct CourseArgs {
     /// [default: the user's own, `--turn-rate-deg-s`] (a device knows only the typical user).
     #[arg(long)]
     pub oracle_turn_rate_deg_s: Option<f64>,
+    /// The cue from where the user heads (issue 32's predictive cue): each frame the
+    /// device walks a model of the typical user ahead along the route it knows (the goal
+    /// for a user heading for its sound), under each rumble state, against what the
+    /// perception holds, and sends one under which nothing is touched; clear whenever
+    /// clear is safe. The user's place on the route is the simulator's truth for now.
+    /// Needs --body-gyro (the body's heading under the cane's sweep).
+    #[arg(long, requires = "body_gyro", conflicts_with = "oracle")]
+    pub predictive: bool,
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
@@ -279,6 +287,7 @@ impl CourseArgs {
             oracle,
             oracle_sees,
             oracle_turn_rate_deg_s,
+            predictive,
             guide,
             route_lookahead_m,
             route_map,
@@ -380,6 +389,8 @@ impl CourseArgs {
         (c.camera, c.perception.stride_px) = self.camera.profile_and_stride();
         c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
         c.trace = self.trace.is_some();
+        // the device's model of the user and cane, once both are set
+        c.predictive = self.predictive.then(|| walk::predictive_for(&c));
         Ok(c)
     }
 }
@@ -515,6 +526,7 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
         "walking_frame": args.walking_frame,
         "rumble": !args.no_rumble,
         "oracle": config.oracle,
+        "predictive": config.predictive,
         "guide": args.guide,
         "route_lookahead_m": config.lookahead_m(),
         "route_map": args.route_map,
@@ -594,7 +606,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         config.oracle.map_or_else(String::new, |o| {
             let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
             format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
-        }),
+        }) + if config.predictive.is_some() { " (predictive: from the route and the true place)" } else { "" },
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),

@@ -524,6 +524,7 @@ fn walk_and_perceive(world: &World, seed: u64, config: &LocalizeWalkConfig) -> P
             seq: f.seq,
             capture_ns: f.capture_ns,
             body_yaw_rate_rad_s: None,
+            way: None,
         };
         let (scan, hazard) = match step.process(input, &mut NoTimer) {
             StepOutput::Perceived { perception, hazard, .. } => (Some(perception.scan), Some(hazard)),

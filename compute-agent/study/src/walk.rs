@@ -12,6 +12,7 @@ use std::collections::VecDeque;
 
 use feedback_agent::{Feedback, StepSettings};
 use perception::body_rate::BodyRate;
+use perception::predictive::{CaneModel, PredictiveConfig, RouteAhead, UserModel, Way};
 use perception::{cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput};
 use schemas::{DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, OdomIncrement};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
@@ -137,6 +138,12 @@ pub struct WalkConfig {
     /// of perception: the bound of what any device could do for this user. Perception
     /// still runs (for the trace and the feedback agent's watchdog).
     pub oracle: Option<OracleConfig>,
+    /// The cue from where the user heads ([`perception::predictive`]): each frame the
+    /// compute step is told the way ahead, from the route the user follows (the goal
+    /// for a user heading for its sound) and the user's place on it. The place is the
+    /// simulator's truth: the particle filter is not in this loop yet. Needs
+    /// [`WalkConfig::body_gyro`] (the body's heading under the sweep).
+    pub predictive: Option<PredictiveConfig>,
 }
 
 /// One camera frame of a walk, for finding out why a contact happened.
@@ -213,6 +220,7 @@ impl Default for WalkConfig {
             trace: false,
             body_gyro: false,
             oracle: None,
+            predictive: None,
         }
     }
 }
@@ -377,6 +385,97 @@ fn walkable(world: &World, map: RouteMap, pose: &UserPose, to: [f64; 2], radius_
     })
 }
 
+/// The user's knowledge of the floor is handed to the predictive cue this far around
+/// them (either way along each axis), metres: past what a look-ahead reaches.
+const KNOWN_NEAR_M: f64 = 4.5;
+
+/// What the user knows stands on `floor` (what their route's `map` holds, as the
+/// guide's line of sight takes it: walls, or every fixed shape, and level changes), as
+/// points every 10 cm around each footprint, map metres.
+fn known_points(world: &World, map: RouteMap, floor: i32) -> Vec<[f64; 2]> {
+    let g = world.geometry(floor);
+    let on_map =
+        |id: &ObstacleId| map == RouteMap::Full || world.obstacle(*id).is_some_and(|o| o.kind == ObstacleKind::Wall);
+    let mut out = Vec::new();
+    let mut outline = |center: [f64; 2], half: [f64; 2], yaw: f64| {
+        let (s, c) = yaw.sin_cos();
+        let corners = [[-half[0], -half[1]], [half[0], -half[1]], [half[0], half[1]], [-half[0], half[1]]];
+        for k in 0..4 {
+            let (a, b) = (corners[k], corners[(k + 1) % 4]);
+            let n = (((b[0] - a[0]).hypot(b[1] - a[1])) / 0.1).ceil().max(1.0) as usize;
+            for i in 0..n {
+                let f = i as f64 / n as f64;
+                let (x, y) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+                out.push([center[0] + c * x - s * y, center[1] + s * x + c * y]);
+            }
+        }
+    };
+    for (b, _) in g.boxes.iter().filter(|(b, id)| on_map(id) && b.bottom_m < 1.8) {
+        outline(b.center_m, b.half_size_m, b.yaw_rad);
+    }
+    for (d, _) in &g.drop_offs {
+        outline(d.center_m, d.half_size_m, d.yaw_rad);
+    }
+    for (cyl, _) in g.cylinders.iter().filter(|(c, id)| on_map(id) && c.bottom_m < 1.8) {
+        let n = ((std::f64::consts::TAU * cyl.radius_m / 0.1).ceil() as usize).max(6);
+        for i in 0..n {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            out.push([cyl.center_m[0] + cyl.radius_m * a.cos(), cyl.center_m[1] + cyl.radius_m * a.sin()]);
+        }
+    }
+    out
+}
+
+/// The route the device knows: the one the guide keeps the user on (start, waypoints,
+/// goal), or for a user heading for the goal's sound, the goal.
+fn device_route(world: &World, config: &WalkConfig) -> Vec<[f64; 2]> {
+    let (start, goal) = (world.start(), world.goal());
+    let route = match config.route_map {
+        RouteMap::Full => world.walker().map(|w| w.waypoints.clone()),
+        RouteMap::FloorPlan => world.floor_plan_route().map(<[_]>::to_vec),
+    };
+    match (config.guide, route) {
+        (GuideKind::Route, Some(points)) => {
+            let mut route = vec![[start.x_m, start.y_m]];
+            route.extend(points);
+            route.push([goal.x_m, goal.y_m]);
+            route
+        }
+        _ => vec![[goal.x_m, goal.y_m]],
+    }
+}
+
+/// The predictive cue's model of this study's typical user and cane: the device is
+/// taken to have learnt the user's walking speed, turning rate and reaction (each
+/// walk's user reacts up to 25 % off it), and to know its cane.
+pub fn predictive_for(config: &WalkConfig) -> PredictiveConfig {
+    let (u, m) = (&config.user, &config.mount);
+    let reach_m = (m.cane_length_m.powi(2) - m.handle_height_m.powi(2)).max(0.0).sqrt();
+    PredictiveConfig {
+        user: UserModel {
+            walk_speed_m_s: u.walk_speed_m_s,
+            turn_walk_speed_m_s: u.turn_walk_speed_m_s,
+            turn_rate_deg_s: u.turn_rate_deg_s,
+            reaction_s: u.reaction_s,
+            accel_m_s2: u.accel_m_s2,
+            commit_s: u.commit_s,
+            shoulder_width_m: u.shoulder_width_m,
+            lookahead_m: config.lookahead_m(),
+            ..UserModel::default()
+        },
+        cane: CaneModel {
+            hand_forward_m: m.hand_forward_m,
+            camera_from_hand_m: m.camera_below_handle_m * reach_m / m.cane_length_m.max(1e-6),
+            reach_m,
+            sweep_deg: m.sweep_amplitude_deg,
+            sweep_hz: m.sweep_hz,
+        },
+        latency_s: config.latency_ms / 1000.0,
+        goal_radius_m: config.goal_radius_m,
+        ..PredictiveConfig::default()
+    }
+}
+
 /// A guide for `kind` in `world`.
 fn guide_for<'a>(
     kind: GuideKind,
@@ -490,6 +589,14 @@ pub struct Walk<'w> {
     guided_at_s: f64,
     oracle: Option<Oracle>,
     seen_points: PointGrid,
+    /// With the predictive cue: the route the device knows, and the way ahead.
+    route_ahead: Option<RouteAhead>,
+    way: Vec<[f64; 2]>,
+    /// What the user knows of the floor (the route map's walls and level changes) as
+    /// points every 10 cm, map frame, and the floor they are of; near ones in the body
+    /// frame.
+    known: (Option<i32>, Vec<[f64; 2]>),
+    known_near: Vec<[f64; 2]>,
     pending: VecDeque<InFlight>,
     last_floor: Option<(UserPose, u64)>,
     shown: Felt,
@@ -525,7 +632,10 @@ impl<'w> Walk<'w> {
 
         let renderer = Renderer::new(config.camera.clone());
         // the compute agent's own frame step, fed frames as the sensor agent packs them
-        let frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+        let mut frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+        if let Some(p) = config.predictive {
+            frame_step = frame_step.with_predictive(p);
+        }
         let wire = DepthFrame {
             width: config.camera.width,
             height: config.camera.height,
@@ -590,6 +700,10 @@ impl<'w> Walk<'w> {
             guided_at_s: 0.0,
             oracle: config.oracle.map(Oracle::new),
             seen_points: PointGrid::default(),
+            route_ahead: config.predictive.map(|_| RouteAhead::new(device_route(world, config))),
+            way: Vec::new(),
+            known: (None, Vec::new()),
+            known_near: Vec::new(),
             pending: VecDeque::new(),
             last_floor: None,
             shown: Felt::None,
@@ -689,7 +803,22 @@ impl<'w> Walk<'w> {
         let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
         let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
         let seq = self.out.frames as u64;
-        let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s };
+        if self.route_ahead.is_some() {
+            if self.known.0 != Some(pose.floor) {
+                self.known = (Some(pose.floor), known_points(world, config.route_map, pose.floor));
+            }
+            let (s, c) = pose.yaw_rad.sin_cos();
+            self.known_near.clear();
+            self.known_near.extend(self.known.1.iter().filter_map(|p| {
+                let (dx, dy) = (p[0] - pose.x_m, p[1] - pose.y_m);
+                (dx.abs() <= KNOWN_NEAR_M && dy.abs() <= KNOWN_NEAR_M).then(|| [c * dx + s * dy, -s * dx + c * dy])
+            }));
+        }
+        let way = self.route_ahead.as_mut().map(|route| {
+            route.ahead(pose.x_m, pose.y_m, pose.yaw_rad, &mut self.way);
+            Way { points: &self.way, ends_at_goal: route.ends_at_goal(self.way.len()), walls: &self.known_near }
+        });
+        let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s, way };
         let processed = match self.frame_step.process(input, &mut NoTimer) {
             StepOutput::Perceived { perception, hazard, intent } => Ok((hazard, intent, perception.turn_ahead)),
             StepOutput::Refused { blind, .. } => Err(blind),

@@ -563,3 +563,38 @@ fn worlds_that_are_not_there_or_flags_that_do_not_fit_groups_are_refused_before_
     let refused = base.with_flags("--count 4").err().map(|e| format!("{e:#}")).unwrap_or_default();
     assert!(refused.contains("--count, --seed and --runs must stay the same"), "{refused}");
 }
+
+/// `lobby-bench` (issue 29's lobby: a bench, bollards and a sunken area by the
+/// floor-plan route), walked along that route with the body's gyro.
+fn lobby_bench_by_route(timeout_s: f64) -> (World, WalkConfig) {
+    let w = match World::builtin("lobby-bench") {
+        Some(Ok(w)) => w,
+        other => panic!("lobby-bench: {:?}", other.map(|r| r.err())),
+    };
+    let config = WalkConfig {
+        guide: GuideKind::Route,
+        route_map: study::walk::RouteMap::FloorPlan,
+        body_gyro: true,
+        ..quick(timeout_s)
+    };
+    (w, config)
+}
+
+#[test]
+fn the_predictive_cue_takes_the_user_past_the_bench_where_the_cost_functions_hold_them_back() {
+    // the cue from the route and the user's place (issue 32) lets the user walk the
+    // route past the bench it keeps clear of; the cost functions, which look at what
+    // stands ahead of the swept camera, turn the same user back and forth before it
+    // (`docs/predictive-cue.md`: 4 walks 27 s and 19 signals against 193 s and 179)
+    let (w, base) = lobby_bench_by_route(60.0);
+    let predictive = WalkConfig { predictive: Some(study::walk::predictive_for(&base)), ..base.clone() };
+    for seed in 1..=4 {
+        let out = walk(&w, &predictive, seed);
+        assert!(out.completed && out.time_s < 55.0, "seed {seed}: {}", out.verdict());
+        assert_eq!(out.count(Part::Body, None), 0, "seed {seed}: {:?}", out.contacts);
+        assert!(out.count(Part::Cane, None) <= 3, "seed {seed}: {:?}", out.contacts);
+        assert!(out.signals <= 50, "seed {seed}: {} signals", out.signals);
+    }
+    let held = walk(&w, &base, 1);
+    assert!(!held.completed, "the cost functions let seed 1 through in {:.1} s", held.time_s);
+}
