@@ -182,7 +182,7 @@ fn a_destination_waits_for_the_position_then_guides_across_floors_to_arrival() {
     let mut said = walk(&mut nav, [19.5, 1.5], [19.5, 11.5], 1, &mut t);
     said.extend(walk(&mut nav, [19.5, 11.5], [1.5, 11.5], 1, &mut t));
     assert_eq!(said, ["In 6 metres, turn left.", "Turn left now.", "You have arrived at room 214."]);
-    let done = nav.state(&at(1.5, 11.5, 3.14, 1));
+    let done = nav.state(&at(1.5, 11.5, std::f64::consts::PI, 1));
     assert_eq!((done.status, done.distance_left_m, done.floor), (RouteStatus::Arrived, 0.0, 1));
 }
 
