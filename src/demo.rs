@@ -51,6 +51,11 @@ pub struct DemoArgs {
     /// when the user did not arrive within 1 m of the place.
     #[arg(long, value_name = "LABEL")]
     pub destination: Option<String>,
+    /// On a simulated world: the rumble from where the user heads (the route followed
+    /// and the position on the floor plan) instead of the cost functions, while the
+    /// device guides and tracks the position (docs/predictive-cue.md).
+    #[arg(long)]
+    pub predictive: bool,
 }
 
 fn free_loopback_port() -> anyhow::Result<u16> {
@@ -200,6 +205,10 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     // The hub (compute) must be listening before the others connect.
     let mut compute_config = compute_agent::run::ComputeConfig::new(hub_bus);
     compute_config.nav = navigation.as_ref().map(|(_, nav)| nav.clone());
+    if args.predictive {
+        anyhow::ensure!(compute_config.nav.is_some(), "--predictive needs a simulated world (--source sim:<world>)");
+        compute_config.predictive = Some(perception::predictive::PredictiveConfig::default());
+    }
     let compute = tokio::spawn(compute_agent::run::run(compute_config, shutdown.clone()));
     tokio::time::sleep(Duration::from_millis(300)).await;
     let feedback_config = feedback_agent::FeedbackConfig { bus: peer_bus.clone(), ..feedback_config };

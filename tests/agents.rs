@@ -528,7 +528,9 @@ fn building_map() -> String {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides() {
     use bus::query::get;
-    use schemas::{Command, Destinations, GroundTruth, LocalizationStatus, Pose, Priority, RouteState, RouteStatus};
+    use schemas::{
+        Command, Destinations, GroundTruth, Hazard, LocalizationStatus, Pose, Priority, RouteState, RouteStatus,
+    };
     let user = "nav-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
@@ -537,6 +539,7 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let routes = Subscriber::<RouteState>::declare(&hub.session, keys.route_state(), false, h).await.unwrap();
     let speech = Subscriber::<schemas::SpeechIntent>::declare(&hub.session, keys.speech(), false, h).await.unwrap();
     let truth = Subscriber::<GroundTruth>::declare(&hub.session, keys.truth_any(), true, h).await.unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, h).await.unwrap();
     let mut destination =
         Publisher::<Command>::declare(&hub.session, keys.cmd("destination"), "test-user", Lane::Events, None)
             .await
@@ -547,7 +550,7 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     // the building's scripted walk: from the entrance (1, 5) east to the stairs
     let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:building"]);
     let map = building_map();
-    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map, "--start", "1,5,0,0"]);
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map, "--start", "1,5,0,0", "--predictive"]);
 
     let tracked = wait_for(&poses, Duration::from_secs(30), |p| p.body.status == LocalizationStatus::Tracking).await;
     let tracked = tracked.expect("localization never tracked");
@@ -572,6 +575,9 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let unknown = get::<RouteState>(&hub.session, &to_kitchen, Duration::from_secs(5)).await.unwrap().unwrap_err();
     assert!(unknown.starts_with("I do not know a place called kitchen"), "{unknown}");
 
+    // no route yet: the rumble comes from the cost functions
+    let unguided = wait_for(&hazards, Duration::from_secs(3), |_| true).await;
+    assert!(unguided.is_some_and(|h| !h.body.predictive), "the predictive cue with no route");
     destination.put(bus::now_ns(), &Command::Destination { label: "room 204".into() }).await.unwrap();
     let route = wait_for(&speech, Duration::from_secs(5), |s| s.body.text.starts_with("Route to room 204:")).await;
     assert!(route.is_some_and(|s| s.body.priority == Priority::Message), "guidance did not start");
@@ -579,6 +585,10 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let guiding = guiding.expect("route state never guiding");
     assert_eq!(guiding.body.destination, "room 204");
     assert!(guiding.body.next_waypoint.is_some() && !guiding.body.route.is_empty());
+    // with a route followed and the position tracked the rumble comes from where the
+    // user heads (--predictive)
+    let predicted = wait_for(&hazards, Duration::from_secs(3), |h| h.body.predictive).await;
+    assert!(predicted.is_some(), "no hazard from the predictive cue while guiding");
 
     destination.put(bus::now_ns(), &Command::Destination { label: "kitchen".into() }).await.unwrap();
     let no =
@@ -590,4 +600,8 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     assert!(stopped.is_some(), "cancel was not acknowledged");
     let idle = wait_for(&routes, Duration::from_secs(2), |r| r.body.status == RouteStatus::Idle).await;
     assert!(idle.is_some(), "route state not idle after cancel");
+    // no route: the cost functions again
+    let idle_ns = idle.map_or(0, |r| r.header.capture_ns);
+    let costs = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns > idle_ns).await;
+    assert!(costs.is_some_and(|h| !h.body.predictive), "the predictive cue went on after cancel");
 }

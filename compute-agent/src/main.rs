@@ -56,6 +56,14 @@ struct Cli {
     /// Seed of the localization filter's random draws.
     #[arg(long, value_name = "N", default_value_t = 1, requires = "map")]
     localization_seed: u64,
+    /// Rumble from where the user heads while a route is followed and the position is
+    /// tracked: each frame a model of the typical user is walked ahead along the route
+    /// under each state, against what the perception holds (docs/predictive-cue.md);
+    /// the cost functions otherwise. Needs the body's gyro (--body-imu-device) for the
+    /// body's heading under the cane's sweep. Off by default: on generated worlds it is
+    /// not yet better than the cost functions.
+    #[arg(long, requires = "map", conflicts_with = "no_body_imu")]
+    predictive: bool,
 }
 
 /// `X,Y,HEADING_DEG[,FLOOR]`.
@@ -107,6 +115,7 @@ async fn main() -> anyhow::Result<()> {
         nav.seed = cli.localization_seed;
         config.nav = Some(nav);
     }
+    config.predictive = cli.predictive.then(perception::predictive::PredictiveConfig::default);
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     compute_agent::run::run(config, shutdown).await

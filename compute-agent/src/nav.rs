@@ -15,12 +15,62 @@ use anyhow::Context;
 use bus::{Health, Lane, Publisher, Query, Queryable, Received, Subscriber};
 use guidance::{GuidanceProfile, Navigator, UserPose};
 use localization::{Pose2, Tracker, TrackerConfig};
-use map::Building;
+use map::{Building, Cell};
 use perception::body_rate::BodyRate;
+use perception::predictive::Way;
 use planning::UserProfile;
-use schemas::{Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, Scan, SpeechIntent};
+use schemas::{Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, RouteStatus, Scan, SpeechIntent};
 
 use crate::run::AGENT;
+
+/// The walls near the user handed to the predictive cue: this far either way along
+/// each axis, metres (past what its 2.5 s look-ahead reaches).
+const WALLS_NEAR_M: f64 = 4.5;
+
+/// A floor plan's occupied cells as points, at most one per 10 cm square.
+fn wall_points(grid: &map::OccupancyGrid) -> Vec<[f64; 2]> {
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    for row in 0..grid.height() {
+        for col in 0..grid.width() {
+            if grid.get(col, row) == Some(Cell::Occupied) {
+                let (x, y) = grid.cell_center(col, row);
+                if seen.insert(((x / 0.1).floor() as i64, (y / 0.1).floor() as i64)) {
+                    out.push([x, y]);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The route ahead of `pose` on its floor (the user's place first, then the route's
+/// points while they stay on that floor) and the walls within [`WALLS_NEAR_M`], in the
+/// body's frame (x along the heading, y to the left); true when the way ends at the
+/// destination rather than at a gateway to another floor.
+pub fn way_ahead(
+    pose: &UserPose,
+    state: &RouteState,
+    walls: &[[f64; 2]],
+    way: &mut Vec<[f64; 2]>,
+    near: &mut Vec<[f64; 2]>,
+) -> bool {
+    let (s, c) = pose.heading_rad.sin_cos();
+    let body = |x: f64, y: f64| {
+        let (dx, dy) = (x - pose.x_m, y - pose.y_m);
+        [c * dx + s * dy, -s * dx + c * dy]
+    };
+    way.clear();
+    way.push([0.0, 0.0]);
+    let on_floor = state.route.iter().take_while(|p| p.floor == pose.floor);
+    way.extend(on_floor.map(|p| body(f64::from(p.x_m), f64::from(p.y_m))));
+    near.clear();
+    near.extend(walls.iter().filter_map(|p| {
+        let (dx, dy) = (p[0] - pose.x_m, p[1] - pose.y_m);
+        (dx.abs() <= WALLS_NEAR_M && dy.abs() <= WALLS_NEAR_M).then(|| body(p[0], p[1]))
+    }));
+    way.len() == state.route.len() + 1
+}
 
 /// Period of `localization/pose` and `route/state`.
 pub const STATE_PERIOD: Duration = Duration::from_millis(200);
@@ -111,6 +161,11 @@ pub struct Nav {
     pub(crate) routes: Queryable,
     serial: u64,
     started_ns: u64,
+    /// Each floor's walls as points about 10 cm apart (what the user is taken to know),
+    /// and the way ahead and the walls near the user for the predictive cue.
+    walls: Vec<(i32, Vec<[f64; 2]>)>,
+    way: Vec<[f64; 2]>,
+    walls_near: Vec<[f64; 2]>,
 }
 
 impl Nav {
@@ -156,6 +211,9 @@ impl Nav {
             routes: Queryable::declare(session, keys.query("route"), health).await?,
             serial: 0,
             started_ns: bus::now_ns(),
+            walls: building.floors().iter().map(|f| (f.level, wall_points(&f.grid))).collect(),
+            way: Vec::new(),
+            walls_near: Vec::new(),
         })
     }
 
@@ -173,6 +231,24 @@ impl Nav {
 
     fn now_ms(&self) -> u64 {
         bus::now_ns().saturating_sub(self.started_ns) / 1_000_000
+    }
+
+    /// Where the user heads, for the predictive cue: the route from the user's place on
+    /// this floor and the floor's walls near them, in the body's frame at the filter's
+    /// pose. `None` (the cost functions decide) while the filter does not track or no
+    /// route is being followed.
+    pub fn way(&mut self) -> Option<Way<'_>> {
+        let pose = self.user_pose();
+        if !pose.confident {
+            return None;
+        }
+        let state = self.navigator.state(&pose);
+        if state.status != RouteStatus::Guiding {
+            return None;
+        }
+        let walls = self.walls.iter().find(|(level, _)| *level == pose.floor).map_or(&[][..], |(_, w)| w);
+        let ends_at_goal = way_ahead(&pose, &state, walls, &mut self.way, &mut self.walls_near);
+        Some(Way { points: &self.way, ends_at_goal, walls: &self.walls_near })
     }
 
     /// One odometry increment of the body, with the body's gyro rate over it.
@@ -320,5 +396,40 @@ impl Nav {
         if let Err(e) = self.speech_out.put(capture_ns, &speech).await {
             tracing::warn!("{e:#}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use schemas::MapPoint;
+
+    #[test]
+    fn the_way_ahead_is_the_route_on_this_floor_and_the_walls_near_in_the_body_frame() {
+        // the user at (2, 1) facing +y (the body's x is the map's +y, its y the map's -x);
+        // the route goes north to (2, 5), then to a gateway and on upstairs
+        let pose = UserPose { x_m: 2.0, y_m: 1.0, heading_rad: std::f64::consts::FRAC_PI_2, floor: 0, confident: true };
+        let at = |x_m: f32, y_m: f32, floor: i32| MapPoint { x_m, y_m, floor };
+        let mut state = RouteState {
+            destination: "room 204".into(),
+            next_waypoint: Some(at(2.0, 5.0, 0)),
+            distance_left_m: 10.0,
+            instruction: String::new(),
+            floor: 0,
+            status: RouteStatus::Guiding,
+            route: vec![at(2.0, 5.0, 0), at(4.0, 5.0, 0), at(4.0, 5.0, 1), at(8.0, 5.0, 1)],
+        };
+        // a wall 1 m to the user's left (map x = 1) and one 10 m away
+        let walls = [[1.0, 1.0], [1.0, 2.0], [12.0, 1.0]];
+        let (mut way, mut near) = (Vec::new(), Vec::new());
+        let ends_at_goal = way_ahead(&pose, &state, &walls, &mut way, &mut near);
+        let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+        assert!(!ends_at_goal, "the way on this floor ends at the gateway");
+        assert_eq!(way.len(), 3, "{way:?}");
+        assert!(close(way[0], [0.0, 0.0]) && close(way[1], [4.0, 0.0]) && close(way[2], [4.0, -2.0]), "{way:?}");
+        assert_eq!(near.len(), 2, "{near:?}");
+        assert!(close(near[0], [0.0, 1.0]) && close(near[1], [1.0, 1.0]), "{near:?}");
+        state.route.truncate(2);
+        assert!(way_ahead(&pose, &state, &walls, &mut way, &mut near), "the way ends at the destination");
     }
 }

@@ -10,6 +10,7 @@ use bus::{BusOptions, Health, Lane, Publisher, Received, Shutdown, Subscriber};
 use schemas::{DepthFrame, HapticIntent, Hazard, ImuBatch, OdomIncrement, Scan, StageLatency};
 
 use perception::body_rate::{BodyRate, MAX_AGE_NS};
+use perception::predictive::{PredictiveConfig, Way};
 use perception::rejections::REJECTIONS_BEFORE_BLIND;
 use perception::{Blind, ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, PerceptionConfig, StepOutput};
 
@@ -41,6 +42,10 @@ pub struct ComputeConfig {
     /// Localization, route planning and guidance on a floor map; `None`: obstacle
     /// perception only.
     pub nav: Option<NavConfig>,
+    /// The cue from where the user heads ([`perception::predictive`]) while a route is
+    /// followed and the position tracked (needs `nav`); the cost functions otherwise.
+    /// `None`: the cost functions always.
+    pub predictive: Option<PredictiveConfig>,
 }
 
 /// Default [`ComputeConfig::max_input_age`]: a frame is 33 ms at 30 Hz and capture ->
@@ -62,6 +67,7 @@ impl ComputeConfig {
             body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
             max_input_age: DEFAULT_MAX_INPUT_AGE,
             nav: None,
+            predictive: None,
         }
     }
 }
@@ -162,6 +168,9 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let mut state_tick = tokio::time::interval(STATE_PERIOD);
     state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+    if let Some(p) = config.predictive.filter(|_| nav.is_some()) {
+        step = step.with_predictive(p);
+    }
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
 
@@ -216,7 +225,8 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                 }
                 let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
                 let nav_status = nav.as_ref().map(|n| n.status());
-                let scan = process(&frame, body_yaw_rate_rad_s, &mut step, &health, &mut out, nav_status).await;
+                let way = if config.predictive.is_some() { nav.as_mut().and_then(|n| n.way()) } else { None };
+                let scan = process(&frame, body_yaw_rate_rad_s, way, &mut step, &health, &mut out, nav_status).await;
                 if let (Some(n), Some(scan)) = (nav.as_mut(), scan) {
                     n.frame(&scan, frame.header.capture_ns, body_yaw_rate_rad_s).await;
                 }
@@ -263,9 +273,11 @@ fn add_step(
 /// the latencies from capture) and scan; a refused frame is counted, and when the
 /// refusals in a row mean the system is blind, that is published instead of silence.
 /// Returns the scan of a perceived frame.
+#[allow(clippy::too_many_arguments)]
 async fn process(
     frame: &Received<DepthFrame>,
     body_yaw_rate_rad_s: Option<f32>,
+    way: Option<Way<'_>>,
     step: &mut ComputeStep,
     health: &Arc<Health>,
     out: &mut Outputs,
@@ -279,13 +291,8 @@ async fn process(
     let started_ns = bus::now_ns();
     clock.stages.push(("arrival", Duration::from_nanos(frame.received_ns.saturating_sub(capture_ns))));
     clock.stages.push(("queue", Duration::from_nanos(started_ns.saturating_sub(frame.received_ns))));
-    let input = FrameIn {
-        data: FrameData::Wire(&frame.body),
-        seq: frame.header.seq,
-        capture_ns,
-        body_yaw_rate_rad_s,
-        way: None,
-    };
+    let input =
+        FrameIn { data: FrameData::Wire(&frame.body), seq: frame.header.seq, capture_ns, body_yaw_rate_rad_s, way };
     let (perception, mut hazard, intent) = match step.process(input, &mut clock) {
         StepOutput::Perceived { perception, hazard, intent } => (perception, hazard, intent),
         StepOutput::Refused { error, blind } => {

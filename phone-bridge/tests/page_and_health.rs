@@ -30,6 +30,7 @@ fn hazard(rumble: Rumble) -> Hazard {
         dropoff_ahead: false,
         turn_ahead: false,
         body_turn_deg_s: None,
+        predictive: false,
         latency: vec![],
     }
 }

@@ -226,6 +226,10 @@ pub struct Hazard {
     /// The body's turn rate perception was given, degrees/s positive left (from a
     /// body-worn IMU); `None`: none heard lately, the costs look along the camera only.
     pub body_turn_deg_s: Option<f32>,
+    /// The rumble comes from where the user heads (the route followed and the position
+    /// tracked: the predictive cue); false: from the cost function `active` (no route,
+    /// the position not tracked, or the cue off).
+    pub predictive: bool,
     /// Per-stage latency of this frame.
     pub latency: Vec<StageLatency>,
 }
@@ -248,6 +252,7 @@ impl Hazard {
             ttc_s: None,
             dropoff_ahead: false,
             turn_ahead: false,
+            predictive: false,
             body_turn_deg_s: None,
             latency: vec![],
         }

@@ -212,6 +212,7 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
         dropoff_ahead: false,
         turn_ahead: false,
         body_turn_deg_s: None,
+        predictive: false,
         latency: Vec::new(),
     };
     vec![
@@ -254,6 +255,7 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
                 nearest_bearing_deg: 15.0,
                 turn_ahead: true,
                 body_turn_deg_s: Some(45.0),
+                predictive: true,
                 ..hazard(Rumble::Right, GroundState::Degraded, CostFunction::Ficf)
             },
         ),
@@ -630,10 +632,11 @@ fn reject_vectors() -> Vec<Golden> {
         reject::<SpeechIntent>("too_short", speech_bytes[..3].to_vec(), "truncated"),
         reject::<SpeechIntent>("empty", Vec::new(), "truncated"),
         reject::<SpeechIntent>("wrong_version", patched(&speech_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
-        // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s), and from one
-        // before v3 (no session, no checksum)
+        // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s), from one
+        // before v3 (no session, no checksum) and from one before v4 (no predictive)
         reject::<Hazard>("hazard_v1", patched(&hazard_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
         reject::<Hazard>("hazard_v2", patched(&hazard_bytes, 2, &2u16.to_le_bytes()), "unknown_version"),
+        reject::<Hazard>("hazard_v3", patched(&hazard_bytes, 2, &3u16.to_le_bytes()), "unknown_version"),
         reject::<SpeechIntent>("unknown_schema", patched(&speech_bytes, 0, &99u16.to_le_bytes()), "unknown_schema"),
         reject::<Hazard>("wrong_schema", scan_bytes.clone(), "wrong_schema"),
         reject::<Hazard>("garbage_ff", vec![0xff; 40], "unknown_schema"),

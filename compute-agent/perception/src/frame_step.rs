@@ -202,6 +202,7 @@ impl ComputeStep {
                             speed_m_s: f64::from(perception.speed_m_s),
                             yaw_rate_rad_s: perception.body_yaw_rate_rad_s.map(f64::from),
                         });
+                        perception.predictive = true;
                     }
                     p.sent(t_s, perception.rumble);
                 }
@@ -307,6 +308,7 @@ mod tests {
             match step.process(FrameIn { way, ..input(&frame, 7) }, &mut NoTimer) {
                 StepOutput::Perceived { perception, hazard, .. } => {
                     assert_eq!(hazard.rumble, perception.rumble);
+                    assert_eq!(hazard.predictive, way.is_some());
                     perception.rumble
                 }
                 StepOutput::Refused { error, .. } => panic!("{error}"),

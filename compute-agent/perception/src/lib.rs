@@ -253,6 +253,9 @@ pub struct Perception {
     /// The camera's speed over the floor, from the odometry, smoothed over about 0.15 s,
     /// m/s (0 for a frame without odometry).
     pub speed_m_s: f32,
+    /// `rumble` came from where the user heads ([`crate::predictive`], set by the frame
+    /// step); false: from the costs.
+    pub predictive: bool,
 }
 
 impl Perception {
@@ -272,6 +275,7 @@ impl Perception {
             dropoff_ahead: self.dropoff_ahead,
             turn_ahead: self.turn_ahead,
             body_turn_deg_s: self.body_yaw_rate_rad_s.filter(|r| r.is_finite()).map(f32::to_degrees),
+            predictive: self.predictive,
             latency,
         }
     }
@@ -299,6 +303,7 @@ impl Perception {
             body_yaw_rate_rad_s: None,
             sweep_rad: 0.0,
             speed_m_s: 0.0,
+            predictive: false,
         }
     }
 }
