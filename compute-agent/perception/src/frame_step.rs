@@ -162,8 +162,8 @@ impl ComputeStep {
 
     /// Runs one frame: decode, perceive with the odometry that ends by its capture,
     /// cue; or refuse it, and after [`rejections::REJECTIONS_BEFORE_BLIND`] refusals in
-    /// a row say the system is blind. `timer` times the stages (`decode` and the
-    /// pipeline's).
+    /// a row say the system is blind. `timer` times the stages (`decode`, the
+    /// pipeline's, and `predictive` when that cue decides).
     pub fn process(&mut self, input: FrameIn<'_>, timer: &mut dyn StageTimer) -> StepOutput {
         let perceived = match input.data {
             FrameData::Wire(f) => {
@@ -194,6 +194,7 @@ impl ComputeStep {
                 let t_s = input.capture_ns as f64 * 1e-9;
                 if let Some(p) = self.predictive.as_mut() {
                     if let Some(way) = input.way.filter(|_| !perception.dropoff_ahead) {
+                        timer.start("predictive");
                         perception.rumble = p.decide(&Ahead {
                             t_s,
                             way,
@@ -202,6 +203,7 @@ impl ComputeStep {
                             speed_m_s: f64::from(perception.speed_m_s),
                             yaw_rate_rad_s: perception.body_yaw_rate_rad_s.map(f64::from),
                         });
+                        timer.stop();
                         perception.predictive = true;
                     }
                     p.sent(t_s, perception.rumble);
