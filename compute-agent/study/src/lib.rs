@@ -155,10 +155,15 @@ pub struct CourseArgs {
     /// device walks a model of the typical user ahead along the route it knows (the goal
     /// for a user heading for its sound), under each rumble state, against what the
     /// perception holds, and sends one under which nothing is touched; clear whenever
-    /// clear is safe. The user's place on the route is the simulator's truth for now.
-    /// Needs --body-gyro (the body's heading under the cane's sweep).
+    /// clear is safe. The user's place on the route: --pose. Needs --body-gyro (the body's heading under the cane's sweep).
     #[arg(long, requires = "body_gyro", conflicts_with = "oracle")]
     pub predictive: bool,
+    /// With --predictive: where the device takes the user to be: `filter`, the compute
+    /// agent's particle filter on the world's floor plan (the cost functions decide
+    /// while it does not track); `truth`, the simulator's, only to tell the filter's
+    /// error from the cue's.
+    #[arg(long, value_enum, default_value_t = walk::PoseSource::Filter)]
+    pub pose: walk::PoseSource,
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
@@ -288,6 +293,7 @@ impl CourseArgs {
             oracle_sees,
             oracle_turn_rate_deg_s,
             predictive,
+            pose,
             guide,
             route_lookahead_m,
             route_map,
@@ -390,7 +396,9 @@ impl CourseArgs {
         c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
         c.trace = self.trace.is_some();
         // the device's model of the user and cane, once both are set
+        anyhow::ensure!(self.predictive || self.pose == walk::PoseSource::Filter, "--pose goes with --predictive");
         c.predictive = self.predictive.then(|| walk::predictive_for(&c));
+        c.pose = self.pose;
         Ok(c)
     }
 }
@@ -527,6 +535,7 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
         "rumble": !args.no_rumble,
         "oracle": config.oracle,
         "predictive": config.predictive,
+        "pose": config.predictive.map(|_| config.pose),
         "guide": args.guide,
         "route_lookahead_m": config.lookahead_m(),
         "route_map": args.route_map,
@@ -606,7 +615,11 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         config.oracle.map_or_else(String::new, |o| {
             let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
             format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
-        }) + if config.predictive.is_some() { " (predictive: from the route and the true place)" } else { "" },
+        }) + match (config.predictive, config.pose) {
+            (None, _) => "",
+            (Some(_), walk::PoseSource::Filter) => " (predictive: from the route and the particle filter's place)",
+            (Some(_), walk::PoseSource::Truth) => " (predictive: from the route and the true place)",
+        },
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),
@@ -679,8 +692,13 @@ fn on_off(on: bool) -> &'static str {
 
 /// A finished walk in the progress log: seed, outcome, time and contacts.
 pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
+    let localization = match w.localization {
+        None => String::new(),
+        Some((_, 0)) => "; the filter never tracked".to_string(),
+        Some((rmse_m, frames)) => format!("; the filter tracked {frames} of {} frames, RMSE {rmse_m:.2} m", w.frames),
+    };
     format!(
-        "seed {}: {} in {:.1} s, {} cane and {} body contacts",
+        "seed {}: {} in {:.1} s, {} cane and {} body contacts{localization}",
         w.seed,
         w.verdict(),
         w.time_s,

@@ -272,6 +272,7 @@ mod tests {
             reaction_s,
             end_xy_m: [0.0, 0.0],
             way_through: Some(true),
+            localization: None,
             trace: Vec::new(),
         }
     }

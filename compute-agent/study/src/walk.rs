@@ -11,6 +11,7 @@
 use std::collections::VecDeque;
 
 use feedback_agent::{Feedback, StepSettings};
+use localization::{Pose2, Tracker, TrackerConfig};
 use perception::body_rate::BodyRate;
 use perception::predictive::{CaneModel, PredictiveConfig, RouteAhead, UserModel, Way};
 use perception::{cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput};
@@ -24,6 +25,7 @@ use sensor_agent::sim::{
 };
 
 use super::contacts::{cane_distance_m, in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
+use super::floor_plan;
 use super::hands::{Felt, FeltRumble, Hands};
 use super::oracle::{Now, Oracle, OracleConfig, PointGrid, Seen, Sees};
 use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Touch, UserParams, VirtualUser};
@@ -141,9 +143,23 @@ pub struct WalkConfig {
     /// The cue from where the user heads ([`perception::predictive`]): each frame the
     /// compute step is told the way ahead, from the route the user follows (the goal
     /// for a user heading for its sound) and the user's place on it. The place is the
-    /// simulator's truth: the particle filter is not in this loop yet. Needs
-    /// [`WalkConfig::body_gyro`] (the body's heading under the sweep).
+    /// place and heading from [`WalkConfig::pose`]. Needs [`WalkConfig::body_gyro`]
+    /// (the body's heading under the sweep).
     pub predictive: Option<PredictiveConfig>,
+    /// Where the predictive cue takes the user to be.
+    pub pose: PoseSource,
+}
+
+/// Where the predictive cue takes the user to be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseSource {
+    /// The compute agent's particle filter on the world's floor plan, told where the
+    /// walk starts, from the camera's odometry, the cane's and the body's gyros and the
+    /// perception's scans; while it does not track, the cost functions decide.
+    Filter,
+    /// The simulator's truth: only to tell the filter's error from the cue's.
+    Truth,
 }
 
 /// One camera frame of a walk, for finding out why a contact happened.
@@ -221,6 +237,7 @@ impl Default for WalkConfig {
             body_gyro: false,
             oracle: None,
             predictive: None,
+            pose: PoseSource::Filter,
         }
     }
 }
@@ -331,6 +348,10 @@ pub struct WalkOutcome {
     /// Whether the world has a way through from the start to the goal for a 0.5 m wide
     /// body ([`World::way_through`]; `None`: not searched).
     pub way_through: Option<bool>,
+    /// With the predictive cue on the filter's pose: the filter's position error (RMSE
+    /// against the truth, metres; NaN when it never tracked) over the frames it tracked,
+    /// and how many those were.
+    pub localization: Option<(f64, u32)>,
     /// One row per camera frame when [`WalkConfig::trace`] asked for it.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
@@ -424,6 +445,29 @@ fn known_points(world: &World, map: RouteMap, floor: i32) -> Vec<[f64; 2]> {
         }
     }
     out
+}
+
+/// The compute agent's particle filter on `world`'s floor plan, told where the walk
+/// starts (the world's start, not this walk's jittered one); `None`, said in the log,
+/// when the floor plan cannot be made or the start is not on it.
+fn filter_for(world: &World, seed: u64) -> Option<Tracker> {
+    let start = world.start();
+    let made = floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M)
+        .map_err(|e| e.to_string())
+        .and_then(|building| Tracker::new(&building, TrackerConfig::default(), seed).map_err(|e| e.to_string()))
+        .and_then(|mut tracker| {
+            tracker
+                .start_at(start.floor, Pose2::new(start.x_m, start.y_m, start.yaw_rad))
+                .map_err(|e| e.to_string())?;
+            Ok(tracker)
+        });
+    match made {
+        Ok(tracker) => Some(tracker),
+        Err(e) => {
+            tracing::warn!("{}: no particle filter ({e}): the cost functions decide", world.name());
+            None
+        }
+    }
 }
 
 /// The route the device knows: the one the guide keeps the user on (start, waypoints,
@@ -597,6 +641,12 @@ pub struct Walk<'w> {
     /// frame.
     known: (Option<i32>, Vec<[f64; 2]>),
     known_near: Vec<[f64; 2]>,
+    /// With the predictive cue on the filter's pose: the filter, the camera's heading at
+    /// the last frame (the cane gyro's rate between frames), and the squared position
+    /// errors while it tracked.
+    tracker: Option<Tracker>,
+    last_camera_yaw: Option<(f64, f64)>,
+    tracked_error: (f64, u32),
     pending: VecDeque<InFlight>,
     last_floor: Option<(UserPose, u64)>,
     shown: Felt,
@@ -668,6 +718,7 @@ impl<'w> Walk<'w> {
             reaction_s: params.reaction_s,
             end_xy_m: [start.x_m, start.y_m],
             way_through: world.way_through(),
+            localization: None,
             trace: Vec::new(),
         };
         Self {
@@ -704,6 +755,12 @@ impl<'w> Walk<'w> {
             way: Vec::new(),
             known: (None, Vec::new()),
             known_near: Vec::new(),
+            tracker: config
+                .predictive
+                .filter(|_| config.pose == PoseSource::Filter)
+                .and_then(|_| filter_for(world, seed)),
+            last_camera_yaw: None,
+            tracked_error: (0.0, 0),
             pending: VecDeque::new(),
             last_floor: None,
             shown: Felt::None,
@@ -765,6 +822,12 @@ impl<'w> Walk<'w> {
     /// What happened, once the walk is over.
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
+        if self.tracker.is_some() {
+            let (sum, n) = self.tracked_error;
+            // never tracked: no error to give (NaN, `null` in JSON)
+            let rmse_m = if n == 0 { f64::NAN } else { (sum / f64::from(n)).sqrt() };
+            self.out.localization = Some((rmse_m, n));
+        }
         self.out
     }
 
@@ -784,10 +847,16 @@ impl<'w> Walk<'w> {
             wire.data.clear();
         }
         let floor_pose = camera_floor(&camera);
+        let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
+        let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
         if let Some((from, from_ns)) = self.last_floor {
             let inc = self.odometry.increment(&from, &floor_pose, from_ns, now);
             if let Err(e) = self.frame_step.add_odometry(&inc) {
                 tracing::warn!("seed {}: {e}", self.out.seed);
+            }
+            if let Some(tracker) = self.tracker.as_mut() {
+                // refused as the step refuses it: counted by the filter
+                let _ = tracker.odometry(&inc, body_yaw_rate_rad_s.map(f64::from));
             }
             if self.fed.is_some() {
                 self.odometry_fed.push(inc);
@@ -800,27 +869,56 @@ impl<'w> Walk<'w> {
         let g = nalgebra::Vector3::new(g.x + rng.gaussian() * s, g.y + rng.gaussian() * s, g.z + rng.gaussian() * s)
             .normalize();
         wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
-        let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
-        let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
         let seq = self.out.frames as u64;
-        if self.route_ahead.is_some() {
-            if self.known.0 != Some(pose.floor) {
-                self.known = (Some(pose.floor), known_points(world, config.route_map, pose.floor));
+        // where the device takes the user to be: the truth, or the filter while it tracks
+        let believed = match (&self.tracker, config.pose) {
+            (_, PoseSource::Truth) => Some(*pose),
+            (Some(tracker), PoseSource::Filter) => {
+                let e = tracker.estimate();
+                (e.status == localization::Status::Tracking).then(|| {
+                    let err2 = (e.pose.x_m - pose.x_m).powi(2) + (e.pose.y_m - pose.y_m).powi(2);
+                    self.tracked_error = (self.tracked_error.0 + err2, self.tracked_error.1 + 1);
+                    UserPose { x_m: e.pose.x_m, y_m: e.pose.y_m, yaw_rad: e.pose.heading_rad, floor: e.level }
+                })
             }
-            let (s, c) = pose.yaw_rad.sin_cos();
+            (None, PoseSource::Filter) => None,
+        };
+        let believed = believed.filter(|_| self.route_ahead.is_some());
+        if let Some(at) = believed {
+            if self.known.0 != Some(at.floor) {
+                self.known = (Some(at.floor), known_points(world, config.route_map, at.floor));
+            }
+            let (s, c) = at.yaw_rad.sin_cos();
             self.known_near.clear();
             self.known_near.extend(self.known.1.iter().filter_map(|p| {
-                let (dx, dy) = (p[0] - pose.x_m, p[1] - pose.y_m);
+                let (dx, dy) = (p[0] - at.x_m, p[1] - at.y_m);
                 (dx.abs() <= KNOWN_NEAR_M && dy.abs() <= KNOWN_NEAR_M).then(|| [c * dx + s * dy, -s * dx + c * dy])
             }));
         }
-        let way = self.route_ahead.as_mut().map(|route| {
-            route.ahead(pose.x_m, pose.y_m, pose.yaw_rad, &mut self.way);
-            Way { points: &self.way, ends_at_goal: route.ends_at_goal(self.way.len()), walls: &self.known_near }
+        let way = match (self.route_ahead.as_mut(), believed) {
+            (Some(route), Some(at)) => {
+                route.ahead(at.x_m, at.y_m, at.yaw_rad, &mut self.way);
+                Some(Way {
+                    points: &self.way,
+                    ends_at_goal: route.ends_at_goal(self.way.len()),
+                    walls: &self.known_near,
+                })
+            }
+            _ => None,
+        };
+        let cane_rate = self.last_camera_yaw.and_then(|(t0, yaw0)| {
+            let dt = t - t0;
+            (dt > 0.0).then(|| wrap_pi(floor_pose.yaw_rad - yaw0) / dt)
         });
+        self.last_camera_yaw = Some((t, floor_pose.yaw_rad));
         let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s, way };
         let processed = match self.frame_step.process(input, &mut NoTimer) {
-            StepOutput::Perceived { perception, hazard, intent } => Ok((hazard, intent, perception.turn_ahead)),
+            StepOutput::Perceived { perception, hazard, intent } => {
+                if let Some(tracker) = self.tracker.as_mut() {
+                    tracker.frame(&perception.scan, now, cane_rate, body_yaw_rate_rad_s.map(f64::from));
+                }
+                Ok((hazard, intent, perception.turn_ahead))
+            }
             StepOutput::Refused { blind, .. } => Err(blind),
         };
         if let Some(fed) = self.fed.as_mut() {
