@@ -190,6 +190,8 @@ pub struct PredictiveCue {
     touches: VecDeque<(f64, bool)>,
     /// The last frame found a touch that has not come clear yet.
     touching: bool,
+    /// When clear was last sent after a rumble, seconds.
+    released_s: Option<f64>,
     /// The last frame's sweep (when, seconds; radians).
     last_sweep: Option<(f64, f64)>,
     /// The sweep's phase (radians) at a time (seconds), from the last frame walked at
@@ -215,6 +217,7 @@ impl PredictiveCue {
             way_along: Vec::new(),
             touches: VecDeque::new(),
             touching: false,
+            released_s: None,
             last_sweep: None,
             phase: None,
         }
@@ -229,6 +232,9 @@ impl PredictiveCue {
     /// what the user will feel is what was sent).
     pub fn sent(&mut self, t_s: f64, state: Rumble) {
         if self.sent.back().is_none_or(|&(_, s)| s != state) {
+            if state == Rumble::None && !self.sent.is_empty() {
+                self.released_s = Some(t_s);
+            }
             self.sent.push_back((t_s, state));
         }
         // keep what the user may still be acting on, and what started it
@@ -421,11 +427,7 @@ impl PredictiveCue {
         let mut commit_until = f64::NEG_INFINITY;
         if acting == Rumble::None {
             // a rumble that stopped a moment ago leaves the user on its heading
-            let ended = self.sent.iter().rev().collect::<Vec<_>>();
-            let acted_end = ended.windows(2).find_map(|w| {
-                let (off, on) = (w[0], w[1]);
-                (off.1 == Rumble::None && on.1 != Rumble::None).then_some(off.0 + c.latency_s + reaction_s)
-            });
+            let acted_end = self.released_s.map(|off| off + c.latency_s + reaction_s);
             if let Some(end) = acted_end.filter(|&e| e <= t0) {
                 commit_until = end + u.commit_s;
             }

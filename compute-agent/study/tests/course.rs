@@ -564,12 +564,13 @@ fn worlds_that_are_not_there_or_flags_that_do_not_fit_groups_are_refused_before_
     assert!(refused.contains("--count, --seed and --runs must stay the same"), "{refused}");
 }
 
-/// `lobby-bench` (issue 29's lobby: a bench, bollards and a sunken area by the
-/// floor-plan route), walked along that route with the body's gyro.
-fn lobby_bench_by_route(timeout_s: f64) -> (World, WalkConfig) {
-    let w = match World::builtin("lobby-bench") {
+/// The built-in world `name` (issue 29's `lobby-bench`: a bench, bollards and a sunken
+/// area by the floor-plan route; `corridor-narrow`), walked along its floor-plan route
+/// with the body's gyro.
+fn builtin_by_route(name: &str, timeout_s: f64) -> (World, WalkConfig) {
+    let w = match World::builtin(name) {
         Some(Ok(w)) => w,
-        other => panic!("lobby-bench: {:?}", other.map(|r| r.err())),
+        other => panic!("{name}: {:?}", other.map(|r| r.err())),
     };
     let config = WalkConfig {
         guide: GuideKind::Route,
@@ -586,7 +587,7 @@ fn the_predictive_cue_takes_the_user_past_the_bench_where_the_cost_functions_hol
     // route past the bench it keeps clear of; the cost functions, which look at what
     // stands ahead of the swept camera, turn the same user back and forth before it
     // (`docs/predictive-cue.md`: 4 walks 27 s and 19 signals against 193 s and 179)
-    let (w, base) = lobby_bench_by_route(60.0);
+    let (w, base) = builtin_by_route("lobby-bench", 60.0);
     // the user's true place (the filter is lost in this open lobby: next test)
     let predictive = WalkConfig {
         predictive: Some(study::walk::predictive_for(&base)),
@@ -609,16 +610,7 @@ fn the_predictive_cue_on_the_particle_filters_place_walks_a_narrow_corridor_unto
     // `corridor-narrow` (1.6 m, its bin, cabinet and sign kept clear of by the route): the
     // device's own filter on the floor plan, told where the walk starts, tracks within a
     // few decimetres and the cue from it lets the user walk the corridor touching nothing
-    let w = match World::builtin("corridor-narrow") {
-        Some(Ok(w)) => w,
-        other => panic!("corridor-narrow: {:?}", other.map(|r| r.err())),
-    };
-    let base = WalkConfig {
-        guide: GuideKind::Route,
-        route_map: study::walk::RouteMap::FloorPlan,
-        body_gyro: true,
-        ..quick(40.0)
-    };
+    let (w, base) = builtin_by_route("corridor-narrow", 40.0);
     let config = WalkConfig { predictive: Some(study::walk::predictive_for(&base)), ..base };
     assert_eq!(config.pose, study::walk::PoseSource::Filter);
     for seed in 1..=2 {
