@@ -194,7 +194,12 @@ step('look', ['scan', 'rumble', 'speech', 'map', 'health'], 'no serious accessib
   const bad = result.violations.filter((v) => v.impact === 'serious' || v.impact === 'critical');
   assert.deepEqual(bad.map((v) => ({ id: v.id, help: v.help, nodes: v.nodes.map((n) => n.target.join(' ')) })), [],
     'axe-core: no serious or critical violations');
-  assert.match(await page.locator('#scan-canvas').getAttribute('aria-label'), /^Scan: \d+ beams/);
+  // the canvases' words follow what they draw within 2 s (a screen reader's pace)
+  const label = await waitFor('the scan canvas to be labelled with the scan drawn', async () => {
+    const l = await page.locator('#scan-canvas').getAttribute('aria-label');
+    return /^Scan: \d+ beams/.test(l) && l;
+  }, 3000);
+  assert.match(label, /^Scan: \d+ beams of 1\.0° from -30°, \d+ with an obstacle; (nearest \d+\.\d\d m|nothing within)/);
   await page.screenshot({ path: path.join(root, 'target/monitor.png'), fullPage: true });
   assert.deepEqual(pageErrors, [], 'no script errors in the page');
   assert.ok(fs.existsSync(artifacts));
