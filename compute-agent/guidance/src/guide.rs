@@ -20,6 +20,8 @@
 //! excepted); an instruction that has to wait is tried again next step, with the
 //! distances of then.
 
+use std::collections::VecDeque;
+
 use map::SemanticLayer;
 use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
 
@@ -27,6 +29,43 @@ use crate::instruction::{ttl_ms, Instruction, InstructionKind};
 use crate::profile::GuidanceProfile;
 use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
 use crate::where_am_i::where_am_i;
+
+/// How much of the heading's history is kept to tell a turning user, ms.
+const HEADINGS_KEPT_MS: u64 = 1000;
+
+/// The headings of the last second of poses (ms, radians).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Headings(VecDeque<(u64, f64)>);
+
+impl Headings {
+    /// The heading at `now_ms` (a non-finite one is no heading; a clock that went back
+    /// starts the history again).
+    pub(crate) fn push(&mut self, now_ms: u64, heading_rad: f64) {
+        if !heading_rad.is_finite() {
+            return;
+        }
+        if self.0.back().is_some_and(|&(t, _)| t > now_ms) {
+            self.0.clear();
+        }
+        self.0.push_back((now_ms, heading_rad));
+        while self.0.front().is_some_and(|&(t, _)| t.saturating_add(HEADINGS_KEPT_MS) < now_ms) {
+            self.0.pop_front();
+        }
+    }
+
+    /// False while the heading is known to turn: from the oldest kept to the newest it
+    /// turned faster than `max_deg_s`. With one heading or none, nothing is known: true.
+    pub(crate) fn still(&self, max_deg_s: f64) -> bool {
+        let (Some(&(t0, h0)), Some(&(t1, h1))) = (self.0.front(), self.0.back()) else {
+            return true;
+        };
+        if t1 <= t0 {
+            return true;
+        }
+        let dt_s = (t1 - t0) as f64 / 1000.0;
+        wrap_deg((h1 - h0).to_degrees()).abs() / dt_s <= max_deg_s
+    }
+}
 
 /// Where the user is, as localization says.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,6 +133,8 @@ pub struct Guide {
     last_spontaneous_ms: Option<u64>,
     last: Option<Instruction>,
     serial: u64,
+    /// the pose's heading over the last second: is the user turning?
+    pub(crate) headings: Headings,
 }
 
 impl Guide {
@@ -121,6 +162,7 @@ impl Guide {
             last_spontaneous_ms: None,
             last: None,
             serial: 0,
+            headings: Headings::default(),
         };
         g.set_legs(legs);
         g
@@ -234,6 +276,7 @@ impl Guide {
         }
         // a pose with a non-finite number is no pose: treated as not confident
         let finite = pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
+        self.headings.push(now_ms, pose.heading_rad);
         if !(pose.confident && finite) {
             if self.uncertain_said {
                 return None;
@@ -334,8 +377,9 @@ impl Guide {
     }
 
     /// The answer to "repeat": the last instruction again, except that a turn is said
-    /// with the distance of now (or, once passed, how far to go straight on), never a
-    /// stale "turn right now".
+    /// with the distance of now (or, once passed, which way to face and how far to go
+    /// straight on), never a stale "turn right now", and the route's start says the
+    /// way to face from where the user faces now.
     pub fn repeat(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
         let Some(last) = self.last.clone() else {
             return self.answer(
@@ -359,9 +403,16 @@ impl Guide {
                 return self.answer(kind, text, "repeat", now_ms, false);
             }
             let pr = self.progress(pose);
-            let ahead = self.straight_on_m(&pr);
-            let text = format!("Go straight on for {}.", distance_phrase(ahead, &self.profile));
+            let text = self.face_words(pose, &pr);
             return self.answer(InstructionKind::Continue, text, "repeat", now_ms, false);
+        }
+        // the way to face is said again from where the user faces now (they may have
+        // turned since, or never heard it)
+        let here = pose.confident && self.legs.get(self.leg).is_some_and(|l| l.route.floor == pose.floor);
+        if let (InstructionKind::Start { .. }, true) = (&last.kind, here) {
+            let pr = self.progress(pose);
+            let text = self.start_words(pose, &pr, false);
+            return self.answer(last.kind.clone(), text, "repeat", now_ms, false);
         }
         self.serial += 1;
         Instruction {
@@ -491,10 +542,34 @@ impl Guide {
         None
     }
 
+    /// A direction relative to where the user faces, said while they turn, is wrong by
+    /// the time it is heard: held while the heading turns faster than the profile's
+    /// `still_max_deg_s`.
+    fn still(&self) -> bool {
+        self.headings.still(self.profile.still_max_deg_s)
+    }
+
     fn start(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
+        if !self.still() {
+            return None;
+        }
+        let back = self.back_on_route && self.started_leg == Some(self.leg);
+        let text = self.start_words(pose, pr, back);
+        self.serial += 1;
+        let key = if back { format!("leg{}/back/{}", self.leg, self.serial) } else { format!("leg{}/start", self.leg) };
+        let i = self.issue(InstructionKind::Start { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
+        if i.is_some() {
+            self.started_leg = Some(self.leg);
+            self.back_on_route = false;
+        }
+        i
+    }
+
+    /// "Route to room 4: 25 metres. Turn left, then go straight on." from `pose`
+    /// ("Back on the route. ..." when `back`).
+    fn start_words(&self, pose: &UserPose, pr: &Progress, back: bool) -> String {
         let total: f64 = pr.remaining_m + self.legs[self.leg + 1..].iter().map(|l| l.route.length_m).sum::<f64>();
         let total = distance_phrase(total, &self.profile);
-        let back = self.back_on_route && self.started_leg == Some(self.leg);
         let head = match (self.leg, self.destination.as_str()) {
             _ if back => "Back on the route.".to_string(),
             (0, "") => format!("Route: {total}."),
@@ -509,15 +584,20 @@ impl Guide {
             Turn::Straight => "Go straight on.".to_string(),
             t => format!("{}, then go straight on.", capitalised(&turn_phrase(t, right, &self.profile))),
         };
-        self.serial += 1;
-        let key = if back { format!("leg{}/back/{}", self.leg, self.serial) } else { format!("leg{}/start", self.leg) };
-        let i =
-            self.issue(InstructionKind::Start { leg: self.leg }, format!("{head} {how}"), &key, now_ms, Pace::Spaced);
-        if i.is_some() {
-            self.started_leg = Some(self.leg);
-            self.back_on_route = false;
+        format!("{head} {how}")
+    }
+
+    /// "Go straight on for 8 metres." facing the waypoint ahead, else "Turn left, then
+    /// go straight on for 8 metres.": the way to face from `pose`, and how far it goes.
+    fn face_words(&self, pose: &UserPose, pr: &Progress) -> String {
+        let ahead = self.straight_on_m(pr);
+        let far = distance_phrase(ahead, &self.profile);
+        let to = self.waypoints().get(self.target).copied().unwrap_or([pose.x_m, pose.y_m]);
+        let right = relative_right_deg(pose, to);
+        match Turn::of(right, &self.profile) {
+            Turn::Straight => format!("Go straight on for {far}."),
+            t => format!("{}, then go straight on for {far}.", capitalised(&turn_phrase(t, right, &self.profile))),
         }
-        i
     }
 
     fn deviation(&mut self, pose: &UserPose, now_ms: u64, graph: Option<&NavGraph>) -> Option<Instruction> {
@@ -528,6 +608,9 @@ impl Guide {
         let Some(r) = rejoin else {
             return self.replan(pose, now_ms);
         };
+        if !self.still() {
+            return None;
+        }
         let node = self.route().points[r.node];
         let right = relative_right_deg(pose, node);
         let behind = wrap_deg(right).abs() >= self.profile.normal_max_deg;

@@ -11,6 +11,7 @@
 //! | "where am I" | [`where_am_i`] | ISANA (area tree); Zhang et al. (door numbers) |
 //! | what goes to the feedback agent | [`instruction`] | ARCHITECTURE.md safety rule 3 |
 //! | commands, planning, replanning, route state | [`navigator`] | ISANA (floor confirmed by the user) |
+//! | the way ahead for the predictive cue | [`way`] | ours (`docs/predictive-cue.md`) |
 //!
 //! Wording rules, thresholds and where each comes from: `docs/guidance.md`.
 
@@ -19,6 +20,7 @@ pub mod instruction;
 pub mod navigator;
 pub mod profile;
 pub mod utterance;
+pub mod way;
 pub mod where_am_i;
 
 pub use guide::{Ahead, Guide, UserPose};
@@ -26,3 +28,4 @@ pub use instruction::{Instruction, InstructionKind};
 pub use navigator::{Navigator, Response};
 pub use profile::{DirectionStyle, DistanceUnits, GuidanceProfile};
 pub use utterance::{Side, Turn};
+pub use way::way_ahead;

@@ -11,7 +11,7 @@ use map::{Building, Label, SemanticLayer};
 use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
-use crate::guide::{Guide, UserPose};
+use crate::guide::{Guide, Headings, UserPose};
 use crate::profile::GuidanceProfile;
 use crate::utterance::distance_phrase;
 use crate::where_am_i::where_am_i;
@@ -55,6 +55,9 @@ pub struct Navigator {
     /// why the last plan failed, for the caller's log (the user hears the short form)
     problem: Option<String>,
     serial: u64,
+    /// the poses' headings over the last second, handed to a new route's guide (was
+    /// the user turning when it was planned?)
+    headings: Headings,
 }
 
 impl Navigator {
@@ -78,6 +81,7 @@ impl Navigator {
             last_said: None,
             problem: None,
             serial: 0,
+            headings: Headings::default(),
         }
     }
 
@@ -137,6 +141,7 @@ impl Navigator {
     /// Handles one user command at `pose` (`confident: false` when localization does
     /// not track). `Mute` is the feedback agent's: nothing here.
     pub fn command(&mut self, command: &Command, pose: &UserPose, now_ms: u64) -> Response {
+        self.headings.push(now_ms, pose.heading_rad);
         let mut out = Response::default();
         match command {
             Command::Destination { label } => match self.find(label) {
@@ -146,14 +151,11 @@ impl Navigator {
                     self.trip =
                         Some(Trip { label: name.clone(), goal, guide: None, held: RouteStatus::WaitingForPosition });
                     if pose.confident {
-                        if let Some(s) = self.plan_trip(pose) {
+                        if let Some(s) = self.plan_trip(pose, now_ms) {
                             out.speech.push(s);
                         }
                     } else {
-                        let text = format!(
-                            "Going to {name}. Finding your position first: I will tell you when I have it. \
-                             At a door, you can tell me its number."
-                        );
+                        let text = format!("Going to {name}. Turn slowly on the spot until I find your position.");
                         out.speech.push(self.say(text, "destination/waiting"));
                     }
                 }
@@ -207,10 +209,11 @@ impl Navigator {
     /// One step with the pose of now: plans a held destination once the position is
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
+        self.headings.push(now_ms, pose.heading_rad);
         let trip = self.trip.as_ref()?;
         if trip.guide.is_none() {
             if trip.held == RouteStatus::WaitingForPosition && pose.confident {
-                return self.plan_trip(pose);
+                return self.plan_trip(pose, now_ms);
             }
             return None;
         }
@@ -256,17 +259,18 @@ impl Navigator {
 
     /// Plans the trip from `pose`; what to say when that fails (the guide says the
     /// route's first instruction itself, next step).
-    fn plan_trip(&mut self, pose: &UserPose) -> Option<SpeechIntent> {
+    fn plan_trip(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
         let trip = self.trip.as_ref()?;
         let (goal, label) = (trip.goal, trip.label.clone());
         match self.planner.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
             Ok(route) => {
-                let guide = Guide::building(route, &label, self.semantic.clone(), self.profile);
+                let mut guide = Guide::building(route, &label, self.semantic.clone(), self.profile);
+                guide.headings = self.headings.clone();
                 if let Some(t) = self.trip.as_mut() {
                     t.guide = Some(guide);
                     t.held = RouteStatus::Guiding;
                 }
-                self.step(pose, 0)
+                self.step(pose, now_ms)
             }
             Err(e) => Some(self.unreachable(&e.to_string())),
         }

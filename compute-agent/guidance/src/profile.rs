@@ -79,6 +79,12 @@ pub struct GuidanceProfile {
     /// from `normal_max_deg` up to this, "sharply"; from here to 180, "turn around"
     /// (default 170: our choice)
     pub sharp_max_deg: f64,
+    /// a direction relative to where the user faces (the route's start, back on the
+    /// route, off the route) waits while the heading turns faster than this, degrees a
+    /// second over the last second: said as the user turns, it is wrong by the time it
+    /// is heard (default 15: our choice; a user turning on the spot for the device to
+    /// find them turns about 30, a walker's sway stays under 10)
+    pub still_max_deg_s: f64,
 }
 
 impl Default for GuidanceProfile {
@@ -102,6 +108,7 @@ impl Default for GuidanceProfile {
             slight_max_deg: 60.0,
             normal_max_deg: 120.0,
             sharp_max_deg: 170.0,
+            still_max_deg_s: 15.0,
         }
     }
 }

@@ -130,10 +130,7 @@ fn a_destination_waits_for_the_position_then_guides_across_floors_to_arrival() {
     let mut nav = navigator();
     let lost = UserPose { confident: false, ..at(1.5, 11.5, 0.0, 0) };
     let r = nav.command(&go("room 214"), &lost, 0);
-    assert_eq!(
-        texts(&r.speech),
-        ["Going to room 214. Finding your position first: I will tell you when I have it. At a door, you can tell me its number."]
-    );
+    assert_eq!(texts(&r.speech), ["Going to room 214. Turn slowly on the spot until I find your position."]);
     let waiting = nav.state(&lost);
     assert_eq!(
         (waiting.status, waiting.destination.as_str(), waiting.route.len()),

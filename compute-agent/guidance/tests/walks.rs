@@ -389,6 +389,9 @@ fn repeat_says_a_turn_with_the_distance_of_now_and_never_a_passed_turn() {
     assert_eq!(again.text, start.text);
     assert_ne!(again.dedup_key, start.dedup_key, "a repeat must not be deduplicated away");
     assert!(!again.vibrate_first);
+    // the user turned round since (or never heard it): the way to face from now
+    let turned = guide.repeat(&pose(route.waypoints[0], std::f64::consts::PI), 600);
+    assert_eq!(turned.text, "Route to the stairs: 25 metres. Turn around, then go straight on.");
     // walk to 6 m before the corner: the announcement
     let at6 = [corner[0] - 6.0, corner[1]];
     let ahead = guide.step(&pose(at6, 0.0), 10_000, Some(p.graph())).unwrap();
@@ -406,6 +409,9 @@ fn repeat_says_a_turn_with_the_distance_of_now_and_never_a_passed_turn() {
     let left = dist(below, route.goal());
     assert_eq!(passed.text, format!("Go straight on for {} metres.", left.round()));
     assert_eq!(passed.kind, InstructionKind::Continue);
+    // facing back up the corridor (west): which way to face first
+    let facing_west = guide.repeat(&pose(below, std::f64::consts::PI), 18_200);
+    assert_eq!(facing_west.text, format!("Turn left, then go straight on for {} metres.", left.round()));
     // asking does not hold back guidance: the spacing counts spontaneous instructions only
     assert_eq!(guide.last().map(|i| i.text.as_str()), Some("Turn right now."));
 }
@@ -534,4 +540,32 @@ fn answers_to_the_user_neither_wait_for_nor_delay_guidance() {
     }
     let expected: Vec<(u64, String)> = expected.into_iter().map(|s| (s.t_ms, s.instruction.text)).collect();
     assert_eq!(said, expected);
+}
+
+#[test]
+fn the_way_to_face_waits_until_the_user_stops_turning() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let from = route.waypoints[0];
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), GuidanceProfile::default());
+    // turning on the spot at 30 degrees a second for 3 s (as when the device looks for the
+    // position) from east to north, then still, facing north (the route starts east: to
+    // the user's right)
+    let turning: Vec<([f64; 2], f64)> = (0..30).map(|k| (from, (3.0 + 3.0 * k as f64).to_radians())).collect();
+    // (the position is known from the sixth pose on; a heading was there before it)
+    let mut said = walk(&mut guide, &turning, 0, 0, Some(&p), |k| k >= 5);
+    let still: Vec<([f64; 2], f64)> = (0..20).map(|_| (from, 90f64.to_radians())).collect();
+    said.extend(walk(&mut guide, &still, 0, 3000, Some(&p), |_| true));
+    assert_eq!(
+        texts(&said),
+        [
+            "Position uncertain: no turn instructions until I know where you are again.",
+            "Route to the stairs: 25 metres. Turn right, then go straight on."
+        ],
+        "{said:#?}"
+    );
+    let said = &said[1..];
+    // nothing until the heading has held long enough that the last second turned less
+    // than 15 degrees a second: 3 s of turning, then 0.5 s still
+    assert!((3400..=3600).contains(&said[0].t_ms), "said at {} ms", said[0].t_ms);
 }
