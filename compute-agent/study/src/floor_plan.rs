@@ -281,12 +281,23 @@ pub fn stair_stops(s: &StairsSpec) -> ([f64; 2], [f64; 2]) {
     (at(-STAIR_APPROACH_M), at(run_m + STAIR_APPROACH_M))
 }
 
+/// The name of the place where `world`'s walks end on its floor plan: the goal's
+/// label, or `goal`.
+pub fn goal_label(world: &World) -> String {
+    let goal = world.goal();
+    if goal.label.trim().is_empty() {
+        "goal".to_string()
+    } else {
+        goal.label.clone()
+    }
+}
+
 /// The semantic layer of floor `level` (the goal's label first, so a lookup by its name
 /// finds where the walk ends).
 fn semantic_layer(world: &World, gateways: &[Gateway], level: i32, grid: &OccupancyGrid) -> SemanticLayer {
     let mut layer = SemanticLayer::default();
     let goal = world.goal();
-    let goal_name = if goal.label.trim().is_empty() { "goal".to_string() } else { goal.label.clone() };
+    let goal_name = goal_label(world);
     if goal.floor == level {
         layer.labels.push(Label { name: goal_name.clone(), x: goal.x_m, y: goal.y_m, floor: level });
     }

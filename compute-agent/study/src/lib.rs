@@ -8,6 +8,7 @@
 //! | --- | --- |
 //! | what the hands feel (feedback step -> rumble state) | [`hands`] |
 //! | the walking, reacting person; what they head for ([`virtual_user::Guide`]) | [`virtual_user`] |
+//! | walking by spoken guidance (`--guide spoken`) | [`spoken`] |
 //! | cane and body contacts, field-of-view test | [`contacts`] |
 //! | one closed-loop walk | [`walk`] |
 //! | N walks and the table | [`study`] |
@@ -21,6 +22,7 @@ pub mod guided_walk;
 pub mod hands;
 pub mod localize_walk;
 pub mod oracle;
+pub mod spoken;
 pub mod study;
 pub mod virtual_user;
 pub mod walk;
@@ -158,7 +160,7 @@ pub struct CourseArgs {
     /// clear is safe. The user's place on the route: --pose. Needs --body-gyro (the body's heading under the cane's sweep).
     #[arg(long, requires = "body_gyro", conflicts_with = "oracle")]
     pub predictive: bool,
-    /// With --predictive: where the device takes the user to be: `filter`, the compute
+    /// With --predictive or --guide spoken: where the device takes the user to be: `filter`, the compute
     /// agent's particle filter on the world's floor plan (the cost functions decide
     /// while it does not track); `truth`, the simulator's, only to tell the filter's
     /// error from the cue's.
@@ -167,7 +169,10 @@ pub struct CourseArgs {
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
-    /// the world's route (stand-in for turn-by-turn guidance).
+    /// the world's route (stand-in for turn-by-turn guidance). `spoken`: the compute
+    /// agent's turn-by-turn guidance, planned on the world's floor plan from the place
+    /// --pose gives, said through the feedback agent's speech queue; the user turns and
+    /// walks by the words heard (docs/study.md).
     #[arg(long, value_enum, default_value_t = GuideKind::Assisted)]
     pub guide: GuideKind,
     /// With `--guide route` (and the experimenter leading in `assisted`): how far along
@@ -396,7 +401,10 @@ impl CourseArgs {
         c.bounded_mm = self.bounded_mm.filter(|&s| s > 0);
         c.trace = self.trace.is_some();
         // the device's model of the user and cane, once both are set
-        anyhow::ensure!(self.predictive || self.pose == walk::PoseSource::Filter, "--pose goes with --predictive");
+        anyhow::ensure!(
+            self.predictive || self.guide == GuideKind::Spoken || self.pose == walk::PoseSource::Filter,
+            "--pose goes with --predictive or --guide spoken"
+        );
         c.predictive = self.predictive.then(|| walk::predictive_for(&c));
         c.pose = self.pose;
         Ok(c)
@@ -436,7 +444,14 @@ fn check_world(world: &World, configs: &[&WalkConfig]) -> anyhow::Result<()> {
         );
     }
     for c in configs {
-        if c.route_map == RouteMap::FloorPlan && c.guide != GuideKind::Sound {
+        if c.guide == GuideKind::Spoken {
+            // the device plans on the floor plan `wearnav map` exports, to the goal's label
+            let building = floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M)
+                .with_context(|| format!("--guide spoken: no floor plan of world `{}`", world.name()))?;
+            spoken::SpokenDevice::new(&building, &floor_plan::goal_label(world))
+                .with_context(|| format!("--guide spoken: no guidance to the goal of world `{}`", world.name()))?;
+        }
+        if c.route_map == RouteMap::FloorPlan && matches!(c.guide, GuideKind::Route | GuideKind::Assisted) {
             anyhow::ensure!(
                 world.floor_plan_route().is_some(),
                 "world `{}` has no floor-plan route (`[floor_plan_route]` in its scene); --route-map floor-plan needs one",
@@ -697,8 +712,14 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
         Some((_, 0)) => "; the filter never tracked".to_string(),
         Some((rmse_m, frames)) => format!("; the filter tracked {frames} of {} frames, RMSE {rmse_m:.2} m", w.frames),
     };
+    let heard = match w.heard {
+        None => String::new(),
+        Some((heard, prompts)) => {
+            format!("; heard {heard} utterances, {prompts} off-route prompts in {:.0} m", w.path_m)
+        }
+    };
     format!(
-        "seed {}: {} in {:.1} s, {} cane and {} body contacts{localization}",
+        "seed {}: {} in {:.1} s, {} cane and {} body contacts{localization}{heard}",
         w.seed,
         w.verdict(),
         w.time_s,

@@ -273,6 +273,7 @@ mod tests {
             end_xy_m: [0.0, 0.0],
             way_through: Some(true),
             localization: None,
+            heard: None,
             trace: Vec::new(),
         }
     }

@@ -10,12 +10,18 @@
 
 use std::collections::VecDeque;
 
+use feedback_agent::console::ConsoleSpeech;
+use feedback_agent::device::SpeechEngine;
 use feedback_agent::{Feedback, StepSettings};
 use localization::{Pose2, Tracker, TrackerConfig};
+use map::Building;
 use perception::body_rate::BodyRate;
 use perception::predictive::{CaneModel, PredictiveConfig, RouteAhead, UserModel, Way};
 use perception::{cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput};
-use schemas::{DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, OdomIncrement};
+use schemas::{
+    AppliedAction, DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, OdomIncrement, RouteStatus,
+    SpeechIntent,
+};
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
@@ -28,6 +34,7 @@ use super::contacts::{cane_distance_m, in_field_of_view, Contact, Part, SeenLog,
 use super::floor_plan;
 use super::hands::{Felt, FeltRumble, Hands};
 use super::oracle::{Now, Oracle, OracleConfig, PointGrid, Seen, Sees};
+use super::spoken::{self, Ear, Heard, SpokenDevice, SpokenGuide, SPEECH_WPM, UNDERSTAND_S};
 use super::virtual_user::{ExperimenterAssist, GoalSound, Guide, RouteFollow, Touch, UserParams, VirtualUser};
 
 /// Physics, feedback and reaction steps per second (pulse edges resolved to 8 ms).
@@ -60,6 +67,11 @@ pub enum GuideKind {
     /// route until the goal is in sight (Taylor's reorienting; the goal's sound alone
     /// in worlds without a route).
     Assisted,
+    /// Spoken route guidance ([`crate::spoken`]): the compute agent's navigator on the
+    /// world's floor plan, from the place the device believes ([`WalkConfig::pose`]),
+    /// speaks through the feedback step's speech queue; the user turns and walks by
+    /// the words heard, and once told "you have arrived" finds the place by its sound.
+    Spoken,
 }
 
 /// What the map behind the route (and the experimenter's leading) holds.
@@ -348,10 +360,13 @@ pub struct WalkOutcome {
     /// Whether the world has a way through from the start to the goal for a 0.5 m wide
     /// body ([`World::way_through`]; `None`: not searched).
     pub way_through: Option<bool>,
-    /// With the predictive cue on the filter's pose: the filter's position error (RMSE
-    /// against the truth, metres; NaN when it never tracked) over the frames it tracked,
-    /// and how many those were.
+    /// With the predictive cue or the spoken guide on the filter's pose: the filter's
+    /// position error (RMSE against the truth, metres; NaN when it never tracked) over
+    /// the frames it tracked, and how many those were.
     pub localization: Option<(f64, u32)>,
+    /// With the spoken guide: utterances heard to their end, and of them the prompts to
+    /// come back to the route ("Off the route: ...").
+    pub heard: Option<(u32, u32)>,
     /// One row per camera frame when [`WalkConfig::trace`] asked for it.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
@@ -450,11 +465,11 @@ fn known_points(world: &World, map: RouteMap, floor: i32) -> Vec<[f64; 2]> {
 /// The compute agent's particle filter on `world`'s floor plan, told where the walk
 /// starts (the world's start, not this walk's jittered one); `None`, said in the log,
 /// when the floor plan cannot be made or the start is not on it.
-fn filter_for(world: &World, seed: u64) -> Option<Tracker> {
+fn filter_for(world: &World, building: Result<&Building, &str>, seed: u64) -> Option<Tracker> {
     let start = world.start();
-    let made = floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M)
-        .map_err(|e| e.to_string())
-        .and_then(|building| Tracker::new(&building, TrackerConfig::default(), seed).map_err(|e| e.to_string()))
+    let made = building
+        .map_err(str::to_string)
+        .and_then(|building| Tracker::new(building, TrackerConfig::default(), seed).map_err(|e| e.to_string()))
         .and_then(|mut tracker| {
             tracker
                 .start_at(start.floor, Pose2::new(start.x_m, start.y_m, start.yaw_rad))
@@ -527,8 +542,12 @@ fn guide_for<'a>(
     map: RouteMap,
     radius_m: f64,
     lookahead_m: f64,
+    ear: &Ear,
 ) -> Box<dyn Guide + 'a> {
     let goal = world.goal();
+    if kind == GuideKind::Spoken {
+        return Box::new(SpokenGuide::new(ear.clone(), spoken::profile(), GoalSound { x_m: goal.x_m, y_m: goal.y_m }));
+    }
     let route = match map {
         RouteMap::Full => world.walker().map(|w| w.waypoints.clone()),
         RouteMap::FloorPlan => world.floor_plan_route().map(<[_]>::to_vec),
@@ -641,12 +660,17 @@ pub struct Walk<'w> {
     /// frame.
     known: (Option<i32>, Vec<[f64; 2]>),
     known_near: Vec<[f64; 2]>,
-    /// With the predictive cue on the filter's pose: the filter, the camera's heading at
-    /// the last frame (the cane gyro's rate between frames), and the squared position
-    /// errors while it tracked.
+    /// With the predictive cue or the spoken guide on the filter's pose: the filter, the
+    /// camera's heading at the last frame (the cane gyro's rate between frames), and the
+    /// squared position errors while it tracked.
     tracker: Option<Tracker>,
     last_camera_yaw: Option<(f64, f64)>,
     tracked_error: (f64, u32),
+    /// With the spoken guide: the device's navigator, what it says this frame, and what
+    /// the user heard and has not yet acted on.
+    spoken: Option<SpokenDevice>,
+    said: Vec<SpeechIntent>,
+    ear: Ear,
     pending: VecDeque<InFlight>,
     last_floor: Option<(UserPose, u64)>,
     shown: Felt,
@@ -696,7 +720,27 @@ impl<'w> Walk<'w> {
             encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
             data: Vec::new(),
         };
-        let feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], Vec::new(), T0_NS);
+        // the device's plan: the world's floor plan, as `wearnav map` exports it
+        let spoken = config.guide == GuideKind::Spoken;
+        let filter = config.pose == PoseSource::Filter && (config.predictive.is_some() || spoken);
+        let building = (filter || spoken)
+            .then(|| floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M).map_err(|e| format!("{e:#}")));
+        let building = building.as_ref().map(|b| b.as_ref().map_err(String::as_str));
+        let tracker = building.filter(|_| filter).and_then(|b| filter_for(world, b, seed));
+        let spoken = building.filter(|_| spoken).and_then(|b| {
+            let made = b
+                .map_err(|e| anyhow::anyhow!("{e}"))
+                .and_then(|b| SpokenDevice::new(b, &floor_plan::goal_label(world)));
+            made.map_err(|e| tracing::warn!("{}: no spoken guidance ({e:#}): the user hears nothing", world.name()))
+                .ok()
+        });
+        // a voice for the spoken guide, timed as the agent's console voice (no sound made)
+        let voices: Vec<Box<dyn SpeechEngine>> = match spoken {
+            Some(_) => vec![Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), SPEECH_WPM))],
+            None => Vec::new(),
+        };
+        let feedback = Feedback::new(config.feedback.clone(), vec![Box::new(Hands::default())], voices, T0_NS);
+        let ear = Ear::default();
         let n = world.obstacles().len();
         let mut body = Touching::new(n);
         let radius_m = params.shoulder_width_m / 2.0;
@@ -719,6 +763,7 @@ impl<'w> Walk<'w> {
             end_xy_m: [start.x_m, start.y_m],
             way_through: world.way_through(),
             localization: None,
+            heard: (config.guide == GuideKind::Spoken).then_some((0, 0)),
             trace: Vec::new(),
         };
         Self {
@@ -746,21 +791,25 @@ impl<'w> Walk<'w> {
             cane: Touching::new(n),
             seen: SeenLog::new(n),
             radius_m,
-            guide: guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m()),
+            guide: guide_for(config.guide, world, config.route_map, radius_m, config.lookahead_m(), &ear),
             target: None,
             guided_at_s: 0.0,
             oracle: config.oracle.map(Oracle::new),
             seen_points: PointGrid::default(),
-            route_ahead: config.predictive.map(|_| RouteAhead::new(device_route(world, config))),
+            // (the spoken guide's way is the navigator's route)
+            route_ahead: config
+                .predictive
+                .filter(|_| config.guide != GuideKind::Spoken)
+                .map(|_| RouteAhead::new(device_route(world, config))),
             way: Vec::new(),
             known: (None, Vec::new()),
             known_near: Vec::new(),
-            tracker: config
-                .predictive
-                .filter(|_| config.pose == PoseSource::Filter)
-                .and_then(|_| filter_for(world, seed)),
+            tracker,
             last_camera_yaw: None,
             tracked_error: (0.0, 0),
+            spoken,
+            said: Vec::new(),
+            ear,
             pending: VecDeque::new(),
             last_floor: None,
             shown: Felt::None,
@@ -883,7 +932,48 @@ impl<'w> Walk<'w> {
             }
             (None, PoseSource::Filter) => None,
         };
-        let believed = believed.filter(|_| self.route_ahead.is_some());
+        if let Some(device) = self.spoken.as_mut() {
+            // the guide speaks from where the device believes the user is
+            let g = match (&self.tracker, config.pose) {
+                (_, PoseSource::Truth) => guidance::UserPose {
+                    x_m: pose.x_m,
+                    y_m: pose.y_m,
+                    heading_rad: pose.yaw_rad,
+                    floor: pose.floor,
+                    confident: true,
+                },
+                (Some(tracker), PoseSource::Filter) => {
+                    let e = tracker.estimate();
+                    guidance::UserPose {
+                        x_m: e.pose.x_m,
+                        y_m: e.pose.y_m,
+                        heading_rad: e.pose.heading_rad,
+                        floor: e.level,
+                        confident: e.status == localization::Status::Tracking,
+                    }
+                }
+                (None, PoseSource::Filter) => guidance::UserPose {
+                    x_m: f64::NAN,
+                    y_m: f64::NAN,
+                    heading_rad: f64::NAN,
+                    floor: pose.floor,
+                    confident: false,
+                },
+            };
+            let news = self.tracker.as_mut().and_then(Tracker::news);
+            let now_ms = (t * 1000.0) as u64;
+            for asked in std::mem::take(&mut self.ear.borrow_mut().asked) {
+                device.command(&asked, &g, now_ms, &mut self.said);
+            }
+            device.step(&g, news, now_ms, &mut self.said);
+            for intent in self.said.drain(..) {
+                // the guide's own intents are well formed; a refusal would be the queue's
+                if let Err(e) = self.feedback.on_speech(&intent, now, now) {
+                    tracing::warn!("seed {}: speech refused: {}", self.out.seed, e.reason);
+                }
+            }
+        }
+        let believed = believed.filter(|_| config.predictive.is_some());
         if let Some(at) = believed {
             if self.known.0 != Some(at.floor) {
                 self.known = (Some(at.floor), known_points(world, config.route_map, at.floor));
@@ -895,13 +985,29 @@ impl<'w> Walk<'w> {
                 (dx.abs() <= KNOWN_NEAR_M && dy.abs() <= KNOWN_NEAR_M).then(|| [c * dx + s * dy, -s * dx + c * dy])
             }));
         }
-        let way = match (self.route_ahead.as_mut(), believed) {
-            (Some(route), Some(at)) => {
+        let way = match (self.route_ahead.as_mut(), self.spoken.as_ref(), believed) {
+            (Some(route), _, Some(at)) => {
                 route.ahead(at.x_m, at.y_m, at.yaw_rad, &mut self.way);
                 Some(Way {
                     points: &self.way,
                     ends_at_goal: route.ends_at_goal(self.way.len()),
                     walls: &self.known_near,
+                })
+            }
+            // the spoken guide's route while it guides, as the compute agent hands it on
+            (None, Some(device), Some(at)) => {
+                let g = guidance::UserPose {
+                    x_m: at.x_m,
+                    y_m: at.y_m,
+                    heading_rad: at.yaw_rad,
+                    floor: at.floor,
+                    confident: true,
+                };
+                let state = device.state(&g);
+                (state.status == RouteStatus::Guiding).then(|| {
+                    let ends_at_goal =
+                        guidance::way_ahead(&g, &state, &self.known.1, &mut self.way, &mut self.known_near);
+                    Way { points: &self.way, ends_at_goal, walls: &self.known_near }
                 })
             }
             _ => None,
@@ -1035,6 +1141,20 @@ impl<'w> Walk<'w> {
         }
         self.feedback.tick(now);
         for a in self.feedback.drain_applied() {
+            match &a.action {
+                AppliedAction::SpeechStarted { .. } => self.ear.borrow_mut().speaking = true,
+                AppliedAction::SpeechFinished { .. } | AppliedAction::SpeechInterrupted { .. } => {
+                    self.ear.borrow_mut().speaking = false;
+                }
+                _ => {}
+            }
+            if let (AppliedAction::SpeechFinished { text }, Some((heard, prompts))) = (&a.action, &mut self.out.heard) {
+                *heard += 1;
+                if text.starts_with("Off the route") {
+                    *prompts += 1;
+                }
+                self.ear.borrow_mut().heard.push_back(Heard { at_s: t + UNDERSTAND_S, text: text.clone() });
+            }
             if self.config.rumble {
                 self.felt.apply(&a);
             }

@@ -625,3 +625,23 @@ fn the_predictive_cue_on_the_particle_filters_place_walks_a_narrow_corridor_unto
         );
     }
 }
+
+#[test]
+fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner() {
+    // `--guide spoken`: no route handed to the user; the compute agent's navigator on
+    // the floor plan, from the filter's place, speaks through the feedback step; the user
+    // turns on the spot until the position is found, then walks by the words
+    let (w, base) = builtin_by_route("corridor-narrow", 70.0);
+    let config = WalkConfig { guide: GuideKind::Spoken, ..base };
+    let out = walk(&w, &config, 1);
+    assert!(out.completed && out.time_s < 60.0, "{} in {:.1} s", out.verdict(), out.time_s);
+    assert_eq!(out.count(Part::Body, None), 0, "{:?}", out.contacts);
+    assert!(out.count(Part::Cane, None) <= 2, "{:?}", out.contacts);
+    // asked where to, told to turn until found, found, the route, the corner ahead and
+    // now; at most one prompt back to the route
+    let (heard, prompts) = out.heard.expect("the spoken guide counts what was heard");
+    assert!(heard >= 5, "heard {heard} utterances");
+    assert!(prompts <= 1, "{prompts} off-route prompts");
+    let (rmse_m, tracked) = out.localization.expect("the guide speaks from the filter's place");
+    assert!(rmse_m < 0.4 && tracked > 0, "{tracked} frames tracked, RMSE {rmse_m:.2} m");
+}
