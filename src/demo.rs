@@ -22,6 +22,9 @@ pub struct DemoArgs {
     /// generated world such as gen:corridor:7), `pcd:<file-or-dir>`, `tum:<dir>`, `png:<dir>`.
     #[arg(long, default_value = "sim:approach")]
     pub source: String,
+    /// The simulated world to run on: the same as `--source sim:<WORLD>`.
+    #[arg(long, value_name = "WORLD", conflicts_with = "source")]
+    pub world: Option<String>,
     /// Extra endpoint the demo listens on, so a Python monitor or another machine can
     /// join (`tcp/0.0.0.0:7447`). The demo always listens on a free loopback port too
     /// and prints it.
@@ -44,7 +47,7 @@ pub struct DemoArgs {
     #[arg(long, value_delimiter = ',', default_value = "console")]
     pub haptic: Vec<feedback_agent::HapticBackend>,
     /// Walk the simulated world to this place by the device's guidance (a label of its
-    /// floor plan, `wearnav map --world W` lists them; needs a `sim:` source): the
+    /// floor plan, `wearnav map --world W` lists them; needs a simulated world, `--world`): the
     /// compute agent localizes on the floor plan and guides, the simulated user walks by
     /// the route as the device sees it and takes elevators when told (the device is told
     /// to prefer them: the simulated user does not climb stairs). Ends on arrival; fails
@@ -164,7 +167,10 @@ fn fmt_ms(v: f32) -> String {
 }
 
 /// Run the demo; `Ok` when it ran cleanly (frames perceived, every agent stopped well).
-pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
+pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
+    if let Some(world) = args.world.take() {
+        args.source = format!("sim:{world}");
+    }
     schemas::Keys::new(&args.user).with_context(|| format!("bad --user {:?}", args.user))?;
     // A refused configuration (a backend named twice) stops the demo here, before any
     // agent starts.
@@ -191,7 +197,7 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
             (source, Some(walk))
         }
         (Some(_), None) => {
-            bail!("--destination needs a simulated world (--source sim:<world>), not {:?}", args.source)
+            bail!("--destination needs a simulated world (--world W or --source sim:W), not {:?}", args.source)
         }
         (None, _) => (
             sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
@@ -206,7 +212,10 @@ pub async fn run(args: DemoArgs) -> anyhow::Result<()> {
     let mut compute_config = compute_agent::run::ComputeConfig::new(hub_bus);
     compute_config.nav = navigation.as_ref().map(|(_, nav)| nav.clone());
     if args.predictive {
-        anyhow::ensure!(compute_config.nav.is_some(), "--predictive needs a simulated world (--source sim:<world>)");
+        anyhow::ensure!(
+            compute_config.nav.is_some(),
+            "--predictive needs a simulated world (--world W or --source sim:W)"
+        );
         compute_config.predictive = Some(perception::predictive::PredictiveConfig::default());
     }
     let compute = tokio::spawn(compute_agent::run::run(compute_config, shutdown.clone()));
@@ -379,5 +388,13 @@ mod tests {
         let Demo { args } = Demo::parse_from(["demo", "--haptic", "phone,phone", "--source", "sim:no-such-world"]);
         let error = format!("{:#}", run(args).await.unwrap_err());
         assert!(error.starts_with("--haptic names phone twice"), "{error}");
+    }
+
+    #[tokio::test]
+    async fn world_names_the_simulated_source() {
+        let Demo { args } = Demo::parse_from(["demo", "--world", "no-such-world", "--destination", "music"]);
+        let error = format!("{:#}", run(args).await.unwrap_err());
+        assert!(error.contains("no-such-world"), "the world is loaded as sim:no-such-world: {error}");
+        assert!(Demo::try_parse_from(["demo", "--world", "taylor-course", "--source", "sim:corridor"]).is_err());
     }
 }
