@@ -293,8 +293,15 @@ async fn process(
     clock.stages.push(("queue", Duration::from_nanos(started_ns.saturating_sub(frame.received_ns))));
     let input =
         FrameIn { data: FrameData::Wire(&frame.body), seq: frame.header.seq, capture_ns, body_yaw_rate_rad_s, way };
+    let ways_refused = step.ways_refused();
     let (perception, mut hazard, intent) = match step.process(input, &mut clock) {
-        StepOutput::Perceived { perception, hazard, intent } => (perception, hazard, intent),
+        StepOutput::Perceived { perception, hazard, intent } => {
+            if step.ways_refused() > ways_refused {
+                // the navigation side made a way with a NaN: the cost functions decided
+                health.reject(&frame.key, "way_not_finite", &"the way ahead had a non-finite point");
+            }
+            (perception, hazard, intent)
+        }
         StepOutput::Refused { error, blind } => {
             health.reject(&frame.key, error.kind(), &error);
             if let Some(blind) = blind {

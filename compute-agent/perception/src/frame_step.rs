@@ -115,6 +115,8 @@ pub struct ComputeStep {
     rejections: Rejections,
     depth: Vec<u16>,
     predictive: Option<PredictiveCue>,
+    /// ways refused for a non-finite number (the cost functions decided those frames)
+    ways_refused: u64,
 }
 
 impl ComputeStep {
@@ -127,6 +129,7 @@ impl ComputeStep {
             rejections: Rejections::default(),
             depth: Vec::new(),
             predictive: None,
+            ways_refused: 0,
         }
     }
 
@@ -136,6 +139,13 @@ impl ComputeStep {
     pub fn with_predictive(mut self, config: PredictiveConfig) -> Self {
         self.predictive = Some(PredictiveCue::new(config));
         self
+    }
+
+    /// Ways refused so far: a point of the way or of its walls was not finite (a pose
+    /// gone wrong upstream); the cost functions decided those frames, and their hazards
+    /// say so (`predictive` false).
+    pub fn ways_refused(&self) -> u64 {
+        self.ways_refused
     }
 
     /// The perception settings in use.
@@ -193,7 +203,12 @@ impl ComputeStep {
                 self.rejections.record(true);
                 let t_s = input.capture_ns as f64 * 1e-9;
                 if let Some(p) = self.predictive.as_mut() {
-                    if let Some(way) = input.way.filter(|_| !perception.dropoff_ahead) {
+                    let way = input.way.filter(|w| {
+                        let finite = w.is_finite();
+                        self.ways_refused += u64::from(!finite);
+                        finite
+                    });
+                    if let Some(way) = way.filter(|_| !perception.dropoff_ahead) {
                         timer.start("predictive");
                         perception.rumble = p.decide(&Ahead {
                             t_s,
@@ -319,6 +334,20 @@ mod tests {
         assert_ne!(rumble(None), Rumble::None, "the cost functions");
         assert_eq!(rumble(Some(&[[0.0, 0.0], [-5.0, 0.0]])), Rumble::None, "a way back");
         assert_ne!(rumble(Some(&[[0.0, 0.0], [5.0, 0.0]])), Rumble::None, "a way into the wall");
+        // a way with a NaN (a pose gone wrong upstream) is refused and counted: the cost
+        // functions decide, never a "clear" from a way that is no way
+        let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default())
+            .with_predictive(PredictiveConfig::default());
+        let broken = [[0.0, 0.0], [f64::NAN, 0.0]];
+        let way = Some(Way { points: &broken, ends_at_goal: true, walls: &[] });
+        match step.process(FrameIn { way, ..input(&frame, 7) }, &mut NoTimer) {
+            StepOutput::Perceived { perception, hazard, .. } => {
+                assert!(!hazard.predictive);
+                assert_eq!(perception.rumble, rumble(None), "the cost functions' cue");
+            }
+            StepOutput::Refused { error, .. } => panic!("{error}"),
+        }
+        assert_eq!(step.ways_refused(), 1);
     }
 
     #[test]

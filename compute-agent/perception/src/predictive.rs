@@ -155,6 +155,13 @@ pub struct Way<'a> {
     pub walls: &'a [[f64; 2]],
 }
 
+impl Way<'_> {
+    /// Every point of the way and of the walls is finite.
+    pub fn is_finite(&self) -> bool {
+        self.points.iter().chain(self.walls).flatten().all(|v| v.is_finite())
+    }
+}
+
 /// One frame as the cue needs it.
 #[derive(Debug, Clone, Copy)]
 pub struct Ahead<'a> {
