@@ -379,7 +379,8 @@ impl Guide {
     /// The answer to "repeat": the last instruction again, except that a turn is said
     /// with the distance of now (or, once passed, which way to face and how far to go
     /// straight on), never a stale "turn right now", and the route's start says the
-    /// way to face from where the user faces now.
+    /// way to face from where the user faces now, as does a "position uncertain" once
+    /// the position is known again.
     pub fn repeat(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
         let Some(last) = self.last.clone() else {
             return self.answer(
@@ -409,10 +410,19 @@ impl Guide {
         // the way to face is said again from where the user faces now (they may have
         // turned since, or never heard it)
         let here = pose.confident && self.legs.get(self.leg).is_some_and(|l| l.route.floor == pose.floor);
-        if let (InstructionKind::Start { .. }, true) = (&last.kind, here) {
-            let pr = self.progress(pose);
-            let text = self.start_words(pose, &pr, false);
-            return self.answer(last.kind.clone(), text, "repeat", now_ms, false);
+        match (&last.kind, here) {
+            (InstructionKind::Start { .. }, true) => {
+                let pr = self.progress(pose);
+                let text = self.start_words(pose, &pr, false);
+                return self.answer(last.kind.clone(), text, "repeat", now_ms, false);
+            }
+            // the position is known again since: not a stale "uncertain", the way on
+            (InstructionKind::PositionUncertain, true) if !self.off_route => {
+                let pr = self.progress(pose);
+                let text = self.face_words(pose, &pr);
+                return self.answer(InstructionKind::Continue, text, "repeat", now_ms, false);
+            }
+            _ => {}
         }
         self.serial += 1;
         Instruction {

@@ -172,6 +172,14 @@ impl Navigator {
                 out.speech.push(speech);
             }
             Command::Repeat => {
+                if self.trip.as_ref().is_some_and(|t| t.held == RouteStatus::Unreachable) && pose.confident {
+                    // no way from where the position was: from where it is now, perhaps
+                    // (a position found in the wrong place, found again)
+                    if let Some(s) = self.plan_trip(pose, now_ms) {
+                        out.speech.push(s);
+                    }
+                    return out;
+                }
                 let guided = self.trip.as_mut().and_then(|t| t.guide.as_mut()).filter(|g| g.last().is_some());
                 let speech = match (guided, self.last_said.clone()) {
                     (Some(guide), _) => guide.repeat(pose, now_ms).speech(),

@@ -225,6 +225,22 @@ fn an_unreachable_destination_is_said_and_the_planner_reason_kept_for_the_log() 
 }
 
 #[test]
+fn repeat_after_no_way_plans_again_from_the_position_of_now() {
+    // the position was (wrongly) inside the closed room: no way; found again in the
+    // corridor, "repeat" plans from there
+    let mut nav = navigator();
+    let wrong = at(4.0, 4.0, 0.0, 0);
+    let r = nav.command(&go("room 204"), &wrong, 0);
+    assert_eq!(texts(&r.speech), ["I cannot find a way to room 204 from here."]);
+    let again = nav.command(&Command::Repeat, &wrong, 1000);
+    assert_eq!(texts(&again.speech), ["I cannot find a way to room 204 from here."]);
+    let here = at(1.5, 11.5, 0.0, 0);
+    let r = nav.command(&Command::Repeat, &here, 2000);
+    assert_eq!(texts(&r.speech), ["Route to room 204: 40 metres. Go straight on."]);
+    assert_eq!(nav.state(&here).status, RouteStatus::Guiding);
+}
+
+#[test]
 fn a_preview_plans_without_starting_guidance() {
     let mut nav = navigator();
     let here = at(1.5, 11.5, 0.0, 0);

@@ -414,6 +414,12 @@ fn repeat_says_a_turn_with_the_distance_of_now_and_never_a_passed_turn() {
     assert_eq!(facing_west.text, format!("Turn left, then go straight on for {} metres.", left.round()));
     // asking does not hold back guidance: the spacing counts spontaneous instructions only
     assert_eq!(guide.last().map(|i| i.text.as_str()), Some("Turn right now."));
+    // the position lost for a while and found again: not a stale "uncertain"
+    let lost = UserPose { confident: false, ..pose(below, -std::f64::consts::FRAC_PI_2) };
+    let uncertain = guide.step(&lost, 19_000, Some(p.graph())).unwrap();
+    assert_eq!(uncertain.kind, InstructionKind::PositionUncertain);
+    let found = guide.repeat(&pose(below, -std::f64::consts::FRAC_PI_2), 20_000);
+    assert_eq!(found.text, format!("Go straight on for {} metres.", left.round()));
 }
 
 const ELEVATOR: &str = r#"
