@@ -28,9 +28,8 @@ use crate::virtual_user::{GoalSound, Guide};
 /// a short instruction understood while walking; the simple reaction to a spoken
 /// word is about a third of this).
 pub const UNDERSTAND_S: f64 = 0.5;
-/// While searching, the user aims this far to the left of where they face, radians:
-/// past a right angle, so they turn on the spot without stepping.
-const SEARCH_AHEAD_RAD: f64 = 2.0;
+/// "Turn slowly on the spot": this fast, radians a second (30 degrees a second, left).
+pub const SEARCH_TURN_RAD_S: f64 = 0.5;
 /// The voice's rate, words a minute (the feedback agent's default `rate_wpm`).
 pub const SPEECH_WPM: u32 = 175;
 
@@ -74,7 +73,7 @@ pub enum Meaning {
     /// turn slowly on the spot until told the position is found (the filter earns its
     /// tracking from motion)
     Search,
-    /// stand and wait for the next words ("Position found.")
+    /// "Position found.": a user turning on the spot stops and waits for the way
     Wait,
     /// nothing to do now (an announcement, the position's news, a replan)
     Nothing,
@@ -188,7 +187,10 @@ impl Guide for SpokenGuide {
                 }
                 Meaning::Arrived => self.arrived = true,
                 Meaning::Search => (self.heading_rad, self.searching) = (None, true),
-                Meaning::Wait => (self.heading_rad, self.searching) = (None, false),
+                // found while turning on the spot: stand and wait for the way (found
+                // again while walking: walk on as before)
+                Meaning::Wait if self.searching => (self.heading_rad, self.searching) = (None, false),
+                Meaning::Wait => {}
                 Meaning::Nothing => {}
             }
         }
@@ -196,8 +198,8 @@ impl Guide for SpokenGuide {
             return self.place.heading_target_rad(pose, t_s);
         }
         if self.searching {
-            // a heading well behind the left shoulder: the user turns on the spot
-            return Some(pose.yaw_rad + SEARCH_AHEAD_RAD);
+            // turning on the spot ([`Guide::spin_rad_s`]), heading nowhere
+            return None;
         }
         if self.heading_rad.is_none() && t_s - self.last_words_s >= ASK_AFTER_S {
             // standing with no way to go, and nothing said for a while: "repeat"
@@ -208,6 +210,10 @@ impl Guide for SpokenGuide {
             }
         }
         self.heading_rad
+    }
+
+    fn spin_rad_s(&self) -> Option<f64> {
+        (self.searching && !self.arrived).then_some(SEARCH_TURN_RAD_S)
     }
 
     fn boxed_clone(&self) -> Box<dyn Guide + '_> {
@@ -343,11 +349,26 @@ mod tests {
     }
 
     #[test]
+    fn told_to_turn_on_the_spot_the_user_turns_slowly_until_the_position_is_found() {
+        let ear: Ear = Rc::default();
+        let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
+        let at = sensor_agent::sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
+        let said = "Going to music. Turn slowly on the spot until I find your position.";
+        ear.borrow_mut().heard.push_back(Heard { at_s: 1.0, text: said.into() });
+        ear.borrow_mut().heard.push_back(Heard { at_s: 5.0, text: "Position found.".into() });
+        assert_eq!(guide.heading_target_rad(&at, 1.0), None);
+        assert_eq!(guide.spin_rad_s(), Some(SEARCH_TURN_RAD_S), "30 degrees a second, heading nowhere");
+        assert_eq!(guide.heading_target_rad(&at, 5.0), None);
+        assert_eq!(guide.spin_rad_s(), None, "found: the user stands and waits for the way");
+    }
+
+    #[test]
     fn the_user_turns_from_where_they_face_when_the_words_are_understood_and_holds_that_heading() {
         let ear: Ear = Rc::default();
         let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
         let at = |yaw_rad: f64| sensor_agent::sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad, floor: 0 };
         assert_eq!(guide.heading_target_rad(&at(0.3), 0.0), None, "nothing heard: nowhere to go");
+        assert_eq!(guide.spin_rad_s(), None);
         assert_eq!(guide.heading_target_rad(&at(0.3), 1.0), None);
         assert!(ear.borrow().asked.is_empty(), "not asked before {ASK_AFTER_S} s");
         ear.borrow_mut()

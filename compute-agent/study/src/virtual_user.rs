@@ -33,6 +33,13 @@ pub trait Guide {
 
     /// A copy in the same state, to walk the user ahead with (the oracle's look-ahead).
     fn boxed_clone(&self) -> Box<dyn Guide + '_>;
+
+    /// Turn on the spot at this rate (radians a second, positive left) instead of
+    /// heading anywhere, when nothing is felt (told to turn slowly while the device
+    /// looks for the position); `None` for a guide that never asks it.
+    fn spin_rad_s(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// A sound source at the goal: the user hears its bearing, nothing else (Taylor's music).
@@ -375,6 +382,8 @@ pub struct VirtualUser {
     /// When the last touch was acted on, and which way it turned the user (left).
     last_turn: Option<(f64, bool)>,
     commit_until_s: f64,
+    /// told to turn on the spot at this rate (radians a second, positive left)
+    spin_rad_s: Option<f64>,
 }
 
 impl VirtualUser {
@@ -392,7 +401,14 @@ impl VirtualUser {
             bump_left: true,
             last_turn: None,
             commit_until_s: f64::NEG_INFINITY,
+            spin_rad_s: None,
         }
+    }
+
+    /// Turn on the spot at this rate (radians a second, positive left) whenever nothing
+    /// is felt, until told otherwise ([`Guide::spin_rad_s`]); `None`: head for the target.
+    pub fn spin(&mut self, rate_rad_s: Option<f64>) {
+        self.spin_rad_s = rate_rad_s;
     }
 
     /// Parameters.
@@ -505,6 +521,7 @@ impl VirtualUser {
                 // but turn slowly so the camera can find the floor again
                 Felt::Offline => (0.0, if self.in_place_left { 0.5 * turn } else { -0.5 * turn }),
                 Felt::None if t_s < self.commit_until_s => (p.walk_speed_m_s, 0.0),
+                Felt::None if self.spin_rad_s.is_some() => (0.0, self.spin_rad_s.map_or(0.0, |r| r.clamp(-turn, turn))),
                 Felt::None => match target_rad {
                     Some(h) => {
                         let err = wrap_pi(h - self.pose.yaw_rad);

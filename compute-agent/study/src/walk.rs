@@ -861,6 +861,7 @@ impl<'w> Walk<'w> {
         self.track_reorientation(t, &pose);
         if self.steps.is_multiple_of(GUIDE_EVERY) {
             self.target = self.guide.heading_target_rad(&pose, t);
+            self.user.spin(self.guide.spin_rad_s());
             self.guided_at_s = t;
         }
         self.move_user(t, dt, &pose);
