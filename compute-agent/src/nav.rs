@@ -2,7 +2,9 @@
 //! [`localization::Tracker`] and [`guidance::Navigator`].
 //!
 //! In: the body's odometry and gyro (from the loop), each frame's scan with the cane's
-//! and the body's turn rates, `cmd/*` commands, `query/destinations` and `query/route`.
+//! and the body's turn rates, `cmd/*` commands, `query/destinations` and `query/route`,
+//! and `feedback/applied` (an instruction the feedback agent dropped or cut off is given
+//! again).
 //! Out: `localization/pose`, `route/state` (5 Hz, and at once when a command changes
 //! it), and speech intents at `Message` priority on `feedback/speech`: the position
 //! found or lost, and the guide's instructions (never before localization tracks).
@@ -19,7 +21,10 @@ use map::{Building, Cell};
 use perception::body_rate::BodyRate;
 use perception::predictive::Way;
 use planning::UserProfile;
-use schemas::{Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, RouteStatus, Scan, SpeechIntent};
+use schemas::{
+    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, RouteStatus, Scan,
+    SpeechIntent,
+};
 
 use crate::run::AGENT;
 
@@ -125,6 +130,8 @@ pub struct Nav {
     speech_out: Publisher<SpeechIntent>,
     pub(crate) commands: Subscriber<Command>,
     pub(crate) cane_imu: Subscriber<ImuBatch>,
+    /// what the feedback agent did: an instruction it never finished is given again
+    pub(crate) applied: Subscriber<Applied>,
     pub(crate) destinations: Queryable,
     pub(crate) routes: Queryable,
     serial: u64,
@@ -175,6 +182,7 @@ impl Nav {
             speech_out: Publisher::declare(session, keys.speech(), AGENT, Lane::RealTime, Some(health)).await?,
             commands: Subscriber::declare_fresh(session, keys.cmd_any(), false, MAX_COMMAND_AGE, health).await?,
             cane_imu: Subscriber::declare(session, keys.imu_any(), false, health).await?,
+            applied: Subscriber::declare(session, keys.applied(), false, health).await?,
             destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
             routes: Queryable::declare(session, keys.query("route"), health).await?,
             serial: 0,
@@ -257,6 +265,16 @@ impl Nav {
         }
         if let Some(problem) = self.navigator.take_problem() {
             tracing::warn!("{problem}");
+        }
+    }
+
+    /// What the feedback agent did: an instruction of the guide it dropped (stale) or
+    /// cut off (a warning) is given again with the words of then (`Guide::not_heard`).
+    pub fn applied(&mut self, applied: &Applied) {
+        if let AppliedAction::SpeechDropped { text, .. } | AppliedAction::SpeechInterrupted { text } = &applied.action {
+            if self.navigator.not_heard(text) {
+                tracing::info!("guidance: not heard ({}), to be said again: {text}", applied.device);
+            }
         }
     }
 

@@ -187,6 +187,11 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                     n.imu(&batch, &health);
                 }
             }
+            Some(applied) = bus::maybe(nav.as_ref().map(|n| n.applied.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.applied(&applied.body);
+                }
+            }
             Some(cmd) = bus::maybe(nav.as_ref().map(|n| n.commands.recv())) => {
                 if let Some(n) = nav.as_mut() {
                     n.command(&cmd).await;

@@ -135,6 +135,9 @@ pub struct Guide {
     serial: u64,
     /// the pose's heading over the last second: is the user turning?
     pub(crate) headings: Headings,
+    /// the last instruction was not heard: the next one gets a key of its own (the
+    /// feedback agent remembers the key of what it started, even if it was cut)
+    again: bool,
 }
 
 impl Guide {
@@ -163,6 +166,7 @@ impl Guide {
             last: None,
             serial: 0,
             headings: Headings::default(),
+            again: false,
         };
         g.set_legs(legs);
         g
@@ -228,6 +232,34 @@ impl Guide {
     /// The last instruction given (spontaneous or asked for; repeats excluded).
     pub fn last(&self) -> Option<&Instruction> {
         self.last.as_ref()
+    }
+
+    /// The feedback agent never finished saying `text` (dropped as stale, cut off by a
+    /// warning). When it is the last instruction, it is given again, with the words of
+    /// then, as soon as the step would give it: the route's start (or back on the
+    /// route), an off-route prompt, a turn still ahead (a "now" only while the turn is
+    /// within reach), the arrival. True when it was.
+    pub fn not_heard(&mut self, text: &str) -> bool {
+        let Some(last) = self.last.as_ref().filter(|i| i.text == text) else {
+            return false;
+        };
+        match last.kind {
+            InstructionKind::Start { leg } if self.started_leg == Some(leg) => self.started_leg = None,
+            InstructionKind::OffRoute { .. } | InstructionKind::Replan => self.deviation_said_ms = None,
+            InstructionKind::TurnAhead { leg, waypoint, .. } if self.announced == Some((leg, waypoint)) => {
+                self.announced = None;
+            }
+            InstructionKind::TurnNow { leg, waypoint, .. } if self.said_now == Some((leg, waypoint)) => {
+                self.said_now = None;
+                self.announced = None;
+            }
+            InstructionKind::Arrived => self.arrived = false,
+            _ => return false,
+        }
+        // not heard: no spacing to keep after it
+        self.last_spontaneous_ms = None;
+        self.again = true;
+        true
     }
 
     /// The route still ahead of `pose`: from the user's place on the current leg (its
@@ -686,11 +718,17 @@ impl Guide {
         {
             return None;
         }
+        let dedup_key = if std::mem::take(&mut self.again) {
+            self.serial += 1;
+            format!("guidance/r{}/{key}/again/{}", self.generation, self.serial)
+        } else {
+            format!("guidance/r{}/{key}", self.generation)
+        };
         let i = Instruction {
             ttl_ms: ttl_ms(&kind),
             kind,
             text,
-            dedup_key: format!("guidance/r{}/{key}", self.generation),
+            dedup_key,
             vibrate_first: self.profile.vibrate_before,
             issued_ms: now_ms,
         };

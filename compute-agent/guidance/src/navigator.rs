@@ -243,6 +243,13 @@ impl Navigator {
         Some(instruction.speech())
     }
 
+    /// The feedback agent never finished saying `text` (`feedback/applied`: dropped or
+    /// cut off): the guide gives it again when it was its last instruction
+    /// ([`Guide::not_heard`]). True when it will.
+    pub fn not_heard(&mut self, text: &str) -> bool {
+        self.trip.as_mut().and_then(|t| t.guide.as_mut()).is_some_and(|g| g.not_heard(text))
+    }
+
     /// Where guidance stands, for `route/state`.
     pub fn state(&self, pose: &UserPose) -> RouteState {
         state_of(self.trip.as_ref(), pose)

@@ -575,3 +575,34 @@ fn the_way_to_face_waits_until_the_user_stops_turning() {
     // than 15 degrees a second: 3 s of turning, then 0.5 s still
     assert!((3400..=3600).contains(&said[0].t_ms), "said at {} ms", said[0].t_ms);
 }
+
+#[test]
+fn an_instruction_the_user_did_not_hear_is_given_again_with_the_words_of_then() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let corner = route.waypoints[1];
+    let from = route.waypoints[0];
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), GuidanceProfile::default());
+    let start = guide.step(&pose(from, 0.0), 0, Some(p.graph())).unwrap();
+    assert_eq!(start.text, "Route to the stairs: 25 metres. Go straight on.");
+    assert!(!guide.not_heard("some other words"), "only the last instruction");
+    // dropped by the feedback agent (stale): said again at once, from where the user
+    // is and faces then, with a key of its own (the agent remembers the first one's)
+    assert!(guide.not_heard(&start.text));
+    // (the user turned round meanwhile: the way to face waits until the heading holds)
+    let back = pose([from[0] + 1.0, from[1]], std::f64::consts::PI);
+    assert_eq!(guide.step(&back, 100, Some(p.graph())), None);
+    let again = guide.step(&back, 1200, Some(p.graph())).unwrap();
+    assert_eq!(again.text, "Route to the stairs: 25 metres. Turn around, then go straight on.");
+    assert_ne!(again.dedup_key, start.dedup_key);
+    assert!(!guide.not_heard(&start.text), "the old words are no longer the last");
+    // a "now" cut off: again while the turn is within reach, never once it is passed
+    let now = guide.step(&pose([corner[0] - 1.0, corner[1]], 0.0), 15_000, Some(p.graph())).unwrap();
+    assert_eq!(now.text, "Turn right now.");
+    assert!(guide.not_heard(&now.text));
+    let again = guide.step(&pose([corner[0] - 0.5, corner[1]], 0.0), 15_500, Some(p.graph())).unwrap();
+    assert_eq!(again.text, "Turn right now.");
+    assert!(guide.not_heard(&again.text));
+    let below = [corner[0], corner[1] - 2.0];
+    assert_eq!(guide.step(&pose(below, -std::f64::consts::FRAC_PI_2), 16_000, Some(p.graph())), None);
+}

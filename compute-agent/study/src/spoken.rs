@@ -276,6 +276,12 @@ impl SpokenDevice {
         out.extend(self.navigator.command(command, pose, now_ms).speech);
     }
 
+    /// The voice never finished `text` (dropped or cut off): the guide says it again
+    /// when it was its last instruction (`guidance::Guide::not_heard`).
+    pub fn not_heard(&mut self, text: &str) -> bool {
+        self.navigator.not_heard(text)
+    }
+
     /// Where guidance stands at `pose` (`route/state`).
     pub fn state(&self, pose: &UserPose) -> RouteState {
         self.navigator.state(pose)

@@ -1144,8 +1144,19 @@ impl<'w> Walk<'w> {
         for a in self.feedback.drain_applied() {
             match &a.action {
                 AppliedAction::SpeechStarted { .. } => self.ear.borrow_mut().speaking = true,
-                AppliedAction::SpeechFinished { .. } | AppliedAction::SpeechInterrupted { .. } => {
+                AppliedAction::SpeechFinished { .. } => self.ear.borrow_mut().speaking = false,
+                AppliedAction::SpeechInterrupted { text } => {
                     self.ear.borrow_mut().speaking = false;
+                    // the device hears back what the voice did not finish, as the
+                    // compute agent would on `feedback/applied`
+                    if let Some(device) = self.spoken.as_mut() {
+                        device.not_heard(text);
+                    }
+                }
+                AppliedAction::SpeechDropped { text, .. } => {
+                    if let Some(device) = self.spoken.as_mut() {
+                        device.not_heard(text);
+                    }
                 }
                 _ => {}
             }
