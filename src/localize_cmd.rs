@@ -49,6 +49,12 @@ pub struct LocalizeArgs {
     /// report says how far the user walked before the estimate was back within 0.5 m.
     #[arg(long, value_name = "M", requires = "world", conflicts_with = "no_signs")]
     misread_after: Option<f64>,
+    /// Leave out of each correction, while tracking, the beams that end in open floor more
+    /// than M metres from every wall of the map with nothing of the map before them
+    /// (people, bins, chairs: what a floor plan does not have). Off by default; see
+    /// docs/localization.md, "Beams on what the map does not have".
+    #[arg(long, value_name = "M", value_parser = parse_gate)]
+    unmapped_gate: Option<f64>,
     /// With `--carmen`: odometry noise, AMCL's alpha1..alpha4 (rotation from rotation,
     /// rotation from translation, translation from translation, translation from
     /// rotation); default 0.1 each. A simulated walk has the simulator's own.
@@ -73,6 +79,13 @@ pub struct LocalizeArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
+}
+
+fn parse_gate(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?}: give metres, more than 0 (e.g. 0.5)")),
+    }
 }
 
 fn parse_share(s: &str) -> Result<f64, String> {
@@ -119,6 +132,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
     let filter = FilterConfig {
         max_particles: args.particles,
         min_particles: defaults.filter.min_particles.min(args.particles),
+        unmapped_gate_m: args.unmapped_gate.unwrap_or(defaults.filter.unmapped_gate_m),
         ..defaults.filter.clone()
     };
     if args.misread_after.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {
@@ -202,6 +216,7 @@ fn on_log(args: &LocalizeArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let config = FilterConfig {
         max_particles: args.particles,
         min_particles: defaults.min_particles.min(args.particles),
+        unmapped_gate_m: args.unmapped_gate.unwrap_or(defaults.unmapped_gate_m),
         ..defaults
     };
     let mut pf = logged.filter(config, args.seed)?;

@@ -56,7 +56,12 @@ fn bad_input_is_refused_with_its_reason() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("/nonexistent/run.log"), "{err}");
     // a simulated walk's sign reader: a share is between 0 and 1, a distance not negative
-    for (arg, says) in [("--misread=1.5", "between 0 and 1"), ("--misread-after=-3", "0 or more")] {
+    for (arg, says) in [
+        ("--misread=1.5", "between 0 and 1"),
+        ("--misread-after=-3", "0 or more"),
+        ("--unmapped-gate=0", "more than 0"),
+        ("--unmapped-gate=nan", "more than 0"),
+    ] {
         let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
             .args(["localize", "--world", "building", arg])
             .env("RUST_BACKTRACE", "0")
@@ -65,6 +70,26 @@ fn bad_input_is_refused_with_its_reason() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(says), "{arg}: {err}");
     }
+}
+
+#[test]
+fn the_unmapped_gate_leaves_out_the_beams_on_the_chairs_of_taylors_course_and_says_how_many() {
+    // the course's floor plan has its walls and dividers, not its chairs or hanging
+    // obstacles: the gate leaves out what the camera sees of them while tracking
+    let run = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+            .args(["localize", "--world", "taylor-course", "--seed", "4", "--json"])
+            .args(extra)
+            .env("RUST_BACKTRACE", "0")
+            .output()
+            .expect("wearnav runs");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        report(&String::from_utf8_lossy(&out.stdout))
+    };
+    assert_eq!(run(&[])["beams_unmapped"], 0);
+    let gated = run(&["--unmapped-gate", "0.5"]);
+    let left_out = gated["beams_unmapped"].as_u64().expect("a count");
+    assert!(left_out >= 10, "{left_out} beams left out");
 }
 
 #[test]

@@ -104,6 +104,8 @@ pub struct LikelihoodField {
     table: [[f32; 2]; 256],
     /// the best a beam can score (an end point on a wall)
     log_p_max: f64,
+    /// metres per distance code
+    step_m: f64,
     /// both sides under 2^22 cells, so [`cell_floor`] holds (any real floor: 209 km
     /// at 5 cm); a longer grid takes Rust's saturating casts, which do not vectorise
     narrow: bool,
@@ -154,8 +156,42 @@ impl LikelihoodField {
             codes,
             table,
             log_p_max: p_max,
+            step_m: step,
             narrow: grid.width() < 1 << 22 && grid.height() < 1 << 22,
         }
+    }
+
+    /// Distance from map (x, y) to the nearest occupied cell, metres, capped at the
+    /// field's `max_distance_m` (and that cap outside the grid).
+    pub fn distance_m(&self, x_m: f64, y_m: f64) -> f64 {
+        let (dx, dy) = (x_m - self.origin_x_m, y_m - self.origin_y_m);
+        let gx = (self.cos_yaw * dx + self.sin_yaw * dy) / self.resolution_m;
+        let gy = (-self.sin_yaw * dx + self.cos_yaw * dy) / self.resolution_m;
+        let code = if gx >= 0.0 && gy >= 0.0 && (gx as usize) < self.width && (gy as usize) < self.height {
+            self.codes[gy as usize * self.width + gx as usize]
+        } else {
+            254
+        };
+        code.min(254) as f64 * self.step_m
+    }
+
+    /// Whether the straight segment from map point `a` to `b` stays off every occupied
+    /// cell (to within one cell), marched by the distance to the nearest wall.
+    pub fn segment_free(&self, a: [f64; 2], b: [f64; 2]) -> bool {
+        let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        if !len.is_finite() {
+            return false;
+        }
+        let mut t = 0.0;
+        while t < len {
+            let f = t / len.max(1e-9);
+            let d = self.distance_m(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+            if d < self.resolution_m {
+                return false;
+            }
+            t += d.max(self.resolution_m) * 0.9;
+        }
+        true
     }
 
     /// Log-likelihood of an end point at map (x, y).

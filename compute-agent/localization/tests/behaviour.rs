@@ -116,6 +116,54 @@ fn a_few_beams_do_not_make_tracking() {
 }
 
 #[test]
+fn with_the_gate_on_the_beams_on_a_person_the_map_does_not_have_are_left_out_while_tracking() {
+    // the corridor as the camera sees it: a person (0.4 m square) in its middle, 1 m
+    // from both walls, stepping ahead of the user; the filter's map has no person
+    let seen_with_person = |person_x: f64| {
+        let (g, _) = corridor();
+        let (w, h) = (g.width(), g.height());
+        let mut world = g.clone();
+        for r in 0..h {
+            for c in 0..w {
+                let (x, y) = g.cell_center(c, r);
+                if (x - person_x).abs() < 0.2 && (y - 1.5).abs() < 0.2 {
+                    world.set(c, r, map::Cell::Occupied);
+                }
+            }
+        }
+        (g, world)
+    };
+    let walk = |gate_m: f64| {
+        let config = FilterConfig { unmapped_gate_m: gate_m, max_beams: 61, ..Default::default() };
+        let (mut pf, _) = corridor_filter(config, 4);
+        let mut truth = Pose2::new(2.0, 1.5, 0.0);
+        pf.init_pose(0, truth, 0.1, 0.05).expect("start");
+        let mut person_beams_while_tracking = 0;
+        for _ in 0..20 {
+            truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+            let (map_only, world) = seen_with_person(truth.x_m + 1.5);
+            pf.predict(&STEP, Some(0.0)).expect("plausible");
+            let scan = cast(&world, &truth, 61, 120f64.to_radians(), 8.0);
+            let walls = cast(&map_only, &truth, 61, 120f64.to_radians(), 8.0);
+            let on_person = scan.beams.iter().zip(&walls.beams).filter(|(b, w)| b.range_m + 0.5 < w.range_m).count();
+            if pf.estimate().status == Status::Tracking {
+                person_beams_while_tracking += on_person;
+            }
+            pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+            assert!(pf.estimate().pose.distance_m(&truth) < 0.3, "gate {gate_m}: {:?}", pf.estimate().pose);
+        }
+        (pf.counters().beams_unmapped, person_beams_while_tracking)
+    };
+    let (left_out, on_person) = walk(0.5);
+    assert!(on_person >= 20, "the person is in view while tracking: {on_person} beams");
+    // every beam on the person, and only those, while `Tracking`; none before
+    assert_eq!(left_out as usize, on_person);
+    // off (the default): every beam is weighed
+    assert_eq!(FilterConfig::default().unmapped_gate_m, 0.0);
+    assert_eq!(walk(0.0).0, 0);
+}
+
+#[test]
 fn corners_are_matched_to_the_nearest_one() {
     // no scans; facing west 0.7 m from the corridor's west end, a corner ahead-right.
     // Corners are not unique: the reading is matched to whichever map corner is

@@ -196,6 +196,9 @@ pub struct LocalizeSummary {
     pub update_ms_median: f64,
     /// Odometry increments or gyro rates the filter refused.
     pub odometry_rejected: u64,
+    /// Beams left out as something the map does not have
+    /// (`FilterConfig::unmapped_gate_m`; 0 with the gate off).
+    pub beams_unmapped: u64,
     /// Door signs read, and how many of them misread.
     pub doors_read: usize,
     /// Misread door signs.
@@ -234,7 +237,7 @@ impl WalkLocalization {
              position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
              tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
              door signs: {} read, {} misread, {} refused by the filter{}\n\
-             scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose\n",
+             scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n",
             self.world,
             self.seed,
             s.frames,
@@ -262,6 +265,11 @@ impl WalkLocalization {
             },
             s.beams_median,
             s.truth_fit_median_m,
+            if s.beams_unmapped > 0 {
+                format!("; {} beams left out as not on the map", s.beams_unmapped)
+            } else {
+                String::new()
+            },
         )
     }
 }
@@ -570,6 +578,7 @@ fn summarize(
         truth_fit_median_m: quantile(&fit, 0.5),
         update_ms_median: quantile(&updates, 0.5),
         odometry_rejected: counters.odometry_rejected,
+        beams_unmapped: counters.beams_unmapped,
         doors_read: frames.iter().map(|f| f.doors_read.len()).sum(),
         doors_misread: frames.iter().filter(|f| f.misread).count(),
         landmarks_rejected: counters.landmarks_rejected,
