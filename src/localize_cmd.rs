@@ -35,6 +35,11 @@ pub struct LocalizeArgs {
     /// `frame`: each frame's scan; `sweep`: the frames of a cane sweep merged).
     #[arg(long, value_enum, default_value = "frame", requires = "world")]
     scans: study::localize_walk::ScanUse,
+    /// With `--world`: the map the filter localizes on: `floor-plan` (walls only, what
+    /// `wearnav map` exports) or `mapped` (also the furniture and hanging obstacles in the
+    /// camera's obstacle band, no people: what a mapping run would record).
+    #[arg(long, value_enum, default_value = "floor-plan", requires = "world")]
+    map: study::localize_walk::LocalizationMap,
     /// With `--world`: do not use the body gyro's yaw rate.
     #[arg(long, requires = "world")]
     no_imu: bool,
@@ -145,6 +150,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
     let config = LocalizeWalkConfig {
         filter,
         scans: args.scans,
+        map: args.map,
         imu: !args.no_imu,
         signs,
         misread_after_m: args.misread_after,

@@ -42,7 +42,7 @@ use map::{
     Origin, SemanticLayer, MAX_RESOLUTION_M,
 };
 use sensor_agent::sim::scene::{RoomSpec, StairsSpec};
-use sensor_agent::sim::{ObstacleKind, World};
+use sensor_agent::sim::{ObstacleId, ObstacleKind, World};
 
 /// Grid resolution of `wearnav map` unless told otherwise, metres per cell (5 cm: what
 /// ROS `map_saver` writes for a typical laser map; a 0.05 m wall is one to two cells).
@@ -56,6 +56,37 @@ pub const MARGIN_M: f64 = 1.0;
 /// or its top step (upper floor) along the climb: one stride, where a cane user stops
 /// to find the first riser and the handrail.
 pub const STAIR_APPROACH_M: f64 = 0.5;
+
+/// The map the particle filter localizes on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum LocalizationMap {
+    /// The floor plan `wearnav map` exports: walls, no furniture (an architect's plan).
+    #[default]
+    FloorPlan,
+    /// What a mapping run would record: the floor plan and the furniture and hanging
+    /// obstacles in the cane camera's obstacle band; no people, no chairs
+    /// ([`export_as_mapped`]).
+    Mapped,
+}
+
+impl LocalizationMap {
+    /// This map of `world`; `perception` gives the obstacle band for [`Self::Mapped`].
+    pub fn export(
+        self,
+        world: &World,
+        resolution_m: f64,
+        perception: &perception::PerceptionConfig,
+    ) -> Result<Building, FloorPlanError> {
+        match self {
+            Self::FloorPlan => export(world, resolution_m),
+            Self::Mapped => {
+                let s = &perception.scan;
+                export_as_mapped(world, resolution_m, [s.min_obstacle_height_m as f64, s.max_obstacle_height_m as f64])
+            }
+        }
+    }
+}
 
 /// Why a world could not be exported.
 #[derive(Debug, thiserror::Error)]
@@ -102,6 +133,26 @@ pub enum FloorPlanError {
 /// doc says. The semantic layers are checked as [`SemanticLayer::load`] would check them,
 /// so what [`Building::write`] writes, [`Building::load`] reads back.
 pub fn export(world: &World, resolution_m: f64) -> Result<Building, FloorPlanError> {
+    export_with(world, resolution_m, None)
+}
+
+/// The map a mapping run would record of `world` (what a robot or a surveyor's depth
+/// camera leaves in a ROS `map_saver` grid): the floor plan of [`export`] and, occupied
+/// too, every part of the furniture and hanging obstacles that reaches into the height
+/// band `band_m` above the floor (the cane camera's obstacle band); people are left out,
+/// as a mapping run's filters leave out what moves, and chairs, which are moved between
+/// a mapping run and a walk. The particle filter's map with `--map mapped`
+/// (docs/localization.md): with walls alone, most of what the cane camera sees in a
+/// furnished room is not on the map.
+pub fn export_as_mapped(world: &World, resolution_m: f64, band_m: [f64; 2]) -> Result<Building, FloorPlanError> {
+    export_with(world, resolution_m, Some(band_m))
+}
+
+fn export_with(
+    world: &World,
+    resolution_m: f64,
+    furniture_band_m: Option<[f64; 2]>,
+) -> Result<Building, FloorPlanError> {
     if !(resolution_m > 0.0 && resolution_m <= MAX_RESOLUTION_M) {
         return Err(FloorPlanError::Resolution { resolution_m });
     }
@@ -119,6 +170,19 @@ pub fn export(world: &World, resolution_m: f64) -> Result<Building, FloorPlanErr
         }
         for (d, _) in &geometry.drop_offs {
             occupy(&mut grid, Footprint { center_m: d.center_m, half_size_m: d.half_size_m, yaw_rad: d.yaw_rad });
+        }
+        if let Some([low, high]) = furniture_band_m {
+            // chairs are moved between a mapping run and a walk: not on the map
+            let kept = |id: &ObstacleId, bottom: f64, top: f64| {
+                bottom < high && top > low && world.obstacle(*id).is_some_and(|o| o.kind != ObstacleKind::Chair)
+            };
+            for (b, _) in geometry.boxes.iter().filter(|(b, id)| kept(id, b.bottom_m, b.top_m)) {
+                occupy(&mut grid, Footprint { center_m: b.center_m, half_size_m: b.half_size_m, yaw_rad: b.yaw_rad });
+            }
+            for (c, _) in geometry.cylinders.iter().filter(|(c, id)| kept(id, c.bottom_m, c.top_m)) {
+                let r = c.radius_m;
+                occupy(&mut grid, Footprint { center_m: c.center_m, half_size_m: [r, r], yaw_rad: 0.0 });
+            }
         }
         let layer = semantic_layer(world, &gateways, level, &grid);
         // checked as a loaded file is (door numbers unique, areas well formed, ...)

@@ -166,6 +166,12 @@ pub struct CourseArgs {
     /// error from the cue's.
     #[arg(long, value_enum, default_value_t = walk::PoseSource::Filter)]
     pub pose: walk::PoseSource,
+    /// With --pose filter: the map the particle filter localizes on: `floor-plan` (the
+    /// walls `wearnav map` exports) or `mapped` (also the furniture and hanging obstacles
+    /// a mapping run would record; no people, no chairs). Routes are planned on the floor
+    /// plan either way.
+    #[arg(long, value_enum, default_value_t = floor_plan::LocalizationMap::FloorPlan)]
+    pub localization_map: floor_plan::LocalizationMap,
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
@@ -407,6 +413,11 @@ impl CourseArgs {
         );
         c.predictive = self.predictive.then(|| walk::predictive_for(&c));
         c.pose = self.pose;
+        anyhow::ensure!(
+            self.localization_map == floor_plan::LocalizationMap::FloorPlan || self.pose == walk::PoseSource::Filter,
+            "--localization-map goes with --pose filter"
+        );
+        c.localization_map = self.localization_map;
         Ok(c)
     }
 }

@@ -28,6 +28,7 @@ use localization::{
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
 use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
 
+pub use crate::floor_plan::LocalizationMap;
 use crate::floor_plan::{self, FloorPlanError};
 use crate::walk::{BodyGyro, FedFrame, GuideKind, TraceRow, Walk, WalkConfig};
 
@@ -59,6 +60,8 @@ pub struct LocalizeWalkConfig {
     pub stuck_s: f64,
     /// The door-sign reader, `None` for no door numbers.
     pub signs: Option<SignReaderConfig>,
+    /// The map the filter localizes on (the floor plan unless told otherwise).
+    pub map: LocalizationMap,
     /// The first sign read after this many metres of walking is misread (another
     /// door's number): the injected misread.
     pub misread_after_m: Option<f64>,
@@ -77,6 +80,7 @@ impl Default for LocalizeWalkConfig {
             start_sigma_heading_deg: 2.0,
             imu: true,
             scans: ScanUse::Frame,
+            map: LocalizationMap::FloorPlan,
             end_radius_m: 0.5,
             stuck_s: 10.0,
             signs: Some(SignReaderConfig::default()),
@@ -283,7 +287,7 @@ pub fn localize_walk(
     mut clock_ms: impl FnMut() -> f64,
 ) -> Result<WalkLocalization, LocalizeWalkError> {
     let level = world.start().floor;
-    let building = floor_plan::export(world, config.resolution_m)?;
+    let building = config.map.export(world, config.resolution_m, &config.walk.perception)?;
     let floor = building
         .floor(level)
         .ok_or_else(|| LocalizeWalkError::NoStartFloor { world: world.name().to_string(), level })?;

@@ -160,6 +160,9 @@ pub struct WalkConfig {
     pub predictive: Option<PredictiveConfig>,
     /// Where the predictive cue takes the user to be.
     pub pose: PoseSource,
+    /// The map the particle filter localizes on (`PoseSource::Filter`); routes are
+    /// planned on the floor plan either way.
+    pub localization_map: floor_plan::LocalizationMap,
 }
 
 /// Where the predictive cue takes the user to be.
@@ -250,6 +253,7 @@ impl Default for WalkConfig {
             oracle: None,
             predictive: None,
             pose: PoseSource::Filter,
+            localization_map: floor_plan::LocalizationMap::FloorPlan,
         }
     }
 }
@@ -726,7 +730,17 @@ impl<'w> Walk<'w> {
         let building = (filter || spoken)
             .then(|| floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M).map_err(|e| format!("{e:#}")));
         let building = building.as_ref().map(|b| b.as_ref().map_err(String::as_str));
-        let tracker = building.filter(|_| filter).and_then(|b| filter_for(world, b, seed));
+        let mapped = (filter && config.localization_map != floor_plan::LocalizationMap::FloorPlan).then(|| {
+            config
+                .localization_map
+                .export(world, floor_plan::DEFAULT_RESOLUTION_M, &config.perception)
+                .map_err(|e| format!("{e:#}"))
+        });
+        let localization_map = match &mapped {
+            Some(m) => Some(m.as_ref().map_err(String::as_str)),
+            None => building,
+        };
+        let tracker = localization_map.filter(|_| filter).and_then(|b| filter_for(world, b, seed));
         let spoken = building.filter(|_| spoken).and_then(|b| {
             let made = b
                 .map_err(|e| anyhow::anyhow!("{e}"))

@@ -11,7 +11,7 @@ use map::{Building, Cell, GatewayKind, OccupancyGrid};
 use planning::{BuildingPlanner, FloorPoint, LegEnd, NavGraphConfig, Planner, UserProfile};
 use sensor_agent::sim::world::BUILTIN_WORLDS;
 use sensor_agent::sim::{ObstacleKind, World};
-use study::floor_plan::{export, stair_stops, DEFAULT_RESOLUTION_M};
+use study::floor_plan::{export, export_as_mapped, stair_stops, DEFAULT_RESOLUTION_M};
 
 fn world(name: &str) -> World {
     World::load(name).unwrap_or_else(|e| panic!("{e}"))
@@ -209,6 +209,45 @@ fn building_elevator_joins_floors_0_and_1_and_the_stairs_stop_at_the_foot_and_th
 
 /// Every cell along the centre line of every wall of every floor of `w` (sampled every
 /// quarter cell, the ends left out: a wall's end may lie on a cell's edge).
+#[test]
+fn the_mapped_map_adds_the_furniture_in_the_camera_band_but_not_chairs_or_people() {
+    // (world, band, points occupied on the mapped map and free on the floor plan,
+    // points free on both)
+    let cases: [(&str, [f64; 2], &[(f64, f64)], &[(f64, f64)]); 3] = [
+        // the head-high sign (1.55-1.85 m) and the waist-high board; chair 1, the start
+        // and the goal stay free
+        ("taylor-course", [0.04, 2.0], &[(4.5, 5.6), (7.3, 6.0)], &[(1.2, 7.6), (0.7, 5.0), (8.8, 9.0)]),
+        // a band that ends under the sign leaves it off
+        ("taylor-course", [0.04, 1.5], &[(7.3, 6.0)], &[(4.5, 5.6), (1.2, 7.6)]),
+        // the bin, the water fountain and the coat stand; the people's lane is free
+        ("corridor", [0.04, 2.0], &[(9.0, 0.3), (17.0, 0.2), (23.0, 0.25)], &[(10.0, 1.55), (29.4, 10.0)]),
+    ];
+    for (name, band, added, free) in cases {
+        let w = world(name);
+        let plan = export(&w, DEFAULT_RESOLUTION_M).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mapped = export_as_mapped(&w, DEFAULT_RESOLUTION_M, band).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for &(x, y) in added {
+            assert_eq!(
+                cell_at(&mapped, 0, x, y),
+                Some(Cell::Occupied),
+                "{name} {band:?}: ({x}, {y}) on the mapped map"
+            );
+            assert_eq!(cell_at(&plan, 0, x, y), Some(Cell::Free), "{name}: ({x}, {y}) on the floor plan");
+        }
+        for &(x, y) in free {
+            assert_eq!(cell_at(&mapped, 0, x, y), Some(Cell::Free), "{name} {band:?}: ({x}, {y})");
+        }
+        // the walls are the floor plan's: every cell occupied there is occupied here
+        let (p, m) = (&plan.floor(0).unwrap().grid, &mapped.floor(0).unwrap().grid);
+        assert_eq!((p.width(), p.height()), (m.width(), m.height()), "{name}: same grid");
+        let lost = (0..p.height())
+            .flat_map(|r| (0..p.width()).map(move |c| (c, r)))
+            .filter(|&(c, r)| p.get(c, r) == Some(Cell::Occupied) && m.get(c, r) != Some(Cell::Occupied))
+            .count();
+        assert_eq!(lost, 0, "{name}: wall cells missing from the mapped map");
+    }
+}
+
 fn assert_no_wall_gap(w: &World, b: &Building) {
     for floor in w.floors() {
         let grid = &b.floor(floor.index).unwrap_or_else(|| panic!("floor {}", floor.index)).grid;
