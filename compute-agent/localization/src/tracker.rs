@@ -71,6 +71,17 @@ pub struct TrackerConfig {
     pub start_sigma_m: f64,
     /// ... and in heading, radians
     pub start_sigma_heading_rad: f64,
+    /// A person does not jump: a `Tracking` estimate farther than this (metres, plus
+    /// `jump_per_walked_m` for each metre walked since the last `Tracking` one) from
+    /// where the odometry carried that one is a look-alike the filter fell into after
+    /// losing the track (a room that is the same turned 180°, a row of like offices), not
+    /// the user. The filter is started again around the odometry's place, with that
+    /// distance as its spread. 0: no such check (the filter's own answer, AMCL's).
+    pub jump_max_m: f64,
+    /// See `jump_max_m`: the odometry's drift allowed per metre walked.
+    pub jump_per_walked_m: f64,
+    /// See `jump_max_m`: the largest turn from the odometry's heading, radians.
+    pub jump_max_heading_rad: f64,
 }
 
 impl Default for TrackerConfig {
@@ -82,6 +93,9 @@ impl Default for TrackerConfig {
             sweep_time_constant_s: 5.0,
             start_sigma_m: 0.3,
             start_sigma_heading_rad: 10f64.to_radians(),
+            jump_max_m: 1.0,
+            jump_per_walked_m: 0.1,
+            jump_max_heading_rad: 45f64.to_radians(),
         }
     }
 }
@@ -113,6 +127,18 @@ pub struct Tracker {
     /// the status last announced (`None`: nothing said yet)
     announced: Option<Status>,
     scan: Scan,
+    /// the last `Tracking` estimate carried on by the odometry since (`jump_max_m`)
+    anchor: Option<Anchor>,
+    /// `Tracking` estimates refused as look-alikes (`jump_max_m`)
+    look_alikes: u64,
+}
+
+/// Where the odometry has carried the last `Tracking` estimate.
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    level: i32,
+    pose: Pose2,
+    walked_m: f64,
 }
 
 impl Tracker {
@@ -135,6 +161,8 @@ impl Tracker {
             last_frame_ns: None,
             announced: None,
             scan: Scan::default(),
+            anchor: None,
+            look_alikes: 0,
         })
     }
 
@@ -156,12 +184,45 @@ impl Tracker {
             return Err(refuse("not within 0.5 m of free space"));
         }
         let c = &self.config;
-        self.pf.init_pose(level, pose, c.start_sigma_m, c.start_sigma_heading_rad)
+        self.pf.init_pose(level, pose, c.start_sigma_m, c.start_sigma_heading_rad)?;
+        self.anchor = None;
+        Ok(())
     }
 
     /// Forgets the position: particles over every floor.
     pub fn start_global(&mut self) {
         self.pf.init_global();
+        self.anchor = None;
+    }
+
+    /// `Tracking` estimates refused as look-alikes so far ([`TrackerConfig::jump_max_m`]).
+    pub fn look_alikes(&self) -> u64 {
+        self.look_alikes
+    }
+
+    /// Holds the filter to where a person can be ([`TrackerConfig::jump_max_m`]): a
+    /// `Tracking` estimate on the anchor's floor, farther from the anchor than the
+    /// odometry can have drifted, starts the filter again around the anchor; any other
+    /// `Tracking` estimate becomes the anchor.
+    fn hold_to_odometry(&mut self) {
+        let e = self.pf.estimate();
+        if e.status != Status::Tracking {
+            return;
+        }
+        let c = &self.config;
+        if let Some(a) = self.anchor.filter(|a| c.jump_max_m > 0.0 && a.level == e.level) {
+            let allowed_m = c.jump_max_m + c.jump_per_walked_m * a.walked_m;
+            let turned = crate::pose::wrap_angle(e.pose.heading_rad - a.pose.heading_rad).abs();
+            if e.pose.distance_m(&a.pose) > allowed_m || turned > c.jump_max_heading_rad {
+                self.look_alikes += 1;
+                let sigma_m = allowed_m / 2.0;
+                if self.pf.init_pose(a.level, a.pose, sigma_m, c.jump_max_heading_rad / 2.0).is_ok() {
+                    // the anchor stays, and keeps moving with the odometry
+                    return;
+                }
+            }
+        }
+        self.anchor = Some(Anchor { level: e.level, pose: e.pose, walked_m: 0.0 });
     }
 
     /// The body's motion over one interval (`sensor/<device>/odom`) and the body-worn
@@ -175,7 +236,12 @@ impl Tracker {
             yaw_rad: f64::from(inc.yaw_rad),
             dt_s,
         };
-        self.pf.predict(&step, body_yaw_rate_rad_s)
+        self.pf.predict(&step, body_yaw_rate_rad_s)?;
+        if let Some(a) = self.anchor.as_mut() {
+            a.pose = a.pose.compose(step.forward_m, step.left_m, step.yaw_rad);
+            a.walked_m += step.forward_m.hypot(step.left_m);
+        }
+        Ok(())
     }
 
     /// One camera frame's scan, captured at `capture_ns`, with the cane's and the body's
@@ -217,6 +283,7 @@ impl Tracker {
         let c = self.pf.correct(&Observations { scan: Some(&self.scan), ..Default::default() });
         if c.updated {
             self.sweep_at_update = self.sweep_rad;
+            self.hold_to_odometry();
         }
         c
     }
@@ -248,6 +315,8 @@ impl Tracker {
         if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
             return Err(format!("door {number:?} is on none of the floor maps"));
         }
+        // a door's number is the user's own word for where they are: no look-alike
+        self.anchor = None;
         Ok(())
     }
 
@@ -469,6 +538,46 @@ normal = [0.0, -1.0]
         let pose = t.pose();
         assert_eq!((pose.floor, pose.status), (0, schemas::LocalizationStatus::Tracking));
         assert!(pose.covariance[0] > 0.0 && pose.covariance[0] < 0.25, "{:?}", pose.covariance);
+    }
+
+    /// The walk of the test above for 6 s; at 3 s the filter is thrown 3 m ahead along
+    /// the corridor, where the walls look the same (as a filter that lost the track
+    /// falls into a look-alike). Each frame: (status, error from the truth, metres).
+    fn thrown_ahead(config: TrackerConfig) -> (Vec<(Status, f64)>, u64) {
+        let g = grid();
+        let mut t = Tracker::new(&building(), config, 3).unwrap();
+        t.start_at(0, Pose2::new(2.0, 2.0, 0.0)).unwrap();
+        let period = 33_333_333u64;
+        let mut seen = Vec::new();
+        for k in 0..180u64 {
+            let x = 2.0 + k as f64 / 30.0;
+            if k > 0 {
+                t.odometry(&odom(1.0 / 30.0 * 1.02, 0.0, (k - 1) * period, k * period), Some(0.0)).unwrap();
+            }
+            if k == 90 {
+                assert_eq!(t.estimate().status, Status::Tracking, "tracked before the throw");
+                t.pf.init_pose(0, Pose2::new(x + 3.0, 2.0, 0.0), 0.05, 0.02).unwrap();
+            }
+            t.frame(&scan_at(&g, x, 2.0, 0.0, 0.0), k * period, Some(0.0), Some(0.0));
+            let e = t.estimate();
+            seen.push((e.status, (e.pose.x_m - x).hypot(e.pose.y_m - 2.0)));
+        }
+        (seen, t.look_alikes())
+    }
+
+    #[test]
+    fn a_tracking_estimate_far_from_where_the_odometry_puts_the_user_is_a_look_alike_and_searched_again() {
+        let (seen, look_alikes) = thrown_ahead(TrackerConfig::default());
+        assert!(look_alikes >= 1, "the jump was not seen");
+        let wrong = seen.iter().filter(|(s, e)| *s == Status::Tracking && *e > 1.0).count();
+        assert_eq!(wrong, 0, "Tracking while more than 1 m off");
+        let (status, error) = *seen.last().unwrap();
+        assert!(error < 0.5, "ends {error:.2} m off ({status:?})");
+        // without the check the filter tracks the look-alike, 3 m ahead
+        let (unchecked, none) = thrown_ahead(TrackerConfig { jump_max_m: 0.0, ..Default::default() });
+        assert_eq!(none, 0);
+        let wrong = unchecked.iter().filter(|(s, e)| *s == Status::Tracking && *e > 2.0).count();
+        assert!(wrong >= 30, "{wrong} frames Tracking more than 2 m off without the check");
     }
 
     #[test]

@@ -237,7 +237,8 @@ pub struct CourseArgs {
     #[arg(long)]
     pub contacts: bool,
     /// Write one CSV row per camera frame of every walk to this file (pose, sweep,
-    /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance);
+    /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance, and
+    /// the particle filter's estimate and status when the walk runs one);
     /// with `--versus`, of the walks without its flags.
     #[arg(long, value_name = "FILE")]
     pub trace: Option<std::path::PathBuf>,
@@ -679,13 +680,14 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
     let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(
         f,
-        "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m,turn_ahead"
+        "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m,turn_ahead,\
+         estimate_x_m,estimate_y_m,estimate_heading_deg,estimate_status"
     )?;
     for w in walks {
         for r in &w.trace {
             writeln!(
                 f,
-                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3},{}",
+                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3},{},{}",
                 w.seed,
                 r.t_s,
                 r.x_m,
@@ -700,7 +702,8 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
                 r.ttc_s.map_or(String::new(), |t| format!("{t:.2}")),
                 r.forward_cost,
                 r.clearance_m,
-                u8::from(r.turn_ahead)
+                u8::from(r.turn_ahead),
+                r.estimate.map_or(",,,".to_string(), |([x, y, h], s)| format!("{x:.3},{y:.3},{h:.1},{s:?}"))
             )?;
         }
     }

@@ -209,6 +209,9 @@ pub struct TraceRow {
     /// The cue of this frame came from the heading the body is turning to (`turn_ahead`,
     /// with [`WalkConfig::body_gyro`]).
     pub turn_ahead: bool,
+    /// The particle filter's estimate after this frame (x, y in map metres, heading in
+    /// degrees, status), when the walk runs one.
+    pub estimate: Option<([f64; 3], localization::Status)>,
 }
 
 /// The Asus Xtion in its 320x240 mode: with a perception stride of 1 these are the
@@ -1091,6 +1094,10 @@ impl<'w> Walk<'w> {
                 forward_cost,
                 clearance_m: self.body_now.iter().copied().fold(f64::INFINITY, f64::min),
                 turn_ahead,
+                estimate: self.tracker.as_ref().map(|tr| {
+                    let e = tr.estimate();
+                    ([e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()], e.status)
+                }),
             });
         }
     }

@@ -639,13 +639,24 @@ fn on_the_mapped_map_the_filter_places_the_spoken_guides_user_in_the_open_lobby(
     let (w, base) = builtin_by_route("lobby-bench", 40.0);
     let config =
         WalkConfig { guide: GuideKind::Spoken, localization_map: study::floor_plan::LocalizationMap::Mapped, ..base };
-    let out = walk(&w, &config, 2);
+    let out = walk(&w, &WalkConfig { trace: true, ..config }, 2);
     let (rmse_m, tracked) = out.localization.expect("the guide speaks from the filter's place");
     assert!(
         rmse_m < 0.4 && tracked * 10 >= out.frames * 6,
         "{tracked} of {} frames tracked, RMSE {rmse_m:.2} m",
         out.frames
     );
+    // the trace carries the filter's estimate of each frame
+    assert!(out.trace.iter().all(|r| r.estimate.is_some()), "a frame without the filter's estimate");
+    let tracking: Vec<f64> = out
+        .trace
+        .iter()
+        .filter_map(|r| r.estimate.map(|(e, s)| (r, e, s)))
+        .filter(|(_, _, s)| *s == localization::Status::Tracking)
+        .map(|(r, [x, y, _], _)| (x - r.x_m).hypot(y - r.y_m))
+        .collect();
+    let near = tracking.iter().filter(|&&e| e < 1.0).count();
+    assert!(tracking.len() * 10 >= out.frames as usize * 6 && near == tracking.len(), "{near} of {}", tracking.len());
 }
 
 #[test]
