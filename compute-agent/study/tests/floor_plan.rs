@@ -209,11 +209,13 @@ fn building_elevator_joins_floors_0_and_1_and_the_stairs_stop_at_the_foot_and_th
 
 /// Every cell along the centre line of every wall of every floor of `w` (sampled every
 /// quarter cell, the ends left out: a wall's end may lie on a cell's edge).
+/// (world, obstacle band, points occupied on the mapped map and free on the floor plan,
+/// points free on both).
+type MappedCase = (&'static str, [f64; 2], &'static [(f64, f64)], &'static [(f64, f64)]);
+
 #[test]
 fn the_mapped_map_adds_the_furniture_in_the_camera_band_but_not_chairs_or_people() {
-    // (world, band, points occupied on the mapped map and free on the floor plan,
-    // points free on both)
-    let cases: [(&str, [f64; 2], &[(f64, f64)], &[(f64, f64)]); 3] = [
+    let cases: [MappedCase; 3] = [
         // the head-high sign (1.55-1.85 m) and the waist-high board; chair 1, the start
         // and the goal stay free
         ("taylor-course", [0.04, 2.0], &[(4.5, 5.6), (7.3, 6.0)], &[(1.2, 7.6), (0.7, 5.0), (8.8, 9.0)]),
