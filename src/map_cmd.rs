@@ -36,6 +36,13 @@ pub struct MapArgs {
     /// missing; files of the same names are replaced).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    /// With --world: the map a mapping run would record instead of the plan: also the
+    /// furniture and hanging obstacles in the cane camera's obstacle band (0.04-2.0 m),
+    /// no people and no chairs (they move). For the compute agent's localization: on
+    /// walls alone the filter is metres off in furnished rooms (docs/localization.md);
+    /// routes planned on it go round the furniture too.
+    #[arg(long, conflicts_with = "dxf")]
+    mapped: bool,
     /// Cell size, metres.
     #[arg(long, value_name = "M", default_value_t = study::floor_plan::DEFAULT_RESOLUTION_M)]
     resolution: f64,
@@ -62,7 +69,10 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     let (name, building) = match (&args.world, &args.dxf) {
         (Some(world), _) => {
             let world = World::load(world).with_context(|| format!("cannot load world {world:?}"))?;
-            let building = study::floor_plan::export(&world, args.resolution)
+            use study::floor_plan::LocalizationMap;
+            let kind = if args.mapped { LocalizationMap::Mapped } else { LocalizationMap::FloorPlan };
+            let building = kind
+                .export(&world, args.resolution, &perception::PerceptionConfig::default())
                 .with_context(|| format!("cannot make a floor plan of {}", world.name()))?;
             (world.name().to_string(), building)
         }

@@ -30,6 +30,30 @@ fn plan_runs_a_moving_ai_benchmark_and_every_length_is_optimal() {
 }
 
 #[test]
+fn map_mapped_writes_the_furniture_a_mapping_run_would_record_and_the_plan_does_not() {
+    let occupied_at = |mapped: bool, x: f64, y: f64| {
+        let dir = std::env::temp_dir().join(format!("wearnav-map-mapped-{}-{mapped}", std::process::id()));
+        let mut args = vec!["map", "--world", "taylor-course", "--out", dir.to_str().unwrap()];
+        if mapped {
+            args.push("--mapped");
+        }
+        let (ok, _, err) = wearnav(&args);
+        assert!(ok, "{err}");
+        let building = map::Building::load(&dir.join("building.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let g = &building.floor(0).expect("floor 0").grid;
+        let cell = g.world_to_cell(x, y).and_then(|(c, r)| g.get(c, r));
+        let _ = std::fs::remove_dir_all(&dir);
+        cell == Some(map::Cell::Occupied)
+    };
+    // the head-high sign over the middle lane: on the mapped map only
+    assert!(occupied_at(true, 4.5, 5.6) && !occupied_at(false, 4.5, 5.6));
+    // chair 1 on neither (it moves)
+    assert!(!occupied_at(true, 1.2, 7.6));
+    let (ok, _, err) = wearnav(&["map", "--dxf", "x.dxf", "--mapped", "--out", "/tmp/never"]);
+    assert!(!ok && err.contains("cannot be used with"), "{err}");
+}
+
+#[test]
 fn a_world_exported_by_map_is_planned_on_by_label_and_unknown_places_are_named() {
     let dir = std::env::temp_dir().join(format!("wearnav-plan-cli-{}", std::process::id()));
     let (ok, out, err) = wearnav(&["map", "--world", "building", "--out", dir.to_str().unwrap()]);
