@@ -82,6 +82,10 @@ pub struct TrackerConfig {
     pub jump_per_walked_m: f64,
     /// See `jump_max_m`: the largest turn from the odometry's heading, radians.
     pub jump_max_heading_rad: f64,
+    /// See `jump_max_m`: after this many metres walked without `Tracking` the odometry's
+    /// place is no better than the filter's (its heading may have drifted past
+    /// `jump_max_heading_rad`), and the next `Tracking` estimate is taken as it is.
+    pub jump_forget_after_m: f64,
 }
 
 impl Default for TrackerConfig {
@@ -96,6 +100,7 @@ impl Default for TrackerConfig {
             jump_max_m: 1.0,
             jump_per_walked_m: 0.1,
             jump_max_heading_rad: 45f64.to_radians(),
+            jump_forget_after_m: 50.0,
         }
     }
 }
@@ -240,6 +245,9 @@ impl Tracker {
         if let Some(a) = self.anchor.as_mut() {
             a.pose = a.pose.compose(step.forward_m, step.left_m, step.yaw_rad);
             a.walked_m += step.forward_m.hypot(step.left_m);
+            if a.walked_m > self.config.jump_forget_after_m {
+                self.anchor = None;
+            }
         }
         Ok(())
     }
@@ -578,6 +586,10 @@ normal = [0.0, -1.0]
         assert_eq!(none, 0);
         let wrong = unchecked.iter().filter(|(s, e)| *s == Status::Tracking && *e > 2.0).count();
         assert!(wrong >= 30, "{wrong} frames Tracking more than 2 m off without the check");
+        // an odometry's place forgotten at once (after 0 m walked) holds nothing either
+        let (forgotten, none) = thrown_ahead(TrackerConfig { jump_forget_after_m: 0.0, ..Default::default() });
+        assert_eq!(none, 0);
+        assert!(forgotten.iter().filter(|(s, e)| *s == Status::Tracking && *e > 2.0).count() >= 30);
     }
 
     #[test]
