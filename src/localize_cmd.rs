@@ -37,7 +37,7 @@ pub struct LocalizeArgs {
     scans: study::localize_walk::ScanUse,
     /// With `--world`: the map the filter localizes on: `floor-plan` (walls only, what
     /// `wearnav map` exports) or `mapped` (also the furniture and hanging obstacles in the
-    /// camera's obstacle band, no people: what a mapping run would record).
+    /// camera's obstacle band, no people or chairs: what a mapping run would record).
     #[arg(long, value_enum, default_value = "floor-plan", requires = "world")]
     map: study::localize_walk::LocalizationMap,
     /// With `--world`: do not use the body gyro's yaw rate.

@@ -164,15 +164,7 @@ impl LikelihoodField {
     /// Distance from map (x, y) to the nearest occupied cell, metres, capped at the
     /// field's `max_distance_m` (and that cap outside the grid).
     pub fn distance_m(&self, x_m: f64, y_m: f64) -> f64 {
-        let (dx, dy) = (x_m - self.origin_x_m, y_m - self.origin_y_m);
-        let gx = (self.cos_yaw * dx + self.sin_yaw * dy) / self.resolution_m;
-        let gy = (-self.sin_yaw * dx + self.cos_yaw * dy) / self.resolution_m;
-        let code = if gx >= 0.0 && gy >= 0.0 && (gx as usize) < self.width && (gy as usize) < self.height {
-            self.codes[gy as usize * self.width + gx as usize]
-        } else {
-            254
-        };
-        code.min(254) as f64 * self.step_m
+        self.code_at(x_m, y_m).min(254) as f64 * self.step_m
     }
 
     /// Whether the straight segment from map point `a` to `b` stays off every occupied
@@ -203,6 +195,12 @@ impl LikelihoodField {
     /// (log-likelihood, fit) of an end point at map (x, y).
     #[inline]
     fn at(&self, x_m: f64, y_m: f64) -> [f32; 2] {
+        self.table[self.code_at(x_m, y_m) as usize]
+    }
+
+    /// The distance code of the cell at map (x, y); 255 outside the grid.
+    #[inline]
+    fn code_at(&self, x_m: f64, y_m: f64) -> u8 {
         let (dx, dy) = (x_m - self.origin_x_m, y_m - self.origin_y_m);
         let gx = (self.cos_yaw * dx + self.sin_yaw * dy) / self.resolution_m;
         let gy = (-self.sin_yaw * dx + self.cos_yaw * dy) / self.resolution_m;
@@ -210,10 +208,10 @@ impl LikelihoodField {
         if gx >= 0.0 && gy >= 0.0 {
             let (c, r) = (gx as usize, gy as usize);
             if c < self.width && r < self.height {
-                return self.table[self.codes[r * self.width + c] as usize];
+                return self.codes[r * self.width + c];
             }
         }
-        self.table[255]
+        255
     }
 
     /// A pose (x, y, cos heading, sin heading) taken into the grid's units once (in

@@ -828,15 +828,20 @@ impl ParticleFilter {
         let to_map = |[bx, by]: [f64; 2]| [pose.x_m + c * bx - s * by, pose.y_m + s * bx + c * by];
         let field = &self.floors[fi].field;
         let origin = to_map([scan.sensor_forward_m, scan.sensor_left_m]);
-        let unmapped = |b: &[f64; 2]| {
-            let m = to_map(*b);
-            field.distance_m(m[0], m[1]) > gate && field.segment_free(origin, m)
-        };
-        let dropped = self.endpoints.iter().filter(|b| unmapped(b)).count();
+        let unmapped: Vec<bool> = self
+            .endpoints
+            .iter()
+            .map(|&b| {
+                let m = to_map(b);
+                field.distance_m(m[0], m[1]) > gate && field.segment_free(origin, m)
+            })
+            .collect();
+        let dropped = unmapped.iter().filter(|&&u| u).count();
         if dropped == 0 || 2 * dropped > self.endpoints.len() {
             return;
         }
-        self.endpoints.retain(|b| !unmapped(b));
+        let mut flags = unmapped.iter();
+        self.endpoints.retain(|_| !flags.next().copied().unwrap_or(false));
         self.counters.beams_unmapped += dropped as u64;
     }
 
