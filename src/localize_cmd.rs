@@ -60,6 +60,14 @@ pub struct LocalizeArgs {
     /// docs/localization.md, "Beams on what the map does not have".
     #[arg(long, value_name = "M", value_parser = parse_gate)]
     unmapped_gate: Option<f64>,
+    /// With `--world`: at each update also give the filter the direction of the longest
+    /// straight wall in the frame's scan, matched against the map's wall directions (the
+    /// wall-angle correction, for the heading). Off by default: it holds the heading but
+    /// moves the place along a corridor without door signs (docs/localization.md, "The
+    /// wall angle"). Without it the walls are still looked for, and the report says how
+    /// well they match the map.
+    #[arg(long, requires = "world")]
+    wall_angles: bool,
     /// With `--carmen`: odometry noise, AMCL's alpha1..alpha4 (rotation from rotation,
     /// rotation from translation, translation from translation, translation from
     /// rotation); default 0.1 each. A simulated walk has the simulator's own.
@@ -78,7 +86,7 @@ pub struct LocalizeArgs {
     global: bool,
     /// With `--world`: also write every camera frame (time, metres walked, truth,
     /// estimate, errors along and across, status, whether the filter corrected, usable
-    /// beams, door signs read) to FILE as CSV, for plotting where the estimate went.
+    /// beams, door signs read, the scan's wall against the map) to FILE as CSV, for plotting where the estimate went.
     #[arg(long, value_name = "FILE", requires = "world")]
     frames: Option<PathBuf>,
     /// Print JSON instead of text.
@@ -154,6 +162,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
         imu: !args.no_imu,
         signs,
         misread_after_m: args.misread_after,
+        wall_angles: args.wall_angles.then(localization::WallFitConfig::default),
         ..defaults
     };
     let clock = Instant::now();
@@ -185,12 +194,12 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
     writeln!(
         out,
         "t_s,walked_m,truth_x_m,truth_y_m,truth_heading_deg,estimate_x_m,estimate_y_m,estimate_heading_deg,\
-         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread"
+         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread,wall_residual_deg,wall_used"
     )?;
     for f in frames {
         writeln!(
             out,
-            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{}",
+            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{},{},{}",
             f.t_s,
             f.walked_m,
             f.truth[0],
@@ -207,7 +216,9 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
             f.updated,
             f.beams,
             csv_field(&f.doors_read.join(" ")),
-            f.misread
+            f.misread,
+            f.wall_residual_deg.map_or(String::new(), |d| format!("{d:.2}")),
+            f.wall_used
         )?;
     }
     out.flush()?;

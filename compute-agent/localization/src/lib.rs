@@ -7,6 +7,7 @@
 //! | odometry + IMU motion model | [`motion`] | AMCL `odom_alpha1..4`; Zhang et al. (IMU limits heading drift) |
 //! | likelihood field of a range scan | [`likelihood_field`] | AMCL `likelihood_field` |
 //! | door numbers, corners, wall angles | [`landmarks`] | Zhang et al., CCNY |
+//! | straight walls in a scan (the wall angle) | [`walls`] | split and merge; total least squares |
 //! | a floor ready for the filter | [`floor_model`] | |
 //! | the filter fed by the agent's streams: body odometry, swept-cane scan, floor confirmed | [`tracker`] | |
 //! | CARMEN log reader (real laser + odometry data) | [`carmen`] | CARMEN `FLASER`, `ODOM` |
@@ -39,6 +40,7 @@ pub mod pose;
 pub mod rng;
 pub mod scan;
 pub mod tracker;
+pub mod walls;
 
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
@@ -51,6 +53,7 @@ pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;
 pub use scan::{Beam, Scan};
 pub use tracker::{CaneOnBody, Tracker, TrackerConfig};
+pub use walls::{longest_wall, wall_segments, WallFitConfig, WallSegment};
 
 /// Why a filter could not be built or started.
 #[derive(Debug, thiserror::Error)]

@@ -22,8 +22,8 @@
 
 use localization::log_run::{quantile, rmse};
 use localization::{
-    wrap_angle, Beam, FilterConfig, FloorModel, Landmark, LikelihoodFieldConfig, LocalizationError, Observations,
-    OdometryIncrement, ParticleFilter, Pose2, Scan, Status,
+    longest_wall, wrap_angle, Beam, FilterConfig, FloorModel, Landmark, LikelihoodFieldConfig, LocalizationError,
+    Observations, OdometryIncrement, ParticleFilter, Pose2, Scan, Status, WallAngle, WallFitConfig,
 };
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
 use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
@@ -65,11 +65,17 @@ pub struct LocalizeWalkConfig {
     /// The first sign read after this many metres of walking is misread (another
     /// door's number): the issue's injected misread.
     pub misread_after_m: Option<f64>,
+    /// The wall-angle correction: at each update the direction of the longest straight
+    /// wall in the frame's scan ([`localization::walls`]) against the map's wall
+    /// directions; `None` leaves it out. Walls are looked for either way (the frames
+    /// report how well they match the map at the true heading).
+    pub wall_angles: Option<WallFitConfig>,
 }
 
 impl Default for LocalizeWalkConfig {
     /// The study's default walk kept on the world's route, 120 s at most; AMCL's filter;
-    /// a 0.1 m / 2° known start; the gyro on; the door-sign reader's defaults.
+    /// a 0.1 m / 2° known start; the gyro on; the door-sign reader's defaults; no
+    /// wall-angle correction (docs/localization.md, "The wall angle").
     fn default() -> Self {
         Self {
             walk: WalkConfig { guide: GuideKind::Route, timeout_s: 120.0, ..WalkConfig::default() },
@@ -85,6 +91,7 @@ impl Default for LocalizeWalkConfig {
             stuck_s: 10.0,
             signs: Some(SignReaderConfig::default()),
             misread_after_m: None,
+            wall_angles: None,
         }
     }
 }
@@ -161,6 +168,12 @@ pub struct FrameLocalization {
     pub truth_fit_m: f64,
     /// Prediction and correction, milliseconds, by the caller's clock.
     pub update_ms: f64,
+    /// The longest straight wall in the scan (with the walk's wall fit, or the
+    /// default one): how far its direction at the true heading is from the nearest of
+    /// the map's wall directions, degrees; `None` when the scan has no wall.
+    pub wall_residual_deg: Option<f64>,
+    /// The filter was given that wall's angle at this frame.
+    pub wall_used: bool,
 }
 
 /// The figures of a localized walk.
@@ -196,6 +209,15 @@ pub struct LocalizeSummary {
     pub beams_median: f64,
     /// Median of [`FrameLocalization::truth_fit_m`] over frames with beams, metres.
     pub truth_fit_median_m: f64,
+    /// Frames whose scan had a straight wall.
+    pub walls_found: usize,
+    /// Of them, how far the wall's direction at the true heading is from the map's,
+    /// degrees: median and 90th percentile (NaN without walls).
+    pub wall_residual_median_deg: f64,
+    /// See `wall_residual_median_deg`.
+    pub wall_residual_p90_deg: f64,
+    /// Wall angles the filter was given (at updates, with the correction on).
+    pub wall_angles_used: usize,
     /// Median time of an update (frames that corrected), milliseconds.
     pub update_ms_median: f64,
     /// Odometry increments or gyro rates the filter refused.
@@ -241,7 +263,8 @@ impl WalkLocalization {
              position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
              tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
              door signs: {} read, {} misread, {} refused by the filter{}\n\
-             scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n",
+             scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n\
+             walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n",
             self.world,
             self.seed,
             s.frames,
@@ -274,6 +297,10 @@ impl WalkLocalization {
             } else {
                 String::new()
             },
+            s.walls_found,
+            s.wall_residual_median_deg,
+            s.wall_residual_p90_deg,
+            s.wall_angles_used,
         )
     }
 }
@@ -292,6 +319,8 @@ pub fn localize_walk(
         .floor(level)
         .ok_or_else(|| LocalizeWalkError::NoStartFloor { world: world.name().to_string(), level })?;
     let model = FloorModel::new(level, &floor.grid, &floor.semantic, &config.field)?;
+    let wall_directions = model.wall_directions_rad().to_vec();
+    let wall_fit = config.wall_angles.unwrap_or_default();
     let walls = map::DistanceField::to_occupied(&floor.grid);
 
     let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
@@ -370,7 +399,11 @@ pub fn localize_walk(
             .iter()
             .map(|r| Landmark::Door { number: r.number.clone(), forward_m: r.forward_m, left_m: r.left_m })
             .collect();
-        let c = pf.correct(&Observations { scan: observed, landmarks: &landmarks, ..Default::default() });
+        let wall = longest_wall(&scan, &wall_fit);
+        // one wall angle per update: the filter takes wall angles only when it updates
+        let wall_used = config.wall_angles.is_some() && observed.is_some() && pf.update_due() && wall.is_some();
+        let wall_angles: Vec<WallAngle> = wall.filter(|_| wall_used).into_iter().collect();
+        let c = pf.correct(&Observations { scan: observed, landmarks: &landmarks, wall_angles: &wall_angles });
         if c.updated || config.scans != ScanUse::Sweep {
             swept.clear();
             since_update = Pose2::default();
@@ -409,6 +442,10 @@ pub fn localize_walk(
             beams,
             truth_fit_m,
             update_ms,
+            wall_residual_deg: wall.map(|w| {
+                localization::landmarks::wall_residual(truth.heading_rad + w.angle_rad, &wall_directions).to_degrees()
+            }),
+            wall_used,
         });
     }
     let summary = summarize(&frames, walked_m, pf.counters(), replay_mismatches);
@@ -564,6 +601,7 @@ fn summarize(
     let fit: Vec<f64> = frames.iter().map(|f| f.truth_fit_m).filter(|d| d.is_finite()).collect();
     let updates: Vec<f64> = frames.iter().filter(|f| f.updated).map(|f| f.update_ms).collect();
     let tracking = frames.iter().filter(|f| f.status == Status::Tracking).count();
+    let walls: Vec<f64> = frames.iter().filter_map(|f| f.wall_residual_deg).collect();
     LocalizeSummary {
         frames: frames.len(),
         updates: counters.updates,
@@ -580,6 +618,10 @@ fn summarize(
         tracking_over_1m: frames.iter().filter(|f| f.status == Status::Tracking && f.position_error_m > 1.0).count(),
         beams_median: quantile(&beams, 0.5),
         truth_fit_median_m: quantile(&fit, 0.5),
+        walls_found: walls.len(),
+        wall_residual_median_deg: quantile(&walls, 0.5),
+        wall_residual_p90_deg: quantile(&walls, 0.9),
+        wall_angles_used: frames.iter().filter(|f| f.wall_used).count(),
         update_ms_median: quantile(&updates, 0.5),
         odometry_rejected: counters.odometry_rejected,
         beams_unmapped: counters.beams_unmapped,

@@ -2,9 +2,11 @@
 //! camera's nearest-point scan, the simulator's visual odometry and a body gyro, on the
 //! world's exported floor plan, against the simulator's truth. The bounds are what was
 //! measured (docs/localization.md, "Simulated walks") with a margin; they are NOT the
-//! issue's target (0.10 m, 3°), which the depth scan and the door signs do not reach
-//! on these walks.
+//! issue's target of 0.10 m, which the depth scan and the door signs do not reach on
+//! these walks. Its 3° of heading is reached with the wall angle, which is off by
+//! default (it moves the place along a corridor without signs).
 
+use localization::WallFitConfig;
 use sensor_agent::sim::World;
 use study::localize_walk::{localize_walk, LocalizationMap, LocalizeWalkConfig, ScanUse, WalkLocalization};
 
@@ -79,6 +81,29 @@ fn in_a_furnished_office_the_filter_tracks_on_the_mapped_map_and_not_on_the_wall
     let s = &mapped.summary;
     assert!(s.position_rmse_m < 0.4 && s.position_p95_m < 0.8, "{}", mapped.summary_text());
     assert!(s.tracking_fraction > 0.7, "{}", mapped.summary_text());
+}
+
+#[test]
+fn the_wall_angle_holds_the_heading_within_3_degrees_where_the_scan_alone_does_not() {
+    // building, seed 6 (measured): heading RMSE 3.81° with the scan and the door signs
+    // alone, 2.53° with the direction of the longest straight wall of each update's scan
+    // against the plan's wall directions; position RMSE 0.35 -> 0.19 m. The walls found
+    // lie a median 0.5° off the plan at the true heading (a 1° bin's nearest point is
+    // at the bin's edge, not its centre). Off by default: along a corridor without door
+    // signs it moves the place (docs/localization.md, "The wall angle").
+    let walls = LocalizeWalkConfig { wall_angles: Some(WallFitConfig::default()), ..Default::default() };
+    let with = run_with("building", 6, &walls);
+    check_common(&with);
+    let s = &with.summary;
+    assert!(s.walls_found * 2 > s.frames, "{}", with.summary_text());
+    assert!(s.wall_residual_median_deg < 1.0 && s.wall_residual_p90_deg < 2.0, "{}", with.summary_text());
+    assert!(s.wall_angles_used >= 20, "{}", with.summary_text());
+    assert!(s.heading_rmse_deg < 3.0, "{}", with.summary_text());
+    assert!(s.position_rmse_m < 0.3, "{}", with.summary_text());
+    let without = run_with("building", 6, &LocalizeWalkConfig::default());
+    assert_eq!(without.summary.wall_angles_used, 0);
+    assert_eq!(without.summary.walls_found, s.walls_found, "the same walk, the same scans");
+    assert!(without.summary.heading_rmse_deg > 3.0, "{}", without.summary_text());
 }
 
 #[test]
