@@ -172,6 +172,11 @@ pub struct CourseArgs {
     /// plan either way.
     #[arg(long, value_enum, default_value_t = floor_plan::LocalizationMap::FloorPlan)]
     pub localization_map: floor_plan::LocalizationMap,
+    /// With --pose filter: the simulated visual odometry's errors (1 % scale, 2 % noise
+    /// per metre, heading noise and drift) times K, so the filter's place is worse: how
+    /// the cue degrades as the localization error grows (2: the "noise doubled").
+    #[arg(long, value_name = "K", default_value_t = 1.0)]
+    pub odometry_noise: f64,
     /// What the user heads for. `assisted` (the default) is Taylor's protocol: the
     /// goal's sound, with an experimenter who leads a user lost for 20 s until the goal
     /// is in sight. `sound`: the goal's sound alone, nobody to help. `route`: kept on
@@ -414,11 +419,22 @@ impl CourseArgs {
         );
         c.predictive = self.predictive.then(|| walk::predictive_for(&c));
         c.pose = self.pose;
+        // the particle filter runs for the predictive cue or the spoken guide, on --pose filter
+        let filter = self.pose == walk::PoseSource::Filter && (self.predictive || self.guide == GuideKind::Spoken);
         anyhow::ensure!(
-            self.localization_map == floor_plan::LocalizationMap::FloorPlan || self.pose == walk::PoseSource::Filter,
-            "--localization-map goes with --pose filter"
+            self.localization_map == floor_plan::LocalizationMap::FloorPlan || filter,
+            "--localization-map goes with --pose filter (and --predictive or --guide spoken)"
         );
         c.localization_map = self.localization_map;
+        anyhow::ensure!(
+            self.odometry_noise.is_finite() && (0.0..=10.0).contains(&self.odometry_noise),
+            "--odometry-noise must be between 0 (perfect odometry) and 10"
+        );
+        anyhow::ensure!(
+            self.odometry_noise == 1.0 || filter,
+            "--odometry-noise goes with --pose filter (and --predictive or --guide spoken)"
+        );
+        c.odometry_noise = self.odometry_noise;
         Ok(c)
     }
 }
@@ -563,6 +579,8 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
         "oracle": config.oracle,
         "predictive": config.predictive,
         "pose": config.predictive.map(|_| config.pose),
+        "localization_map": config.localization_map,
+        "odometry_noise": config.odometry_noise,
         "guide": args.guide,
         "route_lookahead_m": config.lookahead_m(),
         "route_map": args.route_map,
@@ -642,10 +660,14 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         config.oracle.map_or_else(String::new, |o| {
             let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
             format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
-        }) + match (config.predictive, config.pose) {
-            (None, _) => "",
-            (Some(_), walk::PoseSource::Filter) => " (predictive: from the route and the particle filter's place)",
-            (Some(_), walk::PoseSource::Truth) => " (predictive: from the route and the true place)",
+        }) + &match (config.predictive, config.pose) {
+            (None, _) => String::new(),
+            (Some(_), walk::PoseSource::Filter) if config.odometry_noise != 1.0 => format!(
+                " (predictive: from the route and the particle filter's place, odometry errors x{})",
+                config.odometry_noise
+            ),
+            (Some(_), walk::PoseSource::Filter) => " (predictive: from the route and the particle filter's place)".into(),
+            (Some(_), walk::PoseSource::Truth) => " (predictive: from the route and the true place)".into(),
         },
         args.cost,
         on_off(!args.no_memory),

@@ -163,6 +163,11 @@ pub struct WalkConfig {
     /// The map the particle filter localizes on (`PoseSource::Filter`); routes are
     /// planned on the floor plan either way.
     pub localization_map: floor_plan::LocalizationMap,
+    /// The simulated visual odometry's errors (scale, noise, heading drift) times this
+    /// (1: typical indoor VO, `OdometryNoise::default`): what the particle filter and the
+    /// body's speed are made from, made worse to see how the cue degrades as the place's
+    /// error grows.
+    pub odometry_noise: f64,
 }
 
 /// Where the predictive cue takes the user to be.
@@ -257,6 +262,7 @@ impl Default for WalkConfig {
             predictive: None,
             pose: PoseSource::Filter,
             localization_map: floor_plan::LocalizationMap::FloorPlan,
+            odometry_noise: 1.0,
         }
     }
 }
@@ -696,7 +702,7 @@ impl<'w> Walk<'w> {
         let mut rng = SimRng::seed_from(seed);
         let depth_rng = rng.fork();
         let gravity_rng = rng.fork();
-        let odometry = OdometryModel::new(OdometryNoise::default(), rng.fork());
+        let odometry = OdometryModel::new(OdometryNoise::default().scaled(config.odometry_noise), rng.fork());
         let mut jitter = |half: f64| (2.0 * rng.uniform() - 1.0) * half;
         let start = world.start();
         let start = UserPose {

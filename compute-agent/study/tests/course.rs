@@ -564,6 +564,15 @@ fn worlds_that_are_not_there_or_flags_that_do_not_fit_groups_are_refused_before_
     assert!(err.contains("--pose goes with --predictive or --guide spoken"), "{err}");
     let err = run("--world corridor --guide spoken --pose truth --localization-map mapped").unwrap_err();
     assert!(err.contains("--localization-map goes with --pose filter"), "{err}");
+    let err = run("--world corridor --localization-map mapped").unwrap_err();
+    assert!(err.contains("(and --predictive or --guide spoken)"), "{err}");
+    // the odometry made worse: only where the filter runs, and a factor in reason
+    let err = run("--world corridor --odometry-noise 2").unwrap_err();
+    assert!(err.contains("--odometry-noise goes with --pose filter"), "{err}");
+    let err = run("--world corridor --guide spoken --odometry-noise 11").unwrap_err();
+    assert!(err.contains("--odometry-noise must be between 0 (perfect odometry) and 10"), "{err}");
+    let err = run("--world corridor --guide spoken --odometry-noise nan").unwrap_err();
+    assert!(err.contains("--odometry-noise must be between"), "{err}");
     let base = Cli::parse_from(["course", "--worlds", "gen:office", "--count", "3"]).args;
     let refused = base.with_flags("--count 4").err().map(|e| format!("{e:#}")).unwrap_or_default();
     assert!(refused.contains("--count, --seed and --runs must stay the same"), "{refused}");

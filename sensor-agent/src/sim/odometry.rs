@@ -43,6 +43,17 @@ impl OdometryNoise {
     pub fn none() -> Self {
         OdometryNoise { scale: 0.0, translation_per_m: 0.0, yaw_per_rad: 0.0, yaw_per_m: 0.0, yaw_drift_rad_s: 0.0 }
     }
+
+    /// Every error `factor` times as large (2: a front end half as good).
+    pub fn scaled(self, factor: f64) -> Self {
+        OdometryNoise {
+            scale: self.scale * factor,
+            translation_per_m: self.translation_per_m * factor,
+            yaw_per_rad: self.yaw_per_rad * factor,
+            yaw_per_m: self.yaw_per_m * factor,
+            yaw_drift_rad_s: self.yaw_drift_rad_s * factor,
+        }
+    }
 }
 
 /// One simulated odometry source with its per-run errors drawn.
@@ -148,5 +159,19 @@ mod tests {
         // And it does drift: the noise is not silently off.
         let (error_m, _) = dead_reckoning_error(OdometryNoise::default(), 2);
         assert!(error_m > 0.01, "{error_m}");
+    }
+
+    #[test]
+    fn scaled_noise_drifts_that_many_times_as_far() {
+        // the same draws with every error doubled: each walk's error near twice as
+        // large (the errors are linear in the noise for small angles)
+        let doubled = OdometryNoise::default().scaled(2.0);
+        assert_eq!(doubled.scale, 0.02);
+        assert_eq!(OdometryNoise::default().scaled(0.0), OdometryNoise::none());
+        for seed in 1..=8 {
+            let (once, _) = dead_reckoning_error(OdometryNoise::default(), seed);
+            let (twice, _) = dead_reckoning_error(doubled, seed);
+            assert!((twice / once - 2.0).abs() < 0.2, "seed {seed}: {once:.3} m -> {twice:.3} m");
+        }
     }
 }
