@@ -745,8 +745,11 @@ fn on_off(on: bool) -> &'static str {
 pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
     let localization = match w.localization {
         None => String::new(),
-        Some((_, 0)) => "; the filter never tracked".to_string(),
-        Some((rmse_m, frames)) => format!("; the filter tracked {frames} of {} frames, RMSE {rmse_m:.2} m", w.frames),
+        Some(e) if e.frames == 0 => "; the filter never tracked".to_string(),
+        Some(e) => format!(
+            "; the filter tracked {} of {} frames, RMSE {:.2} m, heading {:.1}°",
+            e.frames, w.frames, e.position_rmse_m, e.heading_rmse_deg
+        ),
     };
     let heard = match w.heard {
         None => String::new(),

@@ -337,6 +337,18 @@ impl BodyGyro {
     }
 }
 
+/// The particle filter's errors on a walk, against the truth, over the frames it said
+/// `Tracking` (the frames the device used its place); NaN when it never tracked.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct TrackedError {
+    /// Position, root mean square, metres.
+    pub position_rmse_m: f64,
+    /// Heading, root mean square, degrees (what a turn the guide calls is off by).
+    pub heading_rmse_deg: f64,
+    /// Frames tracked.
+    pub frames: u32,
+}
+
 /// What happened on one walk.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct WalkOutcome {
@@ -374,9 +386,8 @@ pub struct WalkOutcome {
     /// body ([`World::way_through`]; `None`: not searched).
     pub way_through: Option<bool>,
     /// With the predictive cue or the spoken guide on the filter's pose: the filter's
-    /// position error (RMSE against the truth, metres; NaN when it never tracked) over
-    /// the frames it tracked, and how many those were.
-    pub localization: Option<(f64, u32)>,
+    /// errors over the frames it tracked.
+    pub localization: Option<TrackedError>,
     /// With the spoken guide: utterances heard to their end, and of them the prompts to
     /// come back to the route ("Off the route: ...").
     pub heard: Option<(u32, u32)>,
@@ -678,7 +689,8 @@ pub struct Walk<'w> {
     /// squared position errors while it tracked.
     tracker: Option<Tracker>,
     last_camera_yaw: Option<(f64, f64)>,
-    tracked_error: (f64, u32),
+    /// squared position error (m²), squared heading error (rad²), frames, while tracking
+    tracked_error: (f64, f64, u32),
     /// With the spoken guide: the device's navigator, what it says this frame, and what
     /// the user heard and has not yet acted on.
     spoken: Option<SpokenDevice>,
@@ -829,7 +841,7 @@ impl<'w> Walk<'w> {
             known_near: Vec::new(),
             tracker,
             last_camera_yaw: None,
-            tracked_error: (0.0, 0),
+            tracked_error: (0.0, 0.0, 0),
             spoken,
             said: Vec::new(),
             ear,
@@ -896,10 +908,11 @@ impl<'w> Walk<'w> {
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
         if self.tracker.is_some() {
-            let (sum, n) = self.tracked_error;
+            let (pos2, head2, n) = self.tracked_error;
             // never tracked: no error to give (NaN, `null` in JSON)
-            let rmse_m = if n == 0 { f64::NAN } else { (sum / f64::from(n)).sqrt() };
-            self.out.localization = Some((rmse_m, n));
+            let rms = |sum: f64| if n == 0 { f64::NAN } else { (sum / f64::from(n)).sqrt() };
+            self.out.localization =
+                Some(TrackedError { position_rmse_m: rms(pos2), heading_rmse_deg: rms(head2).to_degrees(), frames: n });
         }
         self.out
     }
@@ -950,7 +963,9 @@ impl<'w> Walk<'w> {
                 let e = tracker.estimate();
                 (e.status == localization::Status::Tracking).then(|| {
                     let err2 = (e.pose.x_m - pose.x_m).powi(2) + (e.pose.y_m - pose.y_m).powi(2);
-                    self.tracked_error = (self.tracked_error.0 + err2, self.tracked_error.1 + 1);
+                    let head2 = localization::wrap_angle(e.pose.heading_rad - pose.yaw_rad).powi(2);
+                    let (p, h, n) = self.tracked_error;
+                    self.tracked_error = (p + err2, h + head2, n + 1);
                     UserPose { x_m: e.pose.x_m, y_m: e.pose.y_m, yaw_rad: e.pose.heading_rad, floor: e.level }
                 })
             }
