@@ -40,29 +40,37 @@ impl Scan {
     /// many beams were unusable.
     pub fn endpoints_into(&self, max_beams: usize, out: &mut Vec<[f64; 2]>) -> usize {
         out.clear();
-        let usable = |b: &&Beam| {
-            b.range_m.is_finite() && b.angle_rad.is_finite() && b.range_m > 0.0 && b.range_m < self.max_range_m
-        };
+        let usable = |b: &&Beam| self.usable(b);
         let n_usable = self.beams.iter().filter(usable).count();
         let unusable = self.beams.len() - n_usable;
         if n_usable == 0 || max_beams == 0 {
             return unusable;
         }
         let take = n_usable.min(max_beams);
-        let (s0, c0) = self.sensor_yaw_rad.sin_cos();
+        let sensor = self.sensor_yaw_rad.sin_cos();
         // the k-th of `take` evenly spaced picks among the usable beams
         let mut next_pick = 0usize;
         let mut picked = 0usize;
         for (i, b) in self.beams.iter().filter(usable).enumerate() {
             if picked < take && i == next_pick {
-                let (s, c) = b.angle_rad.sin_cos();
-                let (sx, sy) = (b.range_m * c, b.range_m * s);
-                out.push([self.sensor_forward_m + c0 * sx - s0 * sy, self.sensor_left_m + s0 * sx + c0 * sy]);
+                out.push(self.endpoint(b, sensor));
                 picked += 1;
                 next_pick = (picked * n_usable) / take;
             }
         }
         unusable
+    }
+
+    /// Whether a beam hit something: finite, positive, short of the maximum range.
+    pub(crate) fn usable(&self, b: &Beam) -> bool {
+        b.range_m.is_finite() && b.angle_rad.is_finite() && b.range_m > 0.0 && b.range_m < self.max_range_m
+    }
+
+    /// A beam's end point in the body frame; `sensor` is the sensor yaw's (sin, cos).
+    pub(crate) fn endpoint(&self, b: &Beam, (s0, c0): (f64, f64)) -> [f64; 2] {
+        let (s, c) = b.angle_rad.sin_cos();
+        let (sx, sy) = (b.range_m * c, b.range_m * s);
+        [self.sensor_forward_m + c0 * sx - s0 * sy, self.sensor_left_m + s0 * sx + c0 * sy]
     }
 }
 

@@ -14,7 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::landmarks::WallAngle;
-use crate::scan::Scan;
+use crate::scan::{Beam, Scan};
 
 /// What counts as a wall.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -65,21 +65,10 @@ impl WallSegment {
 
 /// The walls in `scan` (see the module documentation), longest first.
 pub fn wall_segments(scan: &Scan, config: &WallFitConfig) -> Vec<WallSegment> {
-    let mut beams: Vec<(f64, f64)> = scan
-        .beams
-        .iter()
-        .filter(|b| b.range_m.is_finite() && b.angle_rad.is_finite() && b.range_m > 0.0 && b.range_m < scan.max_range_m)
-        .map(|b| (b.angle_rad, b.range_m))
-        .collect();
-    beams.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (s0, c0) = scan.sensor_yaw_rad.sin_cos();
-    let points: Vec<[f64; 2]> = beams
-        .iter()
-        .map(|&(a, r)| {
-            let (sx, sy) = (r * a.cos(), r * a.sin());
-            [scan.sensor_forward_m + c0 * sx - s0 * sy, scan.sensor_left_m + s0 * sx + c0 * sy]
-        })
-        .collect();
+    let mut beams: Vec<&Beam> = scan.beams.iter().filter(|b| scan.usable(b)).collect();
+    beams.sort_by(|a, b| a.angle_rad.total_cmp(&b.angle_rad));
+    let sensor = scan.sensor_yaw_rad.sin_cos();
+    let points: Vec<[f64; 2]> = beams.iter().map(|b| scan.endpoint(b, sensor)).collect();
     let mut out = Vec::new();
     let mut start = 0;
     for i in 1..=points.len() {
@@ -171,7 +160,6 @@ fn fit_line(points: &[[f64; 2]]) -> Option<WallSegment> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan::Beam;
     use crate::wrap_angle;
 
     /// Beams from a sensor at the body origin facing `yaw` onto the line through `p`
