@@ -405,6 +405,9 @@ fn unit_level(name: &str, v: f32) -> Result<(), String> {
     }
 }
 
+/// Highest camera a depth frame's mount guess may give, metres.
+pub const MAX_MOUNT_HEIGHT_M: f32 = 3.0;
+
 /// Longest utterance accepted: about a minute of speech.
 pub const MAX_SPEECH_CHARS: usize = 1000;
 
@@ -426,6 +429,16 @@ impl Message for DepthFrame {
         }
         if let Some(g) = self.gravity_camera {
             finite("gravity", &g)?;
+        }
+        if let Some(m) = self.mount {
+            // the perception looks for the floor around this height: a camera below the
+            // floor or out of reach of any cane would hide the floor or invent one
+            if !(m.height_m.is_finite() && m.height_m > 0.0 && m.height_m <= MAX_MOUNT_HEIGHT_M) {
+                return Err(format!("mount height {} m is not within 0-{MAX_MOUNT_HEIGHT_M} m", m.height_m));
+            }
+            if !(m.pitch_deg.is_finite() && m.pitch_deg.abs() <= 90.0) {
+                return Err(format!("mount pitch {} deg is not within -90 to 90", m.pitch_deg));
+            }
         }
         if let DepthEncoding::Bounded { step: 0 } = self.encoding {
             return Err("bounded encoding with step 0".into());
@@ -802,6 +815,26 @@ mod tests {
             notice: false,
         };
         assert_eq!(decode::<SpeechIntent>(&encode(&X, 0, 0, &empty)).unwrap_err().kind(), "invalid");
+    }
+
+    #[test]
+    fn a_depth_frame_whose_mount_guess_no_cane_could_give_is_invalid() {
+        let frame = |height_m: f32, pitch_deg: f32| DepthFrame {
+            width: 2,
+            height: 1,
+            depth_scale_m: 0.001,
+            intrinsics: Intrinsics { fx: 525.0, fy: 525.0, cx: 0.5, cy: 0.0 },
+            gravity_camera: None,
+            mount: Some(MountGuess { height_m, pitch_deg }),
+            encoding: DepthEncoding::Raw,
+            data: vec![0; 4],
+        };
+        assert!(decode::<DepthFrame>(&encode(&X, 0, 0, &frame(0.9, 30.0))).is_ok());
+        for (h, p) in [(f32::NAN, 30.0), (0.0, 30.0), (-0.9, 30.0), (3.5, 30.0), (0.9, f32::INFINITY), (0.9, 120.0)] {
+            let err = decode::<DepthFrame>(&encode(&X, 0, 0, &frame(h, p))).unwrap_err();
+            assert_eq!(err.kind(), "invalid", "height {h}, pitch {p}: {err}");
+            assert!(err.to_string().contains("mount"), "{err}");
+        }
     }
 
     #[test]
