@@ -87,6 +87,87 @@ fn a_door_number_localizes_and_a_misread_one_is_recovered_from() {
     assert!(after_reread < 0.75, "{after_reread}");
 }
 
+/// A 30 x 3 m corridor with nothing along it (walls at y = 0.5 and 2.5) and doors 101,
+/// 110 and 120 at x = 3, 13 and 25: from a scan, nowhere along it differs from anywhere
+/// else.
+fn plain_corridor_filter(config: FilterConfig, seed: u64) -> (ParticleFilter, OccupancyGrid) {
+    let g = grid(30.0, 3.0, |x, y| !(0.3..=29.7).contains(&x) || !(0.55..=2.45).contains(&y));
+    let door = |n: &str, x: f64| Door { number: n.into(), x, y: 0.55, floor: 0, normal: [0.0, 1.0] };
+    let semantic =
+        SemanticLayer { doors: vec![door("101", 3.0), door("110", 13.0), door("120", 25.0)], ..Default::default() };
+    let floor = FloorModel::new(0, &g, &semantic, &Default::default()).expect("floor");
+    (ParticleFilter::new(vec![floor], config, seed).expect("filter"), g)
+}
+
+#[test]
+fn walls_that_say_only_where_across_the_corridor_do_not_make_tracking_again_a_door_number_does() {
+    // a known start 10 m into the plain corridor, stepping along it, the camera's 8 m
+    // reaching neither end: the told start makes `Tracking`. Then the scans stop
+    // fitting (the camera blocked by something the map does not have) and the status
+    // leaves `Tracking`; when they fit again, nothing in them says where along the
+    // corridor the user is: the told start no longer does either
+    let statuses = |min_constraint: f64, door_at_step: Option<usize>| {
+        let config = FilterConfig { tracking_min_constraint: min_constraint, ..Default::default() };
+        let (mut pf, g) = plain_corridor_filter(config, 7);
+        let mut truth = Pose2::new(5.0, 1.5, 0.0);
+        pf.init_pose(0, truth, 0.1, 0.05).expect("start");
+        let mut seen = Vec::new();
+        for step in 0..40 {
+            truth = truth.compose(STEP.forward_m, 0.0, 0.0);
+            pf.predict(&STEP, Some(0.0)).expect("plausible");
+            let mut scan = cast(&g, &truth, 61, 58f64.to_radians(), 8.0);
+            if (12..20).contains(&step) {
+                for b in &mut scan.beams {
+                    b.range_m = 0.6; // a board held 0.6 m in front of the camera
+                }
+            }
+            // door 110 at x = 13, read on the right
+            let door = Landmark::Door { number: "110".into(), forward_m: 13.0 - truth.x_m, left_m: -0.95 };
+            let landmarks = if door_at_step == Some(step) { vec![door] } else { Vec::new() };
+            pf.correct(&Observations { scan: Some(&scan), landmarks: &landmarks, ..Default::default() });
+            seen.push(pf.estimate().status);
+        }
+        seen
+    };
+    let min = FilterConfig::default().tracking_min_constraint;
+    let walls_only = statuses(min, None);
+    assert_eq!(walls_only[10], Status::Tracking, "the told start: {walls_only:?}");
+    assert!(walls_only[12..20].iter().any(|s| *s != Status::Tracking), "the board: {walls_only:?}");
+    assert!(walls_only[20..].iter().all(|s| *s != Status::Tracking), "{walls_only:?}");
+    // the rule is what holds it back: without it the same walls make `Tracking`
+    let unguarded = statuses(0.0, None);
+    let tracked = |s: &[Status]| s.iter().filter(|s| **s == Status::Tracking).count();
+    assert!(tracked(&unguarded[20..]) >= 10, "{unguarded:?}");
+    // a door number read fixes the place along the corridor
+    let with_door = statuses(min, Some(22));
+    assert!(tracked(&with_door[22..30]) >= 4, "{with_door:?}");
+}
+
+#[test]
+fn the_scan_constraint_is_nil_between_parallel_walls_and_counts_the_beams_on_an_end_wall() {
+    let (pf, g) = plain_corridor_filter(FilterConfig::default(), 1);
+    let field = pf.floors()[0].field();
+    let endpoints = |pose: &Pose2, max_range_m: f64| -> Vec<[f64; 2]> {
+        cast(&g, pose, 61, 58f64.to_radians(), max_range_m)
+            .beams
+            .iter()
+            .filter(|b| b.range_m < max_range_m)
+            .map(|b| [b.range_m * b.angle_rad.cos(), b.range_m * b.angle_rad.sin()])
+            .collect()
+    };
+    // mid-corridor looking along it: only the side walls
+    let along = Pose2::new(10.0, 1.5, 0.0);
+    let k = localization::particle_filter::scan_constraint(field, &along, &endpoints(&along, 8.0), 0.2);
+    assert!(k < 0.5, "{k}");
+    // 3 m from the end wall, looking at it: the beams on it fix the place along
+    let facing_end = Pose2::new(26.7, 1.5, 0.0);
+    let beams = endpoints(&facing_end, 8.0);
+    let on_end = beams.iter().filter(|[x, _]| (facing_end.x_m + x - 29.7).abs() < 0.1).count();
+    let k = localization::particle_filter::scan_constraint(field, &facing_end, &beams, 0.2);
+    // (the beams near the corners count in part: the wall's normal turns there)
+    assert!(on_end >= 30 && k >= 0.5 * on_end as f64, "{k} for {on_end} beams on the end wall");
+}
+
 #[test]
 fn a_few_beams_do_not_make_tracking() {
     // a known start in the corridor, stepping along it: with scans of 10 usable beams
