@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Parser, ValueEnum};
-use schemas::Intrinsics;
+use schemas::{Intrinsics, MountGuess};
 use sensor_agent::run::WireCodec;
 use sensor_agent::source::SourceOptions;
 
@@ -80,9 +80,31 @@ struct Cli {
     /// Intrinsics of a png: folder, `fx,fy,cx,cy` in pixels.
     #[arg(long, value_parser = parse_intrinsics)]
     intrinsics: Option<Intrinsics>,
+    /// Where the camera sits on the cane, `HEIGHT,PITCH`: metres above the floor and
+    /// degrees below horizontal, sent with every frame of a source that does not know
+    /// it (all but `sim:`, whose mount is its own). The compute agent then looks for
+    /// the floor within 0.25 m of HEIGHT, so a seat or box top filling the view is never
+    /// taken for it; without it, anywhere 0.5-2 m below the camera.
+    #[arg(long, value_parser = parse_mount, value_name = "HEIGHT,PITCH")]
+    mount: Option<MountGuess>,
     /// Health reports the source stalled after this long without a frame.
     #[arg(long, default_value_t = 500, value_name = "MS")]
     stall_after_ms: u64,
+}
+
+fn parse_mount(s: &str) -> Result<MountGuess, String> {
+    let v: Vec<f32> =
+        s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"))).collect::<Result<_, _>>()?;
+    let [height_m, pitch_deg] = v[..] else {
+        return Err(format!("expected HEIGHT,PITCH (metres, degrees), got {} numbers", v.len()));
+    };
+    if !(height_m.is_finite() && height_m > 0.0 && height_m <= schemas::wire::MAX_MOUNT_HEIGHT_M) {
+        return Err(format!("height {height_m} m is not above 0 and at most {} m", schemas::wire::MAX_MOUNT_HEIGHT_M));
+    }
+    if !(pitch_deg.is_finite() && pitch_deg.abs() <= 90.0) {
+        return Err(format!("pitch {pitch_deg} deg is not within -90 to 90"));
+    }
+    Ok(MountGuess { height_m, pitch_deg })
 }
 
 fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
@@ -118,6 +140,7 @@ async fn main() -> anyhow::Result<()> {
     config.stall_after = Duration::from_millis(cli.stall_after_ms);
     config.pacing = !cli.no_pacing;
     config.compute_agent = cli.compute_agent;
+    config.mount = cli.mount;
     config.codec = match cli.codec {
         Codec::Lossless => WireCodec::Lossless,
         Codec::Raw => WireCodec::Raw,
@@ -127,4 +150,26 @@ async fn main() -> anyhow::Result<()> {
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     sensor_agent::run::run(config, source, shutdown).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mount_is_a_height_and_a_pitch_a_cane_could_give() {
+        assert_eq!(parse_mount("0.9,30"), Ok(MountGuess { height_m: 0.9, pitch_deg: 30.0 }));
+        assert_eq!(parse_mount(" 1.1 , -5 "), Ok(MountGuess { height_m: 1.1, pitch_deg: -5.0 }));
+        for (bad, says) in [
+            ("0.9", "expected HEIGHT,PITCH"),
+            ("0,30", "not above 0"),
+            ("3.5,30", "at most 3"),
+            ("nan,30", "not above 0"),
+            ("0.9,95", "not within -90 to 90"),
+            ("0.9,x", "\"x\""),
+        ] {
+            let err = parse_mount(bad).unwrap_err();
+            assert!(err.contains(says), "{bad}: {err}");
+        }
+    }
 }

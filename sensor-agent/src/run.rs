@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
-use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, OdomIncrement};
+use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, MountGuess, OdomIncrement};
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
@@ -39,6 +39,10 @@ pub struct SensorConfig {
     pub stall_after: Duration,
     /// Period of health stats.
     pub health_period: Duration,
+    /// Where the camera sits on the cane, sent with every frame whose source does not
+    /// know it (every source but the simulator): the compute agent looks for the floor
+    /// near this height, so a seat or a box top filling the view is not taken for it.
+    pub mount: Option<MountGuess>,
 }
 
 impl SensorConfig {
@@ -53,6 +57,7 @@ impl SensorConfig {
             compute_agent: "compute-agent".to_string(),
             stall_after: Duration::from_millis(500),
             health_period: Duration::from_secs(1),
+            mount: None,
         }
     }
 }
@@ -98,7 +103,13 @@ enum Produced {
 
 /// Pack `frame` at `level`: halved to every second pixel of every second row (the
 /// intrinsics with it) when the level says so, then compressed with its codec.
-fn pack(frame: &SourceFrame, level: Level, halved: &mut Vec<u16>, buf: &mut Vec<u8>) -> Result<DepthFrame, String> {
+fn pack(
+    frame: &SourceFrame,
+    mount: Option<MountGuess>,
+    level: Level,
+    halved: &mut Vec<u16>,
+    buf: &mut Vec<u8>,
+) -> Result<DepthFrame, String> {
     let encoding = level.codec.encoding_for(frame.depth_scale_m);
     let (mut width, mut height, mut k) = (frame.width, frame.height, frame.intrinsics);
     let samples = if level.half {
@@ -121,7 +132,7 @@ fn pack(frame: &SourceFrame, level: Level, halved: &mut Vec<u16>, buf: &mut Vec<
         depth_scale_m: frame.depth_scale_m,
         intrinsics: k,
         gravity_camera: frame.gravity_camera,
-        mount: frame.mount,
+        mount: frame.mount.or(mount),
         encoding,
         data: std::mem::take(buf),
     })
@@ -130,7 +141,13 @@ fn pack(frame: &SourceFrame, level: Level, halved: &mut Vec<u16>, buf: &mut Vec<
 /// Pull frames from `source` at its pace (sleeping until each frame's stamp), pack
 /// them, hand them over. Runs on its own thread: rendering and compression are CPU
 /// work that must not stall the async publishers.
-fn produce(mut source: Box<dyn FrameSource>, pacer: Arc<Mutex<Pacer>>, tx: mpsc::Sender<Produced>, shutdown: Shutdown) {
+fn produce(
+    mut source: Box<dyn FrameSource>,
+    mount: Option<MountGuess>,
+    pacer: Arc<Mutex<Pacer>>,
+    tx: mpsc::Sender<Produced>,
+    shutdown: Shutdown,
+) {
     let (mut buf, mut halved) = (Vec::new(), Vec::new());
     let period_ns = source.period_ns();
     // Paced sources (simulator, replay) are asked for the frame of the next capture
@@ -148,7 +165,7 @@ fn produce(mut source: Box<dyn FrameSource>, pacer: Arc<Mutex<Pacer>>, tx: mpsc:
             Ok(Some(frame)) => {
                 sleep_until_ns(frame.stamp_ns);
                 let level = pacer.lock().unwrap_or_else(|e| e.into_inner()).admit(frame.stamp_ns, bus::now_ns());
-                match level.map(|level| pack(&frame, level, &mut halved, &mut buf)).transpose() {
+                match level.map(|level| pack(&frame, mount, level, &mut halved, &mut buf)).transpose() {
                     Ok(depth) => Produced::Frame { frame: Box::new(frame), depth },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
                 }
@@ -236,9 +253,10 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
     let producer = {
         let shutdown = shutdown.clone();
         let pacer = pacer.clone();
+        let mount = config.mount;
         std::thread::Builder::new()
             .name("frame-source".into())
-            .spawn(move || produce(source, pacer, tx, shutdown))
+            .spawn(move || produce(source, mount, pacer, tx, shutdown))
             .context("cannot start the frame source thread")?
     };
 
@@ -378,19 +396,25 @@ mod tests {
         };
         let (mut halved, mut buf) = (Vec::new(), Vec::new());
         let level = Level { codec: WireCodec::Lossless, half: true, every: 1 };
-        let packed = pack(&frame, level, &mut halved, &mut buf).unwrap();
+        let packed = pack(&frame, None, level, &mut halved, &mut buf).unwrap();
         assert_eq!((packed.width, packed.height), (3, 2));
+        assert_eq!(packed.mount, None);
+        // the configured mount goes with a frame whose source has none, not over its own
+        let configured = MountGuess { height_m: 0.9, pitch_deg: 30.0 };
+        assert_eq!(pack(&frame, Some(configured), level, &mut halved, &mut buf).unwrap().mount, Some(configured));
+        let own = SourceFrame { mount: Some(MountGuess { height_m: 0.885, pitch_deg: 30.0 }), ..frame.clone() };
+        assert_eq!(pack(&own, Some(configured), level, &mut halved, &mut buf).unwrap().mount, own.mount);
         assert_eq!(halved, [1, 3, 5, 11, 13, 15]);
         assert_eq!(packed.intrinsics, schemas::Intrinsics { fx: 250.0, fy: 240.0, cx: 160.0, cy: 120.0 });
         let mut decoded = Vec::new();
         schemas::depth_codec::decode(&packed.data, 3, 2, packed.encoding, &mut decoded).unwrap();
         assert_eq!(decoded, [1, 3, 5, 11, 13, 15]);
         // full size: the frame as it is
-        let packed = pack(&frame, Level { half: false, ..level }, &mut halved, &mut buf).unwrap();
+        let packed = pack(&frame, None, Level { half: false, ..level }, &mut halved, &mut buf).unwrap();
         assert_eq!((packed.width, packed.height, packed.intrinsics), (5, 3, k));
         // a frame whose samples do not fill it is refused, not sliced
         let short = SourceFrame { depth: vec![1; 14], ..frame };
-        assert!(pack(&short, level, &mut halved, &mut buf).unwrap_err().contains("14 samples for 5x3"));
+        assert!(pack(&short, None, level, &mut halved, &mut buf).unwrap_err().contains("14 samples for 5x3"));
     }
 
     #[test]

@@ -191,6 +191,7 @@ fn main() {
                 gravity_camera: case.gravity,
                 motion: None,
                 body_yaw_rate_rad_s: None,
+                mount_height_m: None,
             };
             timer.clear();
             let t0 = Instant::now();

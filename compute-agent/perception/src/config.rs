@@ -101,7 +101,9 @@ impl PerceptionConfig {
         c.positive("ground.refine_band_m", g.refine_band_m);
         c.above_within("ground.min_inlier_fraction", g.min_inlier_fraction, 0.0, 1.0);
         c.within("ground.min_spread_m", g.min_spread_m, 0.0, 10.0);
-        c.within("ground.min_camera_height_m", g.min_camera_height_m, 0.0, 10.0);
+        c.above_within("ground.camera_height_range_m[0]", g.camera_height_range_m[0], 0.0, 10.0);
+        c.within("ground.camera_height_range_m[1]", g.camera_height_range_m[1], g.camera_height_range_m[0], 10.0);
+        c.above_within("ground.mount_tolerance_m", g.mount_tolerance_m, 0.0, 10.0);
         c.positive("ground.max_offset_jump_m", g.max_offset_jump_m);
         c.above_within("ground.average_weight", g.average_weight, 0.0, 1.0);
         c.at_least("ground.reseed_after_frames", g.reseed_after_frames as f32, 1.0);
@@ -253,8 +255,17 @@ pub struct GroundConfig {
     /// in-plane direction: a floor seen as a thin strip does not fix a plane's tilt. A
     /// 30 cm strip has ~9 cm; the floor ahead of a cane camera 15-50 cm and more.
     pub min_spread_m: f32,
-    /// Lowest camera height over a ground candidate; rules out planes through the camera.
-    pub min_camera_height_m: f32,
+    /// Heights of the camera above a ground candidate, metres, when the frame gives no
+    /// mount guess: a cane camera is held at 0.5-2 m (the real captures in the tests:
+    /// 1.27 and 1.77 m). A surface nearer than 0.5 m below the camera is a table, bench
+    /// or box top, never the floor (issue 29: a 0.45 m box top 0.54 m below a 0.99 m
+    /// camera was the ground, even with the exact gravity).
+    pub camera_height_range_m: [f32; 2],
+    /// With a mount guess (`FrameContext::mount_height_m`), the ground is looked for
+    /// only this far above or below it, metres: the camera bobs a few centimetres with
+    /// the walk and a step changes the floor by 0.15-0.2 m; a seat (0.45 m) or a sunken
+    /// lounge (0.3 m and deeper) is farther.
+    pub mount_tolerance_m: f32,
     /// Thesis false-ground guard: a new plane whose offset D is further than this from the
     /// running average is rejected (a table top) and the average plane used instead.
     pub max_offset_jump_m: f32,
@@ -295,7 +306,8 @@ impl Default for GroundConfig {
             refine_band_m: 0.03,
             min_inlier_fraction: 0.08,
             min_spread_m: 0.1,
-            min_camera_height_m: 0.2,
+            camera_height_range_m: [0.5, 2.0],
+            mount_tolerance_m: 0.25,
             max_offset_jump_m: 0.2,
             average_weight: 0.3,
             reseed_after_frames: 10,
@@ -304,6 +316,17 @@ impl Default for GroundConfig {
             reseed_lower_after_frames: 150,
             max_lost_frames: 5,
             seed: 0x5eed_ca9e,
+        }
+    }
+}
+
+impl GroundConfig {
+    /// Heights of the camera above the floor a ground candidate may give, metres: within
+    /// `mount_tolerance_m` of a usable mount guess, else `camera_height_range_m`.
+    pub fn camera_heights_m(&self, mount_height_m: Option<f32>) -> [f32; 2] {
+        match mount_height_m.filter(|h| h.is_finite() && *h > 0.0) {
+            Some(h) => [(h - self.mount_tolerance_m).max(0.1), h + self.mount_tolerance_m],
+            None => self.camera_height_range_m,
         }
     }
 }

@@ -189,12 +189,20 @@ impl ComputeStep {
                         depth_scale_m: f.depth_scale_m,
                         intrinsics: f.intrinsics,
                     };
-                    perceive(&mut self.pipeline, &mut self.motion, depth, f.gravity_camera, &input, timer)
+                    let mount_height_m = f.mount.map(|m| m.height_m);
+                    perceive(
+                        &mut self.pipeline,
+                        &mut self.motion,
+                        depth,
+                        (f.gravity_camera, mount_height_m),
+                        &input,
+                        timer,
+                    )
                 })
             }
             FrameData::Xyz { points, width, height, gravity_camera } => {
                 let xyz = DepthInput::Xyz { points, width, height };
-                perceive(&mut self.pipeline, &mut self.motion, xyz, gravity_camera, &input, timer)
+                perceive(&mut self.pipeline, &mut self.motion, xyz, (gravity_camera, None), &input, timer)
             }
         };
         let active = self.pipeline.config().cost_function;
@@ -241,12 +249,13 @@ impl ComputeStep {
     }
 }
 
-/// The pipeline on one decoded frame, with the motion that ends by its capture.
+/// The pipeline on one decoded frame, with its gravity and mount height guess and the
+/// motion that ends by its capture.
 fn perceive(
     pipeline: &mut Pipeline,
     motion: &mut MotionSince,
     depth: DepthInput<'_>,
-    gravity_camera: Option<[f32; 3]>,
+    (gravity_camera, mount_height_m): (Option<[f32; 3]>, Option<f32>),
     input: &FrameIn<'_>,
     timer: &mut dyn StageTimer,
 ) -> Result<Perception, StepError> {
@@ -255,6 +264,7 @@ fn perceive(
         gravity_camera,
         motion: motion.take_until(input.capture_ns),
         body_yaw_rate_rad_s: input.body_yaw_rate_rad_s,
+        mount_height_m,
     };
     Ok(pipeline.process(depth, &ctx, timer)?.clone())
 }

@@ -80,16 +80,24 @@ impl GroundSearch {
         Self { subset: Vec::new(), weights: Vec::new(), rng: seed | 1 }
     }
 
-    /// Best plane within `cfg.up_cone_deg` of `up` (unit) and, when the running ground
-    /// gives an `expected_offset_m`, within `cfg.max_offset_jump_m` of it; `None` when
-    /// nothing plane-like below the camera holds enough points.
+    /// Best plane within `cfg.up_cone_deg` of `up` (unit), with the camera at a height
+    /// above it that the `mount_height_m` guess allows
+    /// ([`GroundConfig::camera_heights_m`]), and, when the running ground gives an
+    /// `expected_offset_m`, within `cfg.max_offset_jump_m` of it; `None` when nothing
+    /// plane-like below the camera holds enough points, or only points of several
+    /// surfaces. Without a mount guess or a running ground, a seat or box top is told
+    /// from the floor by what lies under it ([`GroundSearch::under`]).
     pub fn fit(
         &mut self,
         cloud: &SampledCloud,
         up: [f32; 3],
+        up_is_gravity: bool,
         expected_offset_m: Option<f32>,
+        mount_height_m: Option<f32>,
         cfg: &GroundConfig,
     ) -> Option<PlaneFit> {
+        let mount_height_m = mount_height_m.filter(|h| h.is_finite() && *h > 0.0);
+        let heights_m = cfg.camera_heights_m(mount_height_m);
         let n_valid = cloud.valid.len();
         if n_valid < 3 {
             return None;
@@ -120,7 +128,7 @@ impl GroundSearch {
         // ground, a plane at another height (a table top) is not a candidate at all.
         let plausible = |p: &Plane| {
             dot(&p.normal, &up) >= cos_cone
-                && p.offset_m >= cfg.min_camera_height_m
+                && (heights_m[0]..=heights_m[1]).contains(&p.offset_m)
                 && expected_offset_m.is_none_or(|d| (p.offset_m - d).abs() <= cfg.max_offset_jump_m)
         };
         let inv_band_sq = 1.0 / (cfg.ransac_band_m * cfg.ransac_band_m);
@@ -171,7 +179,13 @@ impl GroundSearch {
                 }
             }
         }
-        let (coarse, _) = best?;
+        let Some((coarse, _)) = best else {
+            // No triple drawn spans a candidate: the floor may hold too few of the points
+            // for three of them to come up together (a far patch beyond a box top that
+            // is itself out of the camera's height range). The lowest surface by height.
+            let above = Plane { normal: up, offset_m: heights_m[0] - 2.0 * cfg.ransac_band_m - cfg.refine_band_m };
+            return self.under(cloud, &above, mount_height_m, &plausible, cfg).floor();
+        };
         let score = self.subset.iter().filter(|p| coarse.height(p).abs() < cfg.ransac_band_m).count();
         if (score as f32) < cfg.min_inlier_fraction * m as f32 || score < 3 {
             return None;
@@ -195,7 +209,133 @@ impl GroundSearch {
         if spread_m < cfg.min_spread_m {
             return None;
         }
-        Some(PlaneFit { plane, subset_inliers: score, subset_len: m })
+        let tilted = up_is_gravity && dot(&plane.normal, &up) < TILT_CHECKED_COS;
+        if expected_offset_m.is_none() && tilted && !self.surface(&plane, cfg) {
+            // a plane across surfaces (through a box top's far edge and the floor beyond,
+            // tilted within the cone): its points do not lie on it. The floor by height.
+            let above = Plane { normal: up, offset_m: heights_m[0] - 2.0 * cfg.ransac_band_m - cfg.refine_band_m };
+            return self.under(cloud, &above, mount_height_m, &plausible, cfg).floor();
+        }
+        let mut fit = PlaneFit { plane, subset_inliers: score, subset_len: m };
+        if expected_offset_m.is_none() && mount_height_m.is_none() {
+            // a box top on a table top on ...: a few at most
+            for _ in 0..3 {
+                match self.under(cloud, &fit.plane, None, &plausible, cfg) {
+                    Below::Nothing => break,
+                    Below::Floor(lower) => fit = lower,
+                    Below::Unfit => return None,
+                }
+            }
+        }
+        Some(fit)
+    }
+
+    /// What lies parallel to `top` (within the cone), lower than it: the floor beyond or
+    /// around a box, bench or table top that the fit, which weighs the nearest floor
+    /// most, chose. The depths below the camera along `top`'s normal of the scored
+    /// points under it are binned; the lowest pair of bins that holds a surface (a
+    /// thin layer spread in two directions, see [`GroundSearch::surface`]) of at least a
+    /// quarter of `min_inlier_fraction` of the points is looked at. With the whole
+    /// `min_inlier_fraction` it is refined as the fit is and is the floor; with less it
+    /// still shows that `top` is not the floor ([`Below::Unfit`]). A wall's points
+    /// spread over every bin, and a slice of one is no thin layer.
+    ///
+    /// With `nearest_to_m`, the layer nearest that far below the camera is looked at
+    /// instead of the lowest (the floor by height under a mount guess: at a step's edge
+    /// the user's floor, not the one below the step).
+    fn under(
+        &self,
+        cloud: &SampledCloud,
+        top: &Plane,
+        nearest_to_m: Option<f32>,
+        plausible: &dyn Fn(&Plane) -> bool,
+        cfg: &GroundConfig,
+    ) -> Below {
+        let bin_m = cfg.refine_band_m;
+        let first_m = top.offset_m + 2.0 * cfg.ransac_band_m;
+        let mut bins = [0u32; LOWER_BINS];
+        for p in &self.subset {
+            let k = ((-dot(&top.normal, p) - first_m) / bin_m).floor();
+            if k >= 0.0 && (k as usize) < LOWER_BINS {
+                bins[k as usize] += 1;
+            }
+        }
+        let m = self.subset.len();
+        let needed = ((cfg.min_inlier_fraction * m as f32).ceil() as u32).max(3);
+        let witness = (needed / 4).max(3);
+        let layer = |k: usize| {
+            let (lo, hi) = (first_m + k as f32 * bin_m, first_m + (k + 2) as f32 * bin_m);
+            let points = self.subset.iter().filter(|p| (lo..hi).contains(&-dot(&top.normal, p))).copied();
+            fit_plane(points, &top.normal)
+                .filter(|(plane, spread)| *spread >= cfg.min_spread_m && plausible(plane) && self.surface(plane, cfg))
+        };
+        let holds = |k: &usize| bins[*k] + bins[*k + 1] >= witness && layer(*k).is_some();
+        let found = match nearest_to_m {
+            None => (0..LOWER_BINS - 1).rev().find(holds),
+            Some(h) => (0..LOWER_BINS - 1).filter(holds).min_by(|a, b| {
+                let off = |k: usize| (first_m + (k as f32 + 1.0) * bin_m - h).abs();
+                off(*a).total_cmp(&off(*b))
+            }),
+        };
+        let Some(k) = found else {
+            return Below::Nothing;
+        };
+        // Seen only beyond `top`, a lower surface may as well be the floor below a step
+        // down from `top` as the floor beyond a bench. A step's depth below: keep `top`,
+        // the edge of lower ground stops the user. Deeper: `top` may be a seat or a box
+        // top, the lower floor may lie beyond a ledge; neither is trusted. Seen beside or
+        // nearer than `top`'s far end, the lower surface is the floor the user stands on.
+        let (lo, hi) = (first_m + k as f32 * bin_m, first_m + (k + 2) as f32 * bin_m);
+        let layer_near_m = quantile(
+            self.subset.iter().filter(|p| (lo..hi).contains(&-dot(&top.normal, p))).map(|p| horizontal_m(top, p)),
+            0.05,
+        );
+        let top_far_m = quantile(
+            self.subset.iter().filter(|p| top.height(p).abs() < cfg.ransac_band_m).map(|p| horizontal_m(top, p)),
+            0.95,
+        );
+        if top_far_m.is_some_and(|far| layer_near_m.is_none_or(|near| near >= far)) {
+            let deeper_than_a_step = (lo + hi) / 2.0 - top.offset_m > cfg.max_step_down_m;
+            return if deeper_than_a_step { Below::Unfit } else { Below::Nothing };
+        }
+        if bins[k] + bins[k + 1] < needed {
+            return Below::Unfit;
+        }
+        let mut plane = Plane { normal: top.normal, offset_m: first_m + (k as f32 + 1.0) * bin_m };
+        let mut spread_m = 0.0;
+        for band in [cfg.ransac_band_m, cfg.refine_band_m, cfg.refine_band_m, cfg.refine_band_m] {
+            match least_squares(cloud, &plane, band, &top.normal) {
+                Some((refined, spread)) if plausible(&refined) => {
+                    plane = refined;
+                    spread_m = spread;
+                }
+                _ => return Below::Unfit,
+            }
+        }
+        let inliers = self.subset.iter().filter(|p| plane.height(p).abs() < cfg.ransac_band_m).count();
+        if spread_m >= cfg.min_spread_m
+            && plane.offset_m > top.offset_m + cfg.ransac_band_m
+            && inliers as u32 >= needed
+            && self.surface(&plane, cfg)
+        {
+            Below::Floor(PlaneFit { plane, subset_inliers: inliers, subset_len: m })
+        } else {
+            Below::Unfit
+        }
+    }
+
+    /// Whether the scored points near `plane` lie in a thin layer on it, as points on
+    /// a floor or a table top do (within the noise: most of them within `refine_band_m`
+    /// of those within three times that), not spread through the band as a horizontal
+    /// slice of walls is.
+    fn surface(&self, plane: &Plane, cfg: &GroundConfig) -> bool {
+        let (mut thin, mut near) = (0u32, 0u32);
+        for p in &self.subset {
+            let h = plane.height(p).abs();
+            thin += u32::from(h < cfg.refine_band_m);
+            near += u32::from(h < 3.0 * cfg.refine_band_m);
+        }
+        near > 0 && thin as f32 >= SURFACE_FRACTION * near as f32
     }
 
     /// Uniform index below `n` (xorshift64*; deterministic, allocation-free).
@@ -221,6 +361,56 @@ fn draws_needed(fraction: f32, confidence: f32) -> u32 {
     }
     ((1.0 - confidence).ln() / (1.0 - all_three).ln()).ceil().min(u32::MAX as f32) as u32
 }
+
+/// Distance of `p` from the camera along `plane` (its horizontal distance when the
+/// plane is level), metres.
+fn horizontal_m(plane: &Plane, p: &[f32; 3]) -> f32 {
+    let along = dot(&plane.normal, p);
+    (dot(p, p) - along * along).max(0.0).sqrt()
+}
+
+/// The `q` quantile (0..1) of `values`, `None` when there are none.
+fn quantile(values: impl Iterator<Item = f32>, q: f32) -> Option<f32> {
+    let mut v: Vec<f32> = values.collect();
+    if v.is_empty() {
+        return None;
+    }
+    let k = ((v.len() - 1) as f32 * q).round() as usize;
+    Some(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+}
+
+/// What [`GroundSearch::under`] found under a surface.
+enum Below {
+    /// No surface lower than it: it may be the floor.
+    Nothing,
+    /// The floor, lower than it.
+    Floor(PlaneFit),
+    /// A surface lower than it with too few points to fit the floor to: it is not the
+    /// floor, and no floor is known.
+    Unfit,
+}
+
+impl Below {
+    fn floor(self) -> Option<PlaneFit> {
+        match self {
+            Below::Floor(fit) => Some(fit),
+            Below::Nothing | Below::Unfit => None,
+        }
+    }
+}
+
+/// Cosine of the tilt from gravity beyond which a fit's points must lie on it
+/// ([`GroundSearch::surface`]), 10 deg: a plane through a box top and the floor beyond
+/// it (within the 20 deg cone) was 12.5 deg off. At 5 deg the simulated cane's
+/// gravity (the sweep's accelerations in it) tilted floors that far at a step's edge.
+const TILT_CHECKED_COS: f32 = 0.984_807_8;
+
+/// Of the scored points within three refine bands of a surface, the fewest within one:
+/// uniform through the band (a slice of walls) gives a third, a floor's nearly all.
+const SURFACE_FRACTION: f32 = 0.7;
+
+/// Bins of `refine_band_m` (3 cm: 2.4 m) searched below a fit for a lower surface.
+const LOWER_BINS: usize = 80;
 
 /// Fewest hypotheses drawn whatever the inlier fraction: the support of an early,
 /// wrong best plane (a wall strip) can look large enough to stop too soon.

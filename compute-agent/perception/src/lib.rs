@@ -148,6 +148,11 @@ pub struct FrameContext {
     /// body-worn gyro (not the cane's: that one carries the sweep). `None`: no such
     /// sensor; the costs are taken along the camera's heading only, as in the thesis.
     pub body_yaw_rate_rad_s: Option<f32>,
+    /// The camera's height above the floor as the sender believes it (the frame's
+    /// mount guess), metres: the ground is looked for only within
+    /// [`GroundConfig::mount_tolerance_m`] of it. `None`: within
+    /// [`GroundConfig::camera_height_range_m`].
+    pub mount_height_m: Option<f32>,
 }
 
 /// Why a frame gave no perception. Each is counted by [`PerceptionError::kind`].
@@ -406,7 +411,9 @@ impl Pipeline {
         timer.start("ground_plane");
         let fit = if self.cloud.valid.len() >= 3 {
             let up = self.tracker.prior_up(gravity, &cfg.ground);
-            self.search.fit(&self.cloud, up, self.tracker.expected_offset_m(&cfg.ground), &cfg.ground)
+            let expected_offset_m = self.tracker.expected_offset_m(&cfg.ground);
+            let up_is_gravity = gravity.and_then(|g| ground_plane::normalized(&g)).is_some();
+            self.search.fit(&self.cloud, up, up_is_gravity, expected_offset_m, ctx.mount_height_m, &cfg.ground)
         } else {
             None
         };

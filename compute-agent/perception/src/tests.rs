@@ -452,6 +452,7 @@ fn walk_to_wall(
             gravity_camera: if with_gravity { gravity(&scene) } else { None },
             motion: None,
             body_yaw_rate_rad_s: None,
+            mount_height_m: None,
         };
         out.push((ctx.stamp_ns, run(&mut p, &scene, &ctx), wall_m));
     }
@@ -606,4 +607,74 @@ fn a_body_turning_towards_a_block_beside_the_path_is_warned_before_the_camera_fa
     assert_eq!(rumble_turning(Some(0.0)), Some((Rumble::None, false)), "walking straight");
     assert_eq!(rumble_turning(Some(60.0)), Some((Rumble::None, false)), "turning left, away from it");
     assert_eq!(rumble_turning(Some(-60.0)), Some((Rumble::Left, true)), "turning right, into it");
+}
+
+/// Issue 29's frames: a cane camera 0.99 m up with a top nearer than the floor filling
+/// the near view. Each is `(name, scene)`; the floor is at z = 0 in every one.
+fn tops_filling_the_near_view(pitch_deg: f32) -> Vec<(&'static str, Scene)> {
+    let with = |blocks: &[Block]| {
+        let mut s = Scene::kinect(0.99, pitch_deg);
+        s.blocks.extend_from_slice(blocks);
+        s
+    };
+    vec![
+        ("box 0.45 m", with(&[Block { min: [0.3, -1.2, 0.0], max: [2.2, 1.2, 0.45] }])),
+        ("bench 1.6 x 0.45 m, 0.45 m high", with(&[Block { min: [0.35, -0.8, 0.0], max: [0.8, 0.8, 0.45] }])),
+        ("table top 0.75 m", with(&[Block { min: [0.3, -0.9, 0.72], max: [1.5, 0.9, 0.75] }])),
+        (
+            // the floor seen only through a 1 m gap in a wall behind the box, 3.7-4.5 m
+            "box top, floor a small far patch",
+            with(&[
+                Block { min: [0.2, -3.0, 0.0], max: [2.0, 3.0, 0.45] },
+                Block { min: [2.0, -3.0, 0.0], max: [2.1, -0.5, 1.5] },
+                Block { min: [2.0, 0.5, 0.0], max: [2.1, 3.0, 1.5] },
+                Block { min: [4.5, -3.0, 0.0], max: [4.6, 3.0, 2.5] },
+            ]),
+        ),
+        ("box top, the floor beside it", with(&[Block { min: [0.3, -0.35, 0.0], max: [2.5, 0.35, 0.45] }])),
+    ]
+}
+
+#[test]
+fn a_top_filling_the_near_view_is_never_the_ground_with_or_without_a_mount_guess() {
+    let cfg = PerceptionConfig::default();
+    for pitch in [10.0, 30.0] {
+        for (name, scene) in tops_filling_the_near_view(pitch) {
+            for mount in [Some(0.9), None] {
+                let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: mount, ..Default::default() };
+                let case = format!("pitch {pitch}, {name}, mount {mount:?}");
+                let out = match run(&mut Pipeline::new(cfg.clone()), &scene, &ctx) {
+                    Err(e) => {
+                        assert_eq!(e.kind(), "no_ground", "{case}");
+                        continue;
+                    }
+                    Ok(out) => out,
+                };
+                let (deg, m) = plane_error(out.plane_camera, scene.floor_plane_camera());
+                assert!(deg < 1.0 && m < 0.02, "{case}: {deg} deg, {m} m off the floor");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_floor_nowhere_in_the_cameras_height_range_is_ground_not_found_never_clear() {
+    // every horizontal surface in view is a top within 0.5 m of the camera
+    let mut scene = Scene::kinect(0.99, 30.0);
+    scene.blocks.push(Block { min: [0.2, -4.0, 0.0], max: [6.0, 4.0, 0.6] });
+    for mount in [None, Some(0.99)] {
+        let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: mount, ..Default::default() };
+        let err = run(&mut Pipeline::new(PerceptionConfig::default()), &scene, &ctx).unwrap_err();
+        assert_eq!(err.kind(), "no_ground", "mount {mount:?}");
+    }
+    // with a running ground the same view is the running floor, lost, and stops the user
+    let mut p = Pipeline::new(PerceptionConfig::default());
+    let floor = Scene::kinect(0.99, 30.0);
+    let ctx = FrameContext { gravity_camera: gravity(&floor), mount_height_m: Some(0.99), ..Default::default() };
+    assert_eq!(run(&mut p, &floor, &ctx).unwrap().ground, GroundState::Found);
+    for k in 0..10 {
+        let out = run(&mut p, &scene, &ctx).unwrap();
+        assert_ne!(out.ground, GroundState::Found, "frame {k}");
+        assert_eq!(out.rumble, Rumble::Both, "frame {k}");
+    }
 }
