@@ -54,6 +54,26 @@ pub struct MountGuess {
     pub pitch_deg: f32,
 }
 
+/// Highest camera a mount guess may give, metres.
+pub const MAX_MOUNT_HEIGHT_M: f32 = 3.0;
+
+impl MountGuess {
+    /// Whether a cane could give this: a height above 0 and at most
+    /// [`MAX_MOUNT_HEIGHT_M`], a pitch within -90 to 90 degrees (the perception looks
+    /// for the floor around the height: a camera below the floor or out of reach of any
+    /// cane would hide the floor or invent one).
+    pub fn check(&self) -> Result<(), String> {
+        let (h, p) = (self.height_m, self.pitch_deg);
+        if !(h.is_finite() && h > 0.0 && h <= MAX_MOUNT_HEIGHT_M) {
+            return Err(format!("mount height {h} m is not above 0 and at most {MAX_MOUNT_HEIGHT_M} m"));
+        }
+        if !(p.is_finite() && p.abs() <= 90.0) {
+            return Err(format!("mount pitch {p} deg is not within -90 to 90"));
+        }
+        Ok(())
+    }
+}
+
 /// One organized depth image from a cane camera, compressed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DepthFrame {

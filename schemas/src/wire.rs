@@ -405,9 +405,6 @@ fn unit_level(name: &str, v: f32) -> Result<(), String> {
     }
 }
 
-/// Highest camera a depth frame's mount guess may give, metres.
-pub const MAX_MOUNT_HEIGHT_M: f32 = 3.0;
-
 /// Longest utterance accepted: about a minute of speech.
 pub const MAX_SPEECH_CHARS: usize = 1000;
 
@@ -431,14 +428,7 @@ impl Message for DepthFrame {
             finite("gravity", &g)?;
         }
         if let Some(m) = self.mount {
-            // the perception looks for the floor around this height: a camera below the
-            // floor or out of reach of any cane would hide the floor or invent one
-            if !(m.height_m.is_finite() && m.height_m > 0.0 && m.height_m <= MAX_MOUNT_HEIGHT_M) {
-                return Err(format!("mount height {} m is not within 0-{MAX_MOUNT_HEIGHT_M} m", m.height_m));
-            }
-            if !(m.pitch_deg.is_finite() && m.pitch_deg.abs() <= 90.0) {
-                return Err(format!("mount pitch {} deg is not within -90 to 90", m.pitch_deg));
-            }
+            m.check()?;
         }
         if let DepthEncoding::Bounded { step: 0 } = self.encoding {
             return Err("bounded encoding with step 0".into());

@@ -92,24 +92,23 @@ struct Cli {
     stall_after_ms: u64,
 }
 
+/// Comma-separated numbers.
+fn parse_floats(s: &str) -> Result<Vec<f32>, String> {
+    s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"))).collect()
+}
+
 fn parse_mount(s: &str) -> Result<MountGuess, String> {
-    let v: Vec<f32> =
-        s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"))).collect::<Result<_, _>>()?;
+    let v = parse_floats(s)?;
     let [height_m, pitch_deg] = v[..] else {
         return Err(format!("expected HEIGHT,PITCH (metres, degrees), got {} numbers", v.len()));
     };
-    if !(height_m.is_finite() && height_m > 0.0 && height_m <= schemas::wire::MAX_MOUNT_HEIGHT_M) {
-        return Err(format!("height {height_m} m is not above 0 and at most {} m", schemas::wire::MAX_MOUNT_HEIGHT_M));
-    }
-    if !(pitch_deg.is_finite() && pitch_deg.abs() <= 90.0) {
-        return Err(format!("pitch {pitch_deg} deg is not within -90 to 90"));
-    }
-    Ok(MountGuess { height_m, pitch_deg })
+    let mount = MountGuess { height_m, pitch_deg };
+    mount.check()?;
+    Ok(mount)
 }
 
 fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
-    let v: Vec<f32> =
-        s.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"))).collect::<Result<_, _>>()?;
+    let v = parse_floats(s)?;
     let [fx, fy, cx, cy] = v[..] else {
         return Err(format!("expected fx,fy,cx,cy, got {} numbers", v.len()));
     };

@@ -257,9 +257,7 @@ impl Estimate {
     /// Standard deviation along the covariance's major axis, metres.
     pub fn position_std_m(&self) -> f64 {
         let [[a, b, _], [_, d, _], _] = self.covariance;
-        let tr = a + d;
-        let disc = ((a - d) * (a - d) / 4.0 + b * b).sqrt();
-        (tr / 2.0 + disc).max(0.0).sqrt()
+        symmetric_2x2_eigenvalues(a, b, d).1.max(0.0).sqrt()
     }
 
     /// Standard deviation of the heading, radians.
@@ -1228,12 +1226,11 @@ const CONSTRAINT_STEP_M: f64 = 0.05;
 /// wall (the distance field's gradient). Beams on two parallel walls give 0: nothing
 /// says where along them the scan lies.
 pub fn scan_constraint(field: &LikelihoodField, pose: &Pose2, endpoints: &[[f64; 2]], wall_m: f64) -> f64 {
-    let (s, c) = pose.heading_rad.sin_cos();
     // a cell either side (maps at 5 cm)
     let h = CONSTRAINT_STEP_M;
     let (mut a, mut b, mut d) = (0.0f64, 0.0f64, 0.0f64);
     for &[ex, ey] in endpoints {
-        let (x, y) = (pose.x_m + c * ex - s * ey, pose.y_m + s * ex + c * ey);
+        let Pose2 { x_m: x, y_m: y, .. } = pose.compose(ex, ey, 0.0);
         if field.distance_m(x, y) > wall_m {
             continue;
         }
@@ -1248,7 +1245,14 @@ pub fn scan_constraint(field: &LikelihoodField, pose: &Pose2, endpoints: &[[f64;
         b += nx * ny;
         d += ny * ny;
     }
-    ((a + d) / 2.0 - (((a - d) / 2.0).powi(2) + b * b).sqrt()).max(0.0)
+    symmetric_2x2_eigenvalues(a, b, d).0.max(0.0)
+}
+
+/// The (smaller, larger) eigenvalues of the symmetric matrix `[[a, b], [b, d]]`.
+fn symmetric_2x2_eigenvalues(a: f64, b: f64, d: f64) -> (f64, f64) {
+    let mean = (a + d) / 2.0;
+    let half_gap = ((a - d) * (a - d) / 4.0 + b * b).sqrt();
+    (mean - half_gap, mean + half_gap)
 }
 
 /// `v.floor() as i64` without the libm call (the bins of every particle, every update).

@@ -182,9 +182,8 @@ impl GroundSearch {
         let Some((coarse, _)) = best else {
             // No triple drawn spans a candidate: the floor may hold too few of the points
             // for three of them to come up together (a far patch beyond a box top that
-            // is itself out of the camera's height range). The lowest surface by height.
-            let above = Plane { normal: up, offset_m: heights_m[0] - 2.0 * cfg.ransac_band_m - cfg.refine_band_m };
-            return self.under(cloud, &above, mount_height_m, &plausible, cfg).floor();
+            // is itself out of the camera's height range).
+            return self.by_height(cloud, up, heights_m, mount_height_m, &plausible, cfg);
         };
         let score = self.subset.iter().filter(|p| coarse.height(p).abs() < cfg.ransac_band_m).count();
         if (score as f32) < cfg.min_inlier_fraction * m as f32 || score < 3 {
@@ -212,9 +211,8 @@ impl GroundSearch {
         let tilted = up_is_gravity && dot(&plane.normal, &up) < TILT_CHECKED_COS;
         if expected_offset_m.is_none() && tilted && !self.surface(&plane, cfg) {
             // a plane across surfaces (through a box top's far edge and the floor beyond,
-            // tilted within the cone): its points do not lie on it. The floor by height.
-            let above = Plane { normal: up, offset_m: heights_m[0] - 2.0 * cfg.ransac_band_m - cfg.refine_band_m };
-            return self.under(cloud, &above, mount_height_m, &plausible, cfg).floor();
+            // tilted within the cone): its points do not lie on it
+            return self.by_height(cloud, up, heights_m, mount_height_m, &plausible, cfg);
         }
         let mut fit = PlaneFit { plane, subset_inliers: score, subset_len: m };
         if expected_offset_m.is_none() && mount_height_m.is_none() {
@@ -228,6 +226,23 @@ impl GroundSearch {
             }
         }
         Some(fit)
+    }
+
+    /// The floor by height along `up`: the surface within the camera's `heights_m`
+    /// nearest the mount guess (without one, the lowest), as [`GroundSearch::under`] an
+    /// imagined plane just above the highest allowed.
+    fn by_height(
+        &self,
+        cloud: &SampledCloud,
+        up: [f32; 3],
+        heights_m: [f32; 2],
+        mount_height_m: Option<f32>,
+        plausible: &dyn Fn(&Plane) -> bool,
+        cfg: &GroundConfig,
+    ) -> Option<PlaneFit> {
+        // `under` looks from two scoring bands below its plane on, in refine bands
+        let above = Plane { normal: up, offset_m: heights_m[0] - 2.0 * cfg.ransac_band_m - cfg.refine_band_m };
+        self.under(cloud, &above, mount_height_m, plausible, cfg).floor()
     }
 
     /// What lies parallel to `top` (within the cone), lower than it: the floor beyond or
@@ -263,19 +278,22 @@ impl GroundSearch {
         let m = self.subset.len();
         let needed = ((cfg.min_inlier_fraction * m as f32).ceil() as u32).max(3);
         let witness = (needed / 4).max(3);
-        let layer = |k: usize| {
+        // the points of bins k and k + 1, and that pair's middle below the camera
+        let layer_points = |k: usize| {
             let (lo, hi) = (first_m + k as f32 * bin_m, first_m + (k + 2) as f32 * bin_m);
-            let points = self.subset.iter().filter(|p| (lo..hi).contains(&-dot(&top.normal, p))).copied();
-            fit_plane(points, &top.normal)
+            self.subset.iter().filter(move |p| (lo..hi).contains(&-dot(&top.normal, p)))
+        };
+        let centre_m = |k: usize| first_m + (k as f32 + 1.0) * bin_m;
+        let layer = |k: usize| {
+            fit_plane(layer_points(k).copied(), &top.normal)
                 .filter(|(plane, spread)| *spread >= cfg.min_spread_m && plausible(plane) && self.surface(plane, cfg))
         };
         let holds = |k: &usize| bins[*k] + bins[*k + 1] >= witness && layer(*k).is_some();
         let found = match nearest_to_m {
             None => (0..LOWER_BINS - 1).rev().find(holds),
-            Some(h) => (0..LOWER_BINS - 1).filter(holds).min_by(|a, b| {
-                let off = |k: usize| (first_m + (k as f32 + 1.0) * bin_m - h).abs();
-                off(*a).total_cmp(&off(*b))
-            }),
+            Some(h) => (0..LOWER_BINS - 1)
+                .filter(holds)
+                .min_by(|a, b| (centre_m(*a) - h).abs().total_cmp(&(centre_m(*b) - h).abs())),
         };
         let Some(k) = found else {
             return Below::Nothing;
@@ -285,23 +303,19 @@ impl GroundSearch {
         // the edge of lower ground stops the user. Deeper: `top` may be a seat or a box
         // top, the lower floor may lie beyond a ledge; neither is trusted. Seen beside or
         // nearer than `top`'s far end, the lower surface is the floor the user stands on.
-        let (lo, hi) = (first_m + k as f32 * bin_m, first_m + (k + 2) as f32 * bin_m);
-        let layer_near_m = quantile(
-            self.subset.iter().filter(|p| (lo..hi).contains(&-dot(&top.normal, p))).map(|p| horizontal_m(top, p)),
-            0.05,
-        );
+        let layer_near_m = quantile(layer_points(k).map(|p| horizontal_m(top, p)), 0.05);
         let top_far_m = quantile(
             self.subset.iter().filter(|p| top.height(p).abs() < cfg.ransac_band_m).map(|p| horizontal_m(top, p)),
             0.95,
         );
         if top_far_m.is_some_and(|far| layer_near_m.is_none_or(|near| near >= far)) {
-            let deeper_than_a_step = (lo + hi) / 2.0 - top.offset_m > cfg.max_step_down_m;
+            let deeper_than_a_step = centre_m(k) - top.offset_m > cfg.max_step_down_m;
             return if deeper_than_a_step { Below::Unfit } else { Below::Nothing };
         }
         if bins[k] + bins[k + 1] < needed {
             return Below::Unfit;
         }
-        let mut plane = Plane { normal: top.normal, offset_m: first_m + (k as f32 + 1.0) * bin_m };
+        let mut plane = Plane { normal: top.normal, offset_m: centre_m(k) };
         let mut spread_m = 0.0;
         for band in [cfg.ransac_band_m, cfg.refine_band_m, cfg.refine_band_m, cfg.refine_band_m] {
             match least_squares(cloud, &plane, band, &top.normal) {
