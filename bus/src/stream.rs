@@ -152,7 +152,7 @@ impl<M> Received<M> {
 /// Messages that passed every check, waiting for the agent's loop.
 struct Inbox<M> {
     queue: Mutex<VecDeque<Received<M>>>,
-    /// Keep only the newest (depth frames, intents) instead of queueing.
+    /// Keep only the newest of each key (depth frames, intents) instead of queueing.
     newest: bool,
     ready: tokio::sync::Notify,
 }
@@ -164,7 +164,8 @@ impl<M> Inbox<M> {
     fn push(&self, message: Received<M>) -> Result<(), Received<M>> {
         let mut queue = self.queue.lock().unwrap_or_else(|e| e.into_inner());
         if self.newest {
-            queue.clear();
+            // per key: under a wildcard, one device's frames never push out another's
+            queue.retain(|m| m.key != message.key);
         } else if queue.len() >= QUEUE_CAPACITY {
             return Err(message);
         }
@@ -189,8 +190,9 @@ pub struct Subscriber<M: Message> {
 }
 
 impl<M: Message + Send + 'static> Subscriber<M> {
-    /// Subscribe to `key`. With `keep_newest` only the latest unread message is kept
-    /// (consumers of depth frames must never work through a backlog of old frames);
+    /// Subscribe to `key`. With `keep_newest` only the latest unread message of each
+    /// key is kept (consumers of depth frames must never work through a backlog of old
+    /// frames, and under a wildcard one camera's must not push out another's);
     /// otherwise messages queue (up to 256). Sequence numbers are checked; no age.
     pub async fn declare(
         session: &Session,
@@ -302,5 +304,25 @@ impl<M: Message> Check<M> {
             );
             self.health.reject(&self.key, "queue_full", &why);
         }
+    }
+}
+
+#[cfg(test)]
+mod inbox_tests {
+    use super::*;
+
+    fn message(key: &str, seq: u64) -> Received<u64> {
+        let header = schemas::Header { schema: 1, version: 1, sender: "t".into(), session: 1, seq, capture_ns: seq };
+        Received { key: key.into(), header, body: seq, received_ns: seq, captured_ns: seq }
+    }
+
+    #[test]
+    fn a_newest_inbox_keeps_the_newest_of_each_key_in_arrival_order() {
+        let inbox = Inbox { queue: Mutex::new(VecDeque::new()), newest: true, ready: Default::default() };
+        for (key, seq) in [("sensor/cane/depth", 1), ("sensor/chest/depth", 2), ("sensor/cane/depth", 3)] {
+            assert!(inbox.push(message(key, seq)).is_ok());
+        }
+        let got: Vec<_> = std::iter::from_fn(|| inbox.pop()).map(|m| (m.key, m.body)).collect();
+        assert_eq!(got, [("sensor/chest/depth".to_string(), 2), ("sensor/cane/depth".to_string(), 3)]);
     }
 }
