@@ -66,7 +66,25 @@ pub enum ConfigError {
     },
 }
 
+/// From this height above the floor a chest camera's obstacles count, metres
+/// ([`PerceptionConfig::for_chest`]): the cane camera, pitched down from under the
+/// handle, sees and the cane touches what is lower.
+pub const CHEST_OVERHANGS_FROM_M: f32 = 1.0;
+
 impl PerceptionConfig {
+    /// These settings for a second camera worn at the chest, whose cue is joined to
+    /// the cane camera's ([`crate::second_view`]): it warns only of what overhangs
+    /// from [`CHEST_OVERHANGS_FROM_M`] up (`scan.overhangs_from_m`: a lamp, a sign, a
+    /// cabinet standing out from a wall, not the wall, a bin or a bench the cane camera
+    /// already warns of), and leaves drop-offs to the cane camera (it sees the floor
+    /// only from about 2 m on).
+    pub fn for_chest(&self) -> Self {
+        let mut c = self.clone();
+        c.scan.overhangs_from_m = Some(CHEST_OVERHANGS_FROM_M);
+        c.dropoff.enabled = false;
+        c
+    }
+
     /// The stride for an image `width` pixels wide: `stride_px` from 640 pixels up;
     /// below, scaled by the width (at least 1): a 320-wide image at 1 samples the rays
     /// a 640-wide one of the same camera does at 2.
@@ -124,6 +142,9 @@ impl PerceptionConfig {
         }
         c.at_least("scan.min_points_per_bin", s.min_points_per_bin as f32, 1.0);
         c.within("scan.fallback_band_scale", s.fallback_band_scale, 1.0, 10.0);
+        if let Some(h) = s.overhangs_from_m {
+            c.within("scan.overhangs_from_m", h, s.min_obstacle_height_m, s.max_obstacle_height_m);
+        }
         for (name, f) in [("ficf", &self.ficf), ("cacf", &self.cacf)] {
             c.positive(&format!("{name}.forward_width_m"), f.forward_width_m);
             c.positive(&format!("{name}.forward_depth_m"), f.forward_depth_m);
@@ -391,6 +412,15 @@ pub struct ScanConfig {
     /// Band multiplier while the previous (average) plane stands in for a lost ground
     /// (thesis: the average plane is used "with a wider inlier band").
     pub fallback_band_scale: f32,
+    /// Only what overhangs: a bin's range is that of its points this high or higher
+    /// above the floor, and only where they are nearer (by
+    /// [`crate::nearest_scan::OVERHANG_MARGIN_M`]) than the bin's obstacle points below
+    /// this height and the view below this height reaches past them (the floor or
+    /// something farther seen under them): a sign or lamp hanging before a wall, a
+    /// cabinet standing out from it, not the wall, nor a wall so near that the camera
+    /// does not see its foot. For a camera at the chest whose cue is joined to the cane camera's
+    /// ([`PerceptionConfig::for_chest`]); `None` (the default): every obstacle.
+    pub overhangs_from_m: Option<f32>,
 }
 
 impl Default for ScanConfig {
@@ -404,6 +434,7 @@ impl Default for ScanConfig {
             xyz_horizontal_fov_deg: None,
             min_points_per_bin: 2,
             fallback_band_scale: 2.0,
+            overhangs_from_m: None,
         }
     }
 }

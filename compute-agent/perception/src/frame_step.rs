@@ -13,6 +13,7 @@ use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Rumble};
 use crate::odometry::{ImplausibleStep, MotionSince};
 use crate::predictive::{Ahead, PredictiveConfig, PredictiveCue, Way};
 use crate::rejections::{self, Rejections};
+use crate::second_view::{Joined, SecondView, ViewState};
 use crate::{cue, cue_unavailable, CueConfig, DepthInput, FrameContext, Perception, PerceptionConfig, PerceptionError};
 use crate::{Pipeline, StageTimer};
 
@@ -115,6 +116,9 @@ pub struct ComputeStep {
     rejections: Rejections,
     depth: Vec<u16>,
     predictive: Option<PredictiveCue>,
+    /// a second device's (the chest's) state, joined to every frame's cue, and whether
+    /// the last frame perceived was joined to it
+    second: Option<(SecondView, Option<Joined>)>,
     /// ways refused for a non-finite number (the cost functions decided those frames)
     ways_refused: u64,
 }
@@ -129,6 +133,7 @@ impl ComputeStep {
             rejections: Rejections::default(),
             depth: Vec::new(),
             predictive: None,
+            second: None,
             ways_refused: 0,
         }
     }
@@ -139,6 +144,27 @@ impl ComputeStep {
     pub fn with_predictive(mut self, config: PredictiveConfig) -> Self {
         self.predictive = Some(PredictiveCue::new(config));
         self
+    }
+
+    /// The same step with a second depth device's cue joined to every frame's
+    /// ([`crate::second_view`]): a chest camera's states, as [`ComputeStep::second_view_heard`]
+    /// hands them on, warn the sides they warn of while fresh.
+    pub fn with_second_view(mut self, view: SecondView) -> Self {
+        self.second = Some((view, None));
+        self
+    }
+
+    /// A state of the second device (from its own step's hazard).
+    pub fn second_view_heard(&mut self, state: ViewState) {
+        if let Some((view, _)) = self.second.as_mut() {
+            view.heard(state);
+        }
+    }
+
+    /// With a second device: its view, and whether the last frame perceived was joined
+    /// to a fresh state of it (`None` before the first).
+    pub fn second_view(&self) -> Option<(&SecondView, Option<Joined>)> {
+        self.second.as_ref().map(|(v, j)| (v, *j))
     }
 
     /// Ways refused so far: a point of the way or of its walls was not finite (a pose
@@ -229,6 +255,11 @@ impl ComputeStep {
                         timer.stop();
                         perception.predictive = true;
                     }
+                }
+                if let Some((view, joined)) = self.second.as_mut() {
+                    *joined = Some(view.join(input.capture_ns, &mut perception));
+                }
+                if let Some(p) = self.predictive.as_mut() {
                     p.sent(t_s, perception.rumble);
                 }
                 let hazard = perception.hazard(input.seq, active, Vec::new());
@@ -358,6 +389,48 @@ mod tests {
             StepOutput::Refused { error, .. } => panic!("{error}"),
         }
         assert_eq!(step.ways_refused(), 1);
+    }
+
+    #[test]
+    fn a_chest_camera_warns_of_a_head_high_sign_the_cane_camera_cannot_see() {
+        // a sign hanging 1.6-1.95 m up, 1.2 m ahead, 0.8 m wide across the way: under the
+        // cane camera's view (0.99 m up, 30 degrees down), in the chest camera's (1.3 m,
+        // 10 degrees down)
+        let sign = crate::synthetic_scene::Block { min: [1.2, -0.4, 1.6], max: [1.3, 0.4, 1.95] };
+        let frame = |height_m: f32, pitch_deg: f32| {
+            let mut scene = Scene::kinect(height_m, pitch_deg);
+            scene.blocks.push(sign);
+            let mut f = scene.depth_frame(DepthEncoding::Raw).unwrap();
+            f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
+            f
+        };
+        let (cane_frame, chest_frame) = (frame(0.99, 30.0), frame(1.3, 10.0));
+        let perceived = |out: StepOutput| match out {
+            StepOutput::Perceived { hazard, intent, .. } => (hazard, intent),
+            StepOutput::Refused { error, .. } => panic!("{error}"),
+        };
+        let mut chest = ComputeStep::new(PerceptionConfig::default().for_chest(), CueConfig::default());
+        let mut cane =
+            ComputeStep::new(PerceptionConfig::default(), CueConfig::default()).with_second_view(SecondView::default());
+        let mut alone = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
+        for seq in 1..=3 {
+            let (chest_hazard, _) = perceived(chest.process(input(&chest_frame, seq), &mut NoTimer));
+            assert_ne!(chest_hazard.rumble, Rumble::None, "the chest camera sees the sign");
+            assert!((chest_hazard.nearest_m - 1.2).abs() < 0.05, "{}", chest_hazard.nearest_m);
+            cane.second_view_heard(ViewState::of(&chest_hazard, seq * 33_333_333));
+            let (hazard, intent) = perceived(cane.process(input(&cane_frame, seq), &mut NoTimer));
+            let (hazard_alone, _) = perceived(alone.process(input(&cane_frame, seq), &mut NoTimer));
+            assert_eq!((hazard_alone.rumble, hazard_alone.nearest_m), (Rumble::None, f32::INFINITY), "never in view");
+            assert_eq!(hazard.rumble, chest_hazard.rumble, "joined");
+            assert_eq!(hazard.nearest_m, chest_hazard.nearest_m);
+            assert!(intent.left.max(intent.right) > 0.0, "{intent:?}");
+            assert_eq!(cane.second_view().map(|(_, j)| j), Some(Some(Joined::Joined)));
+        }
+        // the chest falls silent: 300 ms on the cane's cue is its own, and says so
+        let late = FrameIn { capture_ns: 3 * 33_333_333 + 300_000_001, ..input(&cane_frame, 4) };
+        let (hazard, _) = perceived(cane.process(late, &mut NoTimer));
+        assert_eq!(hazard.rumble, Rumble::None);
+        assert_eq!(cane.second_view().map(|(v, j)| (v.counts(), j)), Some(((3, 1), Some(Joined::Stale))));
     }
 
     #[test]

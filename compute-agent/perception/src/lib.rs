@@ -40,6 +40,7 @@ pub mod odometry;
 pub mod organized_cloud;
 pub mod predictive;
 pub mod rejections;
+pub mod second_view;
 pub mod synthetic_scene;
 pub mod time_to_collision;
 pub mod timing;

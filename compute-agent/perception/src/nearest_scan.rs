@@ -142,11 +142,21 @@ impl BinLayout {
     }
 }
 
+/// With `scan.overhangs_from_m`, points from that height up count where they are at
+/// least this much nearer than the bin's lower points, metres: a sign before a wall, a
+/// cabinet standing 30 cm out from it, not the wall's own depth noise.
+pub const OVERHANG_MARGIN_M: f32 = 0.15;
+
 /// Reusable state of the scan stage.
 #[derive(Debug, Default)]
 pub struct ScanBuilder {
     nearest_sq: Vec<[f32; 4]>,
     nearest_height: Vec<[f32; 4]>,
+    /// With `overhangs_from_m`: the nearest obstacle points below that height, and the
+    /// farthest point below it, floor included (how far the view under it reaches).
+    lower_sq: Vec<[f32; 4]>,
+    lower_height: Vec<[f32; 4]>,
+    below_far_sq: Vec<f32>,
     /// Height above the floor of the point that set each bin's range.
     pub heights_m: Vec<f32>,
     /// Obstacle points (after the height band) this frame.
@@ -156,7 +166,8 @@ pub struct ScanBuilder {
 impl ScanBuilder {
     /// Fills `scan` with the nearest obstacle per bin of `layout`. Obstacles are points
     /// higher than `band_scale * (min_obstacle_height_m + noise * z^2)` and lower than
-    /// `max_obstacle_height_m` above the plane.
+    /// `max_obstacle_height_m` above the plane; with `overhangs_from_m`, only those of
+    /// them that overhang (see [`ScanConfig::overhangs_from_m`]).
     pub fn build(
         &mut self,
         cloud: &SampledCloud,
@@ -172,6 +183,14 @@ impl ScanBuilder {
         self.nearest_sq.resize(bins, [f32::INFINITY; 4]);
         self.nearest_height.clear();
         self.nearest_height.resize(bins, [0.0; 4]);
+        self.lower_sq.clear();
+        self.lower_height.clear();
+        self.below_far_sq.clear();
+        if cfg.overhangs_from_m.is_some() {
+            self.lower_sq.resize(bins, [f32::INFINITY; 4]);
+            self.lower_height.resize(bins, [0.0; 4]);
+            self.below_far_sq.resize(bins, 0.0);
+        }
         let range_max_sq = cfg.range_max_m * cfg.range_max_m;
         let min_h = cfg.min_obstacle_height_m * band_scale;
         let noise = cfg.noise_per_depth_sq * band_scale;
@@ -179,10 +198,11 @@ impl ScanBuilder {
         for &i in &cloud.valid {
             let p = cloud.points[i as usize];
             let h = frame.plane.height(&p);
-            if h <= min_h + noise * p[2] * p[2] || h >= cfg.max_obstacle_height_m {
+            let floor = h <= min_h + noise * p[2] * p[2];
+            if (floor && cfg.overhangs_from_m.is_none()) || h >= cfg.max_obstacle_height_m {
                 continue;
             }
-            obstacles += 1;
+            obstacles += usize::from(!floor);
             let x = dot(&frame.forward, &p);
             if x <= 0.0 {
                 continue;
@@ -193,7 +213,14 @@ impl ScanBuilder {
                 continue;
             }
             if let Some(b) = layout.bin_of(x, y) {
-                insert_sorted(&mut self.nearest_sq[b], &mut self.nearest_height[b], r_sq, h);
+                if cfg.overhangs_from_m.is_some_and(|from| h < from) {
+                    self.below_far_sq[b] = self.below_far_sq[b].max(r_sq);
+                    if !floor {
+                        insert_sorted(&mut self.lower_sq[b], &mut self.lower_height[b], r_sq, h);
+                    }
+                } else if !floor {
+                    insert_sorted(&mut self.nearest_sq[b], &mut self.nearest_height[b], r_sq, h);
+                }
             }
         }
         self.obstacle_points = obstacles;
@@ -202,9 +229,18 @@ impl ScanBuilder {
         scan.range_max_m = cfg.range_max_m;
         scan.ranges_m.clear();
         self.heights_m.clear();
-        for (sq, hs) in self.nearest_sq.iter().zip(&self.nearest_height) {
+        for (b, (sq, hs)) in self.nearest_sq.iter().zip(&self.nearest_height).enumerate() {
             // the k-th nearest: a lone flying pixel does not make an obstacle
-            scan.ranges_m.push(sq[k - 1].sqrt());
+            let mut range = sq[k - 1].sqrt();
+            if let (Some(lower), Some(&below_far_sq)) = (self.lower_sq.get(b), self.below_far_sq.get(b)) {
+                // it overhangs when nothing lower stands as near and the view under it
+                // reaches past it (nearer, a camera looking down from above cannot tell)
+                let past = range + OVERHANG_MARGIN_M;
+                if past >= lower[k - 1].sqrt() || below_far_sq.sqrt() <= past {
+                    range = f32::INFINITY;
+                }
+            }
+            scan.ranges_m.push(range);
             self.heights_m.push(hs[k - 1]);
         }
     }

@@ -678,3 +678,54 @@ fn a_floor_nowhere_in_the_cameras_height_range_is_ground_not_found_never_clear()
         assert_eq!(out.rumble, Rumble::Both, "frame {k}");
     }
 }
+
+#[test]
+fn a_chest_camera_warns_of_what_overhangs_not_of_walls_bins_or_benches() {
+    // a chest camera 1.3 m up, 10 degrees down, with the chest's settings: the nearest
+    // range it reports straight ahead (INFINITY: nothing), after a few frames
+    let ahead_m = |blocks: &[Block], walls: &[f32]| {
+        let mut scene = Scene::kinect(1.3, 10.0);
+        scene.blocks.extend_from_slice(blocks);
+        scene.walls_x_m.extend_from_slice(walls);
+        let mut p = Pipeline::new(PerceptionConfig::default().for_chest());
+        let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: Some(1.3), ..Default::default() };
+        let mut last = None;
+        for i in 0..3u64 {
+            let ctx = FrameContext { stamp_ns: i * 33_333_333, ..ctx };
+            last = Some(run(&mut p, &scene, &ctx).unwrap());
+        }
+        let got = last.unwrap();
+        let mid = got.scan.ranges_m.len() / 2;
+        (got.scan.ranges_m[mid], got.rumble)
+    };
+    // (the camera sees the floor from 1.9 m on: the walls stand 3 m ahead)
+    let sign = Block { min: [1.4, -0.4, 1.6], max: [1.5, 0.4, 1.95] };
+    let cabinet = Block { min: [2.7, -0.5, 1.2], max: [3.0, 0.5, 2.0] };
+    let bench = Block { min: [1.0, -0.8, 0.0], max: [1.45, 0.8, 0.45] };
+    let bin = Block { min: [1.2, -0.2, 0.0], max: [1.5, 0.2, 1.05] };
+    // a wall, alone and behind a bench or a bin reaching past 1 m: no overhang
+    assert_eq!(ahead_m(&[], &[3.0]).0, f32::INFINITY, "a wall");
+    assert_eq!(ahead_m(&[bench], &[3.0]).0, f32::INFINITY, "a bench before a wall");
+    assert_eq!(ahead_m(&[bin], &[3.0]).0, f32::INFINITY, "a bin 1.05 m tall");
+    // a sign hanging before the wall, a cabinet standing 30 cm out from it: warned
+    let (sign_m, rumble) = ahead_m(&[sign], &[3.0]);
+    assert!((sign_m - 1.4).abs() < 0.05 && rumble != Rumble::None, "the sign: {sign_m} {rumble:?}");
+    let (cabinet_m, _) = ahead_m(&[cabinet], &[3.0]);
+    assert!((cabinet_m - 2.7).abs() < 0.05, "the cabinet: {cabinet_m}");
+    // a wall so near its foot is out of view (0.45 m; the floor seen before): not known
+    // to overhang, left to the cane camera
+    let mut p = Pipeline::new(PerceptionConfig::default().for_chest());
+    let mut scene = Scene::kinect(1.3, 10.0);
+    let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: Some(1.3), ..Default::default() };
+    run(&mut p, &scene, &ctx).unwrap();
+    scene.walls_x_m.push(0.45);
+    let near = run(&mut p, &scene, &FrameContext { stamp_ns: 33_333_333, ..ctx }).unwrap();
+    assert_eq!(near.scan.ranges_m[near.scan.ranges_m.len() / 2], f32::INFINITY, "{:?}", near.ground);
+    // with every obstacle (the cane camera's settings) the wall counts
+    let mut scene = Scene::kinect(1.3, 10.0);
+    scene.walls_x_m.push(3.0);
+    let mut p = Pipeline::new(PerceptionConfig::default());
+    let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: Some(1.3), ..Default::default() };
+    let all = run(&mut p, &scene, &ctx).unwrap();
+    assert!((all.scan.ranges_m[all.scan.ranges_m.len() / 2] - 3.0).abs() < 0.05);
+}
