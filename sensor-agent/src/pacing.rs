@@ -178,7 +178,7 @@ impl Pacer {
         }
         let level = self.current();
         self.offered += 1;
-        if (self.offered - 1) % u64::from(level.every.max(1)) != 0 {
+        if !(self.offered - 1).is_multiple_of(u64::from(level.every.max(1))) {
             self.skipped_total += 1;
             return None;
         }
