@@ -59,7 +59,15 @@ pub struct DemoArgs {
     /// device guides and tracks the position (docs/predictive-cue.md).
     #[arg(long)]
     pub predictive: bool,
+    /// On a simulated world: a second depth camera worn at the chest (1.3 m up, 10°
+    /// down, published as device `chest`), whose cue the compute agent joins to the
+    /// cane camera's, so what overhangs at head height is warned of.
+    #[arg(long)]
+    pub chest: bool,
 }
+
+/// Device name of the demo's simulated chest camera (`--chest`).
+const CHEST_DEVICE: &str = "chest";
 
 fn free_loopback_port() -> anyhow::Result<u16> {
     let probe = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).context("no free loopback port")?;
@@ -192,7 +200,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let navigation = crate::guided::sim_navigation(&args.source)?;
     let (source, guided) = match (&args.destination, &navigation) {
         (Some(label), Some((world, nav))) => {
-            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label)?;
+            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label, args.chest)?;
             let source = walk.source.take().context("the guided walk's source was taken twice")?;
             (source, Some(walk))
         }
@@ -200,8 +208,11 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
             bail!("--destination needs a simulated world (--world W or --source sim:W), not {:?}", args.source)
         }
         (None, _) => (
-            sensor_agent::source::open(&args.source, &sensor_agent::source::SourceOptions::default())
-                .with_context(|| format!("cannot open frame source {:?}", args.source))?,
+            sensor_agent::source::open(
+                &args.source,
+                &sensor_agent::source::SourceOptions { chest: args.chest, ..Default::default() },
+            )
+            .with_context(|| format!("cannot open frame source {:?}", args.source))?,
             None,
         ),
     };
@@ -211,6 +222,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     // The hub (compute) must be listening before the others connect.
     let mut compute_config = compute_agent::run::ComputeConfig::new(hub_bus);
     compute_config.nav = navigation.as_ref().map(|(_, nav)| nav.clone());
+    compute_config.chest_device = args.chest.then(|| CHEST_DEVICE.to_string());
     if args.predictive {
         anyhow::ensure!(
             compute_config.nav.is_some(),
@@ -238,11 +250,11 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
         }
     });
     let phone = tokio::spawn(phone_bridge::run(phone_config, shutdown.clone(), Some(bound_tx)));
-    let sensor = tokio::spawn(sensor_agent::run::run(
-        sensor_agent::run::SensorConfig::new(peer_bus.clone()),
-        source,
-        shutdown.clone(),
-    ));
+    let sensor_config = sensor_agent::run::SensorConfig {
+        chest_device: args.chest.then(|| CHEST_DEVICE.to_string()),
+        ..sensor_agent::run::SensorConfig::new(peer_bus.clone())
+    };
+    let sensor = tokio::spawn(sensor_agent::run::run(sensor_config, source, shutdown.clone()));
 
     // The demo's own eyes: a fifth session that watches what the user would feel.
     let session = bus::open_session(&peer_bus).await?;

@@ -52,7 +52,7 @@ pub struct GuidedWalk {
 
 impl GuidedWalk {
     /// The simulated camera of `world` walked by guidance to `label` on `building`.
-    pub fn prepare(world: &World, nav: &NavConfig, label: &str) -> anyhow::Result<Self> {
+    pub fn prepare(world: &World, nav: &NavConfig, label: &str, chest: bool) -> anyhow::Result<Self> {
         let MapSource::Loaded(_, building) = &nav.map else {
             bail!("a guided walk needs the simulated world's own floor plan");
         };
@@ -61,6 +61,7 @@ impl GuidedWalk {
         let config = SimConfig {
             world: world.name().to_string(),
             guided_by: Some(Guidance(directions.clone())),
+            chest: chest.then(sensor_agent::sim::ChestMount::default),
             ..SimConfig::default()
         };
         let sim = SimSource::new(config).with_context(|| format!("cannot simulate {:?}", world.name()))?;

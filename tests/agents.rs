@@ -605,3 +605,136 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let costs = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns > idle_ns).await;
     assert!(costs.is_some_and(|h| !h.body.predictive), "the predictive cue went on after cancel");
 }
+
+/// A cane camera (0.99 m up, 30° down) and a chest camera (1.3 m, 10° down) before a
+/// sign hanging 1.6-1.95 m up, 1.2 m ahead: only the chest camera sees it.
+fn cane_and_chest_frames() -> (schemas::DepthFrame, schemas::DepthFrame) {
+    use perception::synthetic_scene::{Block, Scene};
+    let frame = |height_m: f32, pitch_deg: f32| {
+        let mut scene = Scene::kinect(height_m, pitch_deg);
+        scene.blocks.push(Block { min: [1.2, -0.4, 1.6], max: [1.3, 0.4, 1.95] });
+        let mut f = scene.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
+        f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
+        f
+    };
+    (frame(0.99, 30.0), frame(1.3, 10.0))
+}
+
+/// A compute agent told of a chest camera perceives its frames on their own and joins
+/// its cue to the cane camera's: the sign the cane camera cannot see is warned of while
+/// the chest's frames come; when they stop, the cane camera's cue goes on alone and the
+/// health status says the chest camera is silent.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_chest_camera_joined_by_the_compute_agent_warns_of_a_sign_the_cane_camera_cannot_see() {
+    let user = "chest-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--chest-device", "chest", "--no-body-imu"]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    let (cane_frame, chest_frame) = cane_and_chest_frames();
+    let declare = |device: &str| {
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth(device), "test", Lane::Bulk, None)
+    };
+    let (mut cane, mut chest) = (declare("cane").await.unwrap(), declare("chest").await.unwrap());
+
+    let mut warned = Vec::new();
+    for _ in 0..20 {
+        let now = bus::now_ns();
+        chest.put(now, &chest_frame).await.unwrap();
+        cane.put(now, &cane_frame).await.unwrap();
+        let h = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns == now).await.expect("no hazard");
+        warned.push((h.body.rumble, h.body.nearest_m));
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    // the first frames may be perceived before the chest's first state arrives
+    let joined = &warned[5..];
+    assert!(
+        joined.iter().all(|&(r, nearest)| r != Rumble::None && (nearest - 1.2).abs() < 0.1),
+        "the sign 1.2 m ahead, warned of with the chest camera: {warned:?}"
+    );
+    let status = wait_for(&health, Duration::from_secs(3), |h| h.body.agent == "compute-agent").await.unwrap();
+    assert!(status.body.status.contains("chest camera joined"), "{}", status.body.status);
+
+    // the chest camera falls silent: after its last state ages 300 ms, the cane's alone
+    let mut alone = Vec::new();
+    for _ in 0..20 {
+        let now = bus::now_ns();
+        cane.put(now, &cane_frame).await.unwrap();
+        let h = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns == now).await.expect("no hazard");
+        alone.push(h.body.rumble);
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+    assert!(alone[12..].iter().all(|&r| r == Rumble::None), "the cane camera sees nothing in the way: {alone:?}");
+    let status = wait_for(&health, Duration::from_secs(3), |h| {
+        h.body.agent == "compute-agent" && h.body.status.contains("chest camera silent")
+    })
+    .await;
+    assert!(status.is_some(), "the health status never said the chest camera is silent");
+}
+
+/// `--chest-device` on a simulated world: the chest camera's frames on their own key,
+/// captured with the cane camera's, with its own mount guess and odometry.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_simulated_chest_camera_publishes_its_frames_with_the_cane_cameras() {
+    let user = "chest-sim-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let depth =
+        |device: &str| Subscriber::<schemas::DepthFrame>::declare(&hub.session, keys.depth(device), false, &hub.health);
+    let (cane, chest) = (depth("cane").await.unwrap(), depth("chest").await.unwrap());
+    let chest_odom =
+        Subscriber::<schemas::OdomIncrement>::declare(&hub.session, keys.odom("chest"), false, &hub.health)
+            .await
+            .unwrap();
+    let _sensor = spawn(
+        "sensor-agent",
+        &hub.endpoint,
+        user,
+        &["--source", "sim:hanging-lamp", "--chest-device", "chest", "--no-pacing"],
+    );
+    let mut cane_stamps = Vec::new();
+    for _ in 0..10 {
+        let f = wait_for(&cane, Duration::from_secs(10), |_| true).await.expect("no cane frame");
+        cane_stamps.push(f.header.capture_ns);
+    }
+    let f = wait_for(&chest, Duration::from_secs(3), |_| true).await.expect("no chest frame");
+    assert_eq!(f.body.mount, Some(schemas::MountGuess { height_m: 1.3, pitch_deg: 10.0 }));
+    let g = f.body.gravity_camera.expect("a gravity with the chest frame");
+    // 10° down: gravity mostly along the image's y (down), a little along its z (forward)
+    assert!((g[2] - 10f32.to_radians().sin()).abs() < 0.05 && g[1] > 0.95, "{g:?}");
+    // every chest frame was captured with a cane frame
+    let mut stamps = vec![f.header.capture_ns];
+    while let Some(c) = wait_for(&chest, Duration::from_millis(200), |_| true).await {
+        if c.header.capture_ns > cane_stamps[cane_stamps.len() - 1] {
+            break;
+        }
+        stamps.push(c.header.capture_ns);
+    }
+    assert!(stamps.len() >= 5, "{} chest frames with 10 of the cane's", stamps.len());
+    assert!(stamps.iter().all(|s| cane_stamps.contains(s)), "{stamps:?} not among {cane_stamps:?}");
+    let inc = wait_for(&chest_odom, Duration::from_secs(3), |_| true).await.expect("no chest odometry");
+    assert!(inc.body.to_ns > inc.body.from_ns && inc.body.forward_m.is_finite());
+}
+
+#[test]
+fn a_chest_camera_is_refused_on_a_recording_and_under_the_cane_cameras_name() {
+    let run = |args: &[&str]| {
+        let out = Command::new(agent_bin("sensor-agent"))
+            .args(args)
+            .args(["--no-multicast"])
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .output()
+            .expect("cannot start sensor-agent");
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).to_string())
+    };
+    let dir = std::env::temp_dir().to_string_lossy().to_string();
+    let (code, err) = run(&["--source", &format!("pcd:{dir}"), "--chest-device", "chest"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("has no chest camera: only sim: simulates one"), "{err}");
+    let (code, err) = run(&["--source", "sim:approach", "--chest-device", "cane"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("--chest-device \"cane\" is the camera's or the body IMU's device"), "{err}");
+}

@@ -34,6 +34,15 @@ struct Cli {
     /// in the thesis.
     #[arg(long)]
     no_body_imu: bool,
+    /// Device of a second depth camera worn at the chest (`sensor/<device>/depth` and
+    /// `/odom`: `sensor-agent --chest-device` simulates one, a real one runs a sensor
+    /// agent of its own): its frames are perceived on their own, warning only of what
+    /// overhangs from 1 m up (a lamp, a sign, a cabinet standing out from a wall), and
+    /// its cue is joined to every other camera's while it is fresh (300 ms); when it
+    /// falls silent or cannot see, the log and the health status say so and the cane
+    /// camera's cue goes on alone.
+    #[arg(long, value_name = "DEVICE")]
+    chest_device: Option<String>,
     /// Oldest depth frame or odometry step acted on, in milliseconds from its capture
     /// (the sender's clock offset, estimated from its health messages, taken out). An
     /// older one (a stalled link, a replay) is refused and counted as `stale`; when
@@ -109,6 +118,7 @@ async fn main() -> anyhow::Result<()> {
     }
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
     config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
+    config.chest_device = cli.chest_device;
     if let Some(map) = cli.map {
         let mut nav = compute_agent::nav::NavConfig::new(compute_agent::nav::MapSource::File(map));
         nav.start = cli.start;

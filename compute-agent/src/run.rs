@@ -12,6 +12,7 @@ use schemas::{DepthFrame, HapticIntent, Hazard, ImuBatch, OdomIncrement, Scan, S
 use perception::body_rate::{BodyRate, MAX_AGE_NS};
 use perception::predictive::{PredictiveConfig, Way};
 use perception::rejections::REJECTIONS_BEFORE_BLIND;
+use perception::second_view::{Joined, SecondView, ViewState};
 use perception::{Blind, ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, PerceptionConfig, StepOutput};
 
 use crate::nav::{Nav, NavConfig, STATE_PERIOD};
@@ -46,6 +47,11 @@ pub struct ComputeConfig {
     /// followed and the position tracked (needs `nav`); the cost functions otherwise.
     /// `None`: the cost functions always.
     pub predictive: Option<PredictiveConfig>,
+    /// A second depth camera worn at the chest (`sensor/<device>/depth` and its
+    /// `/odom`): perceived with a step of its own, its cue joined to every other
+    /// camera's frame while fresh ([`perception::second_view`]), so what hangs at head
+    /// height is warned of. `None`: every depth frame is one camera's.
+    pub chest_device: Option<String>,
 }
 
 /// Default [`ComputeConfig::max_input_age`]: a frame is 33 ms at 30 Hz and capture ->
@@ -68,6 +74,7 @@ impl ComputeConfig {
             max_input_age: DEFAULT_MAX_INPUT_AGE,
             nav: None,
             predictive: None,
+            chest_device: None,
         }
     }
 }
@@ -134,6 +141,79 @@ impl Body {
     }
 }
 
+/// The chest camera as the loop sees it: its keys and its own step.
+struct Chest {
+    depth_key: String,
+    odom_key: String,
+    step: ComputeStep,
+    /// Whether cane frames are joined to a fresh chest state, as last logged, and a
+    /// change not yet held for [`CHEST_CHANGE_FRAMES`] frames (a blink is not logged).
+    joined: Option<Joined>,
+    changing: (Option<Joined>, u32),
+}
+
+/// Cane frames a change of the chest camera's state must hold before it is logged.
+const CHEST_CHANGE_FRAMES: u32 = 5;
+
+impl Chest {
+    /// Runs a chest frame through its own step; its state goes to the cane's `step`.
+    fn frame(
+        &mut self,
+        frame: &Received<DepthFrame>,
+        body_yaw_rate_rad_s: Option<f32>,
+        step: &mut ComputeStep,
+        health: &Health,
+    ) {
+        let capture_ns = frame.header.capture_ns;
+        let input = FrameIn {
+            data: FrameData::Wire(&frame.body),
+            seq: frame.header.seq,
+            capture_ns,
+            body_yaw_rate_rad_s,
+            way: None,
+        };
+        match self.step.process(input, &mut perception::NoTimer) {
+            StepOutput::Perceived { hazard, .. } => step.second_view_heard(ViewState::of(&hazard, capture_ns)),
+            StepOutput::Refused { error, blind } => {
+                health.reject(&frame.key, error.kind(), &error);
+                if let Some(blind) = blind {
+                    step.second_view_heard(ViewState::of(&blind.hazard, capture_ns));
+                }
+            }
+        }
+    }
+
+    /// Before a cane frame captured at `capture_ns`: whether it will be joined to the
+    /// chest's state, said in the log when that changes and for the health status.
+    fn report(&mut self, step: &ComputeStep, capture_ns: u64) -> Option<&'static str> {
+        let fresh = step.second_view().map(|(v, _)| v.fresh(capture_ns).is_some());
+        let joined = fresh.map(|f| if f { Joined::Joined } else { Joined::Stale });
+        self.changing = match self.changing {
+            (c, n) if c == joined => (c, n + 1),
+            _ => (joined, 1),
+        };
+        let held = self.changing.1 >= CHEST_CHANGE_FRAMES || self.joined.is_none();
+        if joined != self.joined && held {
+            self.joined = joined;
+            match joined {
+                Some(Joined::Stale) => tracing::warn!(
+                    "chest camera on {} silent or blind: head-high obstacles are not warned of, the cane camera's cue alone",
+                    self.depth_key
+                ),
+                Some(Joined::Joined) => {
+                    tracing::info!("chest camera on {} joined: head-high obstacles are warned of", self.depth_key)
+                }
+                None => {}
+            }
+        }
+        match joined {
+            Some(Joined::Joined) => Some("chest camera joined"),
+            Some(Joined::Stale) => Some("chest camera silent or blind"),
+            None => None,
+        }
+    }
+}
+
 /// Run the compute agent until `shutdown`.
 pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()> {
     let keys = config.bus.keys()?;
@@ -171,6 +251,20 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     if let Some(p) = config.predictive.filter(|_| nav.is_some()) {
         step = step.with_predictive(p);
     }
+    let mut chest = match &config.chest_device {
+        Some(device) => {
+            schemas::keys::check_chunk("device", device).context("bad chest device")?;
+            step = step.with_second_view(SecondView::default());
+            Some(Chest {
+                depth_key: keys.depth(device),
+                odom_key: keys.odom(device),
+                step: ComputeStep::new(config.perception.for_chest(), config.cue.clone()),
+                joined: None,
+                changing: (None, 0),
+            })
+        }
+        None => None,
+    };
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
 
@@ -180,7 +274,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             biased;
             _ = shutdown.triggered() => break,
             e = health_task.failed() => return Err(e),
-            Some(inc) = odom.recv() => add_step(&mut step, nav.as_mut(), &mut body, &inc, &health),
+            Some(inc) = odom.recv() => add_step(&mut step, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health),
             Some(batch) = body.recv() => body.add(&batch, &health),
             Some(batch) = bus::maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
                 if let Some(n) = nav.as_mut() {
@@ -214,7 +308,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             }
             Some(frame) = frames.recv() => {
                 while let Some(inc) = odom.try_recv() {
-                    add_step(&mut step, nav.as_mut(), &mut body, &inc, &health);
+                    add_step(&mut step, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health);
                 }
                 while let Some(batch) = body.imu.as_ref().and_then(|s| s.try_recv()) {
                     body.add(&batch, &health);
@@ -229,9 +323,16 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                     continue;
                 }
                 let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
+                if let Some(c) = chest.as_mut().filter(|c| frame.key == c.depth_key) {
+                    c.frame(&frame, body_yaw_rate_rad_s, &mut step, &health);
+                    continue;
+                }
                 let nav_status = nav.as_ref().map(|n| n.status());
                 let way = if config.predictive.is_some() { nav.as_mut().and_then(|n| n.way()) } else { None };
-                let scan = process(&frame, body_yaw_rate_rad_s, way, &mut step, &health, &mut out, nav_status).await;
+                let chest_status = chest.as_mut().and_then(|c| c.report(&step, frame.header.capture_ns));
+                let status = [chest_status.map(str::to_string), nav_status].into_iter().flatten().collect::<Vec<_>>();
+                let status = (!status.is_empty()).then(|| status.join("; "));
+                let scan = process(&frame, body_yaw_rate_rad_s, way, &mut step, &health, &mut out, status).await;
                 if let (Some(n), Some(scan)) = (nav.as_mut(), scan) {
                     n.frame(&scan, frame.header.capture_ns, body_yaw_rate_rad_s).await;
                 }
@@ -259,11 +360,19 @@ fn still_fresh(frame: &Received<DepthFrame>, max_age: Duration, health: &Health)
 
 fn add_step(
     step: &mut ComputeStep,
+    chest: Option<&mut Chest>,
     nav: Option<&mut Nav>,
     body: &mut Body,
     inc: &Received<OdomIncrement>,
     health: &Health,
 ) {
+    if let Some(chest) = chest.filter(|c| inc.key == c.odom_key) {
+        // the chest camera's own visual odometry moves its own memory only
+        if let Err(e) = chest.step.add_odometry(&inc.body) {
+            health.reject(&inc.key, e.kind(), &e);
+        }
+        return;
+    }
     if let Err(e) = step.add_odometry(&inc.body) {
         health.reject(&inc.key, e.kind(), &e);
         return;

@@ -42,6 +42,13 @@ struct Cli {
     /// reads the body's turn rate from (its --body-imu-device).
     #[arg(long, default_value = "body")]
     body_device: String,
+    /// Simulate a second depth camera (the same model) worn at the chest, 1.3 m up and
+    /// 10 degrees down, and publish its frames and odometry under this device name
+    /// (`sim:` sources only; a real chest camera runs a sensor agent of its own, with
+    /// `--device chest --mount 1.3,10`). The compute agent joins its cue to the cane
+    /// camera's with its own --chest-device: what overhangs at head height is warned of.
+    #[arg(long, value_name = "DEVICE")]
+    chest_device: Option<String>,
     /// Depth packing on the wire.
     #[arg(long, value_enum, default_value_t = Codec::Lossless)]
     codec: Codec,
@@ -130,6 +137,7 @@ async fn main() -> anyhow::Result<()> {
         loop_playback: cli.loop_playback,
         depth_scale_m: cli.depth_scale,
         intrinsics: cli.intrinsics,
+        chest: cli.chest_device.is_some(),
     };
     let source = sensor_agent::source::open(&cli.source, &options)
         .with_context(|| format!("cannot open frame source {:?}", cli.source))?;
@@ -140,6 +148,7 @@ async fn main() -> anyhow::Result<()> {
     config.pacing = !cli.no_pacing;
     config.compute_agent = cli.compute_agent;
     config.mount = cli.mount;
+    config.chest_device = cli.chest_device;
     config.codec = match cli.codec {
         Codec::Lossless => WireCodec::Lossless,
         Codec::Raw => WireCodec::Raw,

@@ -43,6 +43,10 @@ pub struct SensorConfig {
     /// know it (every source but the simulator): the compute agent looks for the floor
     /// near this height, so a seat or a box top filling the view is not taken for it.
     pub mount: Option<MountGuess>,
+    /// Device name of the chest camera, when the source has one (the simulator's with
+    /// `SourceOptions::chest`): its frames and odometry on `sensor/<chest_device>/depth`
+    /// and `/odom`, paced with the cane camera's.
+    pub chest_device: Option<String>,
 }
 
 impl SensorConfig {
@@ -58,6 +62,7 @@ impl SensorConfig {
             stall_after: Duration::from_millis(500),
             health_period: Duration::from_secs(1),
             mount: None,
+            chest_device: None,
         }
     }
 }
@@ -95,7 +100,8 @@ impl WireCodec {
 enum Produced {
     // boxed: a frame is ~300 bytes of metadata, the other variants a string
     // `depth` is None when the pacer held the frame back (its motion still goes)
-    Frame { frame: Box<SourceFrame>, depth: Option<DepthFrame> },
+    // `chest` is the chest camera's frame, packed alike, when the source has one
+    Frame { frame: Box<SourceFrame>, depth: Option<DepthFrame>, chest: Option<DepthFrame> },
     Skipped(String),
     End,
     Failed(String),
@@ -165,8 +171,14 @@ fn produce(
             Ok(Some(frame)) => {
                 sleep_until_ns(frame.stamp_ns);
                 let level = pacer.lock().unwrap_or_else(|e| e.into_inner()).admit(frame.stamp_ns, bus::now_ns());
-                match level.map(|level| pack(&frame, mount, level, &mut halved, &mut buf)).transpose() {
-                    Ok(depth) => Produced::Frame { frame: Box::new(frame), depth },
+                let packed = level.map(|level| {
+                    let depth = pack(&frame, mount, level, &mut halved, &mut buf)?;
+                    let chest = frame.chest.as_deref().map(|c| pack(c, None, level, &mut halved, &mut buf));
+                    Ok::<_, String>((depth, chest.transpose()?))
+                });
+                match packed.transpose() {
+                    Ok(Some((depth, chest))) => Produced::Frame { frame: Box::new(frame), depth: Some(depth), chest },
+                    Ok(None) => Produced::Frame { frame: Box::new(frame), depth: None, chest: None },
                     Err(e) => Produced::Skipped(format!("frame could not be packed: {e}")),
                 }
             }
@@ -198,6 +210,8 @@ struct Outputs {
     body_imu: Publisher<ImuBatch>,
     odom: Publisher<OdomIncrement>,
     truth: Publisher<GroundTruth>,
+    /// The chest camera's depth and odometry.
+    chest: Option<(Publisher<DepthFrame>, Publisher<OdomIncrement>)>,
 }
 
 /// Run the sensor agent on `source` until `shutdown` or the end of a finite recording.
@@ -211,6 +225,13 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
             config.device
         );
     }
+    if let Some(chest) = &config.chest_device {
+        schemas::keys::check_chunk("device", chest).context("bad --chest-device")?;
+        anyhow::ensure!(
+            chest != &config.device && chest != &config.body_device,
+            "--chest-device {chest:?} is the camera's or the body IMU's device: the chest camera needs a name of its own"
+        );
+    }
     let session = bus::open_session(&config.bus).await?;
     let health = Health::new(AGENT);
     let mut health_task = health.spawn(session.clone(), keys.clone(), config.health_period, shutdown.clone());
@@ -222,6 +243,13 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
             .await?,
         odom: Publisher::declare(&session, keys.odom(dev), AGENT, Lane::Events, Some(&health)).await?,
         truth: Publisher::declare(&session, keys.truth(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
+        chest: match &config.chest_device {
+            Some(chest) => Some((
+                Publisher::declare(&session, keys.depth(chest), AGENT, Lane::Bulk, Some(&health)).await?,
+                Publisher::declare(&session, keys.odom(chest), AGENT, Lane::Events, Some(&health)).await?,
+            )),
+            None => None,
+        },
     };
     let described = source.describe();
     tracing::info!(user = %config.bus.user, "sensor agent publishing {described} on {}", keys.depth(dev));
@@ -302,13 +330,13 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
                 anyhow::bail!("{described} failed: {reason}");
             }
             Ok(Some(Produced::Skipped(reason))) => health.reject(&described, "skipped_input", &reason),
-            Ok(Some(Produced::Frame { frame, depth })) => {
+            Ok(Some(Produced::Frame { frame, depth, chest })) => {
                 if stalled {
                     stalled = false;
                     tracing::info!("{described} delivering again");
                     health.set_status(true, format!("streaming {described}"));
                 }
-                publish(&mut out, *frame, depth).await;
+                publish(&mut out, *frame, depth, chest).await;
                 let mut pacer = pacer.lock().unwrap_or_else(|e| e.into_inner());
                 if let Some(change) = pacer.tick(bus::now_ns()) {
                     report_level(&change, &pacer, &health, &described);
@@ -347,9 +375,17 @@ fn report_level(change: &LevelChange, pacer: &Pacer, health: &Health, described:
     health.set_status(true, status);
 }
 
-async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame>) {
+async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame>, chest: Option<DepthFrame>) {
     let stamp = frame.stamp_ns;
-    let mut results = Vec::with_capacity(5);
+    let mut results = Vec::with_capacity(7);
+    if let (Some((chest_depth, chest_odom)), Some(source)) = (out.chest.as_mut(), frame.chest.as_deref()) {
+        if let Some(odom) = source.odom {
+            results.push(chest_odom.put(stamp, &odom).await);
+        }
+        if let Some(depth) = &chest {
+            results.push(chest_depth.put(stamp, depth).await);
+        }
+    }
     // the motion leading up to the frame first, so it is there when the frame is processed
     if let Some(odom) = frame.odom {
         results.push(out.odom.put(stamp, &odom).await);
@@ -393,6 +429,7 @@ mod tests {
             body_imu: vec![],
             odom: None,
             truth: None,
+            chest: None,
         };
         let (mut halved, mut buf) = (Vec::new(), Vec::new());
         let level = Level { codec: WireCodec::Lossless, half: true, every: 1 };

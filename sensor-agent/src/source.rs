@@ -31,6 +31,10 @@ pub struct SourceFrame {
     pub odom: Option<OdomIncrement>,
     /// Ground truth (simulated sources only).
     pub truth: Option<GroundTruth>,
+    /// The frame of a second camera worn at the chest, captured at the same moment
+    /// (the simulator's, with `SourceOptions::chest`; a real chest camera runs a sensor
+    /// agent of its own): its depth, gravity, mount guess and odometry; no IMU, no truth.
+    pub chest: Option<Box<SourceFrame>>,
 }
 
 /// Why a source could not deliver a frame. `Skipped` is not fatal: the stream goes on.
@@ -77,11 +81,21 @@ pub struct SourceOptions {
     pub depth_scale_m: Option<f32>,
     /// Intrinsics of a plain PNG folder.
     pub intrinsics: Option<Intrinsics>,
+    /// Simulate a second camera worn at the chest too (`sim:` only).
+    pub chest: bool,
 }
 
 impl Default for SourceOptions {
     fn default() -> Self {
-        Self { camera: "xtion".into(), seed: 1, rate: 1.0, loop_playback: false, depth_scale_m: None, intrinsics: None }
+        Self {
+            camera: "xtion".into(),
+            seed: 1,
+            rate: 1.0,
+            loop_playback: false,
+            depth_scale_m: None,
+            intrinsics: None,
+            chest: false,
+        }
     }
 }
 
@@ -103,6 +117,9 @@ pub enum OpenError {
     /// The camera could not be opened.
     #[error("camera: {0}")]
     Camera(String),
+    /// A chest camera was asked of a source that has none.
+    #[error("{0} has no chest camera: only sim: simulates one; a real chest camera runs a sensor agent of its own (--device chest --mount 1.3,10)")]
+    NoChest(String),
 }
 
 /// Open the source a spec names (`sim:approach`, `pcd:/data/frames/`, ...).
@@ -111,10 +128,16 @@ pub fn open(spec: &str, opts: &SourceOptions) -> Result<Box<dyn FrameSource>, Op
         Some(("sim", world)) => {
             let camera = crate::sim::camera::CameraProfile::by_name(&opts.camera)
                 .ok_or_else(|| OpenError::UnknownCamera(opts.camera.clone()))?;
-            let config =
-                crate::sim::SimConfig { world: world.to_string(), camera, seed: opts.seed, ..Default::default() };
+            let config = crate::sim::SimConfig {
+                world: world.to_string(),
+                camera,
+                seed: opts.seed,
+                chest: opts.chest.then(crate::sim::ChestMount::default),
+                ..Default::default()
+            };
             Ok(Box::new(crate::sim::SimSource::new(config)?))
         }
+        _ if opts.chest => Err(OpenError::NoChest(spec.to_string())),
         Some(("pcd" | "tum" | "png", _)) => {
             let replay = crate::replay::ReplayOptions {
                 rate: opts.rate,

@@ -355,6 +355,7 @@ fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> R
         body_imu: Vec::new(),
         odom: None,
         truth: None,
+        chest: None,
     })
 }
 

@@ -261,6 +261,7 @@ impl ReplaySource {
             body_imu: Vec::new(),
             odom: None,
             truth: None,
+            chest: None,
         })
     }
 }

@@ -15,6 +15,7 @@
 pub mod body;
 pub mod camera;
 pub mod cane;
+pub mod chest;
 pub mod generate;
 pub mod guided;
 pub mod imu;
@@ -31,6 +32,7 @@ pub mod world;
 
 pub use camera::CameraProfile;
 pub use cane::CaneMount;
+pub use chest::ChestMount;
 pub use guided::{Directions, DirectionsHandle, GuidedWalker};
 pub use pose::CameraPose;
 pub use random::SimRng;

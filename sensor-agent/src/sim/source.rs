@@ -8,6 +8,7 @@ use schemas::{GroundTruth, ImuSample, MountGuess};
 use super::body::BodyMount;
 use super::camera::CameraProfile;
 use super::cane::CaneMount;
+use super::chest::ChestMount;
 use super::guided::{DirectionsHandle, GuidedWalker};
 use super::imu::{ImuModel, ImuNoise};
 use super::odometry::{OdometryModel, OdometryNoise};
@@ -46,6 +47,9 @@ pub struct SimConfig {
     /// Error of the gravity direction sent with each frame, degrees (1 sigma per axis),
     /// as an IMU attitude filter would give it.
     pub gravity_noise_deg: f64,
+    /// A second camera (the same model) worn at the chest, rendered with every frame
+    /// (`SourceFrame::chest`); `None`: the cane camera alone.
+    pub chest: Option<ChestMount>,
 }
 
 impl Default for SimConfig {
@@ -65,6 +69,7 @@ impl Default for SimConfig {
             body_mount: BodyMount::default(),
             odometry_noise: OdometryNoise::default(),
             gravity_noise_deg: 0.5,
+            chest: None,
         }
     }
 }
@@ -116,6 +121,18 @@ struct BodyImu {
     next: u64,
 }
 
+/// The camera worn at the chest: its own renderer, noise and odometry (of the body it
+/// turns with).
+#[derive(Debug)]
+struct ChestCamera {
+    mount: ChestMount,
+    renderer: Renderer,
+    depth_rng: SimRng,
+    gravity_rng: SimRng,
+    odometry: OdometryModel,
+    last: Option<(UserPose, u64)>,
+}
+
 /// What the last frame was taken at.
 #[derive(Debug, Clone, Copy)]
 struct LastFrame {
@@ -136,6 +153,7 @@ pub struct SimSource {
     odometry: OdometryModel,
     imu_rate_hz: f64,
     body: BodyImu,
+    chest: Option<ChestCamera>,
     gravity_noise_rad: f64,
     start_ns: Option<u64>,
     next_imu: u64,
@@ -169,6 +187,14 @@ impl SimSource {
                 rate_hz: config.body_imu_rate_hz,
                 next: 0,
             },
+            chest: config.chest.map(|mount| ChestCamera {
+                mount,
+                renderer: Renderer::new(config.camera.clone()),
+                depth_rng: rng.fork(),
+                gravity_rng: rng.fork(),
+                odometry: OdometryModel::new(config.odometry_noise, rng.fork()),
+                last: None,
+            }),
             gravity_noise_rad: config.gravity_noise_deg.to_radians(),
             start_ns: None,
             next_imu: 0,
@@ -189,15 +215,54 @@ impl SimSource {
     }
 
     fn noisy_gravity(&mut self, g: Vector3<f64>) -> [f32; 3] {
-        let s = self.gravity_noise_rad;
-        let tilted = g + Vector3::new(
-            self.gravity_rng.gaussian() * s,
-            self.gravity_rng.gaussian() * s,
-            self.gravity_rng.gaussian() * s,
-        );
-        let u = tilted.normalize();
-        [u.x as f32, u.y as f32, u.z as f32]
+        noisy_gravity(&mut self.gravity_rng, self.gravity_noise_rad, g)
     }
+
+    /// The chest camera's frame at `t_s` (the moment of the cane camera's `stamp_ns`).
+    fn chest_frame(&mut self, t_s: f64, stamp_ns: u64) -> Option<SourceFrame> {
+        let chest = self.chest.as_mut()?;
+        let (walker, mount) = (&self.walker, self.mount);
+        let user = walker.pose_at(t_s);
+        let camera = chest.mount.camera_pose(&user, mount.bob_at(t_s, walker.speed_at(t_s)));
+        let mut depth = Vec::new();
+        chest.renderer.render(&self.world, &camera, t_s, &mut chest.depth_rng, &mut depth);
+        // the chest's floor frame turns with the body: a visual odometry on it measures that
+        let floor = UserPose {
+            x_m: camera.position_m.x,
+            y_m: camera.position_m.y,
+            yaw_rad: camera.yaw_rad(),
+            floor: camera.floor,
+        };
+        let odom = chest.last.map(|(from, from_ns)| chest.odometry.increment(&from, &floor, from_ns, stamp_ns));
+        chest.last = Some((floor, stamp_ns));
+        let profile = chest.renderer.profile();
+        Some(SourceFrame {
+            stamp_ns,
+            width: profile.width,
+            height: profile.height,
+            depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+            intrinsics: chest.renderer.intrinsics(),
+            depth,
+            gravity_camera: Some(noisy_gravity(
+                &mut chest.gravity_rng,
+                self.gravity_noise_rad,
+                camera.gravity_camera(),
+            )),
+            mount: Some(MountGuess { height_m: chest.mount.height_m as f32, pitch_deg: chest.mount.pitch_deg as f32 }),
+            imu: Vec::new(),
+            body_imu: Vec::new(),
+            odom,
+            truth: None,
+            chest: None,
+        })
+    }
+}
+
+/// `g` tipped by an attitude filter's error (`sigma_rad` per axis), unit length.
+fn noisy_gravity(rng: &mut SimRng, sigma_rad: f64, g: Vector3<f64>) -> [f32; 3] {
+    let tilted = g + Vector3::new(rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad);
+    let u = tilted.normalize();
+    [u.x as f32, u.y as f32, u.z as f32]
 }
 
 /// The camera at `t_s`: the walker's pose, the cane's sweep and the walking bob.
@@ -260,6 +325,7 @@ impl FrameSource for SimSource {
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
         self.last = Some(LastFrame { stamp_ns, user });
+        let chest = self.chest_frame(t_s, stamp_ns).map(Box::new);
 
         let profile = self.renderer.profile();
         Ok(Some(SourceFrame {
@@ -286,6 +352,7 @@ impl FrameSource for SimSource {
                 camera_pitch_deg: camera.pitch_down_rad().to_degrees() as f32,
                 sweep_deg: sweep.to_degrees() as f32,
             }),
+            chest,
         }))
     }
 
