@@ -220,6 +220,17 @@ pub struct CourseArgs {
     /// Camera pitch below the horizontal, degrees.
     #[arg(long, default_value_t = 30.0)]
     pub pitch_deg: f64,
+    /// A second depth camera (the same model) worn at the chest, 1.3 m up, 12 cm ahead
+    /// of the body, looking ahead --chest-pitch-deg down: the compute agent perceives
+    /// its frames with a step of their own that warns only of what overhangs from 1 m
+    /// up (a lamp, a sign, a cabinet standing out from a wall; never in the cane
+    /// camera's view) and joins that cue to the cane camera's: a side either warns of
+    /// is warned.
+    #[arg(long)]
+    pub chest: bool,
+    /// With --chest: the chest camera's pitch below the horizontal, degrees.
+    #[arg(long, requires = "chest", default_value_t = 10.0)]
+    pub chest_pitch_deg: f64,
     /// Cane sweep amplitude each side of the walking direction, degrees (0: the cane
     /// held still, pointing ahead).
     #[arg(long, default_value_t = 17.0)]
@@ -320,6 +331,8 @@ impl CourseArgs {
             walk_speed_m_s,
             fast_pulse_ms,
             pitch_deg,
+            chest,
+            chest_pitch_deg,
             sweep_deg,
             cane_length_m,
             camera,
@@ -402,6 +415,11 @@ impl CourseArgs {
         c.user.fast_pulse_ms = self.fast_pulse_ms;
         c.user.turn_walk_speed_m_s = c.user.turn_walk_speed_m_s.min(self.walk_speed_m_s);
         c.mount.pitch_deg = self.pitch_deg;
+        anyhow::ensure!((0.0..=60.0).contains(&self.chest_pitch_deg), "--chest-pitch-deg must be between 0 and 60");
+        c.chest = self.chest.then(|| sensor_agent::sim::ChestMount {
+            pitch_deg: self.chest_pitch_deg,
+            ..sensor_agent::sim::ChestMount::default()
+        });
         anyhow::ensure!((0.0..=60.0).contains(&self.sweep_deg), "--sweep-deg must be between 0 and 60");
         c.mount.sweep_amplitude_deg = self.sweep_deg;
         anyhow::ensure!(
@@ -591,6 +609,11 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
             "pitch_deg": config.mount.pitch_deg,
             "sweep_deg": config.mount.sweep_amplitude_deg,
         },
+        "chest": config.chest.map(|c| serde_json::json!({
+            "height_m": c.height_m,
+            "forward_m": c.forward_m,
+            "pitch_deg": c.pitch_deg,
+        })),
         "user": config.user,
         "timeout_s": config.timeout_s,
         "first_seed": args.seed,
@@ -653,7 +676,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
     };
     format!(
         "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {}{} | guide {} | {} runs from seed {}\n\
-         user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}° | codec {} | limit {:.0} s\n",
+         user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}°{} | codec {} | limit {:.0} s\n",
         worlds,
         config.camera.name,
         on_off(!args.no_rumble),
@@ -692,6 +715,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         config.mount.cane_length_m,
         config.mount.pitch_deg,
         config.mount.sweep_amplitude_deg,
+        config.chest.map_or_else(String::new, |c| format!(" | chest camera {:.2} m up, {:.0}° down", c.height_m, c.pitch_deg)),
         config.bounded_mm.map_or_else(|| "lossless".to_string(), |mm| format!("bounded {mm} mm")),
         config.timeout_s,
     )

@@ -17,17 +17,18 @@ use localization::{Pose2, Tracker, TrackerConfig};
 use map::Building;
 use perception::body_rate::BodyRate;
 use perception::predictive::{CaneModel, PredictiveConfig, RouteAhead, UserModel, Way};
+use perception::second_view::{SecondView, ViewState};
 use perception::{cue, ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception, PerceptionConfig, StepOutput};
 use schemas::{
-    AppliedAction, DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, OdomIncrement, RouteStatus,
-    SpeechIntent,
+    AppliedAction, DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, MountGuess, OdomIncrement,
+    RouteStatus, SpeechIntent,
 };
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
 use sensor_agent::sim::walker::wrap_pi;
 use sensor_agent::sim::{
-    CameraPose, CameraProfile, CaneMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
+    CameraPose, CameraProfile, CaneMount, ChestMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
 };
 
 use super::contacts::{cane_distance_m, in_field_of_view, Contact, Part, SeenLog, Touching, RELEASE_M, TOUCH_M};
@@ -118,6 +119,10 @@ pub struct WalkConfig {
     pub mount: CaneMount,
     /// Depth camera.
     pub camera: CameraProfile,
+    /// A second depth camera (the same model) worn at the chest, its frames through a
+    /// compute step of their own and its cue joined to the cane camera's
+    /// ([`perception::second_view`]); `None`: the cane camera alone.
+    pub chest: Option<ChestMount>,
     /// What the user heads for.
     pub guide: GuideKind,
     /// With [`GuideKind::Route`] (and the experimenter of [`GuideKind::Assisted`]), how
@@ -246,6 +251,7 @@ impl Default for WalkConfig {
             user: UserParams::default(),
             mount: CaneMount::default(),
             camera: xtion_qvga(),
+            chest: None,
             guide: GuideKind::Sound,
             route_lookahead_m: None,
             route_map: RouteMap::Full,
@@ -416,6 +422,87 @@ impl WalkOutcome {
 /// The camera's floor frame as a pose (where the perception's user frame sits).
 fn camera_floor(camera: &CameraPose) -> UserPose {
     UserPose { x_m: camera.position_m.x, y_m: camera.position_m.y, yaw_rad: camera.yaw_rad(), floor: camera.floor }
+}
+
+/// The second depth camera, worn at the chest: rendered where the body is, packed as
+/// the sensor agent packs it (with its mount guess and a gravity as noisy as the
+/// cane's), and perceived by a compute step of its own, moved by the odometry of the
+/// body it turns with.
+struct ChestCamera {
+    mount: ChestMount,
+    renderer: Renderer,
+    step: ComputeStep,
+    wire: DepthFrame,
+    depth: Vec<u16>,
+    depth_rng: SimRng,
+    gravity_rng: SimRng,
+    odometry: OdometryModel,
+    last: Option<(UserPose, u64)>,
+}
+
+impl ChestCamera {
+    fn new(mount: ChestMount, config: &WalkConfig, rng: &mut SimRng) -> Self {
+        let renderer = Renderer::new(config.camera.clone());
+        let wire = DepthFrame {
+            width: config.camera.width,
+            height: config.camera.height,
+            depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+            intrinsics: renderer.intrinsics(),
+            gravity_camera: None,
+            mount: Some(MountGuess { height_m: mount.height_m as f32, pitch_deg: mount.pitch_deg as f32 }),
+            encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
+            data: Vec::new(),
+        };
+        Self {
+            mount,
+            renderer,
+            step: ComputeStep::new(config.perception.for_chest(), config.cue.clone()),
+            wire,
+            depth: Vec::new(),
+            depth_rng: rng.fork(),
+            gravity_rng: rng.fork(),
+            odometry: OdometryModel::new(OdometryNoise::default().scaled(config.odometry_noise), rng.fork()),
+            last: None,
+        }
+    }
+
+    /// The chest frame at `t`: its state for the cane's step to join (`None` while its
+    /// refusals are too few to say it is blind).
+    fn frame(
+        &mut self,
+        world: &World,
+        pose: &UserPose,
+        t: f64,
+        now: u64,
+        seq: u64,
+        body_yaw_rate_rad_s: Option<f32>,
+    ) -> Option<ViewState> {
+        let camera = self.mount.camera_pose(pose, 0.0);
+        self.renderer.render(world, &camera, t, &mut self.depth_rng, &mut self.depth);
+        let wire = &mut self.wire;
+        if schemas::depth_codec::encode(&self.depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
+            wire.data.clear();
+        }
+        let floor_pose = camera_floor(&camera);
+        if let Some((from, from_ns)) = self.last {
+            let inc = self.odometry.increment(&from, &floor_pose, from_ns, now);
+            if let Err(e) = self.step.add_odometry(&inc) {
+                tracing::warn!("chest camera: {e}");
+            }
+        }
+        self.last = Some((floor_pose, now));
+        let g = camera.gravity_camera();
+        let s = 0.5f64.to_radians();
+        let rng = &mut self.gravity_rng;
+        let g = nalgebra::Vector3::new(g.x + rng.gaussian() * s, g.y + rng.gaussian() * s, g.z + rng.gaussian() * s)
+            .normalize();
+        wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
+        let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s, way: None };
+        match self.step.process(input, &mut NoTimer) {
+            StepOutput::Perceived { hazard, .. } => Some(ViewState::of(&hazard, now)),
+            StepOutput::Refused { blind, .. } => blind.map(|b| ViewState::of(&b.hazard, now)),
+        }
+    }
 }
 
 /// Spacing of the body positions a line-of-sight check tests, metres.
@@ -658,6 +745,7 @@ pub struct Walk<'w> {
     mount: CaneMount,
     params: UserParams,
     body_gyro: Option<BodyGyro>,
+    chest: Option<ChestCamera>,
     user: VirtualUser,
     renderer: Renderer,
     frame_step: ComputeStep,
@@ -728,10 +816,14 @@ impl<'w> Walk<'w> {
             UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
         // drawn after everything else, so a walk without it is the walk it always was
         let body_gyro = config.body_gyro.then(|| BodyGyro::new(rng.fork()));
+        let chest = config.chest.map(|mount| ChestCamera::new(mount, config, &mut rng));
 
         let renderer = Renderer::new(config.camera.clone());
         // the compute agent's own frame step, fed frames as the sensor agent packs them
         let mut frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+        if chest.is_some() {
+            frame_step = frame_step.with_second_view(SecondView::default());
+        }
         if let Some(p) = config.predictive {
             frame_step = frame_step.with_predictive(p);
         }
@@ -814,6 +906,7 @@ impl<'w> Walk<'w> {
             mount,
             params,
             body_gyro,
+            chest,
             user: VirtualUser::new(params, start),
             renderer,
             frame_step,
@@ -935,6 +1028,13 @@ impl<'w> Walk<'w> {
         let floor_pose = camera_floor(&camera);
         let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
         let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
+        if let Some(chest) = self.chest.as_mut() {
+            // the chest camera's frame, captured with the cane's, through its own step
+            if let Some(state) = chest.frame(world, pose, t, now, self.out.frames as u64, body_yaw_rate_rad_s) {
+                self.frame_step.second_view_heard(state);
+            }
+            self.seen.update(chest.renderer.obstacle_ids(), &chest.depth, t);
+        }
         if let Some((from, from_ns)) = self.last_floor {
             let inc = self.odometry.increment(&from, &floor_pose, from_ns, now);
             if let Err(e) = self.frame_step.add_odometry(&inc) {
@@ -1311,7 +1411,11 @@ impl<'w> Walk<'w> {
             obstacle: id.0,
             label: obstacle.map_or_else(String::new, |o| o.label.clone()),
             kind: obstacle.map_or_else(String::new, |o| format!("{:?}", o.kind)),
-            in_fov: in_field_of_view(self.world, id, camera, &self.config.camera, t_s),
+            in_fov: in_field_of_view(self.world, id, camera, &self.config.camera, t_s)
+                || self.config.chest.is_some_and(|chest| {
+                    let at = chest.camera_pose(&self.user.pose(), 0.0);
+                    in_field_of_view(self.world, id, &at, &self.config.camera, t_s)
+                }),
             seen_ago_s: self.seen.ago_s(id, t_s),
             warned_ago_s: self.felt_since.map(|since| t_s - since),
             head_high: touch_bottom_m > self.mount.handle_height_m,
