@@ -833,7 +833,11 @@ impl<'w> Walk<'w> {
             depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
             intrinsics: renderer.intrinsics(),
             gravity_camera: None,
-            mount: None,
+            // the mount the simulator's sensor agent sends with every frame
+            mount: Some(MountGuess {
+                height_m: config.mount.camera_height_m() as f32,
+                pitch_deg: config.mount.pitch_deg as f32,
+            }),
             encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
             data: Vec::new(),
         };
