@@ -26,6 +26,7 @@ use schemas::{
 use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
 use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
 use sensor_agent::sim::shape::Shape;
+use sensor_agent::sim::source::noisy_gravity;
 use sensor_agent::sim::walker::wrap_pi;
 use sensor_agent::sim::{
     CameraPose, CameraProfile, CaneMount, ChestMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
@@ -424,6 +425,34 @@ fn camera_floor(camera: &CameraPose) -> UserPose {
     UserPose { x_m: camera.position_m.x, y_m: camera.position_m.y, yaw_rad: camera.yaw_rad(), floor: camera.floor }
 }
 
+/// A frame as the sensor agent sends this walk's camera: its size, intrinsics, depth
+/// unit, codec and mount guess; samples and gravity filled by [`pack`] each frame.
+fn wire_frame(config: &WalkConfig, renderer: &Renderer, mount: MountGuess) -> DepthFrame {
+    DepthFrame {
+        width: config.camera.width,
+        height: config.camera.height,
+        depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
+        intrinsics: renderer.intrinsics(),
+        gravity_camera: None,
+        mount: Some(mount),
+        encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
+        data: Vec::new(),
+    }
+}
+
+/// Gravity error of each frame, degrees per axis (an IMU attitude filter's).
+const GRAVITY_NOISE_DEG: f64 = 0.5;
+
+/// Packs `depth` into `wire` with the gravity of `camera` as an IMU would give it.
+fn pack(depth: &[u16], camera: &CameraPose, gravity_rng: &mut SimRng, wire: &mut DepthFrame) {
+    if schemas::depth_codec::encode(depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
+        // nothing to send: the step refuses the empty frame as the agent would
+        wire.data.clear();
+    }
+    let g = camera.gravity_camera();
+    wire.gravity_camera = Some(noisy_gravity(gravity_rng, GRAVITY_NOISE_DEG.to_radians(), g));
+}
+
 /// The second depth camera, worn at the chest: rendered where the body is, packed as
 /// the sensor agent packs it (with its mount guess and a gravity as noisy as the
 /// cane's), and perceived by a compute step of its own, moved by the odometry of the
@@ -443,16 +472,8 @@ struct ChestCamera {
 impl ChestCamera {
     fn new(mount: ChestMount, config: &WalkConfig, rng: &mut SimRng) -> Self {
         let renderer = Renderer::new(config.camera.clone());
-        let wire = DepthFrame {
-            width: config.camera.width,
-            height: config.camera.height,
-            depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
-            intrinsics: renderer.intrinsics(),
-            gravity_camera: None,
-            mount: Some(MountGuess { height_m: mount.height_m as f32, pitch_deg: mount.pitch_deg as f32 }),
-            encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
-            data: Vec::new(),
-        };
+        let guess = MountGuess { height_m: mount.height_m as f32, pitch_deg: mount.pitch_deg as f32 };
+        let wire = wire_frame(config, &renderer, guess);
         Self {
             mount,
             renderer,
@@ -479,10 +500,7 @@ impl ChestCamera {
     ) -> Option<ViewState> {
         let camera = self.mount.camera_pose(pose, 0.0);
         self.renderer.render(world, &camera, t, &mut self.depth_rng, &mut self.depth);
-        let wire = &mut self.wire;
-        if schemas::depth_codec::encode(&self.depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
-            wire.data.clear();
-        }
+        pack(&self.depth, &camera, &mut self.gravity_rng, &mut self.wire);
         let floor_pose = camera_floor(&camera);
         if let Some((from, from_ns)) = self.last {
             let inc = self.odometry.increment(&from, &floor_pose, from_ns, now);
@@ -491,13 +509,7 @@ impl ChestCamera {
             }
         }
         self.last = Some((floor_pose, now));
-        let g = camera.gravity_camera();
-        let s = 0.5f64.to_radians();
-        let rng = &mut self.gravity_rng;
-        let g = nalgebra::Vector3::new(g.x + rng.gaussian() * s, g.y + rng.gaussian() * s, g.z + rng.gaussian() * s)
-            .normalize();
-        wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
-        let input = FrameIn { data: FrameData::Wire(wire), seq, capture_ns: now, body_yaw_rate_rad_s, way: None };
+        let input = FrameIn { data: FrameData::Wire(&self.wire), seq, capture_ns: now, body_yaw_rate_rad_s, way: None };
         match self.step.process(input, &mut NoTimer) {
             StepOutput::Perceived { hazard, .. } => Some(ViewState::of(&hazard, now)),
             StepOutput::Refused { blind, .. } => blind.map(|b| ViewState::of(&b.hazard, now)),
@@ -827,20 +839,10 @@ impl<'w> Walk<'w> {
         if let Some(p) = config.predictive {
             frame_step = frame_step.with_predictive(p);
         }
-        let wire = DepthFrame {
-            width: config.camera.width,
-            height: config.camera.height,
-            depth_scale_m: 1.0 / DEPTH_UNITS_PER_M,
-            intrinsics: renderer.intrinsics(),
-            gravity_camera: None,
-            // the mount the simulator's sensor agent sends with every frame
-            mount: Some(MountGuess {
-                height_m: config.mount.camera_height_m() as f32,
-                pitch_deg: config.mount.pitch_deg as f32,
-            }),
-            encoding: config.bounded_mm.map_or(DepthEncoding::Raw, |step| DepthEncoding::Bounded { step }),
-            data: Vec::new(),
-        };
+        // the mount the simulator's sensor agent sends with every frame
+        let guess =
+            MountGuess { height_m: config.mount.camera_height_m() as f32, pitch_deg: config.mount.pitch_deg as f32 };
+        let wire = wire_frame(config, &renderer, guess);
         // the device's plan: the world's floor plan, as `wearnav map` exports it
         let spoken = config.guide == GuideKind::Spoken;
         let filter = config.pose == PoseSource::Filter && (config.predictive.is_some() || spoken);
@@ -1024,11 +1026,8 @@ impl<'w> Walk<'w> {
         self.renderer.render(world, &camera, t, &mut self.depth_rng, &mut self.depth);
         self.seen.update(self.renderer.obstacle_ids(), &self.depth, t);
         self.out.frames += 1;
-        let wire = &mut self.wire;
-        if schemas::depth_codec::encode(&self.depth, wire.width, wire.height, wire.encoding, &mut wire.data).is_err() {
-            // nothing to send: the step refuses the empty frame as the agent would
-            wire.data.clear();
-        }
+        pack(&self.depth, &camera, &mut self.gravity_rng, &mut self.wire);
+        let wire = &self.wire;
         let floor_pose = camera_floor(&camera);
         let speed_fraction = self.user.speed_m_s() / self.params.walk_speed_m_s.max(1e-6);
         let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
@@ -1053,12 +1052,6 @@ impl<'w> Walk<'w> {
             }
         }
         self.last_floor = Some((floor_pose, now));
-        let g = camera.gravity_camera();
-        let s = 0.5f64.to_radians();
-        let rng = &mut self.gravity_rng;
-        let g = nalgebra::Vector3::new(g.x + rng.gaussian() * s, g.y + rng.gaussian() * s, g.z + rng.gaussian() * s)
-            .normalize();
-        wire.gravity_camera = Some([g.x as f32, g.y as f32, g.z as f32]);
         let seq = self.out.frames as u64;
         // where the device takes the user to be: the truth, or the filter while it tracks
         let believed = match (&self.tracker, config.pose) {

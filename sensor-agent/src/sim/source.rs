@@ -258,8 +258,9 @@ impl SimSource {
     }
 }
 
-/// `g` tipped by an attitude filter's error (`sigma_rad` per axis), unit length.
-fn noisy_gravity(rng: &mut SimRng, sigma_rad: f64, g: Vector3<f64>) -> [f32; 3] {
+/// `g` tipped by an attitude filter's error (`sigma_rad` per axis), unit length: the
+/// gravity a frame is sent with.
+pub fn noisy_gravity(rng: &mut SimRng, sigma_rad: f64, g: Vector3<f64>) -> [f32; 3] {
     let tilted = g + Vector3::new(rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad);
     let u = tilted.normalize();
     [u.x as f32, u.y as f32, u.z as f32]
