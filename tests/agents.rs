@@ -674,6 +674,90 @@ async fn a_chest_camera_joined_by_the_compute_agent_warns_of_a_sign_the_cane_cam
     assert!(status.is_some(), "the health status never said the chest camera is silent");
 }
 
+/// A camera without IMU: its frames carry no gravity. The compute agent perceives them
+/// (the floor around the camera's down axis), its hazards and health status say so, and
+/// the feedback agent tells the user once, a second after the first such frame, and
+/// again when gravity is back.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn frames_without_gravity_are_perceived_and_the_user_is_told_the_tilt_sensor_is_missing() {
+    use perception::synthetic_scene::{Block, Scene};
+    let user = "gravity-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
+    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--no-body-imu"]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    // 0.9 m up, 10 degrees down, a box 1.2 m ahead: the floor is in the thesis's cone
+    let mut scene = Scene::kinect(0.9, 10.0);
+    scene.walls_x_m.push(2.5);
+    scene.blocks.push(Block { min: [1.2, -0.3, 0.0], max: [1.5, 0.3, 0.8] });
+    let with = scene.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
+    assert!(with.gravity_camera.is_some());
+    let without = schemas::DepthFrame { gravity_camera: None, ..with.clone() };
+    let mut cane =
+        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
+            .await
+            .unwrap();
+
+    // what the user was told about the tilt sensor, when
+    let mut spoken = Vec::new();
+    let mut told = |a: bus::Received<Applied>| {
+        if let AppliedAction::SpeechStarted { text, .. } = a.body.action {
+            if text.contains("ilt sensor") {
+                spoken.push((text, a.body.applied_ns));
+            }
+        }
+    };
+    // (frame, gravity sent, gravity said, ground, nearest) of every frame; 3 s with
+    // gravity first, so the start's "obstacle detection back" has been said
+    let mut frames = Vec::new();
+    let mut first_without_ns = 0;
+    let mut first_back_ns = 0;
+    for k in 0..260 {
+        let gravity = !(90..180).contains(&k);
+        let now = bus::now_ns();
+        if k == 90 {
+            first_without_ns = now;
+        }
+        if k == 180 {
+            first_back_ns = now;
+        }
+        cane.put(now, if gravity { &with } else { &without }).await.unwrap();
+        let h = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns == now).await.expect("no hazard");
+        frames.push((k, gravity, h.body.gravity, h.body.ground, h.body.nearest_m));
+        while let Some(a) = applied.try_recv() {
+            told(a);
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+        if k == 150 {
+            let said = |h: &bus::Received<HealthStats>| {
+                h.body.agent == "compute-agent" && h.body.status.contains("no gravity")
+            };
+            assert!(wait_for(&health, Duration::from_secs(3), said).await.is_some(), "the health status never said so");
+        }
+    }
+    for &(k, sent, said, ground, nearest) in &frames {
+        assert_eq!(said, sent, "frame {k}: the hazard says whether the frame had gravity");
+        assert_eq!(ground, schemas::GroundState::Found, "frame {k}");
+        assert!((nearest - 1.2).abs() < 0.05, "frame {k}: the box at {nearest} m");
+    }
+    while let Some(a) = wait_for(&applied, Duration::from_millis(300), |_| true).await {
+        told(a);
+    }
+    let texts: Vec<&str> = spoken.iter().map(|(t, _)| t.as_str()).collect();
+    assert_eq!(texts, ["No tilt sensor: steps down may be missed", "Tilt sensor back"]);
+    for ((_, at), since) in spoken.iter().zip([first_without_ns, first_back_ns]) {
+        let after_s = (*at as f64 - since as f64) * 1e-9;
+        assert!(
+            (1.0..2.0).contains(&after_s),
+            "told {after_s:.2} s after the change: {spoken:?} {first_without_ns} {first_back_ns}"
+        );
+    }
+}
+
 /// `--chest-device` on a simulated world: the chest camera's frames on their own key,
 /// captured with the cane camera's, with its own mount guess and odometry.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -139,7 +139,7 @@ fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_tim
     let summary = inspect_json(&first);
     assert!(summary["damage"].is_null(), "{}", summary["damage"]);
     let hazard = channel(&summary, "perception/hazard");
-    assert_eq!(hazard["schema"], "wearnav/hazard/v4");
+    assert_eq!(hazard["schema"], "wearnav/hazard/v5");
     let rate = hazard["rate_hz"].as_f64().unwrap();
     let expected = 30.0 * hazard["duration_s"].as_f64().unwrap();
     let count = hazard["count"].as_f64().unwrap();

@@ -83,6 +83,8 @@ struct Outputs {
     scan: Publisher<Scan>,
     hazard: Publisher<Hazard>,
     haptic: Publisher<HapticIntent>,
+    /// Whether the last perceived frame carried gravity (to log when that changes).
+    gravity: Option<bool>,
 }
 
 /// The body-worn IMU as the loop sees it.
@@ -240,6 +242,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         scan: Publisher::declare(&session, keys.scan(), AGENT, Lane::Perception, Some(&health)).await?,
         hazard: Publisher::declare(&session, keys.hazard(), AGENT, Lane::Perception, Some(&health)).await?,
         haptic: Publisher::declare(&session, keys.haptic(), AGENT, Lane::RealTime, Some(&health)).await?,
+        gravity: None,
     };
     let mut nav = match &config.nav {
         Some(c) => Some(Nav::declare(c, &session, &keys, config.body_imu_device.clone(), &health).await?),
@@ -435,7 +438,18 @@ async fn process(
         None => "no body turn rate".to_string(),
     };
     let nav = nav_status.map(|s| format!("; {s}")).unwrap_or_default();
-    health.set_status(seeing, format!("{:?} ground, rumble {:?}, {body}{nav}", hazard.ground, hazard.rumble));
+    let gravity = if hazard.gravity { "" } else { ", no gravity (lower ground along the path only)" };
+    if out.gravity != Some(hazard.gravity) {
+        match hazard.gravity {
+            true => tracing::info!("depth frames on {} carry gravity", frame.key),
+            false => tracing::warn!(
+                "depth frames on {} carry no gravity (a camera without IMU): the floor is searched around the camera's down axis, lower ground only along the path ahead",
+                frame.key
+            ),
+        }
+        out.gravity = Some(hazard.gravity);
+    }
+    health.set_status(seeing, format!("{:?} ground{gravity}, rumble {:?}, {body}{nav}", hazard.ground, hazard.rumble));
     // The intent first: it is what the user feels, the rest is for monitors.
     for result in [
         out.haptic.put(capture_ns, &intent).await,

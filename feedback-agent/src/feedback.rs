@@ -11,7 +11,7 @@ use schemas::{Applied, AppliedAction, Command, HapticIntent, HapticPattern, Haza
 use crate::device::{DeviceOutput, HapticDevice, SpeakingHandle, SpeechEngine, SpeechEvent};
 use crate::haptic_cue::{CueLimits, HapticCue, Levels};
 use crate::speech_queue::{QueueConfig, SpeechAction, SpeechQueue, Utterance};
-use crate::watchdog::{DetectionState, DetectionWatchdog, Transition};
+use crate::watchdog::{DetectionState, DetectionWatchdog, GravityWatch, Transition, GRAVITY_MISSING};
 
 const MS: u64 = 1_000_000;
 
@@ -82,6 +82,7 @@ pub struct Feedback {
     cut: Vec<CutUtterance>,
     queue: SpeechQueue,
     watchdog: DetectionWatchdog,
+    gravity: GravityWatch,
     obstacle: Option<HapticCue>,
     alert: Option<HapticCue>,
     /// The notice tap of an utterance that asked for one.
@@ -105,6 +106,7 @@ impl Feedback {
         Self {
             queue: SpeechQueue::new(settings.queue),
             watchdog: DetectionWatchdog::new(now_ns, settings.offline_after_ms),
+            gravity: GravityWatch::default(),
             settings,
             haptics,
             handles: Vec::new(),
@@ -189,6 +191,17 @@ impl Feedback {
     pub fn on_hazard(&mut self, hazard: &Hazard, captured_ns: u64, now_ns: u64) {
         self.watchdog.on_hazard(captured_ns, now_ns, hazard.ground);
         self.check_detection(now_ns);
+        if let Some(text) = self.gravity.on_hazard(captured_ns, hazard.ground, hazard.gravity) {
+            if text == GRAVITY_MISSING {
+                tracing::warn!("depth frames without gravity (no IMU): lower ground is looked for along the path only");
+            } else {
+                tracing::info!("depth frames carry gravity again");
+            }
+            let mut actions = std::mem::take(&mut self.actions);
+            self.queue.offer_own(text, Priority::Important, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+            self.actions = actions;
+            self.perform_speech(now_ns);
+        }
     }
 
     /// The compute agent's liveliness token appeared or disappeared.
@@ -631,6 +644,22 @@ mod tests {
     }
 
     #[test]
+    fn frames_without_gravity_are_spoken_as_a_missing_tilt_sensor_once() {
+        let (_hid, mut f) = setup();
+        let with = hazard(GroundState::Found);
+        let without = Hazard { gravity: false, ..hazard(GroundState::Found) };
+        let mut said = Vec::new();
+        for k in 0..90 {
+            let now = T0 + k * 33 * MS;
+            f.on_hazard(if k < 30 { &with } else { &without }, now, now);
+            f.tick(now);
+            said.extend(spoken(&mut f));
+        }
+        assert_eq!(said, ["start No tilt sensor: steps down may be missed"]);
+        assert_eq!(f.detection(), DetectionState::Online, "no frame was refused: detection stays on");
+    }
+
+    #[test]
     fn hazards_resuming_are_announced_as_back_and_stop_the_alert() {
         let (hid, mut f) = setup();
         fresh(&mut f, T0 + 10 * MS);
@@ -729,7 +758,7 @@ mod tests {
         // the Wiimote's motor is on or off: the tap is told apart by being brief
         let taps = left_levels(&mut f);
         assert_eq!(taps, [1.0, 0.0, 1.0, 0.0], "{taps:?}");
-        assert!(NOTICE_LEVEL < 0.5, "light where a motor can be");
+        const { assert!(NOTICE_LEVEL < 0.5, "light where a motor can be") };
         // an utterance that does not ask for it: no tap
         let (_, mut f) = setup();
         fresh(&mut f, T0);

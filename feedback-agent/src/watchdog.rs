@@ -158,6 +158,57 @@ impl DetectionWatchdog {
     }
 }
 
+/// How long the camera's frames must say the other thing about gravity before the user
+/// is told (a hazard or two without it, a dropped IMU sample, is not news), ns.
+pub const GRAVITY_HOLD_NS: u64 = 1_000_000_000;
+
+/// Whether the camera's frames carry gravity (its IMU), as the user was last told.
+///
+/// Without gravity the perception still finds a floor near the camera's down axis, but
+/// looks for lower ground only along the path ahead (not for the edge of a step beside
+/// it) and cannot keep a floor a near wall hides: the user is told once, when hazards
+/// that see the ground have come without gravity for [`GRAVITY_HOLD_NS`], and told again
+/// when it is back as long. Degraded hazards are the detection watchdog's (their
+/// `gravity` says nothing: no frame was perceived).
+#[derive(Debug, Clone, Default)]
+pub struct GravityWatch {
+    told_missing: bool,
+    /// Capture instant of the first hazard of the current run that disagrees with what
+    /// the user was told.
+    disagreeing_since_ns: Option<u64>,
+}
+
+impl GravityWatch {
+    /// A hazard captured at `captured_ns` (own clock) with its `ground` and `gravity`.
+    /// Returns what to say when the user must be told.
+    pub fn on_hazard(&mut self, captured_ns: u64, ground: GroundState, gravity: bool) -> Option<&'static str> {
+        if ground == GroundState::Degraded {
+            return None;
+        }
+        if gravity != self.told_missing {
+            self.disagreeing_since_ns = None;
+            return None;
+        }
+        let since = *self.disagreeing_since_ns.get_or_insert(captured_ns);
+        if captured_ns.saturating_sub(since) < GRAVITY_HOLD_NS {
+            return None;
+        }
+        self.told_missing = !gravity;
+        self.disagreeing_since_ns = None;
+        Some(if gravity { GRAVITY_BACK } else { GRAVITY_MISSING })
+    }
+
+    /// True once the user was told the frames come without gravity (until told it is back).
+    pub fn told_missing(&self) -> bool {
+        self.told_missing
+    }
+}
+
+/// What the user hears when the camera's frames come without gravity.
+pub const GRAVITY_MISSING: &str = "No tilt sensor: steps down may be missed";
+/// ... and when they carry it again.
+pub const GRAVITY_BACK: &str = "Tilt sensor back";
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -263,5 +314,28 @@ mod tests {
         w.on_hazard(T0 + 400 * MS, T0 + 400 * MS, GroundState::Found);
         w.on_hazard(T0 + 100 * MS, T0 + 100 * MS, GroundState::Found);
         assert_eq!(w.step(T0 + 800 * MS), None);
+    }
+
+    #[test]
+    fn frames_without_gravity_for_a_second_are_told_once_and_its_return_too() {
+        let mut w = GravityWatch::default();
+        let at = |k: u64| T0 + k * 33 * MS;
+        // present from the start: nothing to say
+        assert!((0..60).all(|k| w.on_hazard(at(k), GroundState::Found, true).is_none()));
+        // missing for 0.99 s, then back: still nothing (a dropped IMU is not news)
+        assert!((60..90).all(|k| w.on_hazard(at(k), GroundState::Found, false).is_none()));
+        assert!((90..120).all(|k| w.on_hazard(at(k), GroundState::Found, true).is_none()));
+        // missing for a second: told once, at the hazard 1 s after the first without it
+        let said: Vec<_> =
+            (120..240).filter_map(|k| w.on_hazard(at(k), GroundState::Lost, false).map(|s| (k, s))).collect();
+        assert_eq!(said, [(120 + 31, GRAVITY_MISSING)]);
+        assert!(w.told_missing());
+        // degraded hazards (no frame perceived) say nothing either way
+        assert!((240..300).all(|k| w.on_hazard(at(k), GroundState::Degraded, true).is_none()));
+        assert!(w.told_missing());
+        let said: Vec<_> =
+            (300..400).filter_map(|k| w.on_hazard(at(k), GroundState::Found, true).map(|s| (k, s))).collect();
+        assert_eq!(said, [(300 + 31, GRAVITY_BACK)]);
+        assert!(!w.told_missing());
     }
 }

@@ -241,6 +241,8 @@ pub enum ToMonitor {
         dropoff_ahead: bool,
         /// The warning is about where the body is turning.
         turn_ahead: bool,
+        /// The frame carried the camera's gravity (false: a camera without IMU).
+        gravity: bool,
         /// Sum of the stages, ms (capture to hazard, as the compute agent timed it).
         latency_ms: f32,
         /// The stages.
@@ -448,6 +450,7 @@ pub fn hazard(h: &Hazard, seq: u64, capture_ns: u64, age_ms: f64) -> ToMonitor {
         ttc_s: h.ttc_s.and_then(finite),
         dropoff_ahead: h.dropoff_ahead,
         turn_ahead: h.turn_ahead,
+        gravity: h.gravity,
         latency_ms: stages.iter().map(|s| s.ms).sum(),
         stages,
     }

@@ -31,6 +31,7 @@ fn hazard(rumble: Rumble) -> Hazard {
         turn_ahead: false,
         body_turn_deg_s: None,
         predictive: false,
+        gravity: true,
         latency: vec![],
     }
 }

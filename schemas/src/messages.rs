@@ -250,6 +250,13 @@ pub struct Hazard {
     /// tracked: the predictive cue); false: from the cost function `active` (no route,
     /// the position not tracked, or the cue off).
     pub predictive: bool,
+    /// The frame carried the camera's gravity (its IMU): the floor was searched level
+    /// with it, lower ground looked for across the whole view, and the floor predicted
+    /// from it while a near wall hides the floor. false: a camera without one: the floor
+    /// is searched around the camera's down axis or the last floor found, lower ground
+    /// only along the path ahead, and a near wall that hides the floor means "detection
+    /// degraded" (the feedback agent tells the user).
+    pub gravity: bool,
     /// Per-stage latency of this frame.
     pub latency: Vec<StageLatency>,
 }
@@ -274,6 +281,7 @@ impl Hazard {
             turn_ahead: false,
             predictive: false,
             body_turn_deg_s: None,
+            gravity: true,
             latency: vec![],
         }
     }

@@ -148,14 +148,15 @@ impl SchemaId {
 
     /// The version of this schema's layout this build speaks (and writes); receivers
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
-    /// `turn_ahead` and `body_turn_deg_s` and v4 `predictive`; every schema went up one
+    /// `turn_ahead` and `body_turn_deg_s`, v4 `predictive` and v5 `gravity`; every schema went up one
     /// when the envelope gained the sender's `session` and the checksum trailer; `pose`
     /// v3 added `status`,
     /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`
     /// and v4 `Door`, `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
-            SchemaId::Command | SchemaId::Hazard => 4,
+            SchemaId::Hazard => 5,
+            SchemaId::Command => 4,
             SchemaId::Pose | SchemaId::RouteState | SchemaId::SpeechIntent => 3,
             _ => 2,
         }
@@ -832,7 +833,7 @@ mod tests {
         for s in SchemaId::ALL {
             assert_eq!(SchemaId::from_u16(s as u16), Some(s));
         }
-        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v4");
+        assert_eq!(SchemaId::Hazard.encoding_schema(), "wearnav/hazard/v5");
         assert_eq!(SchemaId::ImuBatch.encoding_schema(), "wearnav/imu_batch/v2");
     }
 }

@@ -213,6 +213,7 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
         turn_ahead: false,
         body_turn_deg_s: None,
         predictive: false,
+        gravity: true,
         latency: Vec::new(),
     };
     vec![
@@ -256,6 +257,7 @@ fn perception_vectors() -> Vec<[Golden; 2]> {
                 turn_ahead: true,
                 body_turn_deg_s: Some(45.0),
                 predictive: true,
+                gravity: false,
                 ..hazard(Rumble::Right, GroundState::Degraded, CostFunction::Ficf)
             },
         ),
@@ -633,10 +635,12 @@ fn reject_vectors() -> Vec<Golden> {
         reject::<SpeechIntent>("empty", Vec::new(), "truncated"),
         reject::<SpeechIntent>("wrong_version", patched(&speech_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
         // a hazard from a build before v2 (no turn_ahead, body_turn_deg_s), from one
-        // before v3 (no session, no checksum) and from one before v4 (no predictive)
+        // before v3 (no session, no checksum), from one before v4 (no predictive) and
+        // from one before v5 (no gravity)
         reject::<Hazard>("hazard_v1", patched(&hazard_bytes, 2, &1u16.to_le_bytes()), "unknown_version"),
         reject::<Hazard>("hazard_v2", patched(&hazard_bytes, 2, &2u16.to_le_bytes()), "unknown_version"),
         reject::<Hazard>("hazard_v3", patched(&hazard_bytes, 2, &3u16.to_le_bytes()), "unknown_version"),
+        reject::<Hazard>("hazard_v4", patched(&hazard_bytes, 2, &4u16.to_le_bytes()), "unknown_version"),
         reject::<SpeechIntent>("unknown_schema", patched(&speech_bytes, 0, &99u16.to_le_bytes()), "unknown_schema"),
         reject::<Hazard>("wrong_schema", scan_bytes.clone(), "wrong_schema"),
         reject::<Hazard>("garbage_ff", vec![0xff; 40], "unknown_schema"),

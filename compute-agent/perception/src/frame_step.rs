@@ -349,8 +349,37 @@ mod tests {
         assert_eq!(hazard, direct.hazard(7, schemas::CostFunction::Ficf, Vec::new()));
         assert_eq!(intent, cue(&direct, &CueConfig::default()));
         assert_eq!(hazard.ground, GroundState::Found);
+        assert!(hazard.gravity, "the frame carried gravity");
         assert!(hazard.ficf.forward > 0.0, "{hazard:?}");
         assert!((hazard.nearest_m - 1.2).abs() < 0.05, "{}", hazard.nearest_m);
+    }
+
+    #[test]
+    fn a_frame_without_gravity_is_perceived_and_its_hazard_says_so() {
+        // a camera without IMU, 10 degrees down: the floor is found around its down axis
+        // and a box 1.2 m ahead warned of, and the hazard says the frame had no gravity (the
+        // feedback agent tells the user); at 30 degrees no floor is found at all
+        for (pitch_deg, perceived) in [(10.0, true), (30.0, false)] {
+            let mut scene = Scene::kinect(0.9, pitch_deg);
+            scene.walls_x_m.push(2.5);
+            scene.blocks.push(crate::synthetic_scene::Block { min: [1.2, -0.3, 0.0], max: [1.5, 0.3, 0.8] });
+            let mut frame = scene.depth_frame(DepthEncoding::Lossless).unwrap();
+            frame.gravity_camera = None;
+            let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
+            match step.process(input(&frame, 7), &mut NoTimer) {
+                StepOutput::Perceived { hazard, .. } => {
+                    assert!(perceived, "pitch {pitch_deg}: {hazard:?}");
+                    assert!(!hazard.gravity);
+                    assert_eq!(hazard.ground, GroundState::Found);
+                    assert!((hazard.nearest_m - 1.2).abs() < 0.05, "{}", hazard.nearest_m);
+                    assert!(hazard.ficf.forward > 0.0, "{hazard:?}");
+                }
+                StepOutput::Refused { error, .. } => {
+                    assert!(!perceived, "pitch {pitch_deg}: {error}");
+                    assert_eq!(error.kind(), "no_ground");
+                }
+            }
+        }
     }
 
     #[test]

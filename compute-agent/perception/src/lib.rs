@@ -262,6 +262,11 @@ pub struct Perception {
     /// `rumble` came from where the user heads ([`crate::predictive`], set by the frame
     /// step); false: from the costs.
     pub predictive: bool,
+    /// The frame carried a usable gravity vector (`FrameContext::gravity_camera`): the
+    /// floor was searched level with it, lower ground looked for across the view and the
+    /// floor predicted at a near wall. Without one, only the thesis's search around the
+    /// camera's down axis or the last floor, and lower ground along the path.
+    pub gravity: bool,
 }
 
 impl Perception {
@@ -282,6 +287,7 @@ impl Perception {
             turn_ahead: self.turn_ahead,
             body_turn_deg_s: self.body_yaw_rate_rad_s.filter(|r| r.is_finite()).map(f32::to_degrees),
             predictive: self.predictive,
+            gravity: self.gravity,
             latency,
         }
     }
@@ -310,6 +316,7 @@ impl Perception {
             sweep_rad: 0.0,
             speed_m_s: 0.0,
             predictive: false,
+            gravity: false,
         }
     }
 }
@@ -407,14 +414,14 @@ impl Pipeline {
         };
         timer.stop();
         sampled?;
-        let gravity = ctx.gravity_camera.filter(|g| g.iter().all(|v| v.is_finite()));
+        let gravity = ctx.gravity_camera.filter(|g| ground_plane::normalized(g).is_some());
+        self.out.gravity = gravity.is_some();
 
         timer.start("ground_plane");
         let fit = if self.cloud.valid.len() >= 3 {
             let up = self.tracker.prior_up(gravity, &cfg.ground);
             let expected_offset_m = self.tracker.expected_offset_m(&cfg.ground);
-            let up_is_gravity = gravity.and_then(|g| ground_plane::normalized(&g)).is_some();
-            self.search.fit(&self.cloud, up, up_is_gravity, expected_offset_m, ctx.mount_height_m, &cfg.ground)
+            self.search.fit(&self.cloud, up, gravity.is_some(), expected_offset_m, ctx.mount_height_m, &cfg.ground)
         } else {
             None
         };

@@ -68,12 +68,12 @@ def test_monitor_line_has_key_type_seq_age_and_hazard_summary():
         "cacf": {"left": 0.0, "forward": 0.0, "right": 0.0}, "active": "Ficf",
         "rumble": "Both", "ground": "Found", "plane_camera": [0.0, -1.0, 0.0, 1.2],
         "nearest_m": 0.75, "nearest_bearing_deg": 5.0, "ttc_s": None,
-        "dropoff_ahead": False, "turn_ahead": False, "body_turn_deg_s": None, "predictive": False,
+        "dropoff_ahead": False, "turn_ahead": False, "body_turn_deg_s": None, "predictive": False, "gravity": True,
         "latency": [],
     }
     payload = encode("hazard", hazard, sender="compute", seq=42, capture_ns=NOW_NS - 3_500_000)
     line = monitor.describe("wearnav/alice/perception/hazard",
-                            "application/octet-stream;wearnav/hazard/v4", payload, NOW_NS, False)
+                            "application/octet-stream;wearnav/hazard/v5", payload, NOW_NS, False)
     assert line == ("wearnav/alice/perception/hazard  hazard #42  3.5 ms  "
                     "rumble Both nearest 0.75 m at 5 deg ground Found")
 
@@ -93,15 +93,15 @@ def test_monitor_json_line_summarises_depth_bytes_by_length():
 
 def test_monitor_shows_undecodable_payload_with_its_error_kind():
     line = monitor.describe("wearnav/alice/perception/hazard",
-                            "application/octet-stream;wearnav/hazard/v4", b"\x06\x00", NOW_NS, False)
+                            "application/octet-stream;wearnav/hazard/v5", b"\x06\x00", NOW_NS, False)
     assert line.startswith("wearnav/alice/perception/hazard  REJECTED truncated")
-    as_json = json.loads(monitor.describe("k", "", b"\x06\x00\x04\x00", NOW_NS, True))
+    as_json = json.loads(monitor.describe("k", "", b"\x06\x00\x05\x00", NOW_NS, True))
     assert as_json["error"] == "corrupt" and as_json["bytes"] == 4
 
 
 def test_monitor_rejects_a_payload_whose_encoding_names_another_schema():
     payload = encode("command", "Repeat", sender="t", seq=0, capture_ns=NOW_NS)
-    line = monitor.describe("k", "application/octet-stream;wearnav/hazard/v4", payload, NOW_NS, False)
+    line = monitor.describe("k", "application/octet-stream;wearnav/hazard/v5", payload, NOW_NS, False)
     assert "REJECTED wrong_schema" in line
 
 

@@ -91,6 +91,7 @@ HAZARD = Struct(
     turn_ahead=BOOL,
     body_turn_deg_s=Optional(F32),
     predictive=BOOL,
+    gravity=BOOL,
     latency=Seq(STAGE_LATENCY),
 )
 
@@ -266,8 +267,8 @@ SCHEMAS = (
     Schema(3, "odom_increment", ODOM_INCREMENT),
     Schema(4, "ground_truth", GROUND_TRUTH),
     Schema(5, "scan", SCAN),
-    # v2 added turn_ahead and body_turn_deg_s, v4 predictive
-    Schema(6, "hazard", HAZARD, version=4),
+    # v2 added turn_ahead and body_turn_deg_s, v4 predictive, v5 gravity
+    Schema(6, "hazard", HAZARD, version=5),
     # v3 added status
     Schema(7, "pose", POSE, version=3),
     # v3 added floor, status and route

@@ -65,7 +65,7 @@ def encoding_schema(name):
 
 def schema_of_encoding(encoding):
     """The schema name in a Zenoh encoding string such as
-    ``application/octet-stream;wearnav/hazard/v4``, or ``None`` when it names none."""
+    ``application/octet-stream;wearnav/hazard/v5``, or ``None`` when it names none."""
     _, _, tail = str(encoding).partition(";")
     parts = tail.split("/")
     if len(parts) == 3 and parts[0] == "wearnav" and parts[1] in BY_NAME:
