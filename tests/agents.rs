@@ -758,6 +758,76 @@ async fn frames_without_gravity_are_perceived_and_the_user_is_told_the_tilt_sens
     }
 }
 
+/// A second camera the compute agent was not told of (a chest camera started without
+/// `--chest-device`, another user's device on the wrong prefix): its frames and odometry
+/// are refused and counted, never run through the cane camera's ground and memory; the
+/// cane camera is the first heard, or the one named with `--cane-device`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_camera_the_compute_agent_was_not_told_of_is_refused_not_mixed_into_the_cane_cameras_view() {
+    use perception::synthetic_scene::{Block, Scene};
+    // the cane camera sees a clear floor; the other camera a wall 0.6 m ahead
+    let clear = Scene::kinect(0.99, 30.0).depth_frame(schemas::DepthEncoding::Lossless).unwrap();
+    let mut walled = Scene::kinect(0.99, 30.0);
+    walled.blocks.push(Block { min: [0.6, -2.0, 0.0], max: [0.7, 2.0, 2.0] });
+    let walled = walled.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
+    for (user, extra, first) in
+        [("other-camera-test", &[][..], "cane"), ("named-camera-test", &["--cane-device", "cane"][..], "xtion")]
+    {
+        let hub = hub(user).await;
+        let keys = hub.options.keys().unwrap();
+        let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
+        let health =
+            Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+        let args = [&["--no-body-imu"][..], extra].concat();
+        let _compute = spawn("compute-agent", &hub.endpoint, user, &args);
+        wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+        let declare = |device: &str| {
+            Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth(device), "test", Lane::Bulk, None)
+        };
+        let (mut cane, mut other) = (declare("cane").await.unwrap(), declare("xtion").await.unwrap());
+        let odom =
+            Publisher::<schemas::OdomIncrement>::declare(&hub.session, keys.odom("xtion"), "t", Lane::Events, None);
+        let mut odom = odom.await.unwrap();
+        let mut rumbles = Vec::new();
+        let mut other_stamps = Vec::new();
+        for k in 0..20 {
+            let now = bus::now_ns();
+            if k > 0 || first == "xtion" {
+                other.put(now, &walled).await.unwrap();
+                other_stamps.push(now);
+                let step = schemas::OdomIncrement {
+                    from_ns: now - 33_000_000,
+                    to_ns: now,
+                    forward_m: 0.04,
+                    left_m: 0.0,
+                    yaw_rad: 0.1,
+                };
+                odom.put(now, &step).await.unwrap();
+            }
+            let now = bus::now_ns();
+            if k > 0 || first == "cane" {
+                cane.put(now, &clear).await.unwrap();
+                let h = wait_for(&hazards, Duration::from_secs(3), |h| h.header.capture_ns == now).await;
+                let h = h.unwrap_or_else(|| panic!("{user}: no hazard for the cane frame {k}"));
+                assert!(!other_stamps.contains(&h.header.capture_ns));
+                rumbles.push((h.body.rumble, h.body.nearest_m));
+            }
+            tokio::time::sleep(Duration::from_millis(33)).await;
+        }
+        assert!(
+            rumbles.iter().all(|&(r, nearest)| r == Rumble::None && nearest.is_infinite()),
+            "{user}: the cane camera sees nothing in the way, the other camera's wall must not be felt: {rumbles:?}"
+        );
+        let refused = |h: &bus::Received<HealthStats>| {
+            h.body.agent == "compute-agent"
+                && h.body.rejects.iter().any(|r| r.kind == "other_camera" && r.count as usize > other_stamps.len())
+        };
+        let status = wait_for(&health, Duration::from_secs(3), refused).await;
+        // every odometry step (a queue) and the frames (newest kept) reaching the loop
+        assert!(status.is_some(), "{user}: the other camera's odometry and frames were not counted as refused");
+    }
+}
+
 /// `--chest-device` on a simulated world: the chest camera's frames on their own key,
 /// captured with the cane camera's, with its own mount guess and odometry.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -43,6 +43,12 @@ struct Cli {
     /// camera's cue goes on alone.
     #[arg(long, value_name = "DEVICE")]
     chest_device: Option<String>,
+    /// Device of the cane camera (`sensor/<device>/depth` and `/odom`): only its frames
+    /// and odometry are perceived as the cane's. Default: the first camera heard (the
+    /// chest camera aside), named in the log. Another camera's frames and odometry are
+    /// refused and counted as `other_camera` (one ground and one memory per camera).
+    #[arg(long, value_name = "DEVICE")]
+    cane_device: Option<String>,
     /// Oldest depth frame or odometry step acted on, in milliseconds from its capture
     /// (the sender's clock offset, estimated from its health messages, taken out). An
     /// older one (a stalled link, a replay) is refused and counted as `stale`; when
@@ -119,6 +125,7 @@ async fn main() -> anyhow::Result<()> {
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
     config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
     config.chest_device = cli.chest_device;
+    config.cane_device = cli.cane_device;
     if let Some(map) = cli.map {
         let mut nav = compute_agent::nav::NavConfig::new(compute_agent::nav::MapSource::File(map));
         nav.start = cli.start;

@@ -52,6 +52,10 @@ pub struct ComputeConfig {
     /// camera's frame while fresh ([`perception::second_view`]), so what hangs at head
     /// height is warned of. `None`: every depth frame is one camera's.
     pub chest_device: Option<String>,
+    /// The cane camera's device: only its frames and odometry go through the cane's
+    /// step. `None`: the first camera heard (the chest camera aside). Another camera's
+    /// are refused and counted as `other_camera` ([`CaneCamera`]).
+    pub cane_device: Option<String>,
 }
 
 /// Default [`ComputeConfig::max_input_age`]: a frame is 33 ms at 30 Hz and capture ->
@@ -75,6 +79,7 @@ impl ComputeConfig {
             nav: None,
             predictive: None,
             chest_device: None,
+            cane_device: None,
         }
     }
 }
@@ -140,6 +145,50 @@ impl Body {
         }
         self.heard = rate.is_some();
         rate
+    }
+}
+
+/// Which camera the cane's step perceives: the one named, else the first whose frame or
+/// odometry arrives. Another camera's frames and odometry are refused and counted
+/// (`other_camera`), and the log names it once: two cameras through one step would mix
+/// two heights in one ground tracker and two motions in one memory (a second camera
+/// must be told to the agent as the chest camera, `--chest-device`).
+struct CaneCamera {
+    keys: schemas::Keys,
+    device: Option<String>,
+    refused: std::collections::BTreeSet<String>,
+}
+
+impl CaneCamera {
+    /// Whether `key` is the cane camera's, as far as known (an IMU does not name it: the
+    /// body-worn one comes first as often as not).
+    fn is_cane(&self, key: &str) -> bool {
+        self.device.is_some() && self.keys.device_of(key) == self.device.as_deref()
+    }
+
+    /// Whether a message on `key` (a `sensor/<device>/...` key) is the cane camera's;
+    /// the first one heard names it when none was given.
+    fn accepts(&mut self, key: &str, health: &Health) -> bool {
+        let Some(device) = self.keys.device_of(key) else { return false };
+        match &self.device {
+            Some(cane) if cane == device => true,
+            Some(cane) => {
+                if self.refused.insert(device.to_string()) {
+                    tracing::warn!(
+                        "{key}: camera {device:?} is not the cane camera {cane:?}: its frames and odometry are refused (give it as --chest-device if it is worn at the chest)"
+                    );
+                }
+                health.reject(key, "other_camera", &format_args!("{device:?} is not the cane camera {cane:?}"));
+                false
+            }
+            None => {
+                tracing::info!(
+                    "the cane camera is {device:?} (the first heard): other cameras' frames and odometry are refused"
+                );
+                self.device = Some(device.to_string());
+                true
+            }
+        }
     }
 }
 
@@ -268,6 +317,13 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         }
         None => None,
     };
+    let mut cane = CaneCamera { keys: keys.clone(), device: config.cane_device.clone(), refused: Default::default() };
+    if let Some(device) = &cane.device {
+        schemas::keys::check_chunk("device", device).context("bad cane device")?;
+        if config.chest_device.as_ref() == Some(device) {
+            anyhow::bail!("{device:?} is given as both the cane camera and the chest camera");
+        }
+    }
     health.set_status(true, "waiting for depth frames");
     tracing::info!(user = %config.bus.user, "compute agent running: {} -> {}", keys.depth_any(), keys.hazard());
 
@@ -277,10 +333,10 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             biased;
             _ = shutdown.triggered() => break,
             e = health_task.failed() => return Err(e),
-            Some(inc) = odom.recv() => add_step(&mut step, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health),
+            Some(inc) = odom.recv() => add_step(&mut step, &mut cane, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health),
             Some(batch) = body.recv() => body.add(&batch, &health),
             Some(batch) = bus::maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
-                if let Some(n) = nav.as_mut() {
+                if let Some(n) = nav.as_mut().filter(|_| cane.is_cane(&batch.key)) {
                     n.imu(&batch, &health);
                 }
             }
@@ -311,14 +367,16 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             }
             Some(frame) = frames.recv() => {
                 while let Some(inc) = odom.try_recv() {
-                    add_step(&mut step, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health);
+                    add_step(&mut step, &mut cane, chest.as_mut(), nav.as_mut(), &mut body, &inc, &health);
                 }
                 while let Some(batch) = body.imu.as_ref().and_then(|s| s.try_recv()) {
                     body.add(&batch, &health);
                 }
                 if let Some(n) = nav.as_mut() {
                     while let Some(batch) = n.cane_imu.try_recv() {
-                        n.imu(&batch, &health);
+                        if cane.is_cane(&batch.key) {
+                            n.imu(&batch, &health);
+                        }
                     }
                 }
                 if let Err(e) = still_fresh(&frame, max_age, &health) {
@@ -328,6 +386,9 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                 let body_yaw_rate_rad_s = body.rate_for(&frame.key, frame.header.capture_ns);
                 if let Some(c) = chest.as_mut().filter(|c| frame.key == c.depth_key) {
                     c.frame(&frame, body_yaw_rate_rad_s, &mut step, &health);
+                    continue;
+                }
+                if !cane.accepts(&frame.key, &health) {
                     continue;
                 }
                 let nav_status = nav.as_ref().map(|n| n.status());
@@ -361,8 +422,10 @@ fn still_fresh(frame: &Received<DepthFrame>, max_age: Duration, health: &Health)
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn add_step(
     step: &mut ComputeStep,
+    cane: &mut CaneCamera,
     chest: Option<&mut Chest>,
     nav: Option<&mut Nav>,
     body: &mut Body,
@@ -374,6 +437,9 @@ fn add_step(
         if let Err(e) = chest.step.add_odometry(&inc.body) {
             health.reject(&inc.key, e.kind(), &e);
         }
+        return;
+    }
+    if !cane.accepts(&inc.key, health) {
         return;
     }
     if let Err(e) = step.add_odometry(&inc.body) {
