@@ -77,11 +77,18 @@ impl PerceptionConfig {
     /// from [`CHEST_OVERHANGS_FROM_M`] up (`scan.overhangs_from_m`: a lamp, a sign, a
     /// cabinet standing out from a wall, not the wall, a bin or a bench the cane camera
     /// already warns of), and leaves drop-offs to the cane camera (it sees the floor
-    /// only from about 2 m on).
+    /// only from about 2 m on), so it takes a lower floor at once.
     pub fn for_chest(&self) -> Self {
         let mut c = self.clone();
         c.scan.overhangs_from_m = Some(CHEST_OVERHANGS_FROM_M);
         c.dropoff.enabled = false;
+        // The cane camera keeps its floor when a lower one appears (a step down in view
+        // must stop the user, not become the ground); the chest camera looks for no
+        // drop-offs, and a lower floor after its running ground drifted up (a wall
+        // filling its view gave planes on what stands before it) is its floor again.
+        // Waiting 5 s for it left the chest blind exactly while the user walked on.
+        c.ground.max_offset_drop_m = c.ground.max_offset_jump_m;
+        c.ground.reseed_lower_after_frames = c.ground.reseed_after_frames;
         c
     }
 

@@ -736,3 +736,37 @@ fn a_chest_camera_warns_of_what_overhangs_not_of_walls_bins_or_benches() {
     let all = run(&mut p, &scene, &ctx).unwrap();
     assert!((all.scan.ranges_m[all.scan.ranges_m.len() / 2] - 3.0).abs() < 0.05);
 }
+
+#[test]
+fn after_its_ground_drifted_up_the_chest_camera_takes_the_floor_back_at_once_the_cane_camera_waits() {
+    // 1.3 m up, 10 degrees down: the floor, then a platform 0.15 m high filling the view
+    // (the running ground goes up to it, within the thesis's 0.2 m guard), then the floor
+    // again, 0.15 m lower than the running ground
+    let floor = Scene::kinect(1.3, 10.0);
+    let mut platform = Scene::kinect(1.3, 10.0);
+    platform.blocks.push(Block { min: [0.0, -6.0, 0.0], max: [8.0, 6.0, 0.15] });
+    let ctx = FrameContext { gravity_camera: gravity(&floor), mount_height_m: Some(1.3), ..Default::default() };
+    let states = |cfg: PerceptionConfig| {
+        let mut p = Pipeline::new(cfg);
+        let mut k = 0u64;
+        let mut frame = |scene: &Scene| {
+            k += 1;
+            run(&mut p, scene, &FrameContext { stamp_ns: k * 33_333_333, ..ctx }).map(|o| (o.ground, o.plane_camera[3]))
+        };
+        assert_eq!(frame(&floor).unwrap().0, GroundState::Found);
+        for _ in 0..10 {
+            frame(&platform).unwrap();
+        }
+        let on_platform = frame(&platform).unwrap();
+        assert_eq!(on_platform.0, GroundState::Found);
+        assert!((on_platform.1 - 1.15).abs() < 0.02, "the platform as the ground: {on_platform:?}");
+        (0..10).map(|_| frame(&floor).unwrap().0).collect::<Vec<_>>()
+    };
+    let chest = states(PerceptionConfig::default().for_chest());
+    assert!(chest.iter().all(|&s| s == GroundState::Found), "the chest camera: {chest:?}");
+    // the cane camera keeps the higher floor for 5 s (a step down must stop the user):
+    // lost, then degraded, never the lower floor within these 10 frames
+    let cane = states(PerceptionConfig::default());
+    assert!(cane.iter().all(|&s| s != GroundState::Found), "the cane camera: {cane:?}");
+    assert_eq!(cane.last(), Some(&GroundState::Degraded));
+}
