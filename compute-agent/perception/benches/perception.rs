@@ -192,6 +192,7 @@ fn main() {
                 motion: None,
                 body_yaw_rate_rad_s: None,
                 mount_height_m: None,
+                mount_pitch_deg: None,
             };
             timer.clear();
             let t0 = Instant::now();

@@ -215,15 +215,7 @@ impl ComputeStep {
                         depth_scale_m: f.depth_scale_m,
                         intrinsics: f.intrinsics,
                     };
-                    let mount_height_m = f.mount.map(|m| m.height_m);
-                    perceive(
-                        &mut self.pipeline,
-                        &mut self.motion,
-                        depth,
-                        (f.gravity_camera, mount_height_m),
-                        &input,
-                        timer,
-                    )
+                    perceive(&mut self.pipeline, &mut self.motion, depth, (f.gravity_camera, f.mount), &input, timer)
                 })
             }
             FrameData::Xyz { points, width, height, gravity_camera } => {
@@ -280,13 +272,13 @@ impl ComputeStep {
     }
 }
 
-/// The pipeline on one decoded frame, with its gravity and mount height guess and the
-/// motion that ends by its capture.
+/// The pipeline on one decoded frame, with its gravity and mount guess and the motion
+/// that ends by its capture.
 fn perceive(
     pipeline: &mut Pipeline,
     motion: &mut MotionSince,
     depth: DepthInput<'_>,
-    (gravity_camera, mount_height_m): (Option<[f32; 3]>, Option<f32>),
+    (gravity_camera, mount): (Option<[f32; 3]>, Option<schemas::MountGuess>),
     input: &FrameIn<'_>,
     timer: &mut dyn StageTimer,
 ) -> Result<Perception, StepError> {
@@ -295,7 +287,8 @@ fn perceive(
         gravity_camera,
         motion: motion.take_until(input.capture_ns),
         body_yaw_rate_rad_s: input.body_yaw_rate_rad_s,
-        mount_height_m,
+        mount_height_m: mount.map(|m| m.height_m),
+        mount_pitch_deg: mount.map(|m| m.pitch_deg),
     };
     Ok(pipeline.process(depth, &ctx, timer)?.clone())
 }
@@ -358,13 +351,19 @@ mod tests {
     fn a_frame_without_gravity_is_perceived_and_its_hazard_says_so() {
         // a camera without IMU, 10 degrees down: the floor is found around its down axis
         // and a box 1.2 m ahead warned of, and the hazard says the frame had no gravity (the
-        // feedback agent tells the user); at 30 degrees no floor is found at all
-        for (pitch_deg, perceived) in [(10.0, true), (30.0, false)] {
+        // feedback agent tells the user); at 30 degrees no floor is found around that
+        // axis, but around the pitch the mount guess gives
+        for (pitch_deg, mount, perceived) in [
+            (10.0, None, true),
+            (30.0, None, false),
+            (30.0, Some(schemas::MountGuess { height_m: 0.9, pitch_deg: 28.0 }), true),
+        ] {
             let mut scene = Scene::kinect(0.9, pitch_deg);
             scene.walls_x_m.push(2.5);
             scene.blocks.push(crate::synthetic_scene::Block { min: [1.2, -0.3, 0.0], max: [1.5, 0.3, 0.8] });
             let mut frame = scene.depth_frame(DepthEncoding::Lossless).unwrap();
             frame.gravity_camera = None;
+            frame.mount = mount;
             let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
             match step.process(input(&frame, 7), &mut NoTimer) {
                 StepOutput::Perceived { hazard, .. } => {

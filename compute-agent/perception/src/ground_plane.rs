@@ -208,7 +208,9 @@ impl GroundSearch {
         if spread_m < cfg.min_spread_m {
             return None;
         }
-        let tilted = up_is_gravity && dot(&plane.normal, &up) < TILT_CHECKED_COS;
+        // without gravity the prior (a mount guess's pitch, camera -y) may itself be a
+        // few degrees off: every plane found without a running ground must be a surface
+        let tilted = !up_is_gravity || dot(&plane.normal, &up) < TILT_CHECKED_COS;
         if expected_offset_m.is_none() && tilted && !self.surface(&plane, cfg) {
             // a plane across surfaces (through a box top's far edge and the floor beyond,
             // tilted within the cone): its points do not lie on it
@@ -528,14 +530,21 @@ pub struct GroundTracker {
 
 impl GroundTracker {
     /// Up axis to search around: against gravity when the frame has a usable gravity
-    /// vector, else the running plane while the ground is trusted, else camera -y.
-    pub fn prior_up(&self, gravity_camera: Option<[f32; 3]>, cfg: &GroundConfig) -> [f32; 3] {
+    /// vector, else the running plane while the ground is trusted, else the up axis of
+    /// a camera pitched `mount_pitch_deg` down (the mount guess, no roll), else camera
+    /// -y.
+    pub fn prior_up(
+        &self,
+        gravity_camera: Option<[f32; 3]>,
+        mount_pitch_deg: Option<f32>,
+        cfg: &GroundConfig,
+    ) -> [f32; 3] {
         if let Some(up) = gravity_camera.and_then(|g| normalized(&[-g[0], -g[1], -g[2]])) {
             return up;
         }
         match self.average {
             Some(avg) if self.lost_frames <= cfg.max_lost_frames => avg.normal,
-            _ => [0.0, -1.0, 0.0],
+            _ => mount_pitch_deg.filter(|p| p.is_finite() && p.abs() <= 90.0).map_or([0.0, -1.0, 0.0], up_of_pitch),
         }
     }
 
@@ -593,6 +602,13 @@ impl GroundTracker {
     pub fn lost_frames(&self) -> u32 {
         self.lost_frames
     }
+}
+
+/// The world's up axis in the optical frame (x right, y down, z ahead) of a camera
+/// pitched `pitch_deg` below the horizontal with no roll.
+pub fn up_of_pitch(pitch_deg: f32) -> [f32; 3] {
+    let (s, c) = pitch_deg.to_radians().sin_cos();
+    [0.0, -c, -s]
 }
 
 fn blend(avg: &Plane, new: &Plane, w: f32) -> Plane {
@@ -723,8 +739,27 @@ mod tests {
     fn gravity_overrides_the_prior() {
         let cfg = GroundConfig::default();
         let t = GroundTracker::default();
-        let up = t.prior_up(Some([0.0, 0.0, 2.0]), &cfg);
+        let up = t.prior_up(Some([0.0, 0.0, 2.0]), None, &cfg);
         assert_eq!(up, [0.0, 0.0, -1.0]);
-        assert_eq!(t.prior_up(Some([f32::NAN, 0.0, 0.0]), &cfg), [0.0, -1.0, 0.0]);
+        assert_eq!(t.prior_up(Some([f32::NAN, 0.0, 0.0]), None, &cfg), [0.0, -1.0, 0.0]);
+        assert_eq!(t.prior_up(Some([0.0, 0.0, 2.0]), Some(30.0), &cfg), [0.0, 0.0, -1.0]);
+    }
+
+    #[test]
+    fn without_gravity_the_mount_pitch_gives_the_prior_until_a_ground_is_tracked() {
+        let cfg = GroundConfig::default();
+        let mut t = GroundTracker::default();
+        for pitch in [0.0f32, 10.0, 30.0, 60.0] {
+            let truth = crate::synthetic_scene::Scene::kinect(0.9, pitch).floor_plane_camera();
+            let up = t.prior_up(None, Some(pitch), &cfg);
+            assert!((0..3).all(|i| (up[i] - truth[i]).abs() < 1e-5), "pitch {pitch}: {up:?} vs the floor's {truth:?}");
+        }
+        // a guess no camera could have is not used
+        assert_eq!(t.prior_up(None, Some(f32::NAN), &cfg), [0.0, -1.0, 0.0]);
+        assert_eq!(t.prior_up(None, Some(120.0), &cfg), [0.0, -1.0, 0.0]);
+        // a tracked ground is a better prior than the guess
+        let tracked = Plane { normal: up_of_pitch(25.0), offset_m: 0.9 };
+        t.update(Some(PlaneFit { plane: tracked, subset_inliers: 100, subset_len: 200 }), None, &cfg);
+        assert_eq!(t.prior_up(None, Some(30.0), &cfg), tracked.normal);
     }
 }

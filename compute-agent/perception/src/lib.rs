@@ -154,6 +154,11 @@ pub struct FrameContext {
     /// [`GroundConfig::mount_tolerance_m`] of it. `None`: within
     /// [`GroundConfig::camera_height_range_m`].
     pub mount_height_m: Option<f32>,
+    /// The camera's pitch below the horizontal as the sender believes it (the frame's
+    /// mount guess), degrees: without gravity, the floor is looked for around the up
+    /// axis it gives rather than the camera's down axis (a camera pitched 30 degrees
+    /// down is outside the thesis's 20 degree cone around that). `None`: camera -y.
+    pub mount_pitch_deg: Option<f32>,
 }
 
 /// Why a frame gave no perception. Each is counted by [`PerceptionError::kind`].
@@ -419,7 +424,7 @@ impl Pipeline {
 
         timer.start("ground_plane");
         let fit = if self.cloud.valid.len() >= 3 {
-            let up = self.tracker.prior_up(gravity, &cfg.ground);
+            let up = self.tracker.prior_up(gravity, ctx.mount_pitch_deg, &cfg.ground);
             let expected_offset_m = self.tracker.expected_offset_m(&cfg.ground);
             self.search.fit(&self.cloud, up, gravity.is_some(), expected_offset_m, ctx.mount_height_m, &cfg.ground)
         } else {

@@ -453,6 +453,7 @@ fn walk_to_wall(
             motion: None,
             body_yaw_rate_rad_s: None,
             mount_height_m: None,
+            mount_pitch_deg: None,
         };
         out.push((ctx.stamp_ns, run(&mut p, &scene, &ctx), wall_m));
     }
@@ -643,7 +644,13 @@ fn a_top_filling_the_near_view_is_never_the_ground_with_or_without_gravity_or_a_
         for (name, scene) in tops_filling_the_near_view(pitch) {
             for (mount, with_gravity) in [(Some(0.9), true), (None, true), (Some(0.9), false), (None, false)] {
                 let g = if with_gravity { gravity(&scene) } else { None };
-                let ctx = FrameContext { gravity_camera: g, mount_height_m: mount, ..Default::default() };
+                // a mount guess gives the pitch too, 3 degrees off
+                let ctx = FrameContext {
+                    gravity_camera: g,
+                    mount_height_m: mount,
+                    mount_pitch_deg: mount.map(|_| pitch + 3.0),
+                    ..Default::default()
+                };
                 let case = format!("pitch {pitch}, {name}, mount {mount:?}, gravity {with_gravity}");
                 let out = match run(&mut Pipeline::new(cfg.clone()), &scene, &ctx) {
                     Err(e) => {
@@ -660,8 +667,9 @@ fn a_top_filling_the_near_view_is_never_the_ground_with_or_without_gravity_or_a_
         }
     }
     // without gravity the floor beside a box or bench is still found at 10 degrees
-    // (the thesis's cone around the camera's down axis holds it), never at 30
-    assert_eq!(found, [4, 9], "floors found [without, with] gravity");
+    // (the thesis's cone around the camera's down axis holds it); at 30 only around the
+    // pitch of a mount guess (beside the bench, the box and under the table top)
+    assert_eq!(found, [7, 9], "floors found [without, with] gravity");
 }
 
 #[test]
