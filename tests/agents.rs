@@ -52,6 +52,23 @@ struct Hub {
     health: std::sync::Arc<Health>,
 }
 
+impl Hub {
+    /// A subscriber on `key` that keeps every message, as a monitor would.
+    async fn subscribe<M: schemas::Message + Send + 'static>(&self, key: String) -> Subscriber<M> {
+        Subscriber::declare(&self.session, key, false, &self.health).await.expect("test subscriber")
+    }
+
+    /// A publisher of depth frames on `key`, as a sensor agent would send them.
+    async fn depth_publisher(&self, key: String) -> anyhow::Result<Publisher<schemas::DepthFrame>> {
+        Publisher::declare(&self.session, key, "test", Lane::Bulk, None).await
+    }
+}
+
+/// A feedback agent with the console's haptics and speech (no device here).
+fn console_feedback(hub: &Hub, user: &str) -> Agent {
+    spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"])
+}
+
 async fn hub(user: &str) -> Hub {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let mut options = BusOptions::for_user(user);
@@ -91,10 +108,10 @@ async fn hazards_reach_feedback_and_offline_warning_follows_a_killed_compute_age
     let user = "agents-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let applied = hub.subscribe::<Applied>(keys.applied()).await;
 
-    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let _feedback = console_feedback(&hub, user);
     let _phone = spawn("phone-bridge", &hub.endpoint, user, &["--http", "127.0.0.1:0"]);
     let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:approach"]);
     let mut compute = spawn("compute-agent", &hub.endpoint, user, &[]);
@@ -156,9 +173,9 @@ async fn garbage_on_every_subscribed_key_is_counted_and_agents_keep_running() {
     let user = "garbage-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
-    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
-    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let applied = hub.subscribe::<Applied>(keys.applied()).await;
+    let _feedback = console_feedback(&hub, user);
     let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
     // Let both agents declare their subscriptions.
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "feedback-agent").await.expect("feedback health");
@@ -214,9 +231,9 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
     let user = "blind-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let intents = Subscriber::<HapticIntent>::declare(&hub.session, keys.haptic(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let intents = hub.subscribe::<HapticIntent>(keys.haptic()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
     let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
 
@@ -241,10 +258,7 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
         encoding: schemas::DepthEncoding::Lossless,
         data,
     };
-    let mut frames =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
-            .await
-            .unwrap();
+    let mut frames = hub.depth_publisher(keys.depth("cane")).await.unwrap();
     for _ in 0..10 {
         frames.put(bus::now_ns(), &frame).await.unwrap();
         tokio::time::sleep(Duration::from_millis(33)).await;
@@ -308,8 +322,8 @@ async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
     let user = "body-imu-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
     let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
 
@@ -320,10 +334,7 @@ async fn a_body_worn_imu_turns_the_compute_agents_look_and_nothing_else_does() {
     let frame = scene.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
     let declare =
         |key: String| Publisher::<schemas::ImuBatch>::declare(&hub.session, key, "test", Lane::Telemetry, None);
-    let mut frames =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
-            .await
-            .unwrap();
+    let mut frames = hub.depth_publisher(keys.depth("cane")).await.unwrap();
     let mut body = declare(keys.imu("body")).await.unwrap();
     let mut cane = declare(keys.imu("cane")).await.unwrap();
 
@@ -417,8 +428,8 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
     let perception_toml = dir.join("perception.toml");
     assert_eq!(config.perception.stride_px, 1);
     std::fs::write(&perception_toml, "stride_px = 1\n").unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
     let toml_arg = perception_toml.to_string_lossy().to_string();
     // a loaded machine may fall behind the walk's pace: this test compares hazards, not ages
     let _compute = spawn(
@@ -428,10 +439,7 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
         &["--perception-config", &toml_arg, "--no-body-imu", "--max-input-age-ms", "10000"],
     );
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
-    let mut frames =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
-            .await
-            .unwrap();
+    let mut frames = hub.depth_publisher(keys.depth("cane")).await.unwrap();
     let mut odom =
         Publisher::<schemas::OdomIncrement>::declare(&hub.session, keys.odom("cane"), "test", Lane::Events, None)
             .await
@@ -465,20 +473,17 @@ async fn frames_a_stalled_link_delivers_late_count_as_none_and_the_user_is_told_
     let user = "late-link-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
-    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let applied = hub.subscribe::<Applied>(keys.applied()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let _feedback = console_feedback(&hub, user);
     let _compute = spawn("compute-agent", &hub.endpoint, user, &["--no-body-imu"]);
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "feedback-agent").await.expect("feedback health");
     let frame = perception::synthetic_scene::Scene::kinect(0.8, 30.0)
         .depth_frame(schemas::DepthEncoding::Lossless)
         .expect("test scene packs");
-    let mut frames =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
-            .await
-            .unwrap();
+    let mut frames = hub.depth_publisher(keys.depth("cane")).await.unwrap();
     let offline = |a: &bus::Received<Applied>, want: bool| matches!(&a.body.action, AppliedAction::OfflineWarning { offline, .. } if *offline == want);
 
     // Fresh frames: hazards flow and detection is online.
@@ -629,14 +634,12 @@ async fn a_chest_camera_joined_by_the_compute_agent_warns_of_a_sign_the_cane_cam
     let user = "chest-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
     let _compute = spawn("compute-agent", &hub.endpoint, user, &["--chest-device", "chest", "--no-body-imu"]);
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
     let (cane_frame, chest_frame) = cane_and_chest_frames();
-    let declare = |device: &str| {
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth(device), "test", Lane::Bulk, None)
-    };
+    let declare = |device: &str| hub.depth_publisher(keys.depth(device));
     let (mut cane, mut chest) = (declare("cane").await.unwrap(), declare("chest").await.unwrap());
 
     let mut warned = Vec::new();
@@ -684,10 +687,10 @@ async fn frames_without_gravity_are_perceived_and_the_user_is_told_the_tilt_sens
     let user = "gravity-test";
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
-    let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-    let applied = Subscriber::<Applied>::declare(&hub.session, keys.applied(), false, &hub.health).await.unwrap();
-    let health = Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
-    let _feedback = spawn("feedback-agent", &hub.endpoint, user, &["--haptic", "console", "--speech", "console"]);
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let applied = hub.subscribe::<Applied>(keys.applied()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let _feedback = console_feedback(&hub, user);
     let _compute = spawn("compute-agent", &hub.endpoint, user, &["--no-body-imu"]);
     wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
     // 0.9 m up, 10 degrees down, a box 1.2 m ahead: the floor is in the thesis's cone
@@ -697,10 +700,7 @@ async fn frames_without_gravity_are_perceived_and_the_user_is_told_the_tilt_sens
     let with = scene.depth_frame(schemas::DepthEncoding::Lossless).unwrap();
     assert!(with.gravity_camera.is_some());
     let without = schemas::DepthFrame { gravity_camera: None, ..with.clone() };
-    let mut cane =
-        Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth("cane"), "test", Lane::Bulk, None)
-            .await
-            .unwrap();
+    let mut cane = hub.depth_publisher(keys.depth("cane")).await.unwrap();
 
     // what the user was told about the tilt sensor, when
     let mut spoken = Vec::new();
@@ -775,15 +775,12 @@ async fn a_camera_the_compute_agent_was_not_told_of_is_refused_not_mixed_into_th
     {
         let hub = hub(user).await;
         let keys = hub.options.keys().unwrap();
-        let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, &hub.health).await.unwrap();
-        let health =
-            Subscriber::<HealthStats>::declare(&hub.session, keys.health_any(), false, &hub.health).await.unwrap();
+        let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+        let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
         let args = [&["--no-body-imu"][..], extra].concat();
         let _compute = spawn("compute-agent", &hub.endpoint, user, &args);
         wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
-        let declare = |device: &str| {
-            Publisher::<schemas::DepthFrame>::declare(&hub.session, keys.depth(device), "test", Lane::Bulk, None)
-        };
+        let declare = |device: &str| hub.depth_publisher(keys.depth(device));
         let (mut cane, mut other) = (declare("cane").await.unwrap(), declare("xtion").await.unwrap());
         let odom =
             Publisher::<schemas::OdomIncrement>::declare(&hub.session, keys.odom("xtion"), "t", Lane::Events, None);
