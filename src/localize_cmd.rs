@@ -68,6 +68,13 @@ pub struct LocalizeArgs {
     /// well they match the map.
     #[arg(long, requires = "world")]
     wall_angles: bool,
+    /// With `--world`: at each update also give the filter the corners where two
+    /// straight walls of the frame's scan meet, matched against the corners of the map's
+    /// outline (Zhang et al.'s corridor corners, a landmark that is not unique). Without
+    /// it the corners are still looked for, and the report says how far they lie from
+    /// the map's.
+    #[arg(long, requires = "world")]
+    corners: bool,
     /// With `--carmen`: odometry noise, AMCL's alpha1..alpha4 (rotation from rotation,
     /// rotation from translation, translation from translation, translation from
     /// rotation); default 0.1 each. A simulated walk has the simulator's own.
@@ -163,6 +170,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
         signs,
         misread_after_m: args.misread_after,
         wall_angles: args.wall_angles.then(localization::WallFitConfig::default),
+        corners: args.corners.then(localization::CornerConfig::default),
         ..defaults
     };
     let clock = Instant::now();
@@ -194,12 +202,12 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
     writeln!(
         out,
         "t_s,walked_m,truth_x_m,truth_y_m,truth_heading_deg,estimate_x_m,estimate_y_m,estimate_heading_deg,\
-         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread,wall_residual_deg,wall_used"
+         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread,wall_residual_deg,wall_used,corner_residuals_m,corners_used"
     )?;
     for f in frames {
         writeln!(
             out,
-            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{},{},{}",
+            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{},{},{},{},{}",
             f.t_s,
             f.walked_m,
             f.truth[0],
@@ -218,7 +226,9 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
             csv_field(&f.doors_read.join(" ")),
             f.misread,
             f.wall_residual_deg.map_or(String::new(), |d| format!("{d:.2}")),
-            f.wall_used
+            f.wall_used,
+            f.corner_residuals_m.iter().map(|d| format!("{d:.2}")).collect::<Vec<_>>().join(" "),
+            f.corners_used
         )?;
     }
     out.flush()?;

@@ -1,9 +1,11 @@
 //! What the filter needs of one floor: the likelihood field of its occupancy grid, its
-//! free cells (where recovery may put particles), its numbered doors and corners, and
+//! free cells (where recovery may put particles), its numbered doors, the corners of its
+//! outline (found in the grid, [`crate::corners`]), and
 //! its wall directions (for the wall-angle correction).
 
 use map::{Cell, DistanceField, OccupancyGrid, SemanticLayer};
 
+use crate::corners::{corners_of_grid, CornerField, GridCornerConfig};
 use crate::likelihood_field::{LikelihoodField, LikelihoodFieldConfig};
 use crate::LocalizationError;
 
@@ -20,13 +22,14 @@ pub struct FloorModel {
     pub(crate) cell_m: f64,
     /// (number as [`door_key`] has it, place)
     pub(crate) doors: Vec<(String, [f64; 2])>,
-    pub(crate) corners: Vec<[f64; 2]>,
+    /// the corners of its free space's outline ([`crate::corners`])
+    pub(crate) corners: CornerField,
     /// wall directions in the map frame, radians, each modulo pi
     pub(crate) wall_directions_rad: Vec<f64>,
 }
 
 impl FloorModel {
-    /// A floor from its grid and semantic layer (doors and corners of other floors are
+    /// A floor from its grid and semantic layer (doors of other floors are
     /// ignored). Wall directions are estimated from the grid
     /// ([`dominant_wall_directions`]); set others with [`Self::with_wall_directions`].
     /// Refuses a grid with no free cell: nothing could ever be localized on it.
@@ -55,7 +58,7 @@ impl FloorModel {
             grid: grid.clone(),
             cell_m: grid.resolution_m(),
             doors: on_floor.doors.iter().map(|d| (door_key(&d.number), [d.x, d.y])).collect(),
-            corners: on_floor.corners.iter().map(|c| [c.x, c.y]).collect(),
+            corners: CornerField::new(grid, corners_of_grid(grid, &GridCornerConfig::default())),
             wall_directions_rad: dominant_wall_directions(grid),
         })
     }
@@ -64,6 +67,11 @@ impl FloorModel {
     pub fn with_wall_directions(mut self, directions_rad: Vec<f64>) -> Self {
         self.wall_directions_rad = directions_rad;
         self
+    }
+
+    /// The corners a corner seen in a scan is matched against, map metres.
+    pub fn corners(&self) -> &[[f64; 2]] {
+        self.corners.corners()
     }
 
     /// The wall directions the wall-angle correction matches against.

@@ -29,6 +29,7 @@
 
 mod bin_sums;
 pub mod carmen;
+pub mod corners;
 pub mod floor_model;
 pub mod landmarks;
 pub mod likelihood_field;
@@ -42,6 +43,7 @@ pub mod scan;
 pub mod tracker;
 pub mod walls;
 
+pub use corners::{corners_of_grid, corners_of_walls, CornerConfig, CornerField, GridCornerConfig};
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
 pub use likelihood_field::{GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};

@@ -245,15 +245,25 @@ fn with_the_gate_on_the_beams_on_a_person_the_map_does_not_have_are_left_out_whi
 }
 
 #[test]
-fn corners_are_matched_to_the_nearest_one() {
-    // no scans; facing west 0.7 m from the corridor's west end, a corner ahead-right.
-    // Corners are not unique: the reading is matched to whichever map corner is
-    // nearest each particle's prediction, so only places near a corridor end, facing
-    // it, gain weight.
-    // Alone, the reading fits two places: this one and one 1.9 m south, outside the
-    // corridor (the other wall's corner); the start spread is drawn in free space only.
+fn corners_are_the_grids_and_two_seen_together_fix_a_corridors_end() {
+    // The map's corners are where its free space's outline turns (found in the grid,
+    // not the semantic layer's labels): the corridor's four ends and each alcove's.
+    let (g, s) = corridor();
+    let floor = FloorModel::new(0, &g, &s, &Default::default()).expect("floor");
+    let near = |p: [f64; 2]| floor.corners().iter().any(|c| (c[0] - p[0]).hypot(c[1] - p[1]) < 0.05);
+    for end in [[0.3, 0.55], [0.3, 2.45], [29.7, 0.55], [29.7, 2.45]] {
+        assert!(near(end), "no corner at {end:?}: {:?}", floor.corners());
+    }
+    // each alcove's two mouth corners and two back corners, and nothing else
+    assert!(near([9.0, 2.45]) && near([11.5, 2.95]), "{:?}", floor.corners());
+    assert_eq!(floor.corners().len(), 4 + 5 * 4, "{:?}", floor.corners());
+
+    // No scans; facing west 0.7 m from the corridor's west end, its two corners ahead.
+    // Corners are not unique (each reading is matched to whichever map corner is nearest
+    // each particle's prediction): one alone fits every alcove's corner too; two 1.9 m
+    // apart across the corridor fit its ends only, and facing west, this one.
     let truth = Pose2::new(1.0, 1.5, std::f64::consts::PI);
-    let seen = [Landmark::Corner { forward_m: 0.7, left_m: -0.95 }];
+    let seen = [Landmark::Corner { forward_m: 0.7, left_m: -0.95 }, Landmark::Corner { forward_m: 0.7, left_m: 0.95 }];
     let errors: Vec<f64> = (1..=10)
         .map(|seed| {
             let (mut pf, _) = corridor_filter(FilterConfig::default(), seed);
@@ -264,8 +274,7 @@ fn corners_are_matched_to_the_nearest_one() {
             pf.estimate().pose.distance_m(&truth)
         })
         .collect();
-    eprintln!("corner: error after three readings (start 7 m off), seeds 1-10: {errors:.2?}");
-    // before the start was drawn in free space, 12 of 30 seeds came within 0.75 m
+    eprintln!("corners: error after three readings (start 7 m off), seeds 1-10: {errors:.2?}");
     assert!(errors.iter().all(|&e| e < 0.5), "{errors:?}");
 }
 

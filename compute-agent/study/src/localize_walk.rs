@@ -22,8 +22,9 @@
 
 use localization::log_run::{quantile, rmse};
 use localization::{
-    longest_wall, wrap_angle, Beam, FilterConfig, FloorModel, Landmark, LikelihoodFieldConfig, LocalizationError,
-    Observations, OdometryIncrement, ParticleFilter, Pose2, Scan, Status, WallAngle, WallFitConfig,
+    corners_of_walls, wall_segments, wrap_angle, Beam, CornerConfig, FilterConfig, FloorModel, Landmark,
+    LikelihoodFieldConfig, LocalizationError, Observations, OdometryIncrement, ParticleFilter, Pose2, Scan, Status,
+    WallAngle, WallFitConfig,
 };
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
 use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
@@ -70,6 +71,11 @@ pub struct LocalizeWalkConfig {
     /// directions; `None` leaves it out. Walls are looked for either way (the frames
     /// report how well they match the map at the true heading).
     pub wall_angles: Option<WallFitConfig>,
+    /// The corner correction: at each update the corners where two of the scan's walls
+    /// meet ([`localization::corners`]), matched against the corners of the map's
+    /// outline; `None` leaves it out. Corners are looked for either way (the frames
+    /// report how far they lie from the map's at the true pose).
+    pub corners: Option<CornerConfig>,
 }
 
 impl Default for LocalizeWalkConfig {
@@ -92,6 +98,7 @@ impl Default for LocalizeWalkConfig {
             signs: Some(SignReaderConfig::default()),
             misread_after_m: None,
             wall_angles: None,
+            corners: None,
         }
     }
 }
@@ -174,6 +181,11 @@ pub struct FrameLocalization {
     pub wall_residual_deg: Option<f64>,
     /// The filter was given that wall's angle at this frame.
     pub wall_used: bool,
+    /// Corners where two of the scan's walls meet: how far each, placed at the true
+    /// pose, lies from the map's nearest corner, metres.
+    pub corner_residuals_m: Vec<f64>,
+    /// The filter was given those corners at this frame.
+    pub corners_used: bool,
 }
 
 /// The figures of a localized walk.
@@ -218,6 +230,15 @@ pub struct LocalizeSummary {
     pub wall_residual_p90_deg: f64,
     /// Wall angles the filter was given (at updates, with the correction on).
     pub wall_angles_used: usize,
+    /// Corners seen in the frames' scans (two walls meeting).
+    pub corners_found: usize,
+    /// Of them, the share within 0.3 m of a corner of the map at the true pose, and the
+    /// median distance of those (NaN without corners).
+    pub corners_on_map_fraction: f64,
+    /// See `corners_on_map_fraction`, metres.
+    pub corner_residual_median_m: f64,
+    /// Corners the filter was given (at updates, with the correction on).
+    pub corners_used: usize,
     /// Median time of an update (frames that corrected), milliseconds.
     pub update_ms_median: f64,
     /// Odometry increments or gyro rates the filter refused.
@@ -264,7 +285,8 @@ impl WalkLocalization {
              tracking {:.1} % of frames ({} while > 1 m off); update median {:.3} ms\n\
              door signs: {} read, {} misread, {} refused by the filter{}\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n\
-             walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n",
+             walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n\
+             corners: {} seen (two walls meeting), {:.0} % within 0.3 m of the map's at the true pose ({:.2} m median), given to the filter at {} frames\n",
             self.world,
             self.seed,
             s.frames,
@@ -301,6 +323,10 @@ impl WalkLocalization {
             s.wall_residual_median_deg,
             s.wall_residual_p90_deg,
             s.wall_angles_used,
+            s.corners_found,
+            100.0 * s.corners_on_map_fraction,
+            s.corner_residual_median_m,
+            s.corners_used,
         )
     }
 }
@@ -322,6 +348,8 @@ pub fn localize_walk(
     let wall_directions = model.wall_directions_rad().to_vec();
     let wall_fit = config.wall_angles.unwrap_or_default();
     let walls = map::DistanceField::to_occupied(&floor.grid);
+    let map_corners = localization::CornerField::new(&floor.grid, model.corners().to_vec());
+    let corner_fit = config.corners.unwrap_or_default();
 
     let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
     if trace.is_empty() || trace.len() != scans.len() {
@@ -399,7 +427,15 @@ pub fn localize_walk(
             .iter()
             .map(|r| Landmark::Door { number: r.number.clone(), forward_m: r.forward_m, left_m: r.left_m })
             .collect();
-        let wall = longest_wall(&scan, &wall_fit);
+        let segments = wall_segments(&scan, &wall_fit);
+        let wall = segments.first().map(|w| WallAngle { angle_rad: w.angle_rad });
+        let seen_corners = corners_of_walls(&segments, &corner_fit);
+        let corners_used =
+            config.corners.is_some() && observed.is_some() && pf.update_due() && !seen_corners.is_empty();
+        let mut landmarks = landmarks;
+        if corners_used {
+            landmarks.extend(seen_corners.iter().map(|&[forward_m, left_m]| Landmark::Corner { forward_m, left_m }));
+        }
         // one wall angle per update: the filter takes wall angles only when it updates
         let wall_used = config.wall_angles.is_some() && observed.is_some() && pf.update_due() && wall.is_some();
         let wall_angles: Vec<WallAngle> = wall.filter(|_| wall_used).into_iter().collect();
@@ -446,6 +482,11 @@ pub fn localize_walk(
                 localization::landmarks::wall_residual(truth.heading_rad + w.angle_rad, &wall_directions).to_degrees()
             }),
             wall_used,
+            corner_residuals_m: seen_corners
+                .iter()
+                .map(|&[f, l]| map_corners.distance_m(truth.x_m + ct * f - st * l, truth.y_m + st * f + ct * l))
+                .collect(),
+            corners_used,
         });
     }
     let summary = summarize(&frames, walked_m, pf.counters(), replay_mismatches);
@@ -602,6 +643,8 @@ fn summarize(
     let updates: Vec<f64> = frames.iter().filter(|f| f.updated).map(|f| f.update_ms).collect();
     let tracking = frames.iter().filter(|f| f.status == Status::Tracking).count();
     let walls: Vec<f64> = frames.iter().filter_map(|f| f.wall_residual_deg).collect();
+    let corners: Vec<f64> = frames.iter().flat_map(|f| f.corner_residuals_m.iter().copied()).collect();
+    let on_map: Vec<f64> = corners.iter().copied().filter(|&d| d <= 0.3).collect();
     LocalizeSummary {
         frames: frames.len(),
         updates: counters.updates,
@@ -622,6 +665,10 @@ fn summarize(
         wall_residual_median_deg: quantile(&walls, 0.5),
         wall_residual_p90_deg: quantile(&walls, 0.9),
         wall_angles_used: frames.iter().filter(|f| f.wall_used).count(),
+        corners_found: corners.len(),
+        corners_on_map_fraction: if corners.is_empty() { f64::NAN } else { on_map.len() as f64 / corners.len() as f64 },
+        corner_residual_median_m: quantile(&on_map, 0.5),
+        corners_used: frames.iter().filter(|f| f.corners_used).count(),
         update_ms_median: quantile(&updates, 0.5),
         odometry_rejected: counters.odometry_rejected,
         beams_unmapped: counters.beams_unmapped,
