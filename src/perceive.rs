@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use perception::{
     ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, Perception, PerceptionConfig, StageMedians, StepOutput,
 };
-use schemas::{DepthEncoding, DepthFrame, GroundState, Intrinsics, Rumble, SideCosts};
+use schemas::{DepthEncoding, DepthFrame, GroundState, Intrinsics, MountGuess, Rumble, SideCosts};
 use serde_json::{json, Value};
 
 /// Arguments of `wearnav perceive`.
@@ -27,6 +27,12 @@ pub struct PerceiveArgs {
     /// `X,Y,Z`. Without it the up prior is camera -y (then the previous plane).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub gravity: Option<[f32; 3]>,
+    /// How the camera is mounted, as the sensor agent's `--mount` gives it: height above
+    /// the floor in metres and downward pitch in degrees, `H,PITCH` (e.g. `1.3,30`).
+    /// Without `--gravity` the floor is then looked for around that pitch first (a
+    /// camera without IMU pitched far down finds no floor in the cone around camera -y).
+    #[arg(long, value_parser = parse_mount, allow_hyphen_values = true)]
+    pub mount: Option<MountGuess>,
     /// Cone around the up prior the ground normal must lie in, degrees (default 20).
     #[arg(long)]
     pub up_cone_deg: Option<f32>,
@@ -95,7 +101,7 @@ fn load(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Frame> {
                     cy: (height as f32 - 1.0) / 2.0,
                 }),
                 gravity_camera: args.gravity,
-                mount: None,
+                mount: args.mount,
                 encoding: DepthEncoding::Raw,
                 data,
             }))
@@ -119,9 +125,13 @@ pub fn perceive_file(path: &Path, args: &PerceiveArgs) -> anyhow::Result<Value> 
     for k in 0..args.runs.max(1) {
         let data = match &frame {
             Frame::Depth(f) => FrameData::Wire(f),
-            Frame::Xyz { points, width, height } => {
-                FrameData::Xyz { points, width: *width, height: *height, gravity_camera: args.gravity }
-            }
+            Frame::Xyz { points, width, height } => FrameData::Xyz {
+                points,
+                width: *width,
+                height: *height,
+                gravity_camera: args.gravity,
+                mount: args.mount,
+            },
         };
         let input =
             FrameIn { data, seq: k as u64, capture_ns: k as u64 * 33_333_333, body_yaw_rate_rad_s: None, way: None };
@@ -221,6 +231,13 @@ fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     Ok(v)
 }
 
+fn parse_mount(s: &str) -> Result<MountGuess, String> {
+    let [height_m, pitch_deg] = parse_floats::<2>(s)?;
+    let m = MountGuess { height_m, pitch_deg };
+    m.check()?;
+    Ok(m)
+}
+
 fn parse_intrinsics(s: &str) -> Result<Intrinsics, String> {
     let [fx, fy, cx, cy] = parse_floats::<4>(s)?;
     let k = Intrinsics { fx, fy, cx, cy };
@@ -247,6 +264,7 @@ mod tests {
             runs: 3,
             json: true,
             gravity: None,
+            mount: None,
             up_cone_deg: None,
             depth_scale: 0.001,
             intrinsics: None,
@@ -292,6 +310,29 @@ mod tests {
     }
 
     #[test]
+    fn without_gravity_a_mount_pitched_as_the_camera_was_finds_the_floor_in_the_default_cone() {
+        // the same TUM frame: its floor is ~29 deg from camera -y, outside the default
+        // 20 deg cone around it, and 1.77 m below the camera; told how the camera was
+        // mounted (as the sensor agent's --mount tells the compute agent), the default
+        // cone finds that floor. A height guess 0.47 m off is not trusted.
+        let path = data("tum_depth_640x480_u16_5000perm.png");
+        let mut a = args(vec![path.clone()]);
+        a.depth_scale = 0.0002;
+        let not_found = |a: &PerceiveArgs| match perceive_file(&path, a) {
+            Err(e) => format!("{e:#}").contains("ground not found"),
+            Ok(v) => panic!("a floor without a usable mount guess: {v}"),
+        };
+        assert!(not_found(&a));
+        a.mount = Some(MountGuess { height_m: 1.75, pitch_deg: 29.0 });
+        let v = perceive_file(&path, &a).unwrap();
+        let plane: Vec<f64> = v["plane"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let cos = (0.011 * plane[0] - 0.878 * plane[1] - 0.479 * plane[2]).clamp(-1.0, 1.0);
+        assert!(cos.acos().to_degrees() < 2.0 && (plane[3] - 1.767).abs() < 0.03, "{plane:?}");
+        a.mount = Some(MountGuess { height_m: 1.3, pitch_deg: 29.0 });
+        assert!(not_found(&a));
+    }
+
+    #[test]
     fn unreadable_files_fail_with_their_name() {
         let a = args(vec![PathBuf::from("/nonexistent/frame.pcd"), PathBuf::from("notes.txt")]);
         let e = run(&a).unwrap_err();
@@ -306,5 +347,7 @@ mod tests {
         assert!(parse_vec3("1,2").is_err());
         assert!(parse_intrinsics("525,525,nan,239.5").is_err());
         assert!(parse_intrinsics("525,525,319.5,239.5").is_ok());
+        assert_eq!(parse_mount("1.3,30"), Ok(MountGuess { height_m: 1.3, pitch_deg: 30.0 }));
+        assert!(parse_mount("0,30").is_err() && parse_mount("1.3,95").is_err() && parse_mount("1.3").is_err());
     }
 }

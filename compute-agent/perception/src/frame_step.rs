@@ -50,6 +50,9 @@ pub enum FrameData<'a> {
         height: u32,
         /// Gravity in the camera frame, pointing down, when known.
         gravity_camera: Option<[f32; 3]>,
+        /// How the camera is thought to be mounted (without gravity its pitch is where
+        /// the floor is looked for first), when known.
+        mount: Option<schemas::MountGuess>,
     },
 }
 
@@ -218,9 +221,9 @@ impl ComputeStep {
                     perceive(&mut self.pipeline, &mut self.motion, depth, (f.gravity_camera, f.mount), &input, timer)
                 })
             }
-            FrameData::Xyz { points, width, height, gravity_camera } => {
+            FrameData::Xyz { points, width, height, gravity_camera, mount } => {
                 let xyz = DepthInput::Xyz { points, width, height };
-                perceive(&mut self.pipeline, &mut self.motion, xyz, (gravity_camera, None), &input, timer)
+                perceive(&mut self.pipeline, &mut self.motion, xyz, (gravity_camera, mount), &input, timer)
             }
         };
         let active = self.pipeline.config().cost_function;
