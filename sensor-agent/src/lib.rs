@@ -4,6 +4,7 @@
 #[cfg(feature = "openni2")]
 pub mod camera;
 pub mod formats;
+pub mod imu;
 pub mod pacing;
 pub mod replay;
 pub mod run;

@@ -94,6 +94,17 @@ struct Cli {
     /// taken for it; without it, anywhere 0.5-2 m below the camera.
     #[arg(long, value_parser = parse_mount, value_name = "HEIGHT,PITCH")]
     mount: Option<MountGuess>,
+    /// An IMU on the cane beside a camera that has none (`openni2:` sources; the Xtion
+    /// has no IMU): `mpu6050:/dev/i2c-N[@0x68]`, an InvenSense MPU-6050 on the kernel's
+    /// i2c-dev bus. Each frame then carries its sample and gravity (while the cane is
+    /// still enough to tell), so the compute agent looks for steps down everywhere.
+    /// Untested with hardware: check the axes against a level floor first.
+    #[arg(long, value_name = "SPEC")]
+    imu: Option<String>,
+    /// How the IMU board sits against the camera: the board axis (signed) along the
+    /// camera's x (right), y (down) and z (forward), e.g. `-y,-z,x`.
+    #[arg(long, value_name = "X,Y,Z", default_value = "x,y,z", requires = "imu")]
+    imu_axes: String,
     /// Health reports the source stalled after this long without a frame.
     #[arg(long, default_value_t = 500, value_name = "MS")]
     stall_after_ms: u64,
@@ -139,8 +150,17 @@ async fn main() -> anyhow::Result<()> {
         intrinsics: cli.intrinsics,
         chest: cli.chest_device.is_some(),
     };
-    let source = sensor_agent::source::open(&cli.source, &options)
+    let mut source = sensor_agent::source::open(&cli.source, &options)
         .with_context(|| format!("cannot open frame source {:?}", cli.source))?;
+    if let Some(spec) = &cli.imu {
+        if !cli.source.starts_with("openni2:") {
+            anyhow::bail!("--imu is for a real camera (openni2:); {:?} brings its own IMU or none", cli.source);
+        }
+        let axes = sensor_agent::imu::AxisMap::parse(&cli.imu_axes)?;
+        let imu = sensor_agent::imu::open(spec).with_context(|| format!("cannot open the IMU {spec:?}"))?;
+        tracing::info!(imu = %imu.describe(), axes = %cli.imu_axes, "frames carry the IMU's sample and gravity");
+        source = Box::new(sensor_agent::imu::WithImu::new(source, imu, axes));
+    }
     let mut config = sensor_agent::run::SensorConfig::new(cli.bus);
     config.device = cli.device;
     config.body_device = cli.body_device;
