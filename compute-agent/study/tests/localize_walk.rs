@@ -112,8 +112,9 @@ fn the_wall_angle_holds_the_heading_within_3_degrees_where_the_scan_alone_does_n
 fn the_corners_two_walls_of_a_scan_meet_at_are_the_corners_of_the_maps_outline() {
     // corridor, seed 1 (measured): 157 corners seen in the frames' scans, at the
     // corridor's ends and its L, every one within 0.3 m of a corner found in the floor
-    // plan's grid when placed at the true pose (median 0.18 m: the plan draws a wall
-    // 0.1 m thick on its line, the simulator's wall face is 0.1 m off the line); given
+    // plan's grid when placed at the true pose (median 0.18 m: on a wall two cells thick
+    // the map's corner is on the wall's line, 0.07 m from its faces' corner, and the
+    // scan's walls lie a few centimetres in front of the faces); given
     // to the filter at 20 updates. The place on this walk: RMSE 0.232 -> 0.168 m; over
     // other walks and worlds mixed, so off by default (docs/localization.md, "Corners").
     let corners = LocalizeWalkConfig { corners: Some(CornerConfig::default()), ..Default::default() };
