@@ -103,7 +103,7 @@ struct Cli {
     imu: Option<String>,
     /// How the IMU board sits against the camera: the board axis (signed) along the
     /// camera's x (right), y (down) and z (forward), e.g. `-y,-z,x`.
-    #[arg(long, value_name = "X,Y,Z", default_value = "x,y,z", requires = "imu")]
+    #[arg(long, value_name = "X,Y,Z", default_value = "x,y,z", requires = "imu", allow_hyphen_values = true)]
     imu_axes: String,
     /// Health reports the source stalled after this long without a frame.
     #[arg(long, default_value_t = 500, value_name = "MS")]
