@@ -258,26 +258,25 @@ fn blur(image: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
     let kernel: Vec<f32> = (-radius..=radius).map(|d| (-(d * d) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
     let total: f32 = kernel.iter().sum();
     let kernel: Vec<f32> = kernel.iter().map(|k| k / total).collect();
-    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
-    let mut across = vec![0.0f32; w * h];
-    for r in 0..h {
-        for c in 0..w {
-            across[r * w + c] = kernel
-                .iter()
-                .enumerate()
-                .map(|(k, kv)| kv * image[r * w + clamp(c as isize + k as isize - radius, w)])
-                .sum();
-        }
-    }
+    let across = blur_pass(image, w, h, &kernel, (1, w));
+    blur_pass(&across, w, h, &kernel, (w, h))
+}
+
+/// One pass of [`blur`] along rows (`(step, len)` = `(1, w)`) or columns (`(w, h)`).
+fn blur_pass(image: &[f32], w: usize, h: usize, kernel: &[f32], (step, len): (usize, usize)) -> Vec<f32> {
+    let radius = (kernel.len() / 2) as isize;
     let mut out = vec![0.0f32; w * h];
-    for r in 0..h {
-        for c in 0..w {
-            out[r * w + c] = kernel
-                .iter()
-                .enumerate()
-                .map(|(k, kv)| kv * across[clamp(r as isize + k as isize - radius, h) * w + c])
-                .sum();
-        }
+    for (i, o) in out.iter_mut().enumerate() {
+        // this cell's place along the pass, and the index of the pass's first cell
+        let at = if step == 1 { i % w } else { i / w };
+        let first = i - at * step;
+        *o = kernel
+            .iter()
+            .enumerate()
+            .map(|(k, kv)| {
+                kv * image[first + (at as isize + k as isize - radius).clamp(0, len as isize - 1) as usize * step]
+            })
+            .sum();
     }
     out
 }

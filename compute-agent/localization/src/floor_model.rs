@@ -5,6 +5,8 @@
 
 use map::{Cell, DistanceField, OccupancyGrid, SemanticLayer};
 
+use std::sync::OnceLock;
+
 use crate::corners::{corners_of_grid, CornerField, GridCornerConfig};
 use crate::likelihood_field::{LikelihoodField, LikelihoodFieldConfig};
 use crate::LocalizationError;
@@ -22,8 +24,9 @@ pub struct FloorModel {
     pub(crate) cell_m: f64,
     /// (number as [`door_key`] has it, place)
     pub(crate) doors: Vec<(String, [f64; 2])>,
-    /// the corners of its free space's outline ([`crate::corners`])
-    pub(crate) corners: CornerField,
+    /// the corners of its free space's outline ([`crate::corners`]), found when first
+    /// asked for (only a corner seen needs them)
+    corners: OnceLock<CornerField>,
     /// wall directions in the map frame, radians, each modulo pi
     pub(crate) wall_directions_rad: Vec<f64>,
 }
@@ -58,7 +61,7 @@ impl FloorModel {
             grid: grid.clone(),
             cell_m: grid.resolution_m(),
             doors: on_floor.doors.iter().map(|d| (door_key(&d.number), [d.x, d.y])).collect(),
-            corners: CornerField::new(grid, corners_of_grid(grid, &GridCornerConfig::default())),
+            corners: OnceLock::new(),
             wall_directions_rad: dominant_wall_directions(grid),
         })
     }
@@ -71,7 +74,13 @@ impl FloorModel {
 
     /// The corners a corner seen in a scan is matched against, map metres.
     pub fn corners(&self) -> &[[f64; 2]] {
-        self.corners.corners()
+        self.corner_field().corners()
+    }
+
+    /// The corners and the distance to the nearest, found in the grid on first use.
+    pub fn corner_field(&self) -> &CornerField {
+        self.corners
+            .get_or_init(|| CornerField::new(&self.grid, corners_of_grid(&self.grid, &GridCornerConfig::default())))
     }
 
     /// The wall directions the wall-angle correction matches against.

@@ -925,7 +925,7 @@ impl ParticleFilter {
             Landmark::Corner { .. } => {
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
                     let seen = p.pose.compose(fwd, left, 0.0);
-                    let d = self.floors[p.floor as usize].corners.distance_m(seen.x_m, seen.y_m);
+                    let d = self.floors[p.floor as usize].corner_field().distance_m(seen.x_m, seen.y_m);
                     *lw += mixture_log_p(d, cfg.sigma_m, cfg.corner_false_probability);
                 }
             }

@@ -348,7 +348,7 @@ pub fn localize_walk(
     let wall_directions = model.wall_directions_rad().to_vec();
     let wall_fit = config.wall_angles.unwrap_or_default();
     let walls = map::DistanceField::to_occupied(&floor.grid);
-    let map_corners = localization::CornerField::new(&floor.grid, model.corners().to_vec());
+    let map_corners = model.corner_field().clone();
     let corner_fit = config.corners.unwrap_or_default();
 
     let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
