@@ -416,21 +416,7 @@ mod tests {
     #[test]
     fn a_halved_frame_keeps_every_second_pixel_of_every_second_row_and_halves_the_intrinsics() {
         let k = schemas::Intrinsics { fx: 500.0, fy: 480.0, cx: 320.0, cy: 240.0 };
-        let frame = SourceFrame {
-            stamp_ns: 1,
-            width: 5,
-            height: 3,
-            depth_scale_m: 0.001,
-            intrinsics: k,
-            depth: (1..=15).collect(),
-            gravity_camera: None,
-            mount: None,
-            imu: vec![],
-            body_imu: vec![],
-            odom: None,
-            truth: None,
-            chest: None,
-        };
+        let frame = SourceFrame::depth_only(1, (5, 3), 0.001, k, (1..=15).collect());
         let (mut halved, mut buf) = (Vec::new(), Vec::new());
         let level = Level { codec: WireCodec::Lossless, half: true, every: 1 };
         let packed = pack(&frame, None, level, &mut halved, &mut buf).unwrap();

@@ -37,6 +37,34 @@ pub struct SourceFrame {
     pub chest: Option<Box<SourceFrame>>,
 }
 
+impl SourceFrame {
+    /// A frame of depth alone: no gravity, mount guess, IMU, odometry, truth or chest
+    /// camera (a camera without IMU, a recording of depth images).
+    pub fn depth_only(
+        stamp_ns: u64,
+        (width, height): (u32, u32),
+        depth_scale_m: f32,
+        intrinsics: Intrinsics,
+        depth: Vec<u16>,
+    ) -> Self {
+        Self {
+            stamp_ns,
+            width,
+            height,
+            depth_scale_m,
+            intrinsics,
+            depth,
+            gravity_camera: None,
+            mount: None,
+            imu: Vec::new(),
+            body_imu: Vec::new(),
+            odom: None,
+            truth: None,
+            chest: None,
+        }
+    }
+}
+
 /// Why a source could not deliver a frame. `Skipped` is not fatal: the stream goes on.
 #[derive(Debug, thiserror::Error)]
 pub enum SourceError {

@@ -342,21 +342,7 @@ fn copy_depth(frame: &ffi::OniFrame, intrinsics: Intrinsics, mm_scale: f32) -> R
         depth.extend(line.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])));
     }
     let stamp_ns = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
-    Ok(SourceFrame {
-        stamp_ns,
-        width: w as u32,
-        height: h as u32,
-        depth_scale_m,
-        intrinsics,
-        depth,
-        gravity_camera: None,
-        mount: None,
-        imu: Vec::new(),
-        body_imu: Vec::new(),
-        odom: None,
-        truth: None,
-        chest: None,
-    })
+    Ok(SourceFrame::depth_only(stamp_ns, (w as u32, h as u32), depth_scale_m, intrinsics, depth))
 }
 
 #[cfg(test)]

@@ -347,21 +347,8 @@ mod tests {
 
         fn next_frame(&mut self, _now_ns: u64) -> Result<Option<SourceFrame>, SourceError> {
             self.0 += 1;
-            Ok(Some(SourceFrame {
-                stamp_ns: self.0 * 33_333_333,
-                width: 1,
-                height: 1,
-                depth_scale_m: 0.001,
-                intrinsics: schemas::Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0 },
-                depth: vec![1000],
-                gravity_camera: None,
-                mount: None,
-                imu: Vec::new(),
-                body_imu: Vec::new(),
-                odom: None,
-                truth: None,
-                chest: None,
-            }))
+            let k = schemas::Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0 };
+            Ok(Some(SourceFrame::depth_only(self.0 * 33_333_333, (1, 1), 0.001, k, vec![1000])))
         }
 
         fn period_ns(&self) -> u64 {

@@ -248,21 +248,8 @@ impl ReplaySource {
                 (img.width, img.height, img.samples, depth_scale_m, intrinsics)
             }
         };
-        Ok(SourceFrame {
-            stamp_ns,
-            width,
-            height,
-            depth_scale_m,
-            intrinsics,
-            depth,
-            gravity_camera: entry.gravity_camera,
-            mount: None,
-            imu: Vec::new(),
-            body_imu: Vec::new(),
-            odom: None,
-            truth: None,
-            chest: None,
-        })
+        let frame = SourceFrame::depth_only(stamp_ns, (width, height), depth_scale_m, intrinsics, depth);
+        Ok(SourceFrame { gravity_camera: entry.gravity_camera, ..frame })
     }
 }
 
