@@ -75,6 +75,15 @@ pub struct LocalizeArgs {
     /// the map's.
     #[arg(long, requires = "world")]
     corners: bool,
+    /// With `--world`: also weigh free space, the floor the camera saw along each bearing,
+    /// which a pose must not put a wall of the map across (the scan's hits alone let a
+    /// place shifted back from an opening fit as well as the true one). Off by default:
+    /// better in a building's halls, no better along a uniform corridor, and worse on a
+    /// map that marks what overhangs the floor (docs/localization.md, "Free space").
+    /// Without it the report still says how much of the floor seen free the map puts a
+    /// wall on.
+    #[arg(long, requires = "world")]
+    free_space: bool,
     /// With `--carmen`: odometry noise, AMCL's alpha1..alpha4 (rotation from rotation,
     /// rotation from translation, translation from translation, translation from
     /// rotation); default 0.1 each. A simulated walk has the simulator's own.
@@ -153,6 +162,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
         max_particles: args.particles,
         min_particles: defaults.filter.min_particles.min(args.particles),
         unmapped_gate_m: args.unmapped_gate.unwrap_or(defaults.filter.unmapped_gate_m),
+        free_space: args.free_space.then(localization::FreeSpaceConfig::default),
         ..defaults.filter.clone()
     };
     if args.misread_after.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {

@@ -46,7 +46,7 @@ pub mod walls;
 pub use corners::{corners_of_grid, corners_of_walls, CornerConfig, CornerField, GridCornerConfig};
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
-pub use likelihood_field::{GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};
+pub use likelihood_field::{FreeSpaceConfig, GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
     Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, Rejected, Status,

@@ -35,6 +35,40 @@ impl Default for LikelihoodFieldConfig {
     }
 }
 
+/// Free space: the floor a depth camera saw along a ray says that no wall of the map
+/// stands there. A pose that puts a wall across floor the camera saw is unlikely; the
+/// likelihood field alone cannot say so (a beam that saw nothing is skipped, and a pose
+/// shifted back along a corridor, whose hits still land on its walls, fits as well as
+/// the true one: docs/localization.md, "Why the estimate falls behind"). Each ray's
+/// points are tested against the map; the nearest of them to a wall, `d` away, costs
+/// `penalty * (1 - d / wall_m)` in log-likelihood (nothing from `wall_m` on): a ray
+/// through a wall the whole penalty, one that passes a wall's face closely (the floor
+/// seen up to a wall met at a slant) a little. Measured: docs/localization.md, "Free
+/// space".
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FreeSpaceConfig {
+    /// log-likelihood lost by a free ray through a wall (before the scan's exponent)
+    pub penalty: f64,
+    /// a ray is tested from this far from the sensor, metres
+    pub start_m: f64,
+    /// ... to this much short of where the floor was seen, metres
+    pub margin_m: f64,
+    /// ... at points this far apart, metres (no more than the map's thinnest wall, so a
+    /// ray through a wall has a point in it)
+    pub step_m: f64,
+    /// a point this close to an occupied cell or closer costs part of the penalty, metres
+    pub wall_m: f64,
+    /// rays tested per scan, evenly spread over those long enough
+    pub max_rays: usize,
+}
+
+impl Default for FreeSpaceConfig {
+    fn default() -> Self {
+        Self { penalty: 1.0, start_m: 0.3, margin_m: 0.25, step_m: 0.1, wall_m: 0.15, max_rays: 15 }
+    }
+}
+
 /// A pose in a field's grid units: cell coordinates of the body origin, and the
 /// heading's cos and sin scaled to cells per metre ([`LikelihoodField::grid_pose`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -286,6 +320,56 @@ impl LikelihoodField {
         }
     }
 
+    /// For each pose, adds to `crossed` how far each free ray goes into a wall: ray `k` is
+    /// the body-frame points of `points[ray_ends[k - 1]..ray_ends[k]]`; its nearest point to
+    /// an occupied cell, `d` away, adds `1 - d / wall_m` (0 from `wall_m` on: a ray that
+    /// passes a wall's face closely costs little, one through the wall the whole
+    /// penalty). Pose-major arithmetic as in [`LikelihoodField::add_scan_log_p`].
+    pub fn add_free_crossings(
+        &self,
+        poses: &mut GridPoses,
+        points: &[[f32; 2]],
+        ray_ends: &[usize],
+        wall_m: f64,
+        nearest: &mut Vec<u8>,
+        crossed: &mut [f32],
+    ) {
+        let n = poses.gx.len();
+        assert_eq!(crossed.len(), n, "one sum per pose");
+        poses.cell.resize(n, 0);
+        let outside = (self.width * self.height) as i32;
+        // codes from this on are `wall_m` or more from a wall (255, off the map, too)
+        let wall_code = (wall_m / self.step_m).round().clamp(1.0, 254.0) as u8;
+        let mut depth = [0.0f32; 256];
+        for (code, d) in depth.iter_mut().enumerate().take(wall_code as usize) {
+            *d = 1.0 - code as f32 / f32::from(wall_code);
+        }
+        let mut start = 0;
+        for &end in ray_ends {
+            nearest.clear();
+            nearest.resize(n, 255);
+            for &[bx, by] in &points[start..end.min(points.len())] {
+                let cells = poses.gx.iter().zip(&poses.gy).zip(poses.c.iter().zip(&poses.s)).zip(poses.cell.iter_mut());
+                if self.narrow {
+                    for (((&gx0, &gy0), (&c, &s)), cell) in cells {
+                        *cell = self.cell_narrow(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
+                    }
+                } else {
+                    for (((&gx0, &gy0), (&c, &s)), cell) in cells {
+                        *cell = self.cell_wide(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
+                    }
+                }
+                for (&cell, m) in poses.cell.iter().zip(nearest.iter_mut()) {
+                    *m = (*m).min(self.codes.get(cell as usize).copied().unwrap_or(255));
+                }
+            }
+            for (&m, c) in nearest.iter().zip(crossed.iter_mut()) {
+                *c += depth[m as usize];
+            }
+            start = end;
+        }
+    }
+
     /// The best log-likelihood one beam can have (end point on an occupied cell).
     pub fn log_p_max(&self) -> f64 {
         self.log_p_max
@@ -311,6 +395,44 @@ mod tests {
         for v in [0.0f32, 1.0, 2.0, 814.0] {
             assert!(cell_floor(v) == v as i32 || cell_floor(v) == v as i32 - 1, "{v}");
         }
+    }
+
+    #[test]
+    fn a_free_ray_through_a_wall_costs_a_whole_one_one_short_of_it_nothing_one_along_its_face_part() {
+        // a wall two cells thick at x = 2.5..2.6
+        let mut g = OccupancyGrid::filled(100, 100, 0.05, Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }, Cell::Free)
+            .expect("grid");
+        for r in 0..100 {
+            g.set(50, r, Cell::Occupied);
+            g.set(51, r, Cell::Occupied);
+        }
+        let f = LikelihoodField::new(&g, &LikelihoodFieldConfig::default());
+        let ray = |from: f32, to: f32, left: f32| {
+            let n = ((to - from) / 0.1).round() as usize;
+            (0..=n).map(|k| [from + k as f32 * 0.1, left]).collect::<Vec<_>>()
+        };
+        // from a pose at (1, 2) facing +x: 0.3..1.2 m ahead ends 0.3 m short of the wall,
+        // 0.3..2.0 m goes through it
+        let short = ray(0.3, 1.2, 0.0);
+        let through = ray(0.3, 2.0, 0.0);
+        let mut points = short.clone();
+        points.extend(&through);
+        let ends = [short.len(), points.len()];
+        let mut poses = GridPoses::default();
+        poses.push(f.grid_pose(1.0, 2.0, 1.0, 0.0));
+        // the same rays from a pose facing +y at (2.4, 0.5): both run along the wall in
+        // the cells 0.1 m from its first cells' centres
+        poses.push(f.grid_pose(2.4, 0.5, 0.0, 1.0));
+        let mut crossed = [0.0f32; 2];
+        let mut scratch = Vec::new();
+        f.add_free_crossings(&mut poses, &points, &ends, 0.15, &mut scratch, &mut crossed);
+        assert!((crossed[0] - 1.0).abs() < 1e-6, "only the ray through the wall, all of it: {crossed:?}");
+        // alongside: each ray 0.1 m from the wall costs 1 - 0.1/0.15 = 1/3 (the distance
+        // codes' quantisation: within 0.02 a ray)
+        assert!((crossed[1] - 2.0 / 3.0).abs() < 0.04, "{crossed:?}");
+        // sums add up: a second call adds the same again
+        f.add_free_crossings(&mut poses, &points, &ends, 0.15, &mut scratch, &mut crossed);
+        assert!((crossed[0] - 2.0).abs() < 1e-6, "{crossed:?}");
     }
 
     #[test]

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::bin_sums::BinSums;
 use crate::floor_model::FloorModel;
 use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
-use crate::likelihood_field::{GridPoses, LikelihoodField};
+use crate::likelihood_field::{FreeSpaceConfig, GridPoses, LikelihoodField};
 use crate::motion::{MotionDraw, MotionNoise, OdometryIncrement, RotTransRot};
 use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
 use crate::rng::Rng;
@@ -55,6 +55,12 @@ pub struct FilterConfig {
     /// and global starts converged as fast; 1/2 lost tracks (docs/localization.md).
     /// AMCL tempers with a sum of cubes instead.
     pub scan_weight_exponent: f64,
+    /// free space: the floor the camera saw along a ray, which a pose should not put a
+    /// wall across, weighed with the scan's exponent. `None` (the default): not weighed.
+    /// Better where the scan's walls end ahead (a building's halls: RMSE 0.16 -> 0.11 m),
+    /// no better along a uniform corridor, worse on a map that marks what overhangs the
+    /// floor (docs/localization.md, "Free space").
+    pub free_space: Option<FreeSpaceConfig>,
     /// fewest particles (`min_particles`, 500)
     pub min_particles: usize,
     /// most particles after a resampling (`max_particles`, 5000)
@@ -170,6 +176,7 @@ impl Default for FilterConfig {
             update_min_angle_rad: 0.2,
             max_beams: 30,
             scan_weight_exponent: 1.0 / 3.0,
+            free_space: None,
             min_particles: 500,
             max_particles: 5000,
             global_particles: 40_000,
@@ -379,6 +386,14 @@ pub struct ParticleFilter {
     batch_index: Vec<usize>,
     batch_pose: GridPoses,
     batch_sums: Vec<[f32; 2]>,
+    /// free space: body-frame points along the free rays (and in f32), where each ray
+    /// ends among them, each particle's cost over the rays in a batch, and a ray's
+    /// nearest distance code to a wall per particle
+    free_points: Vec<[f64; 2]>,
+    free_points32: Vec<[f32; 2]>,
+    free_ray_ends: Vec<usize>,
+    free_crossed: Vec<f32>,
+    free_nearest: Vec<u8>,
     bins: BinSums,
     next: Vec<Particle>,
     /// door readings few particles agreed with: (floor index, door, body-frame offset)
@@ -446,6 +461,11 @@ impl ParticleFilter {
             batch_index: Vec::new(),
             batch_pose: GridPoses::default(),
             batch_sums: Vec::new(),
+            free_points: Vec::new(),
+            free_points32: Vec::new(),
+            free_ray_ends: Vec::new(),
+            free_crossed: Vec::new(),
+            free_nearest: Vec::new(),
             bins: BinSums::default(),
             next: Vec::new(),
             door_resets: Vec::new(),
@@ -699,7 +719,10 @@ impl ParticleFilter {
         self.log_w.clear();
         self.log_w.resize(n, 0.0);
         let scan_used = match obs.scan {
-            Some(scan) => self.weigh_scan(scan),
+            Some(scan) => {
+                self.weigh_free_space(scan);
+                self.weigh_scan(scan)
+            }
             None => false,
         };
         self.scan_beams = obs.scan.map(|_| self.endpoints.len());
@@ -848,6 +871,48 @@ impl ParticleFilter {
             }
         }
         true
+    }
+
+    /// Subtracts the free-space penalty (tempered like the scan) for each of the scan's
+    /// free rays a particle puts across a wall ([`FilterConfig::free_space`]).
+    fn weigh_free_space(&mut self, scan: &Scan) {
+        let Some(cfg) = self.config.free_space else { return };
+        if !(cfg.penalty > 0.0 && cfg.penalty.is_finite()) {
+            return;
+        }
+        scan.free_points_into(&cfg, &mut self.free_points, &mut self.free_ray_ends);
+        if self.free_ray_ends.is_empty() {
+            return;
+        }
+        self.free_points32.clear();
+        self.free_points32.extend(self.free_points.iter().map(|&[x, y]| [x as f32, y as f32]));
+        let cost = self.config.scan_weight_exponent * cfg.penalty;
+        for (fi, floor) in self.floors.iter().enumerate() {
+            self.batch_index.clear();
+            self.batch_pose.clear();
+            for (i, (p, &(s, c))) in self.particles.iter().zip(&self.trig).enumerate() {
+                if p.floor as usize == fi {
+                    self.batch_index.push(i);
+                    self.batch_pose.push(floor.field.grid_pose(p.pose.x_m, p.pose.y_m, c, s));
+                }
+            }
+            if self.batch_index.is_empty() {
+                continue;
+            }
+            self.free_crossed.clear();
+            self.free_crossed.resize(self.batch_index.len(), 0.0);
+            floor.field.add_free_crossings(
+                &mut self.batch_pose,
+                &self.free_points32,
+                &self.free_ray_ends,
+                cfg.wall_m,
+                &mut self.free_nearest,
+                &mut self.free_crossed,
+            );
+            for (&i, &n) in self.batch_index.iter().zip(&self.free_crossed) {
+                self.log_w[i] -= cost * f64::from(n);
+            }
+        }
     }
 
     /// Leaves out of `endpoints` the ones the map does not explain from the prior's

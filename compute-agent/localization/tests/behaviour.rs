@@ -5,8 +5,8 @@
 mod support;
 
 use localization::{
-    FilterConfig, FloorModel, Landmark, Observations, OdometryIncrement, ParticleFilter, Pose2, Rejected, Status,
-    WallAngle,
+    FilterConfig, FloorModel, FreeSpaceConfig, Landmark, Observations, OdometryIncrement, ParticleFilter, Pose2,
+    Rejected, Status, WallAngle,
 };
 use map::{Corner, Door, OccupancyGrid, SemanticLayer};
 use support::sim::{cast, grid};
@@ -276,6 +276,48 @@ fn corners_are_the_grids_and_two_seen_together_fix_a_corridors_end() {
         .collect();
     eprintln!("corners: error after three readings (start 7 m off), seeds 1-10: {errors:.2?}");
     assert!(errors.iter().all(|&e| e < 0.5), "{errors:?}");
+}
+
+/// A corridor 2 m wide (walls at y = 1 and 3) from x = 0 to 10, opening there into a
+/// hall 14 m deep (its far wall out of a 5 m scan's reach from the corridor).
+fn corridor_into_hall() -> OccupancyGrid {
+    grid(26.0, 16.0, |x, y| {
+        let corridor_wall = x < 10.0 && ((0.8..1.0).contains(&y) || (3.0..3.2).contains(&y));
+        let hall_wall = (10.0..10.2).contains(&x) && !(1.0..3.0).contains(&y);
+        let outer = !(0.2..=25.8).contains(&x) || !(0.2..=15.8).contains(&y);
+        corridor_wall || hall_wall || outer
+    })
+}
+
+#[test]
+fn free_space_keeps_the_estimate_from_falling_back_from_an_opening_ahead() {
+    // The user stands 2.5 m short of the corridor's end, facing the hall. The scan's hits
+    // are on the side walls: a place farther back fits them as well (the walls go on
+    // behind), a place farther forward puts some of them into the opening. The beams
+    // into the hall saw nothing; the floor along them was seen free for 5 m, which a
+    // place more than ~0.3 m back puts across a side wall.
+    let g = corridor_into_hall();
+    let truth = Pose2::new(7.5, 2.0, 0.0);
+    let mut scan = cast(&g, &truth, 59, 58f64.to_radians(), 5.0);
+    scan.free = scan.beams.clone();
+    let start = Pose2::new(6.9, 2.0, 0.0);
+    let along = |free_space: Option<FreeSpaceConfig>, seed: u64| {
+        let floor = FloorModel::new(0, &g, &Default::default(), &Default::default()).expect("floor");
+        let mut pf =
+            ParticleFilter::new(vec![floor], FilterConfig { free_space, ..Default::default() }, seed).expect("filter");
+        pf.init_pose(0, start, 0.5, 0.01).expect("start");
+        for _ in 0..5 {
+            pf.force_update();
+            pf.correct(&Observations { scan: Some(&scan), ..Default::default() });
+        }
+        pf.estimate().pose.x_m - truth.x_m
+    };
+    let with: Vec<f64> = (1..=6).map(|s| along(Some(FreeSpaceConfig::default()), s)).collect();
+    let without: Vec<f64> = (1..=6).map(|s| along(None, s)).collect();
+    eprintln!("estimate minus truth along the corridor: with free space {with:.2?}, without {without:.2?}");
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!(with.iter().all(|d| d.abs() < 0.25), "{with:?}");
+    assert!(mean(&without) < -0.35, "the hits alone let it fall back: {without:?}");
 }
 
 #[test]

@@ -225,6 +225,10 @@ pub struct Perception {
     pub points_valid: usize,
     /// Nearest obstacle per bearing bin, user frame, angles positive left.
     pub scan: Scan,
+    /// With `scan.floor_seen`, per scan bin, how far the floor was seen free, metres (0:
+    /// no floor seen): the localization's evidence that no wall stands there
+    /// ([`nearest_scan::ScanBuilder::floor_seen_m`]); empty without.
+    pub floor_seen_m: Vec<f32>,
     /// Fully-Integrated costs.
     pub ficf: SideCosts,
     /// Cushioned Avoidance costs.
@@ -304,6 +308,7 @@ impl Perception {
             ground: GroundState::Degraded,
             points_valid: 0,
             scan: Scan { angle_min_deg: 0.0, angle_increment_deg: 1.0, ranges_m: Vec::new(), range_max_m: 0.0 },
+            floor_seen_m: Vec::new(),
             ficf: SideCosts::default(),
             cacf: SideCosts::default(),
             rumble_ficf: Rumble::None,
@@ -450,6 +455,7 @@ impl Pipeline {
         let band_scale = if decision.state == GroundState::Found { 1.0 } else { cfg.scan.fallback_band_scale };
         let out = &mut self.out;
         self.scan.build(&self.cloud, &frame, &layout, &cfg.scan, band_scale, &mut out.scan);
+        out.floor_seen_m.clone_from(&self.scan.floor_seen_m);
         timer.stop();
 
         timer.start("dropoff");

@@ -157,8 +157,16 @@ pub struct ScanBuilder {
     lower_sq: Vec<[f32; 4]>,
     lower_height: Vec<[f32; 4]>,
     below_far_sq: Vec<f32>,
+    /// Per bin, the farthest floor points (squared ranges, farthest first).
+    floor_far_sq: Vec<[f32; 4]>,
     /// Height above the floor of the point that set each bin's range.
     pub heights_m: Vec<f32>,
+    /// With [`ScanConfig::floor_seen`], per bin, how far the floor was seen free: the
+    /// range of its `min_points_per_bin`-th farthest floor point (within 4 cm of the
+    /// plane and `range_max_m`), no farther than the bin's nearest obstacle; 0 where no
+    /// floor was seen. Nothing stands on the floor short of it (the localization's free
+    /// space: a wall there would have hidden that floor). Empty without.
+    pub floor_seen_m: Vec<f32>,
     /// Obstacle points (after the height band) this frame.
     pub obstacle_points: usize,
 }
@@ -186,6 +194,8 @@ impl ScanBuilder {
         self.lower_sq.clear();
         self.lower_height.clear();
         self.below_far_sq.clear();
+        self.floor_far_sq.clear();
+        self.floor_far_sq.resize(bins, [0.0; 4]);
         if cfg.overhangs_from_m.is_some() {
             self.lower_sq.resize(bins, [f32::INFINITY; 4]);
             self.lower_height.resize(bins, [0.0; 4]);
@@ -199,7 +209,8 @@ impl ScanBuilder {
             let p = cloud.points[i as usize];
             let h = frame.plane.height(&p);
             let floor = h <= min_h + noise * p[2] * p[2];
-            if (floor && cfg.overhangs_from_m.is_none()) || h >= cfg.max_obstacle_height_m {
+            let binned = !floor || cfg.overhangs_from_m.is_some() || (cfg.floor_seen && h >= -min_h);
+            if !binned || h >= cfg.max_obstacle_height_m {
                 continue;
             }
             obstacles += usize::from(!floor);
@@ -213,6 +224,9 @@ impl ScanBuilder {
                 continue;
             }
             if let Some(b) = layout.bin_of(x, y) {
+                if cfg.floor_seen && h.abs() <= min_h {
+                    insert_farthest(&mut self.floor_far_sq[b], r_sq);
+                }
                 if cfg.overhangs_from_m.is_some_and(|from| h < from) {
                     self.below_far_sq[b] = self.below_far_sq[b].max(r_sq);
                     if !floor {
@@ -229,6 +243,7 @@ impl ScanBuilder {
         scan.range_max_m = cfg.range_max_m;
         scan.ranges_m.clear();
         self.heights_m.clear();
+        self.floor_seen_m.clear();
         for (b, (sq, hs)) in self.nearest_sq.iter().zip(&self.nearest_height).enumerate() {
             // the k-th nearest: a lone flying pixel does not make an obstacle
             let mut range = sq[k - 1].sqrt();
@@ -242,8 +257,24 @@ impl ScanBuilder {
             }
             scan.ranges_m.push(range);
             self.heights_m.push(hs[k - 1]);
+            if cfg.floor_seen {
+                self.floor_seen_m.push(self.floor_far_sq[b][k - 1].sqrt().min(sq[0].sqrt()));
+            }
         }
     }
+}
+
+/// Keeps the four largest squared ranges, largest first.
+fn insert_farthest(r: &mut [f32; 4], r_sq: f32) {
+    if r_sq <= r[3] {
+        return;
+    }
+    let mut j = 3;
+    while j > 0 && r[j - 1] < r_sq {
+        r[j] = r[j - 1];
+        j -= 1;
+    }
+    r[j] = r_sq;
 }
 
 fn insert_sorted(r: &mut [f32; 4], h: &mut [f32; 4], r_sq: f32, height: f32) {

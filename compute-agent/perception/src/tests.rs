@@ -106,6 +106,44 @@ fn scan_bins_are_within_5_cm_of_the_true_nearest_obstacle() {
 }
 
 #[test]
+fn the_floor_is_seen_free_up_to_the_wall_and_never_past_an_obstacle() {
+    let mut scene = Scene::kinect(1.0, 10.0);
+    scene.walls_x_m.push(2.5);
+    scene.blocks.push(Block { min: [1.2, 0.3, 0.0], max: [1.5, 0.7, 1.0] });
+    let mut cfg = thesis_only();
+    // off by default: the cost functions do not need it
+    let out = run(&mut Pipeline::new(cfg.clone()), &scene, &FrameContext::default()).unwrap();
+    assert!(out.floor_seen_m.is_empty());
+    cfg.scan.floor_seen = true;
+    let out = run(&mut Pipeline::new(cfg.clone()), &scene, &FrameContext::default()).unwrap();
+    assert_eq!(out.floor_seen_m.len(), out.scan.ranges_m.len());
+    let mut to_the_wall = 0;
+    for (i, (&seen, &range)) in out.floor_seen_m.iter().zip(&out.scan.ranges_m).enumerate() {
+        let bearing = out.scan.angle_min_deg + i as f32;
+        if bearing.abs() > 29.0 {
+            continue;
+        }
+        // nothing stands on floor seen free: never past the bin's nearest obstacle
+        assert!(seen <= range + 1e-3, "bin {bearing} deg: floor seen to {seen}, obstacle at {range}");
+        // right of the box, the floor runs to the wall's foot
+        if bearing < 0.0 {
+            let wall = 2.5 / bearing.to_radians().cos();
+            assert!((seen - wall).abs() < 0.08, "bin {bearing} deg: floor seen to {seen}, wall at {wall}");
+            to_the_wall += 1;
+        }
+    }
+    assert!(to_the_wall >= 29, "{to_the_wall}");
+    // an empty floor is seen to the scan's range (5 m) where the view reaches it
+    let empty = Scene::kinect(1.0, 30.0);
+    let ctx = FrameContext { gravity_camera: gravity(&empty), ..Default::default() };
+    let out = run(&mut Pipeline::new(cfg), &empty, &ctx).unwrap();
+    let centre = out.floor_seen_m.len() / 2;
+    for &seen in &out.floor_seen_m[centre - 20..=centre + 20] {
+        assert!(seen > 4.8 && seen <= 5.0, "{:?}", out.floor_seen_m);
+    }
+}
+
+#[test]
 fn twelve_cm_box_on_the_floor_at_1_5_m_is_detected() {
     for (pitch, grav) in [(10.0, false), (30.0, true)] {
         let mut scene = Scene::kinect(1.0, pitch);

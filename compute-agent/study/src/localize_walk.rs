@@ -26,7 +26,7 @@ use localization::{
     LikelihoodFieldConfig, LocalizationError, Observations, OdometryIncrement, ParticleFilter, Pose2, Scan, Status,
     WallAngle, WallFitConfig,
 };
-use perception::{ComputeStep, FrameData, FrameIn, NoTimer, StepOutput};
+use perception::{ComputeStep, FrameData, FrameIn, NoTimer, Perception, StepOutput};
 use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
 
 pub use crate::floor_plan::LocalizationMap;
@@ -186,6 +186,10 @@ pub struct FrameLocalization {
     pub corner_residuals_m: Vec<f64>,
     /// The filter was given those corners at this frame.
     pub corners_used: bool,
+    /// Rays along which the frame saw the floor free (tested ones, as the free-space
+    /// weighing picks them), and how many of them, laid from the true pose, pass
+    /// through an occupied cell of the map (a map marking what overhangs the floor).
+    pub free_rays: [usize; 2],
 }
 
 /// The figures of a localized walk.
@@ -239,6 +243,12 @@ pub struct LocalizeSummary {
     pub corner_residual_median_m: f64,
     /// Corners the filter was given (at updates, with the correction on).
     pub corners_used: usize,
+    /// Free rays (the floor seen free along a bin) over the frames, as the free-space
+    /// weighing picks them; weighed only with `FilterConfig::free_space`.
+    pub free_rays: usize,
+    /// Of them, the share that pass through a wall of the map at the true pose (0 on a
+    /// map that agrees with the floor the camera sees; NaN without rays).
+    pub free_rays_through_walls_fraction: f64,
     /// Median time of an update (frames that corrected), milliseconds.
     pub update_ms_median: f64,
     /// Odometry increments or gyro rates the filter refused.
@@ -271,6 +281,8 @@ pub struct WalkLocalization {
     pub seed: u64,
     /// The figures.
     pub summary: LocalizeSummary,
+    /// The filter weighed free space (`FilterConfig::free_space`).
+    pub free_space: bool,
     /// Every camera frame.
     pub frames: Vec<FrameLocalization>,
 }
@@ -286,7 +298,8 @@ impl WalkLocalization {
              door signs: {} read, {} misread, {} refused by the filter{}\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n\
              walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n\
-             corners: {} seen (two walls meeting), {:.0} % within 0.3 m of the map's at the true pose ({:.2} m median), given to the filter at {} frames\n",
+             corners: {} seen (two walls meeting), {:.0} % within 0.3 m of the map's at the true pose ({:.2} m median), given to the filter at {} frames\n\
+             free space: {} rays of floor seen free, {:.1} % through a wall of the map at the true pose, {}\n",
             self.world,
             self.seed,
             s.frames,
@@ -327,6 +340,9 @@ impl WalkLocalization {
             100.0 * s.corners_on_map_fraction,
             s.corner_residual_median_m,
             s.corners_used,
+            s.free_rays,
+            100.0 * s.free_rays_through_walls_fraction,
+            if self.free_space { "weighed by the filter" } else { "not weighed" },
         )
     }
 }
@@ -350,6 +366,8 @@ pub fn localize_walk(
     let walls = map::DistanceField::to_occupied(&floor.grid);
     let map_corners = model.corner_field().clone();
     let corner_fit = config.corners.unwrap_or_default();
+    let free_fit = config.filter.free_space.unwrap_or_default();
+    let (mut free_points, mut free_ray_ends) = (Vec::new(), Vec::new());
 
     let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
     if trace.is_empty() || trace.len() != scans.len() {
@@ -461,6 +479,22 @@ pub fn localize_walk(
                 .collect();
             quantile(&d, 0.5)
         };
+        // the floor seen free along each ray, laid from the true pose: how much of it
+        // the map puts a wall on (a map that marks what overhangs the floor does)
+        let free_rays_through_walls = {
+            scan.free_points_into(&free_fit, &mut free_points, &mut free_ray_ends);
+            let field = pf.floors()[0].field();
+            let mut start = 0;
+            let mut through = 0;
+            for &end in &free_ray_ends {
+                through += usize::from(free_points[start..end].iter().any(|&[x, y]| {
+                    field.distance_m(truth.x_m + ct * x - st * y, truth.y_m + st * x + ct * y)
+                        < floor.grid.resolution_m()
+                }));
+                start = end;
+            }
+            [free_ray_ends.len(), through]
+        };
         let (dx, dy) = (e.pose.x_m - truth.x_m, e.pose.y_m - truth.y_m);
         frames.push(FrameLocalization {
             t_s: row.t_s,
@@ -487,10 +521,12 @@ pub fn localize_walk(
                 .map(|&[f, l]| map_corners.distance_m(truth.x_m + ct * f - st * l, truth.y_m + st * f + ct * l))
                 .collect(),
             corners_used,
+            free_rays: free_rays_through_walls,
         });
     }
     let summary = summarize(&frames, walked_m, pf.counters(), replay_mismatches);
-    Ok(WalkLocalization { world: world.name().to_string(), seed, summary, frames })
+    let free_space = config.filter.free_space.is_some();
+    Ok(WalkLocalization { world: world.name().to_string(), seed, summary, free_space, frames })
 }
 
 /// End points gathered in the body frame of the last update, as a scan from the body
@@ -520,23 +556,28 @@ fn camera_on_body(mount: &CaneMount, sweep_rad: f64, level: i32) -> Pose2 {
 }
 
 /// The perception's scan (camera floor frame, 1-degree bins) as a body-frame scan.
-fn body_scan(scan: &Option<schemas::Scan>, mount: &CaneMount, sweep_rad: f64, level: i32) -> Scan {
+fn body_scan(scan: &Option<CaneScan>, mount: &CaneMount, sweep_rad: f64, level: i32) -> Scan {
     let on_body = camera_on_body(mount, sweep_rad, level);
-    let (beams, max_range_m) = match scan {
-        Some(s) => (
+    let bearing =
+        |s: &schemas::Scan, i: usize| f64::from(s.angle_min_deg + i as f32 * s.angle_increment_deg).to_radians();
+    let (beams, free, max_range_m) = match scan {
+        Some(CaneScan { scan: s, floor_seen_m }) => (
             (0..s.ranges_m.len())
-                .map(|i| Beam {
-                    angle_rad: f64::from(s.angle_min_deg + i as f32 * s.angle_increment_deg).to_radians(),
-                    range_m: f64::from(s.ranges_m[i]),
-                })
+                .map(|i| Beam { angle_rad: bearing(s, i), range_m: f64::from(s.ranges_m[i]) })
+                .collect(),
+            floor_seen_m
+                .iter()
+                .enumerate()
+                .map(|(i, &r)| Beam { angle_rad: bearing(s, i), range_m: f64::from(r) })
                 .collect(),
             f64::from(s.range_max_m),
         ),
         // a refused frame: an empty scan, nothing to weigh
-        None => (Vec::new(), 1.0),
+        None => (Vec::new(), Vec::new(), 1.0),
     };
     Scan {
         beams,
+        free,
         max_range_m,
         sensor_forward_m: on_body.x_m,
         sensor_left_m: on_body.y_m,
@@ -568,7 +609,13 @@ fn body_increment(
 /// Camera frames of one walk: the trace row (truth, sweep), the perception's scan
 /// (`None` when the frame was refused) and the odometry since the previous frame; and
 /// how many replayed hazards differed from the walk's.
-type Perceived = (Vec<TraceRow>, Vec<Option<schemas::Scan>>, Vec<Vec<schemas::OdomIncrement>>, usize);
+/// A frame's scan and how far its bins saw the floor free.
+struct CaneScan {
+    scan: schemas::Scan,
+    floor_seen_m: Vec<f32>,
+}
+
+type Perceived = (Vec<TraceRow>, Vec<Option<CaneScan>>, Vec<Vec<schemas::OdomIncrement>>, usize);
 
 /// Runs the walk (to the goal, the route's last point on the start floor, stuck, or the
 /// time limit) and replays its frames through a fresh frame step for the scans.
@@ -599,7 +646,10 @@ fn walk_and_perceive(world: &World, seed: u64, config: &LocalizeWalkConfig) -> P
             }
         }
     }
-    let mut step = ComputeStep::new(walk_config.perception.clone(), walk_config.cue.clone());
+    // the replay also measures the floor seen free (free space); the hazards stay the walk's
+    let mut perception = walk_config.perception.clone();
+    perception.scan.floor_seen = true;
+    let mut step = ComputeStep::new(perception, walk_config.cue.clone());
     let fed: &[FedFrame] = w.fed_frames();
     let mut scans = Vec::with_capacity(fed.len());
     let mut odometry = Vec::with_capacity(fed.len());
@@ -617,7 +667,10 @@ fn walk_and_perceive(world: &World, seed: u64, config: &LocalizeWalkConfig) -> P
             way: None,
         };
         let (scan, hazard) = match step.process(input, &mut NoTimer) {
-            StepOutput::Perceived { perception, hazard, .. } => (Some(perception.scan), Some(hazard)),
+            StepOutput::Perceived { perception, hazard, .. } => {
+                let Perception { scan, floor_seen_m, .. } = perception;
+                (Some(CaneScan { scan, floor_seen_m }), Some(hazard))
+            }
             StepOutput::Refused { .. } => (None, None),
         };
         mismatches += usize::from(hazard != f.hazard);
@@ -645,6 +698,7 @@ fn summarize(
     let walls: Vec<f64> = frames.iter().filter_map(|f| f.wall_residual_deg).collect();
     let corners: Vec<f64> = frames.iter().flat_map(|f| f.corner_residuals_m.iter().copied()).collect();
     let on_map: Vec<f64> = corners.iter().copied().filter(|&d| d <= 0.3).collect();
+    let free_rays = frames.iter().map(|f| f.free_rays[0]).sum::<usize>();
     LocalizeSummary {
         frames: frames.len(),
         updates: counters.updates,
@@ -669,6 +723,12 @@ fn summarize(
         corners_on_map_fraction: if corners.is_empty() { f64::NAN } else { on_map.len() as f64 / corners.len() as f64 },
         corner_residual_median_m: quantile(&on_map, 0.5),
         corners_used: frames.iter().filter(|f| f.corners_used).count(),
+        free_rays,
+        free_rays_through_walls_fraction: if free_rays == 0 {
+            f64::NAN
+        } else {
+            frames.iter().map(|f| f.free_rays[1]).sum::<usize>() as f64 / free_rays as f64
+        },
         update_ms_median: quantile(&updates, 0.5),
         odometry_rejected: counters.odometry_rejected,
         beams_unmapped: counters.beams_unmapped,
