@@ -287,6 +287,23 @@ impl LikelihoodField {
         }
     }
 
+    /// Into `poses.cell` (sized to the poses), the cell index of body-frame point
+    /// (`bx`, `by`) seen from each pose, `outside` for none: arithmetic only, with the
+    /// grid-size test taken out of the loop so the narrow case's loop vectorises.
+    #[inline]
+    fn fill_cells(&self, poses: &mut GridPoses, bx: f32, by: f32, outside: i32) {
+        let cells = poses.gx.iter().zip(&poses.gy).zip(poses.c.iter().zip(&poses.s)).zip(poses.cell.iter_mut());
+        if self.narrow {
+            for (((&gx0, &gy0), (&c, &s)), cell) in cells {
+                *cell = self.cell_narrow(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
+            }
+        } else {
+            for (((&gx0, &gy0), (&c, &s)), cell) in cells {
+                *cell = self.cell_wide(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
+            }
+        }
+    }
+
     /// Sums of the log-likelihoods and of the fits of body-frame end points seen from
     /// each pose, added into `sums` ((log-likelihood, fit), one per pose). Beam by beam
     /// over all poses, in two passes: the cells (arithmetic only,
@@ -300,17 +317,7 @@ impl LikelihoodField {
         // `map::MAX_CELLS` (64 M) keeps every cell index, and one past the last, in i32
         let outside = (self.width * self.height) as i32; // no cell: code 255
         for &[bx, by] in endpoints {
-            let cells = poses.gx.iter().zip(&poses.gy).zip(poses.c.iter().zip(&poses.s)).zip(poses.cell.iter_mut());
-            // the test taken out of the loop, so the narrow case's loop vectorises
-            if self.narrow {
-                for (((&gx0, &gy0), (&c, &s)), cell) in cells {
-                    *cell = self.cell_narrow(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
-                }
-            } else {
-                for (((&gx0, &gy0), (&c, &s)), cell) in cells {
-                    *cell = self.cell_wide(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
-                }
-            }
+            self.fill_cells(poses, bx, by, outside);
             for (&cell, [l, f]) in poses.cell.iter().zip(sums.iter_mut()) {
                 let code = self.codes.get(cell as usize).copied().unwrap_or(255);
                 let [dl, df] = self.table[code as usize];
@@ -349,16 +356,7 @@ impl LikelihoodField {
             nearest.clear();
             nearest.resize(n, 255);
             for &[bx, by] in &points[start..end.min(points.len())] {
-                let cells = poses.gx.iter().zip(&poses.gy).zip(poses.c.iter().zip(&poses.s)).zip(poses.cell.iter_mut());
-                if self.narrow {
-                    for (((&gx0, &gy0), (&c, &s)), cell) in cells {
-                        *cell = self.cell_narrow(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
-                    }
-                } else {
-                    for (((&gx0, &gy0), (&c, &s)), cell) in cells {
-                        *cell = self.cell_wide(gx0 + c * bx - s * by, gy0 + s * bx + c * by, outside);
-                    }
-                }
+                self.fill_cells(poses, bx, by, outside);
                 for (&cell, m) in poses.cell.iter().zip(nearest.iter_mut()) {
                     *m = (*m).min(self.codes.get(cell as usize).copied().unwrap_or(255));
                 }

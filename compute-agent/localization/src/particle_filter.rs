@@ -850,14 +850,7 @@ impl ParticleFilter {
         self.endpoints32.clear();
         self.endpoints32.extend(self.endpoints.iter().map(|&[x, y]| [x as f32, y as f32]));
         for (fi, floor) in self.floors.iter().enumerate() {
-            self.batch_index.clear();
-            self.batch_pose.clear();
-            for (i, (p, &(s, c))) in self.particles.iter().zip(&self.trig).enumerate() {
-                if p.floor as usize == fi {
-                    self.batch_index.push(i);
-                    self.batch_pose.push(floor.field.grid_pose(p.pose.x_m, p.pose.y_m, c, s));
-                }
-            }
+            floor_batch(&self.particles, &self.trig, fi, &floor.field, &mut self.batch_index, &mut self.batch_pose);
             let m = self.batch_index.len();
             if m == 0 {
                 continue;
@@ -888,14 +881,7 @@ impl ParticleFilter {
         self.free_points32.extend(self.free_points.iter().map(|&[x, y]| [x as f32, y as f32]));
         let cost = self.config.scan_weight_exponent * cfg.penalty;
         for (fi, floor) in self.floors.iter().enumerate() {
-            self.batch_index.clear();
-            self.batch_pose.clear();
-            for (i, (p, &(s, c))) in self.particles.iter().zip(&self.trig).enumerate() {
-                if p.floor as usize == fi {
-                    self.batch_index.push(i);
-                    self.batch_pose.push(floor.field.grid_pose(p.pose.x_m, p.pose.y_m, c, s));
-                }
-            }
+            floor_batch(&self.particles, &self.trig, fi, &floor.field, &mut self.batch_index, &mut self.batch_pose);
             if self.batch_index.is_empty() {
                 continue;
             }
@@ -1260,6 +1246,26 @@ impl ParticleFilter {
 
 /// Draws per particle of a start spread before one in a wall is kept.
 const START_DRAWS: usize = 20;
+
+/// The particles on floor `fi` (`trig`: each one's heading's sin and cos): their
+/// indices into `index`, their poses in the floor field's grid units into `poses`.
+fn floor_batch(
+    particles: &[Particle],
+    trig: &[(f64, f64)],
+    fi: usize,
+    field: &LikelihoodField,
+    index: &mut Vec<usize>,
+    poses: &mut GridPoses,
+) {
+    index.clear();
+    poses.clear();
+    for (i, (p, &(s, c))) in particles.iter().zip(trig).enumerate() {
+        if p.floor as usize == fi {
+            index.push(i);
+            poses.push(field.grid_pose(p.pose.x_m, p.pose.y_m, c, s));
+        }
+    }
+}
 
 /// Weighted mean position and circular-mean heading (the origin for an empty set).
 /// Takes each particle with the (sin, cos) of its heading.
