@@ -49,7 +49,8 @@ pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
 pub use likelihood_field::{FreeSpaceConfig, GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
-    Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, Rejected, Status,
+    Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, RecoveryAnchor, Rejected,
+    Status,
 };
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;

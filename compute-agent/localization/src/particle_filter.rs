@@ -16,7 +16,14 @@
 //!    (`w_fast`, `w_slow`) — when the short-term one drops well below the long-term one
 //!    (a dead band: [`FilterConfig::recovery_ratio`]), a fraction of the new set is
 //!    drawn uniformly in free space, so a wrong start, a kidnap or a belief dragged off
-//!    by a misread door is recovered from.
+//!    by a misread door is recovered from;
+//! 5. for a person ([`FilterConfig::recovery_anchor`]): a person does not jump. The last
+//!    `Tracking` estimate (or the told start), carried by the odometry, is the anchor;
+//!    the recovery draws near it instead of anywhere (a room's furniture, which a floor
+//!    plan does not have, makes the scan fit badly where the user is and well enough in
+//!    some other place of the map), and a `Tracking` estimate out of its reach is a
+//!    look-alike the scans fell into: the particles are drawn again around the anchor.
+//!    After a long walk without `Tracking` the anchor is forgotten.
 //!
 //! Everything random comes from one seeded [`Rng`]: the same inputs and seed give the
 //! same particles, bit for bit.
@@ -88,6 +95,21 @@ pub struct FilterConfig {
     pub alpha_fast: f64,
     /// at most this fraction of a resampled set is injected at random
     pub max_inject_fraction: f64,
+    /// A person does not jump. `None` (the default, AMCL's): the recovery draws
+    /// uniformly over the free space of every floor, and any `Tracking` estimate is
+    /// taken. `Some`: the anchor is the last `Tracking` estimate or the told start,
+    /// carried by the odometry; while the user has walked less than
+    /// [`RecoveryAnchor::forget_m`] since it, the recovery draws within its reach, and a
+    /// `Tracking` estimate out of its reach is a look-alike (a room that is the same
+    /// turned 180°, a row of like offices): counted, and the particles drawn again
+    /// around the anchor, with half its reach as their spread.
+    /// For a person ([`crate::TrackerConfig`], `study::localize_walk`): on the generated
+    /// worlds' floor plans (furnished offices, lobbies, streets) the uniform draw found
+    /// places where the furniture's beams fit the plan's walls and lost tracks the
+    /// odometry alone kept within a metre; on Taylor's course the spoken guide's filter
+    /// said `Tracking` in the room turned 180° (docs/localization.md, "A person does not
+    /// jump").
+    pub recovery_anchor: Option<RecoveryAnchor>,
     /// once the recovery has started, it keeps injecting at least
     /// `recovery_hold_fraction` for this many updates even when the fit comes back: the
     /// first place that fits after a kidnap is often a look-alike (in the kidnap test,
@@ -188,6 +210,7 @@ impl Default for FilterConfig {
             alpha_slow: 0.01,
             alpha_fast: 0.1,
             max_inject_fraction: 0.5,
+            recovery_anchor: None,
             recovery_hold_updates: 30,
             recovery_hold_fraction: 0.1,
             recovery_ratio: 0.75,
@@ -209,6 +232,37 @@ impl Default for FilterConfig {
             max_yaw_rate_rad_s: 6.0,
         }
     }
+}
+
+/// Where a person can be: within `radius_m + per_walked_m * walked` of the anchor,
+/// headings within `heading_rad` of its heading ([`FilterConfig::recovery_anchor`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RecoveryAnchor {
+    /// radius at the anchor, metres
+    pub radius_m: f64,
+    /// radius added per metre walked since the anchor (visual odometry errs by a few
+    /// percent)
+    pub per_walked_m: f64,
+    /// half-width of the headings drawn, radians
+    pub heading_rad: f64,
+    /// after this much walking without `Tracking` the anchor is forgotten (its heading
+    /// may have drifted too far) and the recovery draws over the whole map, metres
+    pub forget_m: f64,
+}
+
+impl Default for RecoveryAnchor {
+    fn default() -> Self {
+        Self { radius_m: 1.0, per_walked_m: 0.1, heading_rad: 45f64.to_radians(), forget_m: 50.0 }
+    }
+}
+
+/// The anchor of a person's recovery: a pose on a floor and the walking since.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Anchor {
+    pose: Pose2,
+    floor: u16,
+    walked_m: f64,
 }
 
 /// One hypothesis of where the user is.
@@ -297,6 +351,9 @@ pub struct Counters {
     pub particles_at_doors: u64,
     /// corrections after which every weight was zero or non-finite (reset to uniform)
     pub weight_collapses: u64,
+    /// `Tracking` estimates out of the anchor's reach, refused as look-alikes
+    /// ([`FilterConfig::recovery_anchor`])
+    pub look_alikes: u64,
 }
 
 /// What one correction did.
@@ -371,6 +428,9 @@ pub struct ParticleFilter {
     /// a told start or gateway stop stands in for the scan constraint until `Tracking`
     /// first ends
     start_vouches: bool,
+    /// where the user was last known to be, carried by the odometry
+    /// ([`FilterConfig::recovery_anchor`])
+    anchor: Option<Anchor>,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -442,6 +502,7 @@ impl ParticleFilter {
             door_read: false,
             streak_constraint: 0.0,
             start_vouches: false,
+            anchor: None,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -484,6 +545,7 @@ impl ParticleFilter {
             self.particles.push(p);
         }
         self.after_init();
+        self.anchor = None;
     }
 
     /// Start near a known pose: `min_particles.max(1000).min(max_particles)` particles,
@@ -521,6 +583,7 @@ impl ParticleFilter {
         // the told place says where along a corridor the user is, until the first
         // `Tracking` ends; a streak after that must find it in the scans
         self.start_vouches = true;
+        self.anchor = Some(Anchor { pose, floor: floor as u16, walked_m: 0.0 });
         Ok(())
     }
 
@@ -577,6 +640,29 @@ impl ParticleFilter {
         Particle { pose, level: f.level, weight, floor: fi as u16 }
     }
 
+    /// A particle for the recovery: near the anchor while there is one
+    /// ([`FilterConfig::recovery_anchor`]), else anywhere.
+    fn recovery_particle(&mut self, weight: f64) -> Particle {
+        let (Some(a), Some(c)) = (self.anchor, self.config.recovery_anchor) else {
+            return self.random_particle(weight);
+        };
+        let r = c.radius_m + c.per_walked_m * a.walked_m;
+        let f = &self.floors[a.floor as usize];
+        // uniform over the disc; a draw in a wall or off the map is drawn again (a few
+        // times, as a start is)
+        let mut pose = a.pose;
+        for _ in 0..START_DRAWS {
+            let d = r * self.rng.uniform().sqrt();
+            let (s, co) = self.rng.range(-std::f64::consts::PI, std::f64::consts::PI).sin_cos();
+            let h = a.pose.heading_rad + self.rng.range(-c.heading_rad, c.heading_rad);
+            pose = Pose2::new(a.pose.x_m + d * co, a.pose.y_m + d * s, h);
+            if f.is_free(pose.x_m, pose.y_m) {
+                break;
+            }
+        }
+        Particle { pose, level: f.level, weight, floor: a.floor }
+    }
+
     /// The user took `gateway` (lift, stairs, ramp) to floor `to_level`: the agent saw
     /// a lift ride or a climb (barometer, the user's words). Odometry cannot say it, so
     /// it is an event. Particles within `gateway_radius_m` of the gateway's stop on their
@@ -593,6 +679,17 @@ impl ParticleFilter {
             .ok_or_else(|| LocalizationError::GatewayNotOnFloor { gateway: gateway.name.clone(), level: to_level })?;
         let (dx0, dy0) = (dest.x, dest.y);
         let r = self.config.gateway_radius_m;
+        // the anchor goes through with the user when it was near a stop, as the
+        // particles do; otherwise the recovery has no place to start from
+        self.anchor = self.anchor.and_then(|a| {
+            let stop = gateway.stop(self.floors[a.floor as usize].level)?;
+            let (ox, oy) = (a.pose.x_m - stop.x, a.pose.y_m - stop.y);
+            (ox * ox + oy * oy <= r * r).then(|| Anchor {
+                pose: Pose2::new(dx0 + ox, dy0 + oy, a.pose.heading_rad),
+                floor: to_floor as u16,
+                walked_m: 0.0,
+            })
+        });
         let n = self.particles.len().max(1);
         // moved copies of the particles near a stop, with their weights
         self.next.clear();
@@ -670,6 +767,15 @@ impl ParticleFilter {
             _ => None,
         };
         self.pending = self.pending.compose(odometry.forward_m, odometry.left_m, yaw);
+        if let Some(a) = &mut self.anchor {
+            a.pose = a.pose.compose(odometry.forward_m, odometry.left_m, yaw);
+            a.walked_m += odometry.forward_m.hypot(odometry.left_m);
+            // after a long walk without `Tracking` the odometry's place is no better
+            // than the filter's (its heading may have drifted too far)
+            if self.config.recovery_anchor.is_some_and(|c| a.walked_m > c.forget_m) {
+                self.anchor = None;
+            }
+        }
         self.pending_dt_s += odometry.dt_s;
         self.pending_increments += 1;
         Ok(())
@@ -742,6 +848,7 @@ impl ParticleFilter {
             self.estimate.fit = self.w_fast;
         }
         self.compute_estimate();
+        self.hold_to_anchor();
 
         let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
         let inject_fraction = self.recovery_fraction();
@@ -754,6 +861,48 @@ impl ParticleFilter {
             out.resampled = true;
         }
         out
+    }
+
+    /// A person does not jump: a `Tracking` estimate within the anchor's reach becomes
+    /// the anchor; one out of it is a look-alike, and the particles are drawn again
+    /// around the anchor (which stays, and keeps moving with the odometry).
+    fn hold_to_anchor(&mut self) {
+        let Some(c) = self.config.recovery_anchor else { return };
+        let e = &self.estimate;
+        if e.status != Status::Tracking {
+            return;
+        }
+        let (pose, level) = (e.pose, e.level);
+        let Some(floor) = self.floor_index(level) else { return };
+        if let Some(a) = self.anchor.filter(|a| a.floor as usize == floor) {
+            let reach = c.radius_m + c.per_walked_m * a.walked_m;
+            let turned = wrap_angle(pose.heading_rad - a.pose.heading_rad).abs();
+            if pose.distance_m(&a.pose) > reach || turned > c.heading_rad {
+                self.counters.look_alikes += 1;
+                let sigma = [reach / 2.0, c.heading_rad / 2.0];
+                if self.init_pose(level, a.pose, sigma[0], sigma[1]).is_ok() {
+                    self.anchor = Some(a);
+                    return;
+                }
+            }
+        }
+        self.anchor = Some(Anchor { pose, floor: floor as u16, walked_m: 0.0 });
+    }
+
+    /// Starts the particles about `pose` on the first floor as a told start would, but
+    /// keeps the anchor: a filter that fell into a look-alike, for the tests of the
+    /// look-alike check.
+    #[cfg(test)]
+    pub(crate) fn throw_to(&mut self, pose: Pose2) {
+        let anchor = self.anchor;
+        self.init_pose(self.floors[0].level, pose, 0.05, 0.02).expect("a finite pose");
+        self.anchor = anchor;
+    }
+
+    /// Forgets the anchor ([`FilterConfig::recovery_anchor`]): the user said where
+    /// they are (a door's number), so the next `Tracking` estimate is taken as it is.
+    pub fn forget_anchor(&mut self) {
+        self.anchor = None;
     }
 
     /// Augmented MCL's averages of the scan fit under the predicted (prior-weighted)
@@ -1050,7 +1199,7 @@ impl ParticleFilter {
             }
         }
         for _ in 0..n_inject {
-            let p = self.random_particle(w);
+            let p = self.recovery_particle(w);
             self.next.push(p);
         }
         let sigma = self.config.landmarks.sigma_m;
@@ -1327,4 +1476,52 @@ fn symmetric_2x2_eigenvalues(a: f64, b: f64, d: f64) -> (f64, f64) {
 fn floor_i64(v: f64) -> i64 {
     let t = v as i64;
     t - (v < t as f64) as i64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use map::{Cell, OccupancyGrid, Origin, SemanticLayer};
+
+    /// A filter on an empty 60 x 20 m hall, started at (5, 10) facing +x.
+    fn hall(anchor: Option<RecoveryAnchor>) -> ParticleFilter {
+        let g = OccupancyGrid::filled(1200, 400, 0.05, Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }, Cell::Free)
+            .expect("grid");
+        let floor = FloorModel::new(0, &g, &SemanticLayer::default(), &Default::default()).expect("floor");
+        let config = FilterConfig { recovery_anchor: anchor, ..FilterConfig::default() };
+        let mut pf = ParticleFilter::new(vec![floor], config, 3).expect("filter");
+        pf.init_pose(0, Pose2::new(5.0, 10.0, 0.0), 0.1, 0.03).expect("start");
+        pf
+    }
+
+    fn walk(pf: &mut ParticleFilter, metres: f64) {
+        let step = OdometryIncrement { forward_m: 0.5, left_m: 0.0, yaw_rad: 0.0, dt_s: 0.5 };
+        for _ in 0..(metres / 0.5).round() as usize {
+            pf.predict(&step, Some(0.0)).expect("plausible");
+        }
+    }
+
+    #[test]
+    fn the_recovery_draws_where_the_odometry_took_the_user_until_the_anchor_is_forgotten() {
+        let mut pf = hall(Some(RecoveryAnchor::default()));
+        walk(&mut pf, 10.0);
+        // 10 m walked from the told start: within 1 + 0.1 * 10 = 2 m of (15, 10), 45°
+        for _ in 0..2000 {
+            let p = pf.recovery_particle(1.0);
+            assert!(p.pose.distance_m(&Pose2::new(15.0, 10.0, 0.0)) <= 2.0 + 1e-9, "{:?}", p.pose);
+            assert!(wrap_angle(p.pose.heading_rad).abs() <= 45f64.to_radians() + 1e-9, "{:?}", p.pose);
+        }
+        // 45 m more without `Tracking` (past `forget_m`): anywhere in the hall
+        walk(&mut pf, 45.0);
+        let far = (0..2000).filter(|_| pf.recovery_particle(1.0).pose.distance_m(&Pose2::new(60.0, 10.0, 0.0)) > 10.0);
+        assert!(far.count() > 1000);
+    }
+
+    #[test]
+    fn without_an_anchor_config_the_recovery_draws_anywhere_as_amcl_does() {
+        let mut pf = hall(None);
+        walk(&mut pf, 10.0);
+        let far = (0..2000).filter(|_| pf.recovery_particle(1.0).pose.distance_m(&Pose2::new(15.0, 10.0, 0.0)) > 5.0);
+        assert!(far.count() > 1500);
+    }
 }

@@ -17,7 +17,9 @@ use crate::floor_model::FloorModel;
 use crate::landmarks::Landmark;
 use crate::likelihood_field::LikelihoodFieldConfig;
 use crate::motion::{MotionNoise, OdometryIncrement};
-use crate::particle_filter::{Correction, Estimate, FilterConfig, Observations, ParticleFilter, Rejected, Status};
+use crate::particle_filter::{
+    Correction, Estimate, FilterConfig, Observations, ParticleFilter, RecoveryAnchor, Rejected, Status,
+};
 use crate::pose::Pose2;
 use crate::scan::{Beam, Scan};
 use crate::LocalizationError;
@@ -58,7 +60,8 @@ pub const VO_MOTION_NOISE: MotionNoise = MotionNoise {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrackerConfig {
-    /// the particle filter (AMCL's defaults but the motion noise: [`VO_MOTION_NOISE`])
+    /// the particle filter: AMCL's defaults but the motion noise ([`VO_MOTION_NOISE`])
+    /// and a person's anchor (a person does not jump: `FilterConfig::recovery_anchor`)
     pub filter: FilterConfig,
     /// the likelihood field of each floor
     pub field: LikelihoodFieldConfig,
@@ -71,36 +74,21 @@ pub struct TrackerConfig {
     pub start_sigma_m: f64,
     /// ... and in heading, radians
     pub start_sigma_heading_rad: f64,
-    /// A person does not jump: a `Tracking` estimate farther than this (metres, plus
-    /// `jump_per_walked_m` for each metre walked since the last `Tracking` one) from
-    /// where the odometry carried that one is a look-alike the filter fell into after
-    /// losing the track (a room that is the same turned 180°, a row of like offices), not
-    /// the user. The filter is started again around the odometry's place, with that
-    /// distance as its spread. 0: no such check (the filter's own answer, AMCL's).
-    pub jump_max_m: f64,
-    /// See `jump_max_m`: the odometry's drift allowed per metre walked.
-    pub jump_per_walked_m: f64,
-    /// See `jump_max_m`: the largest turn from the odometry's heading, radians.
-    pub jump_max_heading_rad: f64,
-    /// See `jump_max_m`: after this many metres walked without `Tracking` the odometry's
-    /// place is no better than the filter's (its heading may have drifted past
-    /// `jump_max_heading_rad`), and the next `Tracking` estimate is taken as it is.
-    pub jump_forget_after_m: f64,
 }
 
 impl Default for TrackerConfig {
     fn default() -> Self {
         Self {
-            filter: FilterConfig { motion: VO_MOTION_NOISE, ..FilterConfig::default() },
+            filter: FilterConfig {
+                motion: VO_MOTION_NOISE,
+                recovery_anchor: Some(RecoveryAnchor::default()),
+                ..FilterConfig::default()
+            },
             field: LikelihoodFieldConfig::default(),
             cane: CaneOnBody::default(),
             sweep_time_constant_s: 5.0,
             start_sigma_m: 0.3,
             start_sigma_heading_rad: 10f64.to_radians(),
-            jump_max_m: 1.0,
-            jump_per_walked_m: 0.1,
-            jump_max_heading_rad: 45f64.to_radians(),
-            jump_forget_after_m: 50.0,
         }
     }
 }
@@ -132,18 +120,6 @@ pub struct Tracker {
     /// the status last announced (`None`: nothing said yet)
     announced: Option<Status>,
     scan: Scan,
-    /// the last `Tracking` estimate carried on by the odometry since (`jump_max_m`)
-    anchor: Option<Anchor>,
-    /// `Tracking` estimates refused as look-alikes (`jump_max_m`)
-    look_alikes: u64,
-}
-
-/// Where the odometry has carried the last `Tracking` estimate.
-#[derive(Clone, Copy, Debug)]
-struct Anchor {
-    level: i32,
-    pose: Pose2,
-    walked_m: f64,
 }
 
 impl Tracker {
@@ -166,8 +142,6 @@ impl Tracker {
             last_frame_ns: None,
             announced: None,
             scan: Scan::default(),
-            anchor: None,
-            look_alikes: 0,
         })
     }
 
@@ -190,44 +164,18 @@ impl Tracker {
         }
         let c = &self.config;
         self.pf.init_pose(level, pose, c.start_sigma_m, c.start_sigma_heading_rad)?;
-        self.anchor = None;
         Ok(())
     }
 
     /// Forgets the position: particles over every floor.
     pub fn start_global(&mut self) {
         self.pf.init_global();
-        self.anchor = None;
     }
 
-    /// `Tracking` estimates refused as look-alikes so far ([`TrackerConfig::jump_max_m`]).
+    /// `Tracking` estimates refused as look-alikes so far (a person does not jump:
+    /// `FilterConfig::recovery_anchor`).
     pub fn look_alikes(&self) -> u64 {
-        self.look_alikes
-    }
-
-    /// Holds the filter to where a person can be ([`TrackerConfig::jump_max_m`]): a
-    /// `Tracking` estimate on the anchor's floor, farther from the anchor than the
-    /// odometry can have drifted, starts the filter again around the anchor; any other
-    /// `Tracking` estimate becomes the anchor.
-    fn hold_to_odometry(&mut self) {
-        let e = self.pf.estimate();
-        if e.status != Status::Tracking {
-            return;
-        }
-        let c = &self.config;
-        if let Some(a) = self.anchor.filter(|a| c.jump_max_m > 0.0 && a.level == e.level) {
-            let allowed_m = c.jump_max_m + c.jump_per_walked_m * a.walked_m;
-            let turned = crate::pose::wrap_angle(e.pose.heading_rad - a.pose.heading_rad).abs();
-            if e.pose.distance_m(&a.pose) > allowed_m || turned > c.jump_max_heading_rad {
-                self.look_alikes += 1;
-                let sigma_m = allowed_m / 2.0;
-                if self.pf.init_pose(a.level, a.pose, sigma_m, c.jump_max_heading_rad / 2.0).is_ok() {
-                    // the anchor stays, and keeps moving with the odometry
-                    return;
-                }
-            }
-        }
-        self.anchor = Some(Anchor { level: e.level, pose: e.pose, walked_m: 0.0 });
+        self.pf.counters().look_alikes
     }
 
     /// The body's motion over one interval (`sensor/<device>/odom`) and the body-worn
@@ -242,13 +190,6 @@ impl Tracker {
             dt_s,
         };
         self.pf.predict(&step, body_yaw_rate_rad_s)?;
-        if let Some(a) = self.anchor.as_mut() {
-            a.pose = a.pose.compose(step.forward_m, step.left_m, step.yaw_rad);
-            a.walked_m += step.forward_m.hypot(step.left_m);
-            if a.walked_m > self.config.jump_forget_after_m {
-                self.anchor = None;
-            }
-        }
         Ok(())
     }
 
@@ -291,7 +232,6 @@ impl Tracker {
         let c = self.pf.correct(&Observations { scan: Some(&self.scan), ..Default::default() });
         if c.updated {
             self.sweep_at_update = self.sweep_rad;
-            self.hold_to_odometry();
         }
         c
     }
@@ -324,7 +264,7 @@ impl Tracker {
             return Err(format!("door {number:?} is on none of the floor maps"));
         }
         // a door's number is the user's own word for where they are: no look-alike
-        self.anchor = None;
+        self.pf.forget_anchor();
         Ok(())
     }
 
@@ -564,7 +504,7 @@ normal = [0.0, -1.0]
             }
             if k == 90 {
                 assert_eq!(t.estimate().status, Status::Tracking, "tracked before the throw");
-                t.pf.init_pose(0, Pose2::new(x + 3.0, 2.0, 0.0), 0.05, 0.02).unwrap();
+                t.pf.throw_to(Pose2::new(x + 3.0, 2.0, 0.0));
             }
             t.frame(&scan_at(&g, x, 2.0, 0.0, 0.0), k * period, Some(0.0), Some(0.0));
             let e = t.estimate();
@@ -582,12 +522,18 @@ normal = [0.0, -1.0]
         let (status, error) = *seen.last().unwrap();
         assert!(error < 0.5, "ends {error:.2} m off ({status:?})");
         // without the check the filter tracks the look-alike, 3 m ahead
-        let (unchecked, none) = thrown_ahead(TrackerConfig { jump_max_m: 0.0, ..Default::default() });
+        let d = TrackerConfig::default();
+        let unchecked =
+            TrackerConfig { filter: FilterConfig { recovery_anchor: None, ..d.filter.clone() }, ..d.clone() };
+        let (unchecked, none) = thrown_ahead(unchecked);
         assert_eq!(none, 0);
         let wrong = unchecked.iter().filter(|(s, e)| *s == Status::Tracking && *e > 2.0).count();
         assert!(wrong >= 30, "{wrong} frames Tracking more than 2 m off without the check");
         // an odometry's place forgotten at once (after 0 m walked) holds nothing either
-        let (forgotten, none) = thrown_ahead(TrackerConfig { jump_forget_after_m: 0.0, ..Default::default() });
+        let at_once = RecoveryAnchor { forget_m: 0.0, ..Default::default() };
+        let forgetful =
+            TrackerConfig { filter: FilterConfig { recovery_anchor: Some(at_once), ..d.filter.clone() }, ..d };
+        let (forgotten, none) = thrown_ahead(forgetful);
         assert_eq!(none, 0);
         assert!(forgotten.iter().filter(|(s, e)| *s == Status::Tracking && *e > 2.0).count() >= 30);
     }
