@@ -398,13 +398,7 @@ mod tests {
     #[test]
     fn a_free_ray_through_a_wall_costs_a_whole_one_one_short_of_it_nothing_one_along_its_face_part() {
         // a wall two cells thick at x = 2.5..2.6
-        let mut g = OccupancyGrid::filled(100, 100, 0.05, Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }, Cell::Free)
-            .expect("grid");
-        for r in 0..100 {
-            g.set(50, r, Cell::Occupied);
-            g.set(51, r, Cell::Occupied);
-        }
-        let f = LikelihoodField::new(&g, &LikelihoodFieldConfig::default());
+        let f = field_with_walls(&[50, 51]);
         let ray = |from: f32, to: f32, left: f32| {
             let n = ((to - from) / 0.1).round() as usize;
             (0..=n).map(|k| [from + k as f32 * 0.1, left]).collect::<Vec<_>>()
@@ -433,14 +427,21 @@ mod tests {
         assert!((crossed[0] - 2.0).abs() < 1e-6, "{crossed:?}");
     }
 
-    #[test]
-    fn end_point_on_a_wall_scores_best_and_far_away_worst() {
+    /// The default field of a 5 x 5 m grid at 5 cm with these columns walled.
+    fn field_with_walls(columns: &[usize]) -> LikelihoodField {
         let mut g = OccupancyGrid::filled(100, 100, 0.05, Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }, Cell::Free)
             .expect("grid");
         for r in 0..100 {
-            g.set(50, r, Cell::Occupied);
+            for &c in columns {
+                g.set(c, r, Cell::Occupied);
+            }
         }
-        let f = LikelihoodField::new(&g, &LikelihoodFieldConfig::default());
+        LikelihoodField::new(&g, &LikelihoodFieldConfig::default())
+    }
+
+    #[test]
+    fn end_point_on_a_wall_scores_best_and_far_away_worst() {
+        let f = field_with_walls(&[50]);
         let on = f.log_p(2.525, 1.0) as f64;
         let near = f.log_p(2.325, 1.0) as f64; // 0.2 m off: one sigma
         let far = f.log_p(-10.0, 1.0) as f64;

@@ -428,8 +428,8 @@ pub struct ParticleFilter {
     /// a told start or gateway stop stands in for the scan constraint until `Tracking`
     /// first ends
     start_vouches: bool,
-    /// where the user was last known to be, carried by the odometry
-    /// ([`FilterConfig::recovery_anchor`])
+    /// where the user was last known to be, carried by the odometry; only with
+    /// [`FilterConfig::recovery_anchor`]
     anchor: Option<Anchor>,
     scan_seen: bool,
     estimate: Estimate,
@@ -564,27 +564,35 @@ impl ParticleFilter {
         let n = self.config.min_particles.max(1000).min(self.config.max_particles);
         self.particles.clear();
         for _ in 0..n {
-            // a person stands in free space: a draw in a wall or off the map is drawn
-            // again (a few times: a start given in a wall keeps its spread)
-            let mut p = Pose2::default();
-            for _ in 0..START_DRAWS {
-                p = Pose2::new(
-                    pose.x_m + self.rng.normal(sigma_xy_m),
-                    pose.y_m + self.rng.normal(sigma_xy_m),
-                    pose.heading_rad + self.rng.normal(sigma_heading_rad),
-                );
-                if self.floors[floor].is_free(p.x_m, p.y_m) {
-                    break;
-                }
-            }
+            let p = self.draw_free(floor, |rng| {
+                Pose2::new(
+                    pose.x_m + rng.normal(sigma_xy_m),
+                    pose.y_m + rng.normal(sigma_xy_m),
+                    pose.heading_rad + rng.normal(sigma_heading_rad),
+                )
+            });
             self.particles.push(Particle { pose: p, level, weight: 1.0 / n as f64, floor: floor as u16 });
         }
         self.after_init();
         // the told place says where along a corridor the user is, until the first
         // `Tracking` ends; a streak after that must find it in the scans
         self.start_vouches = true;
-        self.anchor = Some(Anchor { pose, floor: floor as u16, walked_m: 0.0 });
+        self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: floor as u16, walked_m: 0.0 });
         Ok(())
+    }
+
+    /// A pose from `draw` on floor `floor`: a person stands in free space, so a draw in
+    /// a wall or off the map is drawn again (a few times: a place given in a wall keeps
+    /// its spread).
+    fn draw_free(&mut self, floor: usize, mut draw: impl FnMut(&mut Rng) -> Pose2) -> Pose2 {
+        let mut p = draw(&mut self.rng);
+        for _ in 1..START_DRAWS {
+            if self.floors[floor].is_free(p.x_m, p.y_m) {
+                break;
+            }
+            p = draw(&mut self.rng);
+        }
+        p
     }
 
     fn after_init(&mut self) {
@@ -647,20 +655,14 @@ impl ParticleFilter {
             return self.random_particle(weight);
         };
         let r = c.radius_m + c.per_walked_m * a.walked_m;
-        let f = &self.floors[a.floor as usize];
-        // uniform over the disc; a draw in a wall or off the map is drawn again (a few
-        // times, as a start is)
-        let mut pose = a.pose;
-        for _ in 0..START_DRAWS {
-            let d = r * self.rng.uniform().sqrt();
-            let (s, co) = self.rng.range(-std::f64::consts::PI, std::f64::consts::PI).sin_cos();
-            let h = a.pose.heading_rad + self.rng.range(-c.heading_rad, c.heading_rad);
-            pose = Pose2::new(a.pose.x_m + d * co, a.pose.y_m + d * s, h);
-            if f.is_free(pose.x_m, pose.y_m) {
-                break;
-            }
-        }
-        Particle { pose, level: f.level, weight, floor: a.floor }
+        // uniform over the disc, headings within the anchor's reach
+        let pose = self.draw_free(a.floor as usize, |rng| {
+            let d = r * rng.uniform().sqrt();
+            let (s, co) = rng.range(-std::f64::consts::PI, std::f64::consts::PI).sin_cos();
+            let h = a.pose.heading_rad + rng.range(-c.heading_rad, c.heading_rad);
+            Pose2::new(a.pose.x_m + d * co, a.pose.y_m + d * s, h)
+        });
+        Particle { pose, level: self.floors[a.floor as usize].level, weight, floor: a.floor }
     }
 
     /// The user took `gateway` (lift, stairs, ramp) to floor `to_level`: the agent saw
@@ -767,12 +769,12 @@ impl ParticleFilter {
             _ => None,
         };
         self.pending = self.pending.compose(odometry.forward_m, odometry.left_m, yaw);
-        if let Some(a) = &mut self.anchor {
+        if let (Some(a), Some(c)) = (&mut self.anchor, self.config.recovery_anchor) {
             a.pose = a.pose.compose(odometry.forward_m, odometry.left_m, yaw);
             a.walked_m += odometry.forward_m.hypot(odometry.left_m);
             // after a long walk without `Tracking` the odometry's place is no better
             // than the filter's (its heading may have drifted too far)
-            if self.config.recovery_anchor.is_some_and(|c| a.walked_m > c.forget_m) {
+            if a.walked_m > c.forget_m {
                 self.anchor = None;
             }
         }
