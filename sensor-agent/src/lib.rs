@@ -8,7 +8,10 @@ pub mod imu;
 pub mod pacing;
 pub mod replay;
 pub mod run;
-pub mod sim;
 pub mod source;
+
+/// The simulated world (its own crate, `sensor-agent/sim`: no bus, built fully optimised
+/// for the study's walks while this agent's bus code is not).
+pub use sim;
 #[cfg(test)]
 mod test_data;

@@ -11,9 +11,9 @@
 //! memory beyond the field of view could have.
 
 use nalgebra::Vector3;
-use sensor_agent::sim::render::{EMPTY_PIXEL, FLOOR_PIXEL};
-use sensor_agent::sim::shape::Shape;
-use sensor_agent::sim::{CameraPose, CameraProfile, ObstacleId, World};
+use sim::render::{EMPTY_PIXEL, FLOOR_PIXEL};
+use sim::shape::Shape;
+use sim::{CameraPose, CameraProfile, ObstacleId, World};
 
 /// A part touching is at most this far from the obstacle, metres (the cane's distance
 /// is sampled every 1 cm along it, so exact to 5 mm).
@@ -265,7 +265,7 @@ pub fn in_field_of_view(world: &World, id: ObstacleId, camera: &CameraPose, prof
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sensor_agent::sim::{CaneMount, UserPose};
+    use sim::{CaneMount, UserPose};
 
     fn world(items: &str) -> World {
         let text =

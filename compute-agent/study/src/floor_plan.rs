@@ -41,8 +41,8 @@ use map::{
     Area, Building, Cell, Corner, Door, Floor, Gateway, GatewayKind, GatewayStop, Label, MapError, OccupancyGrid,
     Origin, SemanticLayer, MAX_RESOLUTION_M,
 };
-use sensor_agent::sim::scene::{RoomSpec, StairsSpec};
-use sensor_agent::sim::{ObstacleId, ObstacleKind, World};
+use sim::scene::{RoomSpec, StairsSpec};
+use sim::{ObstacleId, ObstacleKind, World};
 
 /// Grid resolution of `wearnav map` unless told otherwise, metres per cell (5 cm: what
 /// ROS `map_saver` writes for a typical laser map; a 0.05 m wall is one to two cells).

@@ -1,5 +1,5 @@
 //! A guided walk without the bus: the simulated camera walked by a user who follows
-//! guidance ([`sensor_agent::sim::GuidedWalker`]), and the compute agent's navigation
+//! guidance ([`sim::GuidedWalker`]), and the compute agent's navigation
 //! (perception's scan, [`localization::Tracker`], [`guidance::Navigator`]) fed exactly
 //! what the agent is fed, frame by frame, as fast as the machine runs. What the demo's
 //! guided walk does across processes, made deterministic for tests and for finding out
@@ -13,9 +13,9 @@ use perception::body_rate::BodyRate;
 use perception::{ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, PerceptionConfig, StepOutput};
 use planning::UserProfile;
 use schemas::{Command, DepthEncoding, DepthFrame, RouteStatus};
-use sensor_agent::sim::source::Guidance;
-use sensor_agent::sim::{Directions, DirectionsHandle, SimConfig, SimSource, World};
-use sensor_agent::source::FrameSource;
+use sim::source::Guidance;
+use sim::{Directions, DirectionsHandle, SimConfig, SimSource, World};
+use sim::FrameSource;
 
 use crate::floor_plan;
 

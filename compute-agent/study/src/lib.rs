@@ -30,7 +30,7 @@ pub mod world_groups;
 
 use anyhow::Context;
 use schemas::CostFunction;
-use sensor_agent::sim::{CameraProfile, World};
+use sim::{CameraProfile, World};
 
 use contacts::Part;
 use study::{study_with_progress, table, LeadTimes};
@@ -416,9 +416,9 @@ impl CourseArgs {
         c.user.turn_walk_speed_m_s = c.user.turn_walk_speed_m_s.min(self.walk_speed_m_s);
         c.mount.pitch_deg = self.pitch_deg;
         anyhow::ensure!((0.0..=60.0).contains(&self.chest_pitch_deg), "--chest-pitch-deg must be between 0 and 60");
-        c.chest = self.chest.then(|| sensor_agent::sim::ChestMount {
+        c.chest = self.chest.then(|| sim::ChestMount {
             pitch_deg: self.chest_pitch_deg,
-            ..sensor_agent::sim::ChestMount::default()
+            ..sim::ChestMount::default()
         });
         anyhow::ensure!((0.0..=60.0).contains(&self.sweep_deg), "--sweep-deg must be between 0 and 60");
         c.mount.sweep_amplitude_deg = self.sweep_deg;

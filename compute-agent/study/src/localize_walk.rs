@@ -27,7 +27,7 @@ use localization::{
     Scan, Status, WallAngle, WallFitConfig,
 };
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, Perception, StepOutput};
-use sensor_agent::sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
+use sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
 
 pub use crate::floor_plan::LocalizationMap;
 use crate::floor_plan::{self, FloorPlanError};

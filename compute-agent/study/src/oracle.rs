@@ -14,7 +14,7 @@
 //! perception holds instead of the world, so only the perception's sensing limits it.
 
 use schemas::Rumble;
-use sensor_agent::sim::{CaneMount, World};
+use sim::{CaneMount, World};
 
 use super::contacts::{cane_distance_m, RELEASE_M};
 use super::hands::Felt;
@@ -466,7 +466,7 @@ fn first_touch_one_s(
 mod tests {
     use super::*;
     use crate::virtual_user::GoalSound;
-    use sensor_agent::sim::UserPose;
+    use sim::UserPose;
 
     /// A wall 1 m wide standing across the way 4 m ahead of a user at the origin facing
     /// +x, or (`beside`) along the way 0.8 m to the user's left; the goal 8 m ahead.

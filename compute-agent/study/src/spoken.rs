@@ -168,7 +168,7 @@ impl SpokenGuide {
 }
 
 impl Guide for SpokenGuide {
-    fn heading_target_rad(&mut self, pose: &sensor_agent::sim::UserPose, t_s: f64) -> Option<f64> {
+    fn heading_target_rad(&mut self, pose: &sim::UserPose, t_s: f64) -> Option<f64> {
         loop {
             let next = {
                 let mut ear = self.ear.borrow_mut();
@@ -358,7 +358,7 @@ mod tests {
     fn told_to_turn_on_the_spot_the_user_turns_slowly_until_the_position_is_found() {
         let ear: Ear = Rc::default();
         let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
-        let at = sensor_agent::sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
+        let at = sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
         let said = "Going to music. Turn slowly on the spot until I find your position.";
         ear.borrow_mut().heard.push_back(Heard { at_s: 1.0, text: said.into() });
         ear.borrow_mut().heard.push_back(Heard { at_s: 5.0, text: "Position found.".into() });
@@ -372,7 +372,7 @@ mod tests {
     fn the_user_turns_from_where_they_face_when_the_words_are_understood_and_holds_that_heading() {
         let ear: Ear = Rc::default();
         let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
-        let at = |yaw_rad: f64| sensor_agent::sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad, floor: 0 };
+        let at = |yaw_rad: f64| sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad, floor: 0 };
         assert_eq!(guide.heading_target_rad(&at(0.3), 0.0), None, "nothing heard: nowhere to go");
         assert_eq!(guide.spin_rad_s(), None);
         assert_eq!(guide.heading_target_rad(&at(0.3), 1.0), None);
@@ -389,7 +389,7 @@ mod tests {
         assert_eq!(guide.heading_target_rad(&at(-1.0), 5.0), Some(h));
         ear.borrow_mut().heard.push_back(Heard { at_s: 6.0, text: "You have arrived at music.".into() });
         let to_place = guide
-            .heading_target_rad(&sensor_agent::sim::UserPose { x_m: 10.0, y_m: -1.0, yaw_rad: 0.0, floor: 0 }, 6.0)
+            .heading_target_rad(&sim::UserPose { x_m: 10.0, y_m: -1.0, yaw_rad: 0.0, floor: 0 }, 6.0)
             .unwrap();
         assert!((to_place - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "then to the place's sound: {to_place}");
     }

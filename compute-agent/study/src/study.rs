@@ -3,7 +3,7 @@
 //! signals, cane contacts, body contacts, reorientations, completion), with body
 //! contacts split by whether the obstacle was in the camera's field of view.
 
-use sensor_agent::sim::World;
+use sim::World;
 use serde::Serialize;
 
 use super::contacts::Part;

@@ -15,8 +15,8 @@
 use std::collections::VecDeque;
 use std::rc::Rc;
 
-use sensor_agent::sim::walker::wrap_pi;
-use sensor_agent::sim::UserPose;
+use sim::walker::wrap_pi;
+use sim::UserPose;
 
 use super::hands::Felt;
 

@@ -23,12 +23,12 @@ use schemas::{
     AppliedAction, DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, MountGuess, OdomIncrement,
     RouteStatus, SpeechIntent,
 };
-use sensor_agent::sim::odometry::{OdometryModel, OdometryNoise};
-use sensor_agent::sim::render::DEPTH_UNITS_PER_M;
-use sensor_agent::sim::shape::Shape;
-use sensor_agent::sim::source::noisy_gravity;
-use sensor_agent::sim::walker::wrap_pi;
-use sensor_agent::sim::{
+use sim::odometry::{OdometryModel, OdometryNoise};
+use sim::render::DEPTH_UNITS_PER_M;
+use sim::shape::Shape;
+use sim::source::noisy_gravity;
+use sim::walker::wrap_pi;
+use sim::{
     CameraPose, CameraProfile, CaneMount, ChestMount, ObstacleId, ObstacleKind, Renderer, SimRng, UserPose, World,
 };
 

@@ -1,6 +1,6 @@
 //! `wearnav course --worlds`: the study over groups of worlds (issue 29). The cues were
 //! tuned on a few hand-written worlds; generated ones (`gen:<kind>`, see
-//! [`sensor_agent::sim::generate`]) nobody looked at say whether what was learnt holds.
+//! [`sim::generate`]) nobody looked at say whether what was learnt holds.
 //! Each group is walked world by world with the same seeds as one world would be
 //! (`--runs` walks from `--seed`), summed up per group and overall, and with `--versus`
 //! walked again with the flags added, compared walk by walk ([`compare`]) per group and
@@ -10,8 +10,8 @@
 use std::fmt::Write;
 
 use anyhow::Context;
-use sensor_agent::sim::generate;
-use sensor_agent::sim::World;
+use sim::generate;
+use sim::World;
 
 use crate::compare::{self, Difference};
 use crate::study::{study_with_progress, Row, Study};

@@ -8,7 +8,7 @@
 //! The full 20-run table is a CLI run (`wearnav course`).
 
 use clap::Parser;
-use sensor_agent::sim::World;
+use sim::World;
 use study::compare::compare;
 use study::contacts::Part;
 use study::hands::Felt;

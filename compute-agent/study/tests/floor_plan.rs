@@ -9,8 +9,8 @@ use std::path::PathBuf;
 
 use map::{Building, Cell, GatewayKind, OccupancyGrid};
 use planning::{BuildingPlanner, FloorPoint, LegEnd, NavGraphConfig, Planner, UserProfile};
-use sensor_agent::sim::world::BUILTIN_WORLDS;
-use sensor_agent::sim::{ObstacleKind, World};
+use sim::world::BUILTIN_WORLDS;
+use sim::{ObstacleKind, World};
 use study::floor_plan::{export, export_as_mapped, stair_stops, DEFAULT_RESOLUTION_M};
 
 fn world(name: &str) -> World {

@@ -7,7 +7,7 @@
 //! default (it moves the place along a corridor without signs).
 
 use localization::{CornerConfig, FilterConfig, FreeSpaceConfig, WallFitConfig};
-use sensor_agent::sim::World;
+use sim::World;
 use study::localize_walk::{localize_walk, LocalizationMap, LocalizeWalkConfig, ScanUse, WalkLocalization};
 
 fn run_with(name: &str, seed: u64, config: &LocalizeWalkConfig) -> WalkLocalization {

@@ -28,7 +28,7 @@
 //! and signals (README, "Where the study stands").
 
 use clap::Parser;
-use sensor_agent::sim::World;
+use sim::World;
 use study::study::{study, Row};
 use study::CourseArgs;
 

@@ -21,7 +21,7 @@
 //! come from [`SimRng`] (seeded by the seed and the kind) and are written to the
 //! millimetre.
 //!
-//! [`parse_scene`]: crate::sim::scene::parse_scene
+//! [`parse_scene`]: crate::scene::parse_scene
 
 mod corridor;
 mod layout;
@@ -30,7 +30,7 @@ mod office;
 mod street;
 pub mod way_through;
 
-use crate::sim::random::SimRng;
+use crate::random::SimRng;
 use layout::{Layout, Wall, WALL_THICKNESS_M};
 use way_through::Grid;
 

@@ -7,7 +7,7 @@
 
 use super::layout::{Item, Layout, Piece, Wall};
 use super::{between, chance, count, in_room, room_walls, Polyline, Spots};
-use crate::sim::random::SimRng;
+use crate::random::SimRng;
 
 pub(super) fn layout(rng: &mut SimRng) -> Layout {
     let size = [between(rng, 8.0, 14.0), between(rng, 8.0, 14.0)];

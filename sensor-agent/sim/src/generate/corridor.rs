@@ -8,7 +8,7 @@
 
 use super::layout::{Door, Item, Layout, Piece, Walker, Wall, WALL_THICKNESS_M};
 use super::{between, chance, count};
-use crate::sim::random::SimRng;
+use crate::random::SimRng;
 
 /// How far the start and the goal stand from the end walls' faces, metres.
 const END_GAP_M: f64 = 0.7;

@@ -648,7 +648,7 @@ impl Builder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::walker::ScriptedWalker;
+    use crate::walker::ScriptedWalker;
     use std::collections::BinaryHeap;
 
     fn builtin(name: &str) -> World {

@@ -88,8 +88,8 @@ impl ImuModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::cane::CaneMount;
-    use crate::sim::world::UserPose;
+    use crate::cane::CaneMount;
+    use crate::world::UserPose;
 
     #[test]
     fn imu_at_rest_reads_gravity_away_from_the_floor() {

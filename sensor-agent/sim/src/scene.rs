@@ -79,7 +79,7 @@ pub enum SceneError {
     },
     /// A `gen:` name that names no generated world.
     #[error(transparent)]
-    Generate(#[from] crate::sim::generate::GenerateError),
+    Generate(#[from] crate::generate::GenerateError),
     /// A world name that is neither built in nor a readable file.
     #[error("unknown world `{name}`: give a scene file path, one of the built-in worlds ({known}) or a generated one (gen:corridor:7; kinds corridor, office, lobby, street)")]
     UnknownWorld {

@@ -7,7 +7,7 @@
 
 use super::layout::{Item, Layout, Piece, Wall, WALL_THICKNESS_M};
 use super::{between, chance, count, Spots};
-use crate::sim::random::SimRng;
+use crate::random::SimRng;
 
 pub(super) fn layout(rng: &mut SimRng) -> Layout {
     let length = between(rng, 25.0, 40.0);

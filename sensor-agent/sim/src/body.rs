@@ -56,11 +56,11 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::*;
-    use crate::sim::imu::{ImuModel, ImuNoise};
-    use crate::sim::random::SimRng;
-    use crate::sim::scene::{AtEnd, WalkerSpec};
-    use crate::sim::walker::ScriptedWalker;
-    use crate::sim::world::UserPose;
+    use crate::imu::{ImuModel, ImuNoise};
+    use crate::random::SimRng;
+    use crate::scene::{AtEnd, WalkerSpec};
+    use crate::walker::ScriptedWalker;
+    use crate::world::UserPose;
 
     /// Mean rate about gravity over `n` samples from `t0_s`, rad/s positive left.
     fn mean_turn(mount: &BodyMount, walker: &ScriptedWalker, t0_s: f64, n: usize) -> f64 {

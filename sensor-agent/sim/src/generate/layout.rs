@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use crate::sim::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
+use crate::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
 /// Walls of generated worlds, as the scene format's defaults.
 pub(super) const WALL_THICKNESS_M: f64 = 0.1;

@@ -2,12 +2,12 @@
 //! the taylor-course walk (render + sensor model), and of a whole `SimSource` frame
 //! (render + IMU + odometry + copy). Prints medians over the walk.
 //!
-//! Run: `cargo bench -p sensor-agent --bench sim`
+//! Run: `cargo bench -p sim --bench sim`
 
 use std::time::Instant;
 
-use sensor_agent::sim::{CameraProfile, CaneMount, Renderer, ScriptedWalker, SimConfig, SimRng, SimSource, World};
-use sensor_agent::source::FrameSource;
+use sim::{CameraProfile, CaneMount, Renderer, ScriptedWalker, SimConfig, SimRng, SimSource, World};
+use sim::FrameSource;
 
 const FRAMES: usize = 300;
 

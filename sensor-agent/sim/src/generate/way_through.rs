@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-use crate::sim::shape::Shape;
+use crate::shape::Shape;
 
 /// Grid cell side, metres.
 pub const CELL_M: f64 = 0.05;
@@ -184,7 +184,7 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::shape::{OrientedBox, VerticalCylinder};
+    use crate::shape::{OrientedBox, VerticalCylinder};
 
     fn wall(x: f64, y0: f64, y1: f64) -> Shape {
         Shape::Box(OrientedBox {

@@ -17,7 +17,7 @@ use super::render::{Renderer, DEPTH_UNITS_PER_M};
 use super::scene::{SceneError, WalkerSpec};
 use super::walker::{ScriptedWalker, Trajectory};
 use super::world::{UserPose, World};
-use crate::source::{FrameSource, SourceError, SourceFrame};
+use crate::frame::{FrameSource, SourceError, SourceFrame};
 
 /// Everything that makes one simulated run.
 #[derive(Debug, Clone, PartialEq)]
@@ -468,7 +468,7 @@ mod tests {
 
     #[test]
     fn a_guided_walk_moves_the_imus_as_smoothly_as_a_scripted_one() {
-        use crate::sim::guided::Directions;
+        use crate::guided::Directions;
         use schemas::{LocalizationStatus, MapPoint, Pose, RouteStatus};
         let directions = std::sync::Arc::new(std::sync::Mutex::new(Directions {
             status: Some(RouteStatus::Guiding),

@@ -3,8 +3,8 @@
 //! not from the generator's own shapes.
 
 use super::*;
-use crate::sim::shape::Shape;
-use crate::sim::world::{ObstacleKind, World};
+use crate::shape::Shape;
+use crate::world::{ObstacleKind, World};
 
 fn load(name: &str) -> World {
     World::load(name).unwrap_or_else(|e| panic!("{e}"))
@@ -13,7 +13,7 @@ fn load(name: &str) -> World {
 /// Every static shape of floor 0 with its kind.
 fn shapes(w: &World) -> Vec<(Shape, ObstacleKind)> {
     let g = w.geometry(0);
-    let kind = |id: &crate::sim::ObstacleId| w.obstacle(*id).map_or(ObstacleKind::Box, |o| o.kind);
+    let kind = |id: &crate::ObstacleId| w.obstacle(*id).map_or(ObstacleKind::Box, |o| o.kind);
     g.boxes
         .iter()
         .map(|(b, id)| (Shape::Box(*b), kind(id)))
@@ -134,7 +134,7 @@ fn every_kind_has_a_way_through_on_200_seeds_and_its_route_keeps_clear_of_walls(
             // furniture a body walking the route (0.45 m wide) would come within 0.3 m of
             let mut on_route = 0;
             for o in 0..w.obstacles().len() {
-                let id = crate::sim::ObstacleId(o as u32);
+                let id = crate::ObstacleId(o as u32);
                 let kind = w.obstacles()[o].kind;
                 if matches!(kind, ObstacleKind::Wall | ObstacleKind::DropOff | ObstacleKind::Person) {
                     continue;

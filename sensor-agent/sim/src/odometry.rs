@@ -111,8 +111,8 @@ pub fn integrate(pose: &UserPose, inc: &OdomIncrement) -> UserPose {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::scene::{AtEnd, WalkerSpec};
-    use crate::sim::walker::ScriptedWalker;
+    use crate::scene::{AtEnd, WalkerSpec};
+    use crate::walker::ScriptedWalker;
 
     /// Dead-reckons a walk of the taylor-course shape sampled at 30 Hz; returns the
     /// final position error and the distance walked.

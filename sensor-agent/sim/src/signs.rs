@@ -16,8 +16,8 @@
 //! (the harmful misread: a number the map has, somewhere else), and
 //! [`DoorSignReader::misread_next`] forces one (the injected misread).
 
-use crate::sim::random::SimRng;
-use crate::sim::world::{UserPose, World};
+use crate::random::SimRng;
+use crate::world::{UserPose, World};
 
 /// What the reader can read, and how well.
 #[derive(Debug, Clone, Copy, PartialEq)]
