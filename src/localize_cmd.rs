@@ -89,6 +89,11 @@ pub struct LocalizeArgs {
     /// rotation); default 0.1 each. A simulated walk has the simulator's own.
     #[arg(long, value_name = "A1,A2,A3,A4", value_parser = parse_alpha, conflicts_with = "world")]
     odom_noise: Option<[f64; 4]>,
+    /// With `--world`: the odometry noise the filter assumes (AMCL's alpha1..alpha4, as
+    /// for `--odom-noise`); default AMCL's 0.2 each. Smaller trusts the odometry more
+    /// (docs/localization.md, "An EKF before the filter").
+    #[arg(long, value_name = "A1,A2,A3,A4", value_parser = parse_alpha, requires = "world")]
+    motion_noise: Option<[f64; 4]>,
     /// Most particles while tracking (a global start begins with more, spread over the
     /// whole map; see `FilterConfig::global_particles`).
     #[arg(long, value_name = "N", default_value_t = FilterConfig::default().max_particles)]
@@ -163,6 +168,12 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
         min_particles: defaults.filter.min_particles.min(args.particles),
         unmapped_gate_m: args.unmapped_gate.unwrap_or(defaults.filter.unmapped_gate_m),
         free_space: args.free_space.then(localization::FreeSpaceConfig::default),
+        motion: match args.motion_noise {
+            Some([alpha1, alpha2, alpha3, alpha4]) => {
+                localization::MotionNoise { alpha1, alpha2, alpha3, alpha4, ..defaults.filter.motion }
+            }
+            None => defaults.filter.motion,
+        },
         ..defaults.filter.clone()
     };
     if args.misread_after.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {

@@ -61,6 +61,8 @@ fn bad_input_is_refused_with_its_reason() {
         ("--misread-after=-3", "0 or more"),
         ("--unmapped-gate=0", "more than 0"),
         ("--unmapped-gate=nan", "more than 0"),
+        ("--motion-noise=0.1,0.2", "four numbers between 0 and 2"),
+        ("--motion-noise=0.1,0.1,0.1,nan", "four numbers between 0 and 2"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
             .args(["localize", "--world", "building", arg])
