@@ -14,8 +14,8 @@ use perception::{ComputeStep, CueConfig, FrameData, FrameIn, NoTimer, Perception
 use planning::UserProfile;
 use schemas::{Command, DepthEncoding, DepthFrame, RouteStatus};
 use sim::source::Guidance;
-use sim::{Directions, DirectionsHandle, SimConfig, SimSource, World};
 use sim::FrameSource;
+use sim::{Directions, DirectionsHandle, SimConfig, SimSource, World};
 
 use crate::floor_plan;
 

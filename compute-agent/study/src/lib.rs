@@ -416,10 +416,7 @@ impl CourseArgs {
         c.user.turn_walk_speed_m_s = c.user.turn_walk_speed_m_s.min(self.walk_speed_m_s);
         c.mount.pitch_deg = self.pitch_deg;
         anyhow::ensure!((0.0..=60.0).contains(&self.chest_pitch_deg), "--chest-pitch-deg must be between 0 and 60");
-        c.chest = self.chest.then(|| sim::ChestMount {
-            pitch_deg: self.chest_pitch_deg,
-            ..sim::ChestMount::default()
-        });
+        c.chest = self.chest.then(|| sim::ChestMount { pitch_deg: self.chest_pitch_deg, ..sim::ChestMount::default() });
         anyhow::ensure!((0.0..=60.0).contains(&self.sweep_deg), "--sweep-deg must be between 0 and 60");
         c.mount.sweep_amplitude_deg = self.sweep_deg;
         anyhow::ensure!(

@@ -388,9 +388,8 @@ mod tests {
         // facing elsewhere later (turned away from an obstacle): the heading told stays
         assert_eq!(guide.heading_target_rad(&at(-1.0), 5.0), Some(h));
         ear.borrow_mut().heard.push_back(Heard { at_s: 6.0, text: "You have arrived at music.".into() });
-        let to_place = guide
-            .heading_target_rad(&sim::UserPose { x_m: 10.0, y_m: -1.0, yaw_rad: 0.0, floor: 0 }, 6.0)
-            .unwrap();
+        let to_place =
+            guide.heading_target_rad(&sim::UserPose { x_m: 10.0, y_m: -1.0, yaw_rad: 0.0, floor: 0 }, 6.0).unwrap();
         assert!((to_place - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "then to the place's sound: {to_place}");
     }
 }

@@ -3,8 +3,8 @@
 //! signals, cane contacts, body contacts, reorientations, completion), with body
 //! contacts split by whether the obstacle was in the camera's field of view.
 
-use sim::World;
 use serde::Serialize;
+use sim::World;
 
 use super::contacts::Part;
 use super::walk::{walk, WalkConfig, WalkOutcome};

@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use sim::{CameraProfile, CaneMount, Renderer, ScriptedWalker, SimConfig, SimRng, SimSource, World};
 use sim::FrameSource;
+use sim::{CameraProfile, CaneMount, Renderer, ScriptedWalker, SimConfig, SimRng, SimSource, World};
 
 const FRAMES: usize = 300;
 
