@@ -627,6 +627,9 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
     s.push('\n');
     s.push_str(&LeadTimes::of(&result.walks, Part::Body).line("body"));
     s.push('\n');
+    if let Some(l) = study::localization_line(result.walks.iter()) {
+        s.push_str(&l);
+    }
     for w in result.walks.iter().filter(|w| !w.completed) {
         let why =
             if w.way_through == Some(false) { ": there is no way through (0.5 m wide) from the start" } else { "" };
@@ -768,8 +771,15 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
         None => String::new(),
         Some(e) if e.frames == 0 => "; the filter never tracked".to_string(),
         Some(e) => format!(
-            "; the filter tracked {} of {} frames, RMSE {:.2} m, heading {:.1}°",
-            e.frames, w.frames, e.position_rmse_m, e.heading_rmse_deg
+            "; the filter tracked {} of {} frames, RMSE {:.2} m, heading {:.1}°{}",
+            e.frames,
+            w.frames,
+            e.position_rmse_m,
+            e.heading_rmse_deg,
+            match e.frames_over_1m {
+                0 => String::new(),
+                n => format!(", {n} of them more than 1 m off"),
+            }
         ),
     };
     let heard = match w.heard {

@@ -84,6 +84,25 @@ pub struct Study {
     pub average: Option<Row>,
 }
 
+/// With the particle filter's place (`--pose filter`): how many walks it guided from a
+/// place more than a metre off (frames it said `Tracking` while that far from the
+/// truth), as a line; `None` when the walks ran without the filter.
+pub fn localization_line<'a>(walks: impl Iterator<Item = &'a WalkOutcome>) -> Option<String> {
+    let errors: Vec<_> = walks.filter_map(|w| w.localization).collect();
+    if errors.is_empty() {
+        return None;
+    }
+    let off: Vec<u64> = errors.iter().map(|e| u64::from(e.frames_over_1m)).filter(|&n| n > 0).collect();
+    let tracked: u64 = errors.iter().map(|e| u64::from(e.frames)).sum();
+    Some(format!(
+        "the filter: {} of {} walks tracked more than 1 m off ({} of {} frames tracked)\n",
+        off.len(),
+        errors.len(),
+        off.iter().sum::<u64>(),
+        tracked
+    ))
+}
+
 /// Contacts of one part by how long before them the user felt a cue: the warning's
 /// lead time against the walk's reaction time says whether a contact was the cue's
 /// fault (none, or too late to act on) or the user's reaction to it.
@@ -291,6 +310,21 @@ mod tests {
         assert_eq!(
             cane.line("cane"),
             "cane contacts 5: 1 with nothing felt, 2 felt too late to act on (less than the reaction time before), 2 felt in time"
+        );
+    }
+
+    #[test]
+    fn the_filters_line_counts_the_walks_and_frames_tracked_more_than_a_metre_off() {
+        use crate::walk::TrackedError;
+        let with = |frames, frames_over_1m| WalkOutcome {
+            localization: Some(TrackedError { position_rmse_m: 0.3, heading_rmse_deg: 2.0, frames, frames_over_1m }),
+            ..walk_with(0.5, &[])
+        };
+        assert_eq!(localization_line([walk_with(0.5, &[])].iter()), None, "walks without the filter");
+        let walks = [with(900, 0), with(1200, 40), with(0, 0), with(600, 7)];
+        assert_eq!(
+            localization_line(walks.iter()).as_deref(),
+            Some("the filter: 2 of 4 walks tracked more than 1 m off (47 of 2700 frames tracked)\n")
         );
     }
 }

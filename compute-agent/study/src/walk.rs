@@ -354,6 +354,9 @@ pub struct TrackedError {
     pub heading_rmse_deg: f64,
     /// Frames tracked.
     pub frames: u32,
+    /// Of those, the frames the filter was more than 1 m off (the device guided the
+    /// user from a place a metre or more wrong).
+    pub frames_over_1m: u32,
 }
 
 /// What happened on one walk.
@@ -790,7 +793,7 @@ pub struct Walk<'w> {
     tracker: Option<Tracker>,
     last_camera_yaw: Option<(f64, f64)>,
     /// squared position error (m²), squared heading error (rad²), frames, while tracking
-    tracked_error: (f64, f64, u32),
+    tracked_error: (f64, f64, u32, u32),
     /// With the spoken guide: the device's navigator, what it says this frame, and what
     /// the user heard and has not yet acted on.
     spoken: Option<SpokenDevice>,
@@ -940,7 +943,7 @@ impl<'w> Walk<'w> {
             known_near: Vec::new(),
             tracker,
             last_camera_yaw: None,
-            tracked_error: (0.0, 0.0, 0),
+            tracked_error: (0.0, 0.0, 0, 0),
             spoken,
             said: Vec::new(),
             ear,
@@ -1007,11 +1010,15 @@ impl<'w> Walk<'w> {
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
         if self.tracker.is_some() {
-            let (pos2, head2, n) = self.tracked_error;
+            let (pos2, head2, n, over) = self.tracked_error;
             // never tracked: no error to give (NaN, `null` in JSON)
             let rms = |sum: f64| if n == 0 { f64::NAN } else { (sum / f64::from(n)).sqrt() };
-            self.out.localization =
-                Some(TrackedError { position_rmse_m: rms(pos2), heading_rmse_deg: rms(head2).to_degrees(), frames: n });
+            self.out.localization = Some(TrackedError {
+                position_rmse_m: rms(pos2),
+                heading_rmse_deg: rms(head2).to_degrees(),
+                frames: n,
+                frames_over_1m: over,
+            });
         }
         self.out
     }
@@ -1061,8 +1068,8 @@ impl<'w> Walk<'w> {
                 (e.status == localization::Status::Tracking).then(|| {
                     let err2 = (e.pose.x_m - pose.x_m).powi(2) + (e.pose.y_m - pose.y_m).powi(2);
                     let head2 = localization::wrap_angle(e.pose.heading_rad - pose.yaw_rad).powi(2);
-                    let (p, h, n) = self.tracked_error;
-                    self.tracked_error = (p + err2, h + head2, n + 1);
+                    let (p, h, n, over) = self.tracked_error;
+                    self.tracked_error = (p + err2, h + head2, n + 1, over + u32::from(err2 > 1.0));
                     UserPose { x_m: e.pose.x_m, y_m: e.pose.y_m, yaw_rad: e.pose.heading_rad, floor: e.level }
                 })
             }

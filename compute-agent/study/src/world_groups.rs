@@ -222,6 +222,9 @@ fn group_table(name: &str, walks: &GroupWalks) -> String {
     if let Some(avg) = &walks.average {
         s.push_str(&line(&format!("{name} (mean)"), walks.rows.len(), avg));
     }
+    if let Some(l) = crate::study::localization_line(walks.walks()) {
+        s.push_str(&l);
+    }
     s
 }
 

@@ -640,6 +640,7 @@ fn the_predictive_cue_on_the_particle_filters_place_walks_a_narrow_corridor_unto
             "seed {seed}: {tracked} of {} frames, RMSE {rmse_m:.2} m",
             out.frames
         );
+        assert_eq!(e.frames_over_1m, 0, "seed {seed}: frames tracked more than 1 m off");
     }
 }
 
@@ -670,6 +671,10 @@ fn on_the_mapped_map_the_filter_places_the_spoken_guides_user_in_the_open_lobby(
         .collect();
     let near = tracking.iter().filter(|&&e| e < 1.0).count();
     assert!(tracking.len() * 10 >= out.frames as usize * 6 && near == tracking.len(), "{near} of {}", tracking.len());
+    // the walk's own count agrees with its trace (the walk counts the place each frame is
+    // guided from, before the frame's correction; the trace shows it after: a frame apart)
+    assert!(e.frames.abs_diff(tracking.len() as u32) <= 1, "{} frames against {}", e.frames, tracking.len());
+    assert_eq!(e.frames_over_1m as usize, tracking.len() - near);
 }
 
 #[test]
@@ -691,6 +696,7 @@ fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner
     let e = out.localization.expect("the guide speaks from the filter's place");
     let (rmse_m, tracked) = (e.position_rmse_m, e.frames);
     assert!(rmse_m < 0.4 && tracked > 0, "{tracked} frames tracked, RMSE {rmse_m:.2} m");
+    assert_eq!(e.frames_over_1m, 0, "frames tracked more than 1 m off");
     // the heading the guide's turns are called from (measured 2.4-2.7° on seeds 1-3)
     assert!(e.heading_rmse_deg < 5.0, "heading RMSE {:.1}°", e.heading_rmse_deg);
 }
