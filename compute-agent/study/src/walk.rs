@@ -792,7 +792,8 @@ pub struct Walk<'w> {
     /// squared position errors while it tracked.
     tracker: Option<Tracker>,
     last_camera_yaw: Option<(f64, f64)>,
-    /// squared position error (m²), squared heading error (rad²), frames, while tracking
+    /// squared position error (m²), squared heading error (rad²), frames, and frames more
+    /// than 1 m off, summed while tracking
     tracked_error: (f64, f64, u32, u32),
     /// With the spoken guide: the device's navigator, what it says this frame, and what
     /// the user heard and has not yet acted on.
