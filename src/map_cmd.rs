@@ -62,6 +62,12 @@ pub struct MapArgs {
     /// With --dxf: the layers whose texts become labels [default: every layer].
     #[arg(long, value_name = "A,B", value_delimiter = ',', conflicts_with = "world")]
     label_layers: Option<Vec<String>>,
+    /// With --dxf: where north lies on the drawing, degrees counter-clockwise from its
+    /// +x axis (90: north is up), as the plan's north arrow shows it. Lets the compute
+    /// agent read the worn phone's compass on the map; without it no compass is read.
+    /// (A simulated world's north is its +y axis, 90.)
+    #[arg(long, value_name = "DEG", conflicts_with = "world", allow_negative_numbers = true)]
+    north_deg: Option<f64>,
 }
 
 /// Run `wearnav map`.
@@ -82,7 +88,9 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let manifest = args.out.join("building.toml");
     building.write(&manifest)?;
-    println!("{name}: {}", manifest.display());
+    let north = building.floors().iter().find_map(|f| f.semantic.north_deg);
+    let north = north.map_or("no north: no compass is read on it".to_string(), |n| format!("north at {n:.1}° from +x"));
+    println!("{name}: {} ({north})", manifest.display());
     for floor in building.floors() {
         let s = &floor.semantic;
         println!(
@@ -139,6 +147,10 @@ fn import_dxf(args: &MapArgs, dxf: &Path) -> anyhow::Result<Building> {
     for warning in &r.warnings {
         println!("  warning: {warning}");
     }
-    let semantic = floor.semantic;
+    let mut semantic = floor.semantic;
+    if let Some(north) = args.north_deg {
+        anyhow::ensure!(north.is_finite(), "--north-deg {north}: give an angle in degrees");
+        semantic.north_deg = Some(north.rem_euclid(360.0));
+    }
     Ok(Building::new(vec![Floor { level: 0, grid: floor.grid, semantic }], dxf)?)
 }

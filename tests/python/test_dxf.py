@@ -147,6 +147,15 @@ def test_walls_rooms_doors_and_labels_are_where_the_drawing_has_them(tmp_path):
         assert m.at(x, y) == FREE, name
 
 
+def test_the_plans_north_is_written_for_the_compass_and_none_said_is_none_written(tmp_path):
+    out, result = import_floor(tmp_path, "mm", "--north-deg", "-30")
+    assert "(north at 330.0° from +x)" in result.stdout, result.stdout
+    assert tomllib.loads((out / "floor0.toml").read_text())["north_deg"] == 330.0
+    out, result = import_floor(tmp_path, "m")
+    assert "(no north: no compass is read on it)" in result.stdout, result.stdout
+    assert "north_deg" not in tomllib.loads((out / "floor0.toml").read_text())
+
+
 def test_millimetres_and_metres_give_the_same_map(tmp_path):
     mm, _ = import_floor(tmp_path, "mm")
     m, result = import_floor(tmp_path, "m")

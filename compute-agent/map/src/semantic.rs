@@ -10,6 +10,9 @@
 //! level, 0 = ground). Every table is optional.
 //!
 //! ```toml
+//! north_deg = 90.0      # where a compass's north lies on the map: degrees counter-
+//!                       # clockwise from the map's +x axis (90: north is up, +y)
+//!
 //! [[label]]
 //! name = "room 214"
 //! x = 12.5
@@ -179,6 +182,11 @@ pub struct SemanticLayer {
     /// passages between floors
     #[serde(default, rename = "gateway")]
     pub gateways: Vec<Gateway>,
+    /// where a compass's (magnetic) north lies on the map, degrees counter-clockwise
+    /// from the map's +x axis, 0..360 (90: north is +y). `None`: unknown, and a phone's
+    /// compass cannot be read against the map. One value for the whole building.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub north_deg: Option<f64>,
 }
 
 impl SemanticLayer {
@@ -216,7 +224,14 @@ impl SemanticLayer {
             corners: self.corners.iter().filter(|c| c.floor == floor).cloned().collect(),
             areas: self.areas.iter().filter(|a| a.floor == floor).cloned().collect(),
             gateways: self.gateways.iter().filter(|g| g.stop(floor).is_some()).cloned().collect(),
+            north_deg: self.north_deg,
         }
+    }
+
+    /// Map heading (radians, counter-clockwise from +x) of a compass heading (degrees
+    /// clockwise from north), with this layer's north; `None` without one.
+    pub fn map_heading_rad(&self, compass_deg: f64) -> Option<f64> {
+        self.north_deg.map(|north| (north - compass_deg).to_radians())
     }
 
     /// The label called `name` (case-insensitive), if any.
@@ -252,6 +267,12 @@ impl SemanticLayer {
 
     fn validated(mut self, file: &Path) -> Result<Self, MapError> {
         let err = |message: String| MapError::Semantic { file: file.to_path_buf(), line: 0, message };
+        if let Some(north) = self.north_deg {
+            if !north.is_finite() {
+                return Err(err(format!("north_deg must be a finite angle in degrees (got {north})")));
+            }
+            self.north_deg = Some(north.rem_euclid(360.0));
+        }
         let finite = |what: &str, v: &[f64]| {
             if v.iter().all(|x| x.is_finite()) {
                 Ok(())
@@ -386,6 +407,20 @@ mod tests {
         assert_eq!(s.floor(0).gateways.len(), 1);
         assert_eq!(s.floor(1).gateways.len(), 0);
         assert_eq!(s.floor(2).areas.len(), 2);
+        assert_eq!(s.floor(1).north_deg, Some(100.0), "north is the building's");
+    }
+
+    #[test]
+    fn north_turns_a_compass_heading_into_a_map_heading_and_must_be_an_angle() {
+        let s = parse(SAMPLE).unwrap();
+        // north is 100 degrees from +x: a compass's north is the map's 100 degrees, its
+        // east (90 clockwise) the map's 10 degrees
+        assert!((s.map_heading_rad(0.0).unwrap() - 100f64.to_radians()).abs() < 1e-12);
+        assert!((s.map_heading_rad(90.0).unwrap() - 10f64.to_radians()).abs() < 1e-12);
+        assert_eq!(SemanticLayer::default().map_heading_rad(0.0), None, "no north, no map heading");
+        assert_eq!(parse("north_deg = -90.0\n").unwrap().north_deg, Some(270.0));
+        let e = parse("north_deg = nan\n").unwrap_err().to_string();
+        assert!(e.contains("north_deg must be a finite angle"), "{e}");
     }
 
     #[test]
