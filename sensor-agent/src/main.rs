@@ -37,9 +37,10 @@ struct Cli {
     /// Device name in the keys: `wearnav/<user>/sensor/<device>/depth`.
     #[arg(long, default_value = "cane")]
     device: String,
-    /// Device name of the simulated IMU worn on the body (a phone at the chest; `sim:`
-    /// sources only): `wearnav/<user>/sensor/<body-device>/imu`, what the compute agent
-    /// reads the body's turn rate from (its --body-imu-device).
+    /// Device name of the simulated phone worn on the body (at the chest; `sim:` sources
+    /// only): its IMU on `wearnav/<user>/sensor/<body-device>/imu`, what the compute
+    /// agent reads the body's turn rate from (its --body-imu-device), and its compass on
+    /// `.../<body-device>/motion` (the compute agent's --compass-device).
     #[arg(long, default_value = "body")]
     body_device: String,
     /// Simulate a second depth camera (the same model) worn at the chest, 1.3 m up and

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
-use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, MountGuess, OdomIncrement};
+use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, MountGuess, OdomIncrement, PhoneMotion};
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
@@ -24,8 +24,9 @@ pub struct SensorConfig {
     pub bus: BusOptions,
     /// Device name in the keys (`sensor/<device>/...`).
     pub device: String,
-    /// Device name of the IMU worn on the body, when the source has one (the
-    /// simulator's): `sensor/<body_device>/imu`.
+    /// Device name of the phone worn on the body, when the source has one (the
+    /// simulator's): its IMU `sensor/<body_device>/imu`, its compass and steps
+    /// `sensor/<body_device>/motion`.
     pub body_device: String,
     /// How depth is packed on the wire (the finest level when pacing).
     pub codec: WireCodec,
@@ -208,6 +209,8 @@ struct Outputs {
     depth: Publisher<DepthFrame>,
     imu: Publisher<ImuBatch>,
     body_imu: Publisher<ImuBatch>,
+    /// the body-worn phone's compass and steps (`sensor/<body_device>/motion`)
+    motion: Publisher<PhoneMotion>,
     odom: Publisher<OdomIncrement>,
     truth: Publisher<GroundTruth>,
     /// The chest camera's depth and odometry.
@@ -240,6 +243,8 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
         depth: Publisher::declare(&session, keys.depth(dev), AGENT, Lane::Bulk, Some(&health)).await?,
         imu: Publisher::declare(&session, keys.imu(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
         body_imu: Publisher::declare(&session, keys.imu(&config.body_device), AGENT, Lane::Telemetry, Some(&health))
+            .await?,
+        motion: Publisher::declare(&session, keys.motion(&config.body_device), AGENT, Lane::Events, Some(&health))
             .await?,
         odom: Publisher::declare(&session, keys.odom(dev), AGENT, Lane::Events, Some(&health)).await?,
         truth: Publisher::declare(&session, keys.truth(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
@@ -395,6 +400,9 @@ async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame
     }
     if !frame.body_imu.is_empty() {
         results.push(out.body_imu.put(stamp, &ImuBatch { samples: frame.body_imu }).await);
+    }
+    if let Some(motion) = &frame.motion {
+        results.push(out.motion.put(stamp, motion).await);
     }
     if let Some(depth) = depth {
         results.push(out.depth.put(stamp, &depth).await);

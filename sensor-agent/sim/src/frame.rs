@@ -3,7 +3,7 @@
 //! (the simulator here, recorded files and real cameras in the sensor agent). It lives
 //! with the simulator so that what walks simulated frames (the study) needs no bus.
 
-use schemas::{GroundTruth, ImuSample, Intrinsics, MountGuess, OdomIncrement};
+use schemas::{GroundTruth, ImuSample, Intrinsics, MountGuess, OdomIncrement, PhoneMotion};
 
 /// One captured depth frame with whatever motion data came with it, uncompressed.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,6 +29,9 @@ pub struct SourceFrame {
     /// Samples of an IMU worn on the body since the previous frame (the simulator's
     /// stand-in for a phone; real body-worn devices publish their own).
     pub body_imu: Vec<ImuSample>,
+    /// The body-worn phone's compass and steps, when a reading is due (the simulator's;
+    /// a real phone's come through the phone bridge).
+    pub motion: Option<PhoneMotion>,
     /// Odometry since the previous frame.
     pub odom: Option<OdomIncrement>,
     /// Ground truth (simulated sources only).
@@ -60,6 +63,7 @@ impl SourceFrame {
             mount: None,
             imu: Vec::new(),
             body_imu: Vec::new(),
+            motion: None,
             odom: None,
             truth: None,
             chest: None,

@@ -16,6 +16,7 @@ pub mod body;
 pub mod camera;
 pub mod cane;
 pub mod chest;
+pub mod compass;
 pub mod frame;
 pub mod generate;
 pub mod guided;

@@ -3,12 +3,13 @@
 //! moment and adds the IMU samples, odometry and ground truth since the last frame.
 
 use nalgebra::Vector3;
-use schemas::{GroundTruth, ImuSample, MountGuess};
+use schemas::{GroundTruth, ImuSample, MountGuess, PhoneMotion};
 
 use super::body::BodyMount;
 use super::camera::CameraProfile;
 use super::cane::CaneMount;
 use super::chest::ChestMount;
+use super::compass::{CompassModel, CompassNoise, SIM_NORTH_DEG};
 use super::guided::{DirectionsHandle, GuidedWalker};
 use super::imu::{ImuModel, ImuNoise};
 use super::odometry::{OdometryModel, OdometryNoise};
@@ -50,6 +51,9 @@ pub struct SimConfig {
     /// A second camera (the same model) worn at the chest, rendered with every frame
     /// (`SourceFrame::chest`); `None`: the cane camera alone.
     pub chest: Option<ChestMount>,
+    /// The compass of the body-worn phone (read at the phone's heading, so its mount is
+    /// the body IMU's, `body_mount`), sent at 10 Hz; `None`: no compass.
+    pub compass: Option<CompassNoise>,
 }
 
 impl Default for SimConfig {
@@ -70,6 +74,7 @@ impl Default for SimConfig {
             odometry_noise: OdometryNoise::default(),
             gravity_noise_deg: 0.5,
             chest: None,
+            compass: Some(CompassNoise { mount_deg: 0.0, ..CompassNoise::default() }),
         }
     }
 }
@@ -133,6 +138,20 @@ struct ChestCamera {
     last: Option<(UserPose, u64)>,
 }
 
+/// The body-worn phone's compass and step count.
+#[derive(Debug)]
+struct PhoneCompass {
+    model: CompassModel,
+    /// index of the next 10 Hz reading
+    next: u64,
+    walked_m: f64,
+}
+
+/// Compass readings a second.
+const COMPASS_HZ: f64 = 10.0;
+/// A step's length, for the phone's step count, metres.
+const STRIDE_M: f64 = 0.7;
+
 /// What the last frame was taken at.
 #[derive(Debug, Clone, Copy)]
 struct LastFrame {
@@ -154,6 +173,7 @@ pub struct SimSource {
     imu_rate_hz: f64,
     body: BodyImu,
     chest: Option<ChestCamera>,
+    compass: Option<PhoneCompass>,
     gravity_noise_rad: f64,
     start_ns: Option<u64>,
     next_imu: u64,
@@ -194,6 +214,12 @@ impl SimSource {
                 gravity_rng: rng.fork(),
                 odometry: OdometryModel::new(config.odometry_noise, rng.fork()),
                 last: None,
+            }),
+            // after every other stream, so they draw what they always drew
+            compass: config.compass.map(|noise| PhoneCompass {
+                model: CompassModel::new(noise, rng.fork()),
+                next: 0,
+                walked_m: 0.0,
             }),
             gravity_noise_rad: config.gravity_noise_deg.to_radians(),
             start_ns: None,
@@ -251,6 +277,7 @@ impl SimSource {
             mount: Some(MountGuess { height_m: chest.mount.height_m as f32, pitch_deg: chest.mount.pitch_deg as f32 }),
             imu: Vec::new(),
             body_imu: Vec::new(),
+            motion: None,
             odom,
             truth: None,
             chest: None,
@@ -323,6 +350,16 @@ impl FrameSource for SimSource {
             });
             body.next += 1;
         }
+        let motion = self.compass.as_mut().and_then(|c| {
+            c.walked_m += self.last.map_or(0.0, |l| (user.x_m - l.user.x_m).hypot(user.y_m - l.user.y_m));
+            if (c.next as f64 / COMPASS_HZ) > t_s {
+                return None;
+            }
+            c.next = (t_s * COMPASS_HZ).floor() as u64 + 1;
+            let phone = self.body.mount.pose_at(walker, t_s).yaw_rad();
+            let heading = c.model.read(user.x_m, user.y_m, phone, SIM_NORTH_DEG.to_radians());
+            Some(PhoneMotion { heading_deg: Some(heading), accuracy_deg: None, steps: (c.walked_m / STRIDE_M) as u64 })
+        });
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
         self.last = Some(LastFrame { stamp_ns, user });
@@ -343,6 +380,7 @@ impl FrameSource for SimSource {
             }),
             imu,
             body_imu,
+            motion,
             odom,
             truth: Some(GroundTruth {
                 x_m: user.x_m as f32,
@@ -412,6 +450,7 @@ mod tests {
 
         let mut imu_count = first.imu.len();
         let mut body_count = first.body_imu.len();
+        let mut compass = Vec::from_iter(first.motion);
         let mut last = first;
         for k in 1..=30u64 {
             let now = t0 + k * s.period_ns();
@@ -428,11 +467,22 @@ mod tests {
             assert!(f.body_imu.iter().all(|i| i.stamp_ns > last.stamp_ns && i.stamp_ns <= f.stamp_ns));
             imu_count += f.imu.len();
             body_count += f.body_imu.len();
+            compass.extend(f.motion);
             last = f;
         }
         // 30 frames span 0.99999999 s: 200 Hz samples at 0, 5, ..., 995 ms, each once;
         // the body's 100 Hz at 0, 10, ..., 990 ms.
         assert_eq!((imu_count, body_count), (200, 100));
+        // the phone's compass at 10 Hz (0, 100, ..., 900 ms): the walker heads east
+        // (north is +y: 90 degrees on the compass) with the phone 10 degrees askew to
+        // the left (80), give or take the building's disturbance
+        assert_eq!(compass.len(), 10);
+        for m in &compass {
+            let heading = m.heading_deg.unwrap_or(f32::NAN);
+            assert!((heading - 80.0).abs() < 60.0, "compass {heading}");
+        }
+        // under a stride walked in the first second: no step counted yet
+        assert!(compass.iter().all(|m| m.steps == 0), "{compass:?}");
         // The walker set off towards +x at up to 1 m/s.
         let moved = last.truth.map_or(0.0, |t| t.x_m - 0.7);
         assert!((0.4..1.0).contains(&moved), "moved {moved} m in 1 s");
