@@ -53,7 +53,15 @@ pub struct WallAngle {
     pub angle_rad: f64,
 }
 
-/// How much to trust landmarks and wall angles.
+/// The body's heading as a worn phone's compass gives it, turned into the map's frame
+/// with the map's north (`map::SemanticLayer::north_deg`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompassHeading {
+    /// radians counter-clockwise from the map's +x axis
+    pub heading_rad: f64,
+}
+
+/// How much to trust landmarks, wall angles and the compass.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LandmarkConfig {
@@ -80,6 +88,20 @@ pub struct LandmarkConfig {
     pub wall_sigma_rad: f64,
     /// probability that a "wall" is not one of the map's wall directions (furniture)
     pub wall_outlier_probability: f64,
+    /// a compass reading within this of a particle's heading says nothing about it,
+    /// radians: indoors a phone's compass errs by 10-30 degrees near steel and wiring
+    /// (more beside a lift), and the phone is worn a little askew. The compass is no
+    /// heading sensor here; it tells a room's turned copy (90 or 180 degrees) apart,
+    /// which the walls and the odometry cannot (docs/localization.md, "A compass")
+    pub compass_tolerance_rad: f64,
+    /// beyond the tolerance, the fall-off of a reading's likelihood, radians
+    pub compass_sigma_rad: f64,
+    /// probability that a reading is far off (a lift's steel, a phone taken out of its
+    /// holder): a particle far off the reading keeps this share of its weight
+    pub compass_outlier_probability: f64,
+    /// `Tracking` needs the estimate's heading within this of the compass, when the
+    /// last correction had a reading, radians
+    pub compass_gate_rad: f64,
 }
 
 impl Default for LandmarkConfig {
@@ -92,6 +114,10 @@ impl Default for LandmarkConfig {
             door_reset_below_support: 0.1,
             wall_sigma_rad: 3f64.to_radians(),
             wall_outlier_probability: 0.1,
+            compass_tolerance_rad: 45f64.to_radians(),
+            compass_sigma_rad: 15f64.to_radians(),
+            compass_outlier_probability: 0.2,
+            compass_gate_rad: 60f64.to_radians(),
         }
     }
 }
@@ -100,6 +126,14 @@ impl Default for LandmarkConfig {
 #[inline]
 pub fn mixture_log_p(d: f64, sigma: f64, p_out: f64) -> f64 {
     ((1.0 - p_out) * (-d * d / (2.0 * sigma * sigma)).exp() + p_out).ln()
+}
+
+/// A compass reading's log-likelihood for a particle `error_rad` off it: flat within
+/// the tolerance, then a Gaussian fall-off mixed with the outlier probability.
+#[inline]
+pub fn compass_log_p(error_rad: f64, config: &LandmarkConfig) -> f64 {
+    let beyond = (wrap_angle(error_rad).abs() - config.compass_tolerance_rad).max(0.0);
+    mixture_log_p(beyond, config.compass_sigma_rad, config.compass_outlier_probability)
 }
 
 /// The smallest angle between a wall direction `a` and any of `directions` (all lines,
@@ -126,6 +160,24 @@ mod tests {
         assert!((wall_residual(PI - 0.05, &dirs) - 0.05).abs() < 1e-12);
         assert!((wall_residual(PI / 2.0 + 0.1, &dirs) - 0.1).abs() < 1e-12);
         assert!((wall_residual(PI / 4.0, &dirs) - PI / 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_compass_reading_says_nothing_within_its_tolerance_and_little_of_a_turned_copy() {
+        let c = LandmarkConfig::default();
+        for deg in [0.0, 30.0, -44.0] {
+            assert_eq!(compass_log_p(f64::to_radians(deg), &c), 0.0, "{deg} degrees off");
+        }
+        // a quarter and a half turn keep about the outlier share (a quarter turn is 3
+        // sigma past the tolerance: 0.8 exp(-4.5) more)
+        for deg in [90.0, -90.0, 180.0] {
+            let p = compass_log_p(f64::to_radians(deg), &c).exp();
+            assert!((0.2..0.21).contains(&p), "{deg} degrees off: {p}");
+        }
+        // wrapped: 350 degrees is 10 degrees off
+        assert_eq!(compass_log_p(350f64.to_radians(), &c), 0.0);
+        let at_60 = compass_log_p(60f64.to_radians(), &c).exp();
+        assert!((at_60 - (0.8 * (-0.5f64).exp() + 0.2)).abs() < 1e-9, "{at_60}");
     }
 
     #[test]

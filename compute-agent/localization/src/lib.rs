@@ -45,7 +45,7 @@ pub mod walls;
 
 pub use corners::{corners_of_grid, corners_of_walls, CornerConfig, CornerField, GridCornerConfig};
 pub use floor_model::{dominant_wall_directions, FloorModel};
-pub use landmarks::{Landmark, LandmarkConfig, WallAngle};
+pub use landmarks::{CompassHeading, Landmark, LandmarkConfig, WallAngle};
 pub use likelihood_field::{FreeSpaceConfig, GridPose, GridPoses, LikelihoodField, LikelihoodFieldConfig};
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
@@ -55,7 +55,7 @@ pub use particle_filter::{
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;
 pub use scan::{Beam, Scan};
-pub use tracker::{CaneOnBody, Tracker, TrackerConfig};
+pub use tracker::{CaneOnBody, CompassRefused, Tracker, TrackerConfig};
 pub use walls::{longest_wall, wall_segments, WallFitConfig, WallSegment};
 
 /// Why a filter could not be built or started.

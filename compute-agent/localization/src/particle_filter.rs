@@ -33,7 +33,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::bin_sums::BinSums;
 use crate::floor_model::FloorModel;
-use crate::landmarks::{mixture_log_p, wall_residual, Landmark, LandmarkConfig, WallAngle};
+use crate::landmarks::{
+    compass_log_p, mixture_log_p, wall_residual, CompassHeading, Landmark, LandmarkConfig, WallAngle,
+};
 use crate::likelihood_field::{FreeSpaceConfig, GridPoses, LikelihoodField};
 use crate::motion::{MotionDraw, MotionNoise, OdometryIncrement, RotTransRot};
 use crate::pose::{fast_sin_cos, wrap_angle, Pose2};
@@ -354,6 +356,11 @@ pub struct Counters {
     /// `Tracking` estimates out of the anchor's reach, refused as look-alikes
     /// ([`FilterConfig::recovery_anchor`])
     pub look_alikes: u64,
+    /// compass readings refused (not a finite heading)
+    pub compass_rejected: u64,
+    /// corrections that would have been `Tracking` but for a heading the compass
+    /// contradicted ([`LandmarkConfig::compass_gate_rad`])
+    pub compass_disagreements: u64,
 }
 
 /// What one correction did.
@@ -381,6 +388,9 @@ pub struct Observations<'a> {
     pub landmarks: &'a [Landmark],
     /// wall directions seen beside the user
     pub wall_angles: &'a [WallAngle],
+    /// the body's heading as a compass gives it (the tracker's is averaged over the
+    /// walking), weighed loosely ([`LandmarkConfig::compass_tolerance_rad`])
+    pub compass: Option<CompassHeading>,
 }
 
 /// Why an input was refused.
@@ -418,6 +428,8 @@ pub struct ParticleFilter {
     tracking_streak: u32,
     /// usable beams of this correction's scan (`None`: no scan in it)
     scan_beams: Option<usize>,
+    /// the compass's heading at the last correction, if it gave one
+    compass_now: Option<f64>,
     /// how many beams' worth this correction's scan fixed the place by in its least
     /// fixed direction, from the estimate (`None`: no scan in it)
     scan_constraint: Option<f64>,
@@ -498,6 +510,7 @@ impl ParticleFilter {
             hold_left: 0,
             tracking_streak: 0,
             scan_beams: None,
+            compass_now: None,
             scan_constraint: None,
             door_read: false,
             streak_constraint: 0.0,
@@ -655,11 +668,17 @@ impl ParticleFilter {
             return self.random_particle(weight);
         };
         let r = c.radius_m + c.per_walked_m * a.walked_m;
+        let compass = self.compass_now.map(|h| (h, self.config.landmarks.compass_tolerance_rad));
         // uniform over the disc, headings within the anchor's reach
         let pose = self.draw_free(a.floor as usize, |rng| {
             let d = r * rng.uniform().sqrt();
             let (s, co) = rng.range(-std::f64::consts::PI, std::f64::consts::PI).sin_cos();
-            let h = a.pose.heading_rad + rng.range(-c.heading_rad, c.heading_rad);
+            // the compass's heading when there is one: the anchor's may be the turned
+            // copy the recovery has to leave
+            let h = match compass {
+                Some((heading, tolerance)) => heading + rng.range(-tolerance, tolerance),
+                None => a.pose.heading_rad + rng.range(-c.heading_rad, c.heading_rad),
+            };
             Pose2::new(a.pose.x_m + d * co, a.pose.y_m + d * s, h)
         });
         Particle { pose, level: self.floors[a.floor as usize].level, weight, floor: a.floor }
@@ -840,6 +859,20 @@ impl ParticleFilter {
         }
         for wall in obs.wall_angles {
             self.weigh_wall(wall);
+        }
+        self.compass_now = match obs.compass {
+            Some(c) if c.heading_rad.is_finite() => Some(c.heading_rad),
+            Some(_) => {
+                self.counters.compass_rejected += 1;
+                None
+            }
+            None => None,
+        };
+        if let Some(heading) = self.compass_now {
+            let cfg = self.config.landmarks;
+            for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+                *lw += compass_log_p(p.pose.heading_rad - heading, &cfg);
+            }
         }
 
         if scan_used {
@@ -1334,6 +1367,14 @@ impl ParticleFilter {
             && std_m <= c.tracking_max_std_m
             && std_h <= c.tracking_max_heading_std_rad
             && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit);
+        // a heading the compass contradicts is a turned copy of the place, not the place
+        let heading = self.estimate.pose.heading_rad;
+        let compass_agrees =
+            self.compass_now.is_none_or(|h| wrap_angle(heading - h).abs() <= c.landmarks.compass_gate_rad);
+        if tracking_now && !compass_agrees {
+            self.counters.compass_disagreements += 1;
+        }
+        let tracking_now = tracking_now && compass_agrees;
         let few_beams = self.scan_beams.is_some_and(|n| n < c.tracking_min_beams);
         self.tracking_streak = if tracking_now && !collapsed {
             if few_beams {

@@ -14,7 +14,7 @@ use map::{Building, Gateway};
 use serde::{Deserialize, Serialize};
 
 use crate::floor_model::FloorModel;
-use crate::landmarks::Landmark;
+use crate::landmarks::{CompassHeading, Landmark};
 use crate::likelihood_field::LikelihoodFieldConfig;
 use crate::motion::{MotionNoise, OdometryIncrement};
 use crate::particle_filter::{
@@ -97,6 +97,35 @@ impl Default for TrackerConfig {
 /// metres.
 pub const START_SLACK_M: f64 = 0.5;
 
+/// A compass reading less sure than this (as the phone reports its accuracy) is
+/// refused, degrees: past it the phone itself says it needs calibrating.
+pub const COMPASS_MAX_ACCURACY_DEG: f32 = 45.0;
+
+/// Why a compass reading was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CompassRefused {
+    /// the map does not say where north is
+    #[error("the floor map has no north (north_deg in its semantic layer): the compass cannot be read on it")]
+    NoNorth,
+    /// not a heading
+    #[error("compass heading {0} is not an angle in 0..360 degrees")]
+    NotAHeading(f32),
+    /// the phone says it is unsure (or, with a negative accuracy, that it has none)
+    #[error("compass accuracy {0} degrees: the phone's compass needs calibrating")]
+    Unsure(f32),
+}
+
+/// The compass is averaged over this much walking, metres (each reading weighted by the
+/// walking since the one before, forgotten exponentially): a building's disturbance
+/// changes from place to place, so over metres walked it averages out, and a user
+/// standing beside a lift's steel does not turn the average round. Through the gyro's
+/// heading, whose bias (up to 0.5 degrees a second) over ~15 s of walking adds a few
+/// degrees.
+pub const COMPASS_WINDOW_M: f64 = 10.0;
+
+/// The averaged compass reaches the filter once it stands for this much walking, metres.
+pub const COMPASS_MIN_WALKED_M: f64 = 3.0;
+
 /// Largest sweep the estimate holds, radians (a cane swept wider than this is not a cane).
 const MAX_SWEEP_RAD: f64 = 1.2;
 /// Longest gap between frames the sweep is integrated over, seconds; a longer one
@@ -120,6 +149,19 @@ pub struct Tracker {
     /// the status last announced (`None`: nothing said yet)
     announced: Option<Status>,
     scan: Scan,
+    /// the building's north on the map, radians counter-clockwise from +x
+    north_rad: Option<f64>,
+    /// the heading the odometry and the gyro give, integrated from the first increment
+    /// (unanchored: only differences matter), radians
+    dead_reckoned_rad: f64,
+    /// walking since the last compass reading, metres
+    walked_since_compass_m: f64,
+    /// the compass's offset from `dead_reckoned_rad`, as unit vectors weighted by the
+    /// walking each reading stands for and forgotten over [`COMPASS_WINDOW_M`]
+    compass_offset_sum: [f64; 2],
+    /// the weights' sum, metres
+    compass_walked_m: f64,
+    compass_refused: u64,
 }
 
 impl Tracker {
@@ -142,6 +184,12 @@ impl Tracker {
             last_frame_ns: None,
             announced: None,
             scan: Scan::default(),
+            north_rad: building.floors().iter().find_map(|f| f.semantic.north_deg).map(f64::to_radians),
+            dead_reckoned_rad: 0.0,
+            walked_since_compass_m: 0.0,
+            compass_offset_sum: [0.0; 2],
+            compass_walked_m: 0.0,
+            compass_refused: 0,
         })
     }
 
@@ -190,6 +238,8 @@ impl Tracker {
             dt_s,
         };
         self.pf.predict(&step, body_yaw_rate_rad_s)?;
+        self.dead_reckoned_rad += body_yaw_rate_rad_s.map_or(step.yaw_rad, |r| r * dt_s);
+        self.walked_since_compass_m += step.forward_m.hypot(step.left_m);
         Ok(())
     }
 
@@ -229,11 +279,64 @@ impl Tracker {
         if (self.sweep_rad - self.sweep_at_update).abs() >= self.config.filter.update_min_angle_rad {
             self.pf.force_update();
         }
-        let c = self.pf.correct(&Observations { scan: Some(&self.scan), ..Default::default() });
+        let c = self.pf.correct(&Observations {
+            scan: Some(&self.scan),
+            compass: self.compass_now(),
+            ..Default::default()
+        });
         if c.updated {
             self.sweep_at_update = self.sweep_rad;
         }
         c
+    }
+
+    /// The worn phone's compass: its heading, degrees clockwise from north, and the
+    /// accuracy it reports, if any. Averaged over the walking ([`COMPASS_WINDOW_M`]),
+    /// it weighs the particles' headings at each correction (loosely: it tells a turned
+    /// copy of a room apart, see [`crate::LandmarkConfig::compass_tolerance_rad`]).
+    /// Refused and counted: a map without north, a heading that is none, a phone unsure
+    /// of it.
+    pub fn compass(&mut self, heading_deg: f32, accuracy_deg: Option<f32>) -> Result<(), CompassRefused> {
+        let refused = if self.north_rad.is_none() {
+            Some(CompassRefused::NoNorth)
+        } else if !(0.0..=360.0).contains(&heading_deg) {
+            Some(CompassRefused::NotAHeading(heading_deg))
+        } else {
+            accuracy_deg.filter(|a| !(0.0..=COMPASS_MAX_ACCURACY_DEG).contains(a)).map(CompassRefused::Unsure)
+        };
+        if let Some(why) = refused {
+            self.compass_refused += 1;
+            return Err(why);
+        }
+        let north = self.north_rad.unwrap_or_default();
+        let offset = north - f64::from(heading_deg).to_radians() - self.dead_reckoned_rad;
+        // a reading while standing counts for a millimetre: it cannot outweigh the way
+        let w = self.walked_since_compass_m + 1e-3;
+        self.walked_since_compass_m = 0.0;
+        let keep = (-w / COMPASS_WINDOW_M).exp();
+        let (s, c) = offset.sin_cos();
+        self.compass_offset_sum =
+            [self.compass_offset_sum[0] * keep + w * c, self.compass_offset_sum[1] * keep + w * s];
+        self.compass_walked_m = self.compass_walked_m * keep + w;
+        Ok(())
+    }
+
+    /// The body's heading as the compass averaged over the walking gives it, once it
+    /// stands for [`COMPASS_MIN_WALKED_M`] of walking.
+    pub fn compass_now(&self) -> Option<CompassHeading> {
+        let [c, s] = self.compass_offset_sum;
+        (self.compass_walked_m >= COMPASS_MIN_WALKED_M)
+            .then(|| CompassHeading { heading_rad: self.dead_reckoned_rad + s.atan2(c) })
+    }
+
+    /// Compass readings refused so far.
+    pub fn compass_refused(&self) -> u64 {
+        self.compass_refused
+    }
+
+    /// Whether the map says where north is (a compass can be read on it).
+    pub fn has_north(&self) -> bool {
+        self.north_rad.is_some()
     }
 
     /// The user says they are on `level` now (after an elevator or stairs): the
@@ -353,6 +456,7 @@ mod tests {
     use map::{Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
 
     use super::*;
+    use crate::pose::wrap_angle;
 
     const RES_M: f64 = 0.05;
 
@@ -381,6 +485,8 @@ mod tests {
     }
 
     const LIFT: &str = r#"
+north_deg = 90.0
+
 [[gateway]]
 name = "lift"
 type = "elevator"
@@ -582,6 +688,102 @@ normal = [0.0, -1.0]
         assert!(err.contains("999"), "{err}");
         assert_eq!(t.filter().counters().landmarks_rejected, refused + 1);
         assert!(t.estimate().pose.distance_m(&e.pose) < 1e-9, "a refused door moved the estimate");
+    }
+
+    /// A square room 6 m a side (x, y 1..7), the same turned by any quarter turn about
+    /// its centre, with north up (+y).
+    fn square_room() -> (Building, OccupancyGrid) {
+        let n = (8.0 / RES_M) as usize;
+        let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+        let mut g = OccupancyGrid::filled(n, n, RES_M, o, Cell::Unknown).unwrap();
+        for r in 0..n {
+            for c in 0..n {
+                let (x, y) = g.cell_center(c, r);
+                let inside = |m: f64| (1.0 - m..=7.0 + m).contains(&x) && (1.0 - m..=7.0 + m).contains(&y);
+                if inside(0.0) {
+                    g.set(c, r, Cell::Free);
+                } else if inside(0.15) {
+                    g.set(c, r, Cell::Occupied);
+                }
+            }
+        }
+        let layer = SemanticLayer::parse("north_deg = 90.0\n", Path::new("room.toml")).unwrap();
+        let floor = Floor { level: 0, grid: g.clone(), semantic: layer };
+        (Building::new(vec![floor], Path::new("square room")).unwrap(), g)
+    }
+
+    /// Two laps of a square walk in the square room from a global start; each frame a
+    /// compass reading (20 degrees off, as beside a radiator) if `compass`. Returns the
+    /// frames `Tracking` more than 1 m off and the last estimate's error (metres, degrees).
+    fn square_walk(compass: bool, seed: u64) -> (usize, f64, f64) {
+        let (b, g) = square_room();
+        let mut t = Tracker::new(&b, TrackerConfig::default(), seed).unwrap();
+        t.start_global();
+        let period = 33_333_333u64;
+        // corners of the walk, anticlockwise, 1.5 m in from the walls
+        let corners = [(2.5, 2.5), (5.5, 2.5), (5.5, 5.5), (2.5, 5.5)];
+        let (mut x, mut y, mut h) = (2.5, 2.5, 0.0f64);
+        let mut k = 0u64;
+        let mut wrong = 0;
+        for leg in 0..8 {
+            let (tx, ty) = corners[(leg + 1) % 4];
+            // walk 3 m at 1 m/s, then turn left a quarter over 1 s
+            for step in 0..120 {
+                let (dx, dy, dh) = if step < 90 {
+                    ((tx - x) / f64::from(90 - step), (ty - y) / f64::from(90 - step), 0.0)
+                } else {
+                    (0.0, 0.0, std::f64::consts::FRAC_PI_2 / 30.0)
+                };
+                let forward = dx.hypot(dy);
+                (x, y, h) = (x + dx, y + dy, h + dh);
+                t.odometry(&odom(forward * 1.02, dh, k * period, (k + 1) * period), Some(dh * 30.0)).unwrap();
+                k += 1;
+                if compass {
+                    let deg = (90.0 - h.to_degrees() + 20.0).rem_euclid(360.0);
+                    t.compass(deg as f32, Some(20.0)).unwrap();
+                }
+                t.frame(&scan_at(&g, x, y, h, 0.0), k * period, Some(dh * 30.0), Some(dh * 30.0));
+                let e = t.estimate();
+                if e.status == Status::Tracking && (e.pose.x_m - x).hypot(e.pose.y_m - y) > 1.0 {
+                    wrong += 1;
+                }
+            }
+        }
+        let e = t.estimate();
+        let heading_off = wrap_angle(e.pose.heading_rad - h).to_degrees().abs();
+        (wrong, (e.pose.x_m - x).hypot(e.pose.y_m - y), heading_off)
+    }
+
+    #[test]
+    fn a_compass_tells_a_square_room_from_its_turned_copies() {
+        for seed in 1..=4 {
+            let (wrong, off_m, off_deg) = square_walk(true, seed);
+            assert_eq!(wrong, 0, "seed {seed}: frames tracked more than 1 m off");
+            assert!(off_m < 0.3 && off_deg < 10.0, "seed {seed}: ends {off_m:.2} m, {off_deg:.0} deg off");
+        }
+        // without it the walls alone cannot: some seeds settle on a turned copy
+        let turned = (1..=4).filter(|&seed| square_walk(false, seed).2 > 45.0).count();
+        assert!(turned >= 2, "{turned} seeds of four settled on a turned copy without the compass");
+    }
+
+    #[test]
+    fn compass_readings_that_are_no_heading_or_unsure_or_on_a_map_without_north_are_refused() {
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 7).unwrap();
+        assert!(t.has_north());
+        assert!(matches!(t.compass(f32::NAN, None), Err(CompassRefused::NotAHeading(h)) if h.is_nan()));
+        assert_eq!(t.compass(361.0, None), Err(CompassRefused::NotAHeading(361.0)));
+        assert_eq!(t.compass(10.0, Some(90.0)), Err(CompassRefused::Unsure(90.0)));
+        assert_eq!(t.compass(10.0, Some(-1.0)), Err(CompassRefused::Unsure(-1.0)), "iOS: no accuracy");
+        assert_eq!(t.compass_refused(), 4);
+        assert_eq!(t.compass(10.0, Some(15.0)), Ok(()));
+        assert_eq!(t.compass(359.5, None), Ok(()));
+        let (_, g) = square_room();
+        let floor = Floor { level: 0, grid: g, semantic: SemanticLayer::default() };
+        let no_north = Building::new(vec![floor], Path::new("no north")).unwrap();
+        let mut t = Tracker::new(&no_north, TrackerConfig::default(), 7).unwrap();
+        let e = t.compass(10.0, None).unwrap_err();
+        assert_eq!(e, CompassRefused::NoNorth);
+        assert!(e.to_string().contains("north_deg"), "{e}");
     }
 
     #[test]

@@ -467,7 +467,12 @@ pub fn localize_walk(
         // one wall angle per update: the filter takes wall angles only when it updates
         let wall_used = config.wall_angles.is_some() && observed.is_some() && pf.update_due() && wall.is_some();
         let wall_angles: Vec<WallAngle> = wall.filter(|_| wall_used).into_iter().collect();
-        let c = pf.correct(&Observations { scan: observed, landmarks: &landmarks, wall_angles: &wall_angles });
+        let c = pf.correct(&Observations {
+            scan: observed,
+            landmarks: &landmarks,
+            wall_angles: &wall_angles,
+            compass: None,
+        });
         if c.updated || config.scans != ScanUse::Sweep {
             swept.clear();
             since_update = Pose2::default();
