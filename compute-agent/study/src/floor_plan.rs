@@ -359,7 +359,8 @@ pub fn goal_label(world: &World) -> String {
 /// The semantic layer of floor `level` (the goal's label first, so a lookup by its name
 /// finds where the walk ends).
 fn semantic_layer(world: &World, gateways: &[Gateway], level: i32, grid: &OccupancyGrid) -> SemanticLayer {
-    let mut layer = SemanticLayer::default();
+    // a simulated world's north is its +y axis (as a simulated compass reads it)
+    let mut layer = SemanticLayer { north_deg: Some(sim::compass::SIM_NORTH_DEG), ..SemanticLayer::default() };
     let goal = world.goal();
     let goal_name = goal_label(world);
     if goal.floor == level {

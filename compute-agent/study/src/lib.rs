@@ -127,6 +127,13 @@ pub struct CourseArgs {
     /// sweep).
     #[arg(long)]
     pub body_gyro: bool,
+    /// The phone worn at the chest gives its compass to the particle filter
+    /// (`sim::compass`: the body's heading, the phone up to 10° askew, the building's
+    /// magnetic disturbance, 12° RMS with anomalies of up to 90° near steel). Read
+    /// loosely (within 45° it says nothing): it tells a room from its turned copy.
+    /// Used where the filter runs (--guide spoken, --predictive with --pose filter).
+    #[arg(long)]
+    pub compass: bool,
     /// Take the costs along the way the user walks, not along the swept camera: the
     /// camera's angle to the body from the camera's and the body-worn gyro's turns
     /// (`walking_frame`). Needs --body-gyro.
@@ -315,6 +322,7 @@ impl CourseArgs {
             no_edges,
             no_ttc,
             body_gyro,
+            compass,
             walking_frame,
             no_rumble,
             oracle,
@@ -372,6 +380,7 @@ impl CourseArgs {
         c.perception.dropoff.edges = !self.no_edges;
         c.perception.ttc.enabled = !self.no_ttc;
         c.body_gyro = self.body_gyro;
+        c.compass = self.compass;
         c.perception.walking_frame.enabled = self.walking_frame;
         c.rumble = !self.no_rumble;
         anyhow::ensure!(
@@ -589,6 +598,7 @@ fn config_json(args: &CourseArgs, config: &WalkConfig) -> serde_json::Value {
         "edges": !args.no_dropoff && !args.no_edges,
         "ttc": !args.no_ttc,
         "body_gyro": args.body_gyro,
+        "compass": args.compass,
         "walking_frame": args.walking_frame,
         "rumble": !args.no_rumble,
         "oracle": config.oracle,
@@ -675,7 +685,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         g => format!("{g:?}"),
     };
     format!(
-        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {}{} | guide {} | {} runs from seed {}\n\
+        "world {} | camera {} | rumble {}{} | cost {:?} | memory {} | hysteresis {}{} | dropoff {} | edges {} | ttc {} | body gyro {}{}{} | guide {} | {} runs from seed {}\n\
          user {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s{} | cane {:.2} m, camera {:.0}° down, sweep ±{:.0}°{} | codec {} | limit {:.0} s\n",
         worlds,
         config.camera.name,
@@ -701,6 +711,7 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         on_off(!args.no_ttc),
         on_off(args.body_gyro),
         if args.walking_frame { " (costs along the way walked)" } else { "" },
+        if args.compass { " | compass on" } else { "" },
         guide,
         args.runs,
         args.seed,
@@ -776,9 +787,10 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
             w.frames,
             e.position_rmse_m,
             e.heading_rmse_deg,
-            match e.frames_over_1m {
-                0 => String::new(),
-                n => format!(", {n} of them more than 1 m off"),
+            match (e.frames_over_1m, e.frames_turned) {
+                (0, 0) => String::new(),
+                (n, 0) => format!(", {n} of them more than 1 m off"),
+                (n, t) => format!(", {n} of them more than 1 m off, {t} turned more than 45°"),
             }
         ),
     };

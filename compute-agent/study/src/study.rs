@@ -93,13 +93,16 @@ pub fn localization_line<'a>(walks: impl Iterator<Item = &'a WalkOutcome>) -> Op
         return None;
     }
     let off: Vec<u64> = errors.iter().map(|e| u64::from(e.frames_over_1m)).filter(|&n| n > 0).collect();
+    let turned: Vec<u64> = errors.iter().map(|e| u64::from(e.frames_turned)).filter(|&n| n > 0).collect();
     let tracked: u64 = errors.iter().map(|e| u64::from(e.frames)).sum();
     Some(format!(
-        "the filter: {} of {} walks tracked more than 1 m off ({} of {} frames tracked)\n",
+        "the filter: {} of {} walks tracked more than 1 m off ({} of {} frames tracked), {} turned more than 45° ({} frames)\n",
         off.len(),
         errors.len(),
         off.iter().sum::<u64>(),
-        tracked
+        tracked,
+        turned.len(),
+        turned.iter().sum::<u64>()
     ))
 }
 
@@ -314,17 +317,23 @@ mod tests {
     }
 
     #[test]
-    fn the_filters_line_counts_the_walks_and_frames_tracked_more_than_a_metre_off() {
+    fn the_filters_line_counts_the_walks_and_frames_tracked_more_than_a_metre_or_45_degrees_off() {
         use crate::walk::TrackedError;
-        let with = |frames, frames_over_1m| WalkOutcome {
-            localization: Some(TrackedError { position_rmse_m: 0.3, heading_rmse_deg: 2.0, frames, frames_over_1m }),
+        let with = |frames, frames_over_1m, frames_turned| WalkOutcome {
+            localization: Some(TrackedError {
+                position_rmse_m: 0.3,
+                heading_rmse_deg: 2.0,
+                frames,
+                frames_over_1m,
+                frames_turned,
+            }),
             ..walk_with(0.5, &[])
         };
         assert_eq!(localization_line([walk_with(0.5, &[])].iter()), None, "walks without the filter");
-        let walks = [with(900, 0), with(1200, 40), with(0, 0), with(600, 7)];
+        let walks = [with(900, 0, 0), with(1200, 40, 12), with(0, 0, 0), with(600, 7, 0)];
         assert_eq!(
             localization_line(walks.iter()).as_deref(),
-            Some("the filter: 2 of 4 walks tracked more than 1 m off (47 of 2700 frames tracked)\n")
+            Some("the filter: 2 of 4 walks tracked more than 1 m off (47 of 2700 frames tracked), 1 turned more than 45° (12 frames)\n")
         );
     }
 }

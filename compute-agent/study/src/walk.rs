@@ -23,6 +23,7 @@ use schemas::{
     AppliedAction, DepthEncoding, DepthFrame, GroundState, HapticIntent, Hazard, ImuSample, MountGuess, OdomIncrement,
     RouteStatus, SpeechIntent,
 };
+use sim::compass::{CompassModel, CompassNoise};
 use sim::odometry::{OdometryModel, OdometryNoise};
 use sim::render::DEPTH_UNITS_PER_M;
 use sim::shape::Shape;
@@ -54,6 +55,13 @@ const AWAY_RAD: f64 = std::f64::consts::FRAC_PI_2;
 pub const REORIENT_AFTER_S: f64 = 5.0;
 /// Capture stamp of t = 0, ns (stamps of 0 mean "self-initiated" downstream).
 const T0_NS: u64 = 1_000_000_000;
+
+/// A heading further off than this while tracking is a turned copy of the place
+/// ([`TrackedError::frames_turned`]), radians.
+const TURNED_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Mixed into a walk's seed for its compass's own random stream.
+const COMPASS_SEED: u64 = 0x636f_6d70_6173_7300;
 
 /// What the user heads for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -154,6 +162,9 @@ pub struct WalkConfig {
     /// ([`BodyGyro`]), so the costs are also taken along the heading the user is turning
     /// to (`turn_ahead`). Off: as the agents run today, with no such sensor.
     pub body_gyro: bool,
+    /// The phone worn at the chest gives its compass ([`CompassModel`]) to the particle
+    /// filter, where the walk runs one. Off: no compass reaches the filter.
+    pub compass: bool,
     /// Cues from the [`Oracle`] (perfect knowledge of the world and the user) instead
     /// of perception: the bound of what any device could do for this user. Perception
     /// still runs (for the trace and the feedback agent's watchdog).
@@ -265,6 +276,7 @@ impl Default for WalkConfig {
             reaction_jitter: 0.25,
             trace: false,
             body_gyro: false,
+            compass: false,
             oracle: None,
             predictive: None,
             pose: PoseSource::Filter,
@@ -357,6 +369,9 @@ pub struct TrackedError {
     /// Of those, the frames the filter was more than 1 m off (the device guided the
     /// user from a place a metre or more wrong).
     pub frames_over_1m: u32,
+    /// Of those, the frames its heading was more than 45° off (a room's turned copy:
+    /// every turn the guide called was wrong by as much).
+    pub frames_turned: u32,
 }
 
 /// What happened on one walk.
@@ -760,6 +775,7 @@ pub struct Walk<'w> {
     mount: CaneMount,
     params: UserParams,
     body_gyro: Option<BodyGyro>,
+    compass: Option<CompassModel>,
     chest: Option<ChestCamera>,
     user: VirtualUser,
     renderer: Renderer,
@@ -792,9 +808,9 @@ pub struct Walk<'w> {
     /// squared position errors while it tracked.
     tracker: Option<Tracker>,
     last_camera_yaw: Option<(f64, f64)>,
-    /// squared position error (m²), squared heading error (rad²), frames, and frames more
-    /// than 1 m off, summed while tracking
-    tracked_error: (f64, f64, u32, u32),
+    /// squared position error (m²), squared heading error (rad²), frames, frames more
+    /// than 1 m off, and frames more than 45° off, summed while tracking
+    tracked_error: (f64, f64, u32, u32, u32),
     /// With the spoken guide: the device's navigator, what it says this frame, and what
     /// the user heard and has not yet acted on.
     spoken: Option<SpokenDevice>,
@@ -832,6 +848,9 @@ impl<'w> Walk<'w> {
             UserParams { reaction_s: config.user.reaction_s * (1.0 + jitter(config.reaction_jitter)), ..config.user };
         // drawn after everything else, so a walk without it is the walk it always was
         let body_gyro = config.body_gyro.then(|| BodyGyro::new(rng.fork()));
+        // its own stream: the same walk with and without it differs only by it
+        let compass =
+            config.compass.then(|| CompassModel::new(CompassNoise::default(), SimRng::seed_from(seed ^ COMPASS_SEED)));
         let chest = config.chest.map(|mount| ChestCamera::new(mount, config, &mut rng));
 
         let renderer = Renderer::new(config.camera.clone());
@@ -916,6 +935,7 @@ impl<'w> Walk<'w> {
             mount,
             params,
             body_gyro,
+            compass,
             chest,
             user: VirtualUser::new(params, start),
             renderer,
@@ -944,7 +964,7 @@ impl<'w> Walk<'w> {
             known_near: Vec::new(),
             tracker,
             last_camera_yaw: None,
-            tracked_error: (0.0, 0.0, 0, 0),
+            tracked_error: (0.0, 0.0, 0, 0, 0),
             spoken,
             said: Vec::new(),
             ear,
@@ -1011,7 +1031,7 @@ impl<'w> Walk<'w> {
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
         if self.tracker.is_some() {
-            let (pos2, head2, n, over) = self.tracked_error;
+            let (pos2, head2, n, over, turned) = self.tracked_error;
             // never tracked: no error to give (NaN, `null` in JSON)
             let rms = |sum: f64| if n == 0 { f64::NAN } else { (sum / f64::from(n)).sqrt() };
             self.out.localization = Some(TrackedError {
@@ -1019,6 +1039,7 @@ impl<'w> Walk<'w> {
                 heading_rmse_deg: rms(head2).to_degrees(),
                 frames: n,
                 frames_over_1m: over,
+                frames_turned: turned,
             });
         }
         self.out
@@ -1059,6 +1080,13 @@ impl<'w> Walk<'w> {
                 self.odometry_fed.push(inc);
             }
         }
+        if let (Some(compass), Some(tracker)) = (self.compass.as_mut(), self.tracker.as_mut()) {
+            // the phone reports no accuracy (as a browser's deviceorientationabsolute)
+            let north = sim::compass::SIM_NORTH_DEG.to_radians();
+            if let Err(e) = tracker.compass(compass.read(pose.x_m, pose.y_m, pose.yaw_rad, north), None) {
+                tracing::warn!("seed {}: {e}", self.out.seed);
+            }
+        }
         self.last_floor = Some((floor_pose, now));
         let seq = self.out.frames as u64;
         // where the device takes the user to be: the truth, or the filter while it tracks
@@ -1069,8 +1097,9 @@ impl<'w> Walk<'w> {
                 (e.status == localization::Status::Tracking).then(|| {
                     let err2 = (e.pose.x_m - pose.x_m).powi(2) + (e.pose.y_m - pose.y_m).powi(2);
                     let head2 = localization::wrap_angle(e.pose.heading_rad - pose.yaw_rad).powi(2);
-                    let (p, h, n, over) = self.tracked_error;
-                    self.tracked_error = (p + err2, h + head2, n + 1, over + u32::from(err2 > 1.0));
+                    let (p, h, n, over, turned) = self.tracked_error;
+                    let turned = turned + u32::from(head2 > TURNED_RAD * TURNED_RAD);
+                    self.tracked_error = (p + err2, h + head2, n + 1, over + u32::from(err2 > 1.0), turned);
                     UserPose { x_m: e.pose.x_m, y_m: e.pose.y_m, yaw_rad: e.pose.heading_rad, floor: e.level }
                 })
             }

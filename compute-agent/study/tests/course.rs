@@ -700,3 +700,29 @@ fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner
     // the heading the guide's turns are called from (measured 2.4-2.7° on seeds 1-3)
     assert!(e.heading_rmse_deg < 5.0, "heading RMSE {:.1}°", e.heading_rmse_deg);
 }
+
+#[test]
+fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_a_lobbys_turned_copy() {
+    // `gen:lobby:10`, walk seed 6 (docs/localization.md, "A compass"): on the floor plan
+    // alone the filter steps, one `Tracking` estimate at a time, into the near-square
+    // lobby turned a quarter round and guides from there for a minute; the compass,
+    // averaged over the walking and read within 45°, rules that copy out
+    let parsed = |line: &str| {
+        let cli = Cli::parse_from(std::iter::once("course").chain(line.split_whitespace()));
+        cli.args.walk_config().unwrap_or_else(|e| panic!("{e:#}"))
+    };
+    let w = match World::load("gen:lobby:10") {
+        Ok(w) => w,
+        Err(e) => panic!("{e}"),
+    };
+    let flags = "--guide spoken --body-gyro";
+    let with = walk(&w, &parsed(&format!("{flags} --compass --timeout-s 120")), 6);
+    assert!(with.completed && with.time_s < 100.0, "with the compass: {} in {:.0} s", with.verdict(), with.time_s);
+    let e = with.localization.expect("the guide speaks from the filter's place");
+    assert_eq!(e.frames_turned, 0, "frames tracked more than 45 degrees off with the compass");
+    assert!(e.frames_over_1m <= 20 && e.position_rmse_m < 0.4, "with the compass: {e:?}");
+    // the same walk without it, cut off 20 s after it began to guide from the turned copy
+    let without = walk(&w, &parsed(&format!("{flags} --timeout-s 200")), 6);
+    let e = without.localization.expect("the guide speaks from the filter's place");
+    assert!(e.frames_turned >= 500 && e.frames_over_1m >= e.frames_turned, "without the compass: {e:?}");
+}
