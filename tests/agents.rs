@@ -534,7 +534,8 @@ fn building_map() -> String {
 async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides() {
     use bus::query::get;
     use schemas::{
-        Command, Destinations, GroundTruth, Hazard, LocalizationStatus, Pose, Priority, RouteState, RouteStatus,
+        Command, Destinations, GroundTruth, Hazard, LocalizationStatus, PhoneMotion, Pose, Priority, RouteState,
+        RouteStatus,
     };
     let user = "nav-test";
     let hub = hub(user).await;
@@ -545,6 +546,7 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let speech = Subscriber::<schemas::SpeechIntent>::declare(&hub.session, keys.speech(), false, h).await.unwrap();
     let truth = Subscriber::<GroundTruth>::declare(&hub.session, keys.truth_any(), true, h).await.unwrap();
     let hazards = Subscriber::<Hazard>::declare(&hub.session, keys.hazard(), false, h).await.unwrap();
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
     let mut destination =
         Publisher::<Command>::declare(&hub.session, keys.cmd("destination"), "test-user", Lane::Events, None)
             .await
@@ -566,6 +568,29 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     let (p, t) = (poses.try_recv().unwrap_or(tracked), truth.try_recv().expect("truth"));
     let off = (p.body.x_m - t.body.x_m).hypot(p.body.y_m - t.body.y_m);
     assert!(off < 0.6 && p.body.floor == 0, "pose {:?} vs truth {:?}", p.body, t.body);
+
+    // the map has a north: the simulated phone's compass reaches the filter (10 Hz); a
+    // heading that is none is refused by the schema, one the phone doubts by the filter,
+    // both counted
+    let compass_key = keys.motion("body");
+    let reads_compass = |h: &HealthStats| {
+        h.streams.iter().any(|s| s.inbound && s.key == compass_key && s.count >= 10 && s.rejects == 0)
+    };
+    let compute =
+        wait_for(&health, Duration::from_secs(5), |h| h.body.agent == "compute-agent" && reads_compass(&h.body));
+    assert!(compute.await.is_some(), "the compass did not reach the compute agent");
+    let mut motion =
+        Publisher::<PhoneMotion>::declare(&hub.session, keys.motion("body"), "test-phone", Lane::Events, None)
+            .await
+            .unwrap();
+    for (heading, accuracy) in [(400.0, None), (10.0, Some(90.0))] {
+        let bad = PhoneMotion { heading_deg: Some(heading), accuracy_deg: accuracy, steps: 0 };
+        motion.put(bus::now_ns(), &bad).await.unwrap();
+    }
+    let count = |h: &HealthStats, kind: &str| h.rejects.iter().find(|r| r.kind == kind).map_or(0, |r| r.count);
+    let refused = |h: &HealthStats| count(h, "invalid") == 1 && count(h, "compass_unsure") == 1;
+    let counted = wait_for(&health, Duration::from_secs(5), |h| h.body.agent == "compute-agent" && refused(&h.body));
+    assert!(counted.await.is_some(), "a heading of 400 degrees and one 90 degrees unsure were not both refused");
 
     let query = |service: &str| keys.query(service);
     let d = get::<Destinations>(&hub.session, &query("destinations"), Duration::from_secs(5)).await.unwrap().unwrap();

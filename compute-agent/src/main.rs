@@ -34,6 +34,16 @@ struct Cli {
     /// in the thesis.
     #[arg(long)]
     no_body_imu: bool,
+    /// Device of the phone whose compass the localization reads, on
+    /// `sensor/<device>/motion` (with --map, when the map says where north is): the
+    /// simulator's phone is `body`, the phone bridge's `phone` (a phone worn at the
+    /// chest, not carried in a pocket: the compass gives its heading). Read loosely: it
+    /// tells a room from its turned copy.
+    #[arg(long, value_name = "DEVICE", default_value = compute_agent::run::DEFAULT_BODY_IMU_DEVICE)]
+    compass_device: String,
+    /// Do not read a compass.
+    #[arg(long)]
+    no_compass: bool,
     /// Device of a second depth camera worn at the chest (`sensor/<device>/depth` and
     /// `/odom`: `sensor-agent --chest-device` simulates one, a real one runs a sensor
     /// agent of its own): its frames are perceived on their own, warning only of what
@@ -123,6 +133,7 @@ async fn main() -> anyhow::Result<()> {
         config.perception.cost_function = cost;
     }
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
+    config.compass_device = (!cli.no_compass).then_some(cli.compass_device);
     config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
     config.chest_device = cli.chest_device;
     config.cane_device = cli.cane_device;

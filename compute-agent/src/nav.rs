@@ -2,7 +2,8 @@
 //! [`localization::Tracker`] and [`guidance::Navigator`].
 //!
 //! In: the body's odometry and gyro (from the loop), each frame's scan with the cane's
-//! and the body's turn rates, `cmd/*` commands, `query/destinations` and `query/route`,
+//! and the body's turn rates, the worn phone's compass (`sensor/<device>/motion`, when
+//! the map says where north is), `cmd/*` commands, `query/destinations` and `query/route`,
 //! and `feedback/applied` (an instruction the feedback agent dropped or cut off is given
 //! again).
 //! Out: `localization/pose`, `route/state` (5 Hz, and at once when a command changes
@@ -22,8 +23,8 @@ use perception::body_rate::BodyRate;
 use perception::predictive::Way;
 use planning::UserProfile;
 use schemas::{
-    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, Pose, Priority, RouteState, RouteStatus, Scan,
-    SpeechIntent,
+    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, PhoneMotion, Pose, Priority, RouteState,
+    RouteStatus, Scan, SpeechIntent,
 };
 
 use crate::run::AGENT;
@@ -130,6 +131,8 @@ pub struct Nav {
     speech_out: Publisher<SpeechIntent>,
     pub(crate) commands: Subscriber<Command>,
     pub(crate) cane_imu: Subscriber<ImuBatch>,
+    /// the worn phone's compass; `None` without one or on a map without north
+    pub(crate) motion: Option<Subscriber<PhoneMotion>>,
     /// what the feedback agent did: an instruction it never finished is given again
     pub(crate) applied: Subscriber<Applied>,
     pub(crate) destinations: Queryable,
@@ -150,6 +153,7 @@ impl Nav {
         session: &zenoh::Session,
         keys: &Keys,
         body_device: Option<String>,
+        compass_device: Option<&str>,
         health: &Arc<Health>,
     ) -> anyhow::Result<Self> {
         let building = config.map.building()?;
@@ -160,6 +164,18 @@ impl Nav {
             None => tracker.start_global(),
         }
         let navigator = Navigator::new(&building, config.route, config.guidance);
+        let motion = match (compass_device, tracker.has_north()) {
+            (Some(device), true) => {
+                schemas::keys::check_chunk("device", device).context("bad compass device")?;
+                tracing::info!("localization reads the compass of {}", keys.motion(device));
+                Some(Subscriber::declare(session, keys.motion(device), false, health).await?)
+            }
+            (Some(_), false) => {
+                tracing::info!("the floor map gives no north (north_deg): no compass is read");
+                None
+            }
+            (None, _) => None,
+        };
         let floors: Vec<String> = building.floors().iter().map(|f| f.level.to_string()).collect();
         tracing::info!(
             "floor map {}: floors {}, {} destinations; {}",
@@ -182,6 +198,7 @@ impl Nav {
             speech_out: Publisher::declare(session, keys.speech(), AGENT, Lane::RealTime, Some(health)).await?,
             commands: Subscriber::declare_fresh(session, keys.cmd_any(), false, MAX_COMMAND_AGE, health).await?,
             cane_imu: Subscriber::declare(session, keys.imu_any(), false, health).await?,
+            motion,
             applied: Subscriber::declare(session, keys.applied(), false, health).await?,
             destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
             routes: Queryable::declare(session, keys.query("route"), health).await?,
@@ -245,6 +262,20 @@ impl Nav {
             if let Err(e) = self.cane_rate.add(s, batch.received_ns) {
                 health.reject(&batch.key, e.kind(), &e);
             }
+        }
+    }
+
+    /// The worn phone's compass heading, if it gave one: to the filter. A reading that
+    /// is no heading or that the phone itself doubts is refused and counted.
+    pub fn motion(&mut self, motion: &Received<PhoneMotion>, health: &Health) {
+        let Some(heading_deg) = motion.body.heading_deg else { return };
+        if let Err(e) = self.tracker.compass(heading_deg, motion.body.accuracy_deg) {
+            let kind = match e {
+                localization::CompassRefused::NoNorth => "no_north",
+                localization::CompassRefused::NotAHeading(_) => "not_a_heading",
+                localization::CompassRefused::Unsure(_) => "compass_unsure",
+            };
+            health.reject(&motion.key, kind, &e);
         }
     }
 

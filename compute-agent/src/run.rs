@@ -35,6 +35,9 @@ pub struct ComputeConfig {
     /// the costs look the way the user turns (`perception::turn_ahead`). `None`: the
     /// costs look along the camera's heading only, as in the thesis.
     pub body_imu_device: Option<String>,
+    /// Device whose compass the localization reads (`sensor/<device>/motion`), with a
+    /// floor map that says where north is. `None`: no compass.
+    pub compass_device: Option<String>,
     /// Oldest depth frame or odometry step acted on, from capture to arrival and again
     /// when the loop takes it up: an older one (a stalled link, a replay) is refused as
     /// `stale`, so a rumble never reports a world that was, and it counts as no input
@@ -75,6 +78,7 @@ impl ComputeConfig {
             cue: CueConfig::default(),
             health_period: Duration::from_secs(1),
             body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
+            compass_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
             max_input_age: DEFAULT_MAX_INPUT_AGE,
             nav: None,
             predictive: None,
@@ -294,7 +298,10 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
         gravity: None,
     };
     let mut nav = match &config.nav {
-        Some(c) => Some(Nav::declare(c, &session, &keys, config.body_imu_device.clone(), &health).await?),
+        Some(c) => Some(
+            Nav::declare(c, &session, &keys, config.body_imu_device.clone(), config.compass_device.as_deref(), &health)
+                .await?,
+        ),
         None => None,
     };
     let mut state_tick = tokio::time::interval(STATE_PERIOD);
@@ -338,6 +345,11 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
             Some(batch) = bus::maybe(nav.as_ref().map(|n| n.cane_imu.recv())) => {
                 if let Some(n) = nav.as_mut().filter(|_| cane.is_cane(&batch.key)) {
                     n.imu(&batch, &health);
+                }
+            }
+            Some(motion) = bus::maybe(nav.as_ref().and_then(|n| n.motion.as_ref()).map(|m| m.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.motion(&motion, &health);
                 }
             }
             Some(applied) = bus::maybe(nav.as_ref().map(|n| n.applied.recv())) => {
