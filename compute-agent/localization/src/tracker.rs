@@ -149,8 +149,8 @@ pub struct Tracker {
     /// the status last announced (`None`: nothing said yet)
     announced: Option<Status>,
     scan: Scan,
-    /// the building's north on the map, radians counter-clockwise from +x
-    north_rad: Option<f64>,
+    /// the building's north on the map, degrees counter-clockwise from +x
+    north_deg: Option<f64>,
     /// the heading the odometry and the gyro give, integrated from the first increment
     /// (unanchored: only differences matter), radians
     dead_reckoned_rad: f64,
@@ -184,7 +184,7 @@ impl Tracker {
             last_frame_ns: None,
             announced: None,
             scan: Scan::default(),
-            north_rad: building.floors().iter().find_map(|f| f.semantic.north_deg).map(f64::to_radians),
+            north_deg: building.floors().iter().find_map(|f| f.semantic.north_deg),
             dead_reckoned_rad: 0.0,
             walked_since_compass_m: 0.0,
             compass_offset_sum: [0.0; 2],
@@ -297,7 +297,7 @@ impl Tracker {
     /// Refused and counted: a map without north, a heading that is none, a phone unsure
     /// of it.
     pub fn compass(&mut self, heading_deg: f32, accuracy_deg: Option<f32>) -> Result<(), CompassRefused> {
-        let refused = if self.north_rad.is_none() {
+        let refused = if self.north_deg.is_none() {
             Some(CompassRefused::NoNorth)
         } else if !(0.0..=360.0).contains(&heading_deg) {
             Some(CompassRefused::NotAHeading(heading_deg))
@@ -308,8 +308,8 @@ impl Tracker {
             self.compass_refused += 1;
             return Err(why);
         }
-        let north = self.north_rad.unwrap_or_default();
-        let offset = north - f64::from(heading_deg).to_radians() - self.dead_reckoned_rad;
+        let north = self.north_deg.unwrap_or_default();
+        let offset = map::semantic::map_heading_rad(north, f64::from(heading_deg)) - self.dead_reckoned_rad;
         // a reading while standing counts for a millimetre: it cannot outweigh the way
         let w = self.walked_since_compass_m + 1e-3;
         self.walked_since_compass_m = 0.0;
@@ -336,7 +336,7 @@ impl Tracker {
 
     /// Whether the map says where north is (a compass can be read on it).
     pub fn has_north(&self) -> bool {
-        self.north_rad.is_some()
+        self.north_deg.is_some()
     }
 
     /// The user says they are on `level` now (after an elevator or stairs): the

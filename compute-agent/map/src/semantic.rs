@@ -231,7 +231,7 @@ impl SemanticLayer {
     /// Map heading (radians, counter-clockwise from +x) of a compass heading (degrees
     /// clockwise from north), with this layer's north; `None` without one.
     pub fn map_heading_rad(&self, compass_deg: f64) -> Option<f64> {
-        self.north_deg.map(|north| (north - compass_deg).to_radians())
+        self.north_deg.map(|north| map_heading_rad(north, compass_deg))
     }
 
     /// The label called `name` (case-insensitive), if any.
@@ -345,6 +345,13 @@ impl SemanticLayer {
         }
         Ok(self)
     }
+}
+
+/// Map heading (radians, counter-clockwise from +x) of a compass heading (degrees
+/// clockwise from north) on a map whose north lies at `north_deg` (degrees
+/// counter-clockwise from +x, [`SemanticLayer::north_deg`]).
+pub fn map_heading_rad(north_deg: f64, compass_deg: f64) -> f64 {
+    (north_deg - compass_deg).to_radians()
 }
 
 /// Even-odd rule; points on an edge may fall either way.
