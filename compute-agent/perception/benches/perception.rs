@@ -248,6 +248,7 @@ fn predictive_bench(runs: usize) {
             t_s: k as f64 / 30.0,
             way: Way { points: &way, ends_at_goal: true, walls: &walls },
             points: &points,
+            cane_finds: &[],
             sweep_rad: sweep(k),
             speed_m_s: 1.0,
             yaw_rate_rad_s: Some(0.0),

@@ -11,7 +11,7 @@ use schemas::depth_codec::{self, CodecError};
 use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Rumble};
 
 use crate::odometry::{ImplausibleStep, MotionSince};
-use crate::predictive::{Ahead, PredictiveConfig, PredictiveCue, Way};
+use crate::predictive::{Ahead, OwnWay, PredictiveConfig, PredictiveCue, Way};
 use crate::rejections::{self, Rejections};
 use crate::second_view::{Joined, SecondView, ViewState};
 use crate::{cue, cue_unavailable, CueConfig, DepthInput, FrameContext, Perception, PerceptionConfig, PerceptionError};
@@ -119,6 +119,8 @@ pub struct ComputeStep {
     rejections: Rejections,
     depth: Vec<u16>,
     predictive: Option<PredictiveCue>,
+    /// the user's own way, for frames without one when the predictive cue takes it
+    own_way: OwnWay,
     /// a second device's (the chest's) state, joined to every frame's cue, and whether
     /// the last frame perceived was joined to it
     second: Option<(SecondView, Option<Joined>)>,
@@ -136,6 +138,7 @@ impl ComputeStep {
             rejections: Rejections::default(),
             depth: Vec::new(),
             predictive: None,
+            own_way: OwnWay::default(),
             second: None,
             ways_refused: 0,
         }
@@ -143,7 +146,8 @@ impl ComputeStep {
 
     /// The same step with the cue from where the user heads: frames that come with a
     /// [`FrameIn::way`] get the [`PredictiveCue`]'s state (a drop-off in the step zone
-    /// still stops the user), frames without one the cost functions'.
+    /// still stops the user), frames without one the cost functions', or with
+    /// [`PredictiveConfig::own_way`] the cue's on the way the user walked last free.
     pub fn with_predictive(mut self, config: PredictiveConfig) -> Self {
         self.predictive = Some(PredictiveCue::new(config));
         self
@@ -232,20 +236,30 @@ impl ComputeStep {
                 self.rejections.record(true);
                 let t_s = input.capture_ns as f64 * 1e-9;
                 if let Some(p) = self.predictive.as_mut() {
+                    let yaw_rate = perception.body_yaw_rate_rad_s.map(f64::from);
+                    let speed = f64::from(perception.speed_m_s);
+                    let own = p.config().own_way;
+                    if own {
+                        self.own_way.update(t_s, yaw_rate, speed, p.last_sent(), p.config().user.walk_speed_m_s);
+                    }
+                    let given = input.way.is_some();
                     let way = input.way.filter(|w| {
                         let finite = w.is_finite();
                         self.ways_refused += u64::from(!finite);
                         finite
                     });
+                    // a way that is no way is refused, never replaced by the user's own
+                    let way = if given { way } else { own.then(|| self.own_way.way()) };
                     if let Some(way) = way.filter(|_| !perception.dropoff_ahead) {
                         timer.start("predictive");
                         perception.rumble = p.decide(&Ahead {
                             t_s,
                             way,
                             points: self.pipeline.obstacle_points(),
+                            cane_finds: self.pipeline.cane_finds(),
                             sweep_rad: f64::from(perception.sweep_rad),
-                            speed_m_s: f64::from(perception.speed_m_s),
-                            yaw_rate_rad_s: perception.body_yaw_rate_rad_s.map(f64::from),
+                            speed_m_s: speed,
+                            yaw_rate_rad_s: yaw_rate,
                         });
                         timer.stop();
                         perception.predictive = true;
@@ -419,6 +433,25 @@ mod tests {
             }
             StepOutput::Refused { error, .. } => panic!("{error}"),
         }
+        assert_eq!(step.ways_refused(), 1);
+    }
+
+    #[test]
+    fn guarding_the_body_on_the_users_own_way_needs_no_route_but_refuses_a_broken_one() {
+        let frame = wall_frame(DepthEncoding::Lossless);
+        let config = PredictiveConfig { guards: crate::predictive::Guards::Body, own_way: true, ..Default::default() };
+        let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default()).with_predictive(config);
+        let mut decided = |way: Option<Way<'_>>| match step.process(FrameIn { way, ..input(&frame, 7) }, &mut NoTimer) {
+            StepOutput::Perceived { perception, hazard, .. } => (hazard.predictive, perception.rumble),
+            StepOutput::Refused { error, .. } => panic!("{error}"),
+        };
+        // no way given: the cue decides on the way the user walks
+        assert!(decided(None).0, "no route: the user's own way");
+        // a way that is no way is refused, not replaced: the cost functions decide
+        let broken = [[0.0, 0.0], [f64::NAN, 0.0]];
+        let (predictive, rumble) = decided(Some(Way { points: &broken, ends_at_goal: true, walls: &[] }));
+        assert!(!predictive);
+        assert_ne!(rumble, Rumble::None, "the cost functions warn of the wall");
         assert_eq!(step.ways_refused(), 1);
     }
 

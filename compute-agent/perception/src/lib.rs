@@ -346,6 +346,8 @@ pub struct Pipeline {
     closing: ClosingSpeed,
     debounce: RumbleDebounce,
     cost_points: Vec<[f32; 2]>,
+    /// Per `cost_points`, whether the cane would find it (see [`Pipeline::cane_finds`]).
+    cane_finds: Vec<bool>,
     // this frame's edges of lower ground; the memory adds the unseen floor that may be
     // lower to `lower.edge`
     lower: dropoff::LowerGround,
@@ -376,6 +378,7 @@ impl Pipeline {
             closing: ClosingSpeed::default(),
             debounce: RumbleDebounce::default(),
             cost_points: Vec::new(),
+            cane_finds: Vec::new(),
             lower: dropoff::LowerGround::default(),
             sweep: walking_frame::SweepEstimate::default(),
             walking_points: Vec::new(),
@@ -395,6 +398,15 @@ impl Pipeline {
     /// frame, metres `(x forward, y left)`.
     pub fn obstacle_points(&self) -> &[[f32; 2]] {
         &self.cost_points
+    }
+
+    /// Per [`Pipeline::obstacle_points`], whether a cane sweeping the floor would find
+    /// it: true for what reaches down to near the floor in view
+    /// ([`nearest_scan::ScanBuilder::cane_finds`]) and for edges of lower ground; false
+    /// for what overhangs (a table top, a sign) and for what the memory holds out of
+    /// view (not known to reach down).
+    pub fn cane_finds(&self) -> &[bool] {
+        &self.cane_finds
     }
 
     /// Runs every stage on one frame.
@@ -496,6 +508,9 @@ impl Pipeline {
         self.cost_points.clear();
         self.cost_points.extend(scan_points(&out.scan));
         let seen_points = self.cost_points.len();
+        self.cane_finds.clear();
+        let ranged = out.scan.ranges_m.iter().map(|r| r.is_finite());
+        self.cane_finds.extend(ranged.zip(&self.scan.cane_finds).filter(|(r, _)| *r).map(|(_, &c)| c));
         if cfg.memory.enabled {
             let cone = ViewCone {
                 half_hfov_rad: view.half_hfov_rad,
@@ -515,7 +530,9 @@ impl Pipeline {
             let lower = &mut self.lower;
             self.memory.unseen_lower(ctx.stamp_ns, &lower.floor, &lower.unseen, &cfg.memory, &mut lower.edge);
             self.cost_points.extend_from_slice(&lower.edge);
+            self.cane_finds.resize(self.cost_points.len(), true);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
+            self.cane_finds.resize(self.cost_points.len(), false);
             out.remembered = self.memory.out_of_view.len();
             if cfg.dropoff.enabled && cfg.dropoff.edges {
                 let zone = dropoff::StepZone::new(&cfg.dropoff);
@@ -525,6 +542,7 @@ impl Pipeline {
             // nothing tells the floor walked towards from floor never seen: all of it
             self.cost_points.extend_from_slice(&self.lower.edge);
             self.cost_points.extend_from_slice(&self.lower.unseen);
+            self.cane_finds.resize(self.cost_points.len(), true);
             out.remembered = 0;
             let zone = dropoff::StepZone::new(&cfg.dropoff);
             out.dropoff_ahead |= self.lower.edge.iter().chain(&self.lower.unseen).any(|&p| zone.contains(p));

@@ -147,6 +147,11 @@ impl BinLayout {
 /// cabinet standing 30 cm out from it, not the wall's own depth noise.
 pub const OVERHANG_MARGIN_M: f32 = 0.15;
 
+/// A cane whose tip slides on the floor with the hand about 1 m up passes under what
+/// hangs higher than this near its tip, metres: a bin's nearest obstacle counts as found
+/// by the cane only with points this low as near ([`ScanBuilder::cane_finds`]).
+pub const CANE_FINDS_BELOW_M: f32 = 0.3;
+
 /// Reusable state of the scan stage.
 #[derive(Debug, Default)]
 pub struct ScanBuilder {
@@ -161,6 +166,13 @@ pub struct ScanBuilder {
     floor_far_sq: Vec<[f32; 4]>,
     /// Height above the floor of the point that set each bin's range.
     pub heights_m: Vec<f32>,
+    /// Per bin with a range: whether the cane would find what set it, i.e. whether it
+    /// reaches down below [`CANE_FINDS_BELOW_M`] there (points that low no more than
+    /// [`OVERHANG_MARGIN_M`] farther); not for a table top or a bench seat whose legs
+    /// stand back, a sign, a lamp. False where the bin has no range.
+    pub cane_finds: Vec<bool>,
+    /// Per bin, the nearest obstacle points below [`CANE_FINDS_BELOW_M`].
+    low_sq: Vec<[f32; 4]>,
     /// With [`ScanConfig::floor_seen`], per bin, how far the floor was seen free: the
     /// range of its `min_points_per_bin`-th farthest floor point (within 4 cm of the
     /// plane and `range_max_m`), no farther than the bin's nearest obstacle; 0 where no
@@ -196,6 +208,8 @@ impl ScanBuilder {
         self.below_far_sq.clear();
         self.floor_far_sq.clear();
         self.floor_far_sq.resize(bins, [0.0; 4]);
+        self.low_sq.clear();
+        self.low_sq.resize(bins, [f32::INFINITY; 4]);
         if cfg.overhangs_from_m.is_some() {
             self.lower_sq.resize(bins, [f32::INFINITY; 4]);
             self.lower_height.resize(bins, [0.0; 4]);
@@ -235,6 +249,9 @@ impl ScanBuilder {
                 } else if !floor {
                     insert_sorted(&mut self.nearest_sq[b], &mut self.nearest_height[b], r_sq, h);
                 }
+                if !floor && h < CANE_FINDS_BELOW_M {
+                    insert_nearest(&mut self.low_sq[b], r_sq);
+                }
             }
         }
         self.obstacle_points = obstacles;
@@ -243,6 +260,7 @@ impl ScanBuilder {
         scan.range_max_m = cfg.range_max_m;
         scan.ranges_m.clear();
         self.heights_m.clear();
+        self.cane_finds.clear();
         self.floor_seen_m.clear();
         for (b, (sq, hs)) in self.nearest_sq.iter().zip(&self.nearest_height).enumerate() {
             // the k-th nearest: a lone flying pixel does not make an obstacle
@@ -257,6 +275,7 @@ impl ScanBuilder {
             }
             scan.ranges_m.push(range);
             self.heights_m.push(hs[k - 1]);
+            self.cane_finds.push(range.is_finite() && self.low_sq[b][k - 1].sqrt() <= range + OVERHANG_MARGIN_M);
             if cfg.floor_seen {
                 self.floor_seen_m.push(self.floor_far_sq[b][k - 1].sqrt().min(sq[0].sqrt()));
             }
@@ -271,6 +290,19 @@ fn insert_farthest(r: &mut [f32; 4], r_sq: f32) {
     }
     let mut j = 3;
     while j > 0 && r[j - 1] < r_sq {
+        r[j] = r[j - 1];
+        j -= 1;
+    }
+    r[j] = r_sq;
+}
+
+/// Keeps the four smallest squared ranges, smallest first.
+fn insert_nearest(r: &mut [f32; 4], r_sq: f32) {
+    if r_sq >= r[3] {
+        return;
+    }
+    let mut j = 3;
+    while j > 0 && r[j - 1] > r_sq {
         r[j] = r[j - 1];
         j -= 1;
     }

@@ -12,12 +12,21 @@
 //! study's oracle did the same with perfect knowledge, `docs/beyond-the-course.md`).
 //!
 //! The model is the typical user (walking speed, turning rate, reaction time, tried
-//! 25 % quicker and slower), not the person walking: it does not know when the cane
-//! touched something. The cane is modelled as the fan it sweeps ahead of the hand (the
-//! sweep's phase is not predicted). Everything here is in the body's frame at the
+//! 25 % quicker and slower), not the person walking: it knows of a touch only when the
+//! device sees one (a point it holds on the body or the cane). The cane is where the
+//! sweep's rhythm, measured while walking, puts it (anywhere in its fan before that).
+//! Everything here is in the body's frame at the
 //! frame's capture: x along the body's heading, y to the left, metres; the caller gives
 //! the way ahead in that frame ([`RouteAhead`] makes it from a route on the map and a
 //! pose).
+//!
+//! Guarding the body alone ([`Guards::Body`], issue 29's "first, do no harm"): the cane
+//! may touch what it would find (what reaches down near the floor,
+//! [`Ahead::cane_finds`]), the model user turns away from such a touch a reaction time
+//! later as a cane user does, and a state is unsafe only when the body touches something
+//! all the same. With [`PredictiveConfig::own_way`] it needs no route: a frame without
+//! one is walked along the heading the user last walked free ([`OwnWay`]). Measured in
+//! `docs/beyond-the-course.md`.
 
 use std::collections::VecDeque;
 
@@ -121,12 +130,30 @@ pub struct PredictiveConfig {
     /// The walk ends within this distance of the way's end when it is the destination,
     /// metres.
     pub goal_radius_m: f64,
+    /// What the cue keeps from being touched.
+    pub guards: Guards,
+    /// A frame without a way gets one from the user's own walking (the heading they
+    /// last walked free, [`PredictiveCue::decide_own_way`]) instead of none.
+    pub own_way: bool,
+}
+
+/// What the predictive cue keeps from being touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Guards {
+    /// The cane and the body: a state is safe when nothing is touched.
+    All,
+    /// The body alone: the cane may touch what stands in the way, the user is taken to
+    /// turn away from what it finds (as a cane user does, a reaction time later), and a
+    /// state is unsafe only when the body would touch something all the same (what
+    /// hangs above the cane's sweep, what the sweep misses, a touch found too late).
+    Body,
 }
 
 impl Default for PredictiveConfig {
     /// 2.5 s ahead (a reaction, slowing down and a turn) at 30 steps a second, 5 cm
     /// margin, warnings deferred while one 0.1 s later would do, 50 ms to the hands,
-    /// 0.5 m goal radius.
+    /// 0.5 m goal radius, the cane and the body guarded, no way but the one given.
     fn default() -> Self {
         Self {
             user: UserModel::default(),
@@ -137,6 +164,8 @@ impl Default for PredictiveConfig {
             defer_s: 0.1,
             latency_s: 0.05,
             goal_radius_m: 0.5,
+            guards: Guards::All,
+            own_way: false,
         }
     }
 }
@@ -172,6 +201,10 @@ pub struct Ahead<'a> {
     /// What the perception holds, the camera's user frame (x forward, y left, metres,
     /// from the camera's place on the floor).
     pub points: &'a [[f32; 2]],
+    /// Per point, whether the cane sweeping the floor would find it (it reaches down
+    /// near the floor; [`crate::Pipeline::cane_finds`]); a point without an entry is
+    /// taken not to. Read only when guarding the body alone.
+    pub cane_finds: &'a [bool],
     /// The camera's angle to the body's heading, radians, positive left.
     pub sweep_rad: f64,
     /// The body's walking speed, m/s.
@@ -187,8 +220,10 @@ pub struct PredictiveCue {
     /// States sent (from when, seconds), oldest first; the first is in force before the
     /// second.
     sent: VecDeque<(f64, Rumble)>,
-    /// The frame's points in the body frame, near enough to matter.
+    /// The frame's points in the body frame, near enough to matter, and whether the
+    /// cane would find each.
     points: Vec<[f64; 2]>,
+    point_cane: Vec<bool>,
     armed: Vec<bool>,
     /// Distance along the frame's way of each of its points, metres.
     way_along: Vec<f64>,
@@ -204,6 +239,8 @@ pub struct PredictiveCue {
     /// The sweep's phase (radians) at a time (seconds), from the last frame walked at
     /// pace; `None` before one: the cane is taken to be anywhere in its fan.
     phase: Option<(f64, f64)>,
+    /// Guarding the body alone: per point, whether the cane is clear of it again.
+    cane_armed: Vec<bool>,
 }
 
 /// The states tried, in the order preferred among the safe ones after clear.
@@ -220,6 +257,7 @@ impl PredictiveCue {
             config,
             sent: VecDeque::new(),
             points: Vec::new(),
+            point_cane: Vec::new(),
             armed: Vec::new(),
             way_along: Vec::new(),
             touches: VecDeque::new(),
@@ -227,12 +265,18 @@ impl PredictiveCue {
             released_s: None,
             last_sweep: None,
             phase: None,
+            cane_armed: Vec::new(),
         }
     }
 
     /// The configuration.
     pub fn config(&self) -> &PredictiveConfig {
         &self.config
+    }
+
+    /// The state sent last (clear before any).
+    pub fn last_sent(&self) -> Rumble {
+        self.sent.back().map_or(Rumble::None, |&(_, s)| s)
     }
 
     /// Records the state sent for the frame captured at `t_s` (this cue's or another's:
@@ -310,14 +354,15 @@ impl PredictiveCue {
             + c.margin_m
             + RELEASE_M;
         self.points.clear();
-        self.points.extend(
-            now.points
-                .iter()
-                .map(|p| (f64::from(p[0]), f64::from(p[1])))
-                .filter(|(x, y)| x.is_finite() && y.is_finite())
-                .map(|(x, y)| [camera[0] + k * x - s * y, camera[1] + s * x + k * y])
-                .filter(|p| p[0].hypot(p[1]) <= reach),
-        );
+        self.point_cane.clear();
+        for (i, p) in now.points.iter().enumerate() {
+            let (x, y) = (f64::from(p[0]), f64::from(p[1]));
+            let q = [camera[0] + k * x - s * y, camera[1] + s * x + k * y];
+            if x.is_finite() && y.is_finite() && q[0].hypot(q[1]) <= reach {
+                self.points.push(q);
+                self.point_cane.push(now.cane_finds.get(i).copied().unwrap_or(false));
+            }
+        }
     }
 
     /// A touch the frame shows (something the device holds within the margin of the
@@ -327,10 +372,16 @@ impl PredictiveCue {
         let c = &self.config;
         let fan = self.fan_at(0.0, 0.0, 0.0, now.speed_m_s, now.t_s);
         let radius_m = c.user.shoulder_width_m / 2.0;
+        let body_only = c.guards == Guards::Body;
         let nearest = self
             .points
             .iter()
-            .map(|p| ((p[0].hypot(p[1]) - radius_m).min(fan.distance_m(*p)), p[1] > 0.0))
+            .zip(&self.point_cane)
+            .map(|(p, &found)| {
+                // guarding the body alone, the cane passes under what it would not find
+                let cane = if body_only && !found { f64::INFINITY } else { fan.distance_m(*p) };
+                ((p[0].hypot(p[1]) - radius_m).min(cane), p[1] > 0.0)
+            })
             .min_by(|a, b| a.0.total_cmp(&b.0));
         match nearest {
             Some((d, on_left)) if d <= c.margin_m => {
@@ -458,8 +509,10 @@ impl PredictiveCue {
         // touch on the other side while still turning from the last is a corner: the
         // user keeps turning the same way)
         let mut bump = Bump { until_s: f64::NEG_INFINITY, left: true, last: None };
-        let mut pending = self.touches.iter().map(|&(t, on_left)| (t + reaction_s, on_left)).peekable();
-        while let Some((at, on_left)) = pending.next_if(|&(at, _)| at <= t0) {
+        let mut pending: VecDeque<(f64, bool)> =
+            self.touches.iter().map(|&(t, on_left)| (t + reaction_s, on_left)).collect();
+        while let Some((at, on_left)) = pending.front().copied().filter(|&(at, _)| at <= t0) {
+            pending.pop_front();
             bump.act(at, on_left, &u);
         }
         if bump.until_s > t0 {
@@ -471,6 +524,10 @@ impl PredictiveCue {
 
         self.armed.clear();
         self.armed.resize(self.points.len(), true);
+        let body_only = c.guards == Guards::Body;
+        self.cane_armed.clear();
+        self.cane_armed.resize(if body_only { self.points.len() } else { 0 }, true);
+
         let goal = now.way.ends_at_goal.then(|| now.way.points.last().copied()).flatten();
         for k in 0..=steps {
             let t = t0 + k as f64 * dt;
@@ -479,7 +536,8 @@ impl PredictiveCue {
                     target = way.target(x, y, u.lookahead_m, &in_sight);
                     targeted_at = t;
                 }
-                while let Some((at, on_left)) = pending.next_if(|&(at, _)| at <= t) {
+                while let Some((at, on_left)) = pending.front().copied().filter(|&(at, _)| at <= t) {
+                    pending.pop_front();
                     bump.act(at, on_left, &u);
                     in_place_left = bump.left;
                     commit_until = bump.until_s + u.commit_s;
@@ -521,23 +579,45 @@ impl PredictiveCue {
                 r * r
             };
             let mut touched = false;
-            for (p, armed) in self.points.iter().zip(self.armed.iter_mut()) {
+            let mut cane_touch: Option<bool> = None;
+            for (i, (p, armed)) in self.points.iter().zip(self.armed.iter_mut()).enumerate() {
                 let (bx, by) = (p[0] - x, p[1] - y);
                 let b2 = bx * bx + by * by;
                 if b2 > near2 {
                     *armed = true;
+                    if let Some(a) = self.cane_armed.get_mut(i) {
+                        *a = true;
+                    }
                     continue;
                 }
-                let d = (b2.sqrt() - radius_m).min(fan.distance_m(*p));
+                let body = b2.sqrt() - radius_m;
+                // guarding the body alone, the cane passes under what it would not find
+                let cane = if body_only && !self.point_cane[i] { f64::INFINITY } else { fan.distance_m(*p) };
+                let d = if body_only { body } else { body.min(cane) };
                 if d <= c.margin_m {
                     touched |= *armed && k > 0;
                     *armed = false;
                 } else if d > c.margin_m + RELEASE_M {
                     *armed = true;
                 }
+                // guarding the body alone: what the cane finds turns the user away
+                if let Some(a) = self.cane_armed.get_mut(i) {
+                    if cane <= c.margin_m {
+                        if *a && k > 0 && cane_touch.is_none() {
+                            let (sin, cos) = yaw.sin_cos();
+                            cane_touch = Some(cos * by - sin * bx > 0.0);
+                        }
+                        *a = false;
+                    } else if cane > c.margin_m + RELEASE_M {
+                        *a = true;
+                    }
+                }
             }
             if touched {
                 return Some(t - t0);
+            }
+            if let Some(on_left) = cane_touch {
+                pending.push_back((t + reaction_s, on_left));
             }
         }
         None
@@ -688,6 +768,77 @@ fn wrap_pi(a: f64) -> f64 {
     }
 }
 
+/// The way a user heads when the device knows no route: the heading they last walked
+/// free (at pace, with nothing rumbling, for [`OWN_WAY_FREE_S`]), as the device learns it
+/// from the body-worn gyro; straight ahead before that, and without the gyro.
+#[derive(Debug, Clone, Default)]
+pub struct OwnWay {
+    /// The body's heading, integrated from its gyro, radians.
+    heading_rad: f64,
+    /// The last frame's time, seconds.
+    last_t_s: Option<f64>,
+    /// Walking free since, seconds.
+    free_since_s: Option<f64>,
+    /// The heading last walked free, radians (as `heading_rad`).
+    intent_rad: Option<f64>,
+    /// The way, body frame.
+    points: Vec<[f64; 2]>,
+}
+
+/// Walking free this long shows where the user wants to go, seconds.
+pub const OWN_WAY_FREE_S: f64 = 2.0;
+
+/// The user's own way runs this far, metres.
+const OWN_WAY_M: f64 = 8.0;
+
+/// A gap between frames longer than this loses the heading, seconds.
+const OWN_WAY_GAP_S: f64 = 0.5;
+
+impl OwnWay {
+    /// Takes in a frame at `t_s`: the body's turn rate (rad/s, positive left, `None`
+    /// without a gyro), its walking speed, the state last sent, and the user's walking
+    /// speed.
+    pub fn update(&mut self, t_s: f64, yaw_rate_rad_s: Option<f64>, speed_m_s: f64, sent: Rumble, walk_speed_m_s: f64) {
+        let dt = self.last_t_s.map(|t| t_s - t);
+        self.last_t_s = Some(t_s);
+        let rate = yaw_rate_rad_s.filter(|r| r.is_finite());
+        match (rate, dt) {
+            (Some(r), Some(dt)) if (0.0..=OWN_WAY_GAP_S).contains(&dt) => {
+                self.heading_rad = wrap_pi(self.heading_rad + r * dt);
+            }
+            (Some(_), None) => {}
+            _ => {
+                // no gyro, or a gap: where the user heads against the body is not known
+                self.intent_rad = None;
+                self.free_since_s = None;
+            }
+        }
+        let free = rate.is_some() && sent == Rumble::None && speed_m_s >= 0.8 * walk_speed_m_s;
+        if free {
+            let since = *self.free_since_s.get_or_insert(t_s);
+            if t_s - since >= OWN_WAY_FREE_S {
+                self.intent_rad = Some(self.heading_rad);
+            }
+        } else {
+            self.free_since_s = None;
+        }
+        let a = self.intent_rad.map_or(0.0, |i| wrap_pi(i - self.heading_rad));
+        self.points.clear();
+        self.points.extend([[0.0, 0.0], [OWN_WAY_M * a.cos(), OWN_WAY_M * a.sin()]]);
+    }
+
+    /// The way (no walls: the user knows none; no destination).
+    pub fn way(&self) -> Way<'_> {
+        Way { points: &self.points, ends_at_goal: false, walls: &[] }
+    }
+
+    /// The heading the user is taken to head, against the body's, radians (0 before
+    /// one is known).
+    pub fn bearing_rad(&self) -> f64 {
+        self.intent_rad.map_or(0.0, |i| wrap_pi(i - self.heading_rad))
+    }
+}
+
 /// A route on the map, followed from a pose: the way ahead in the body's frame.
 #[derive(Debug, Clone)]
 pub struct RouteAhead {
@@ -806,10 +957,12 @@ mod tests {
         way: &[[f64; 2]],
         walls: &[[f64; 2]],
     ) -> Rumble {
+        let finds = vec![true; points.len()];
         let now = Ahead {
             t_s,
             way: Way { points: way, ends_at_goal: true, walls },
             points,
+            cane_finds: &finds,
             sweep_rad: 0.0,
             speed_m_s: 1.0,
             yaw_rate_rad_s: Some(0.0),
@@ -887,6 +1040,7 @@ mod tests {
                     t_s: 1.0,
                     way: Way { points: &way, ends_at_goal: true, walls: &known(&points) },
                     points: &points,
+                    cane_finds: &[],
                     sweep_rad: 0.0,
                     speed_m_s: 1.0,
                     yaw_rate_rad_s: Some(0.0),
@@ -932,6 +1086,7 @@ mod tests {
                     t_s: t,
                     way: Way { points: &[], ends_at_goal: false, walls: &[] },
                     points: &[],
+                    cane_finds: &[],
                     sweep_rad: sweep(t),
                     speed_m_s: 1.0,
                     yaw_rate_rad_s: None,
@@ -955,6 +1110,7 @@ mod tests {
                 t_s,
                 way: Way { points: &[[0.0, 0.0], [10.0, 0.0]], ends_at_goal: true, walls: &[] },
                 points: post,
+                cane_finds: &[],
                 sweep_rad: 0.0,
                 speed_m_s: 1.0,
                 yaw_rate_rad_s: None,
@@ -998,5 +1154,75 @@ mod tests {
         // progress never goes back
         route.ahead(0.5, 0.0, 0.0, &mut out);
         assert!(out[0][0] > 2.0, "{out:?}");
+    }
+
+    /// How far ahead a wall 1 m wide across the way first gets a warning from a fresh
+    /// cue guarding `guards`, metres (tried every 0.1 m from 4 m in).
+    fn first_warned_m(guards: Guards) -> Option<f64> {
+        (0..=35).map(|k| 4.0 - 0.1 * f64::from(k)).find(|&dist| {
+            let mut cue = PredictiveCue::new(PredictiveConfig { guards, ..PredictiveConfig::default() });
+            let points = wall([dist, -0.5], [dist, 0.5]);
+            decide_at(&mut cue, 0.0, &points, &[[0.0, 0.0], [10.0, 0.0]], &[]) != Rumble::None
+        })
+    }
+
+    #[test]
+    fn guarding_the_body_leaves_a_wall_across_the_way_to_the_cane_longer() {
+        // keeping the cane off it, the warning comes before the tip (1.08 m ahead of
+        // the body) gets there; guarding the body alone, only when a user turning from
+        // the cane's touch a slow reaction time later would still reach it with the body
+        let all = first_warned_m(Guards::All).unwrap_or_else(|| panic!("never warned keeping the cane off"));
+        let body = first_warned_m(Guards::Body);
+        println!("first warned {all:.1} m ahead keeping the cane off, {body:?} guarding the body");
+        assert!((1.3..=2.0).contains(&all), "{all:.1} m");
+        let body = body.unwrap_or(0.0);
+        assert!(body <= all - 0.2, "guarding the body: {body:.1} m, keeping the cane off too: {all:.1} m");
+        assert!(body < 1.4, "guarding the body warned {body:.1} m ahead: the cane reaches the wall first");
+    }
+
+    #[test]
+    fn guarding_the_body_a_post_the_cane_finds_too_late_is_still_warned() {
+        // a post 0.1 m wide just left of the way, 0.9 m ahead: the cane, swinging back
+        // from the right, finds it only with the body a step off it; the user walking on a
+        // slow reaction time would walk into it
+        let mut cue = PredictiveCue::new(PredictiveConfig { guards: Guards::Body, ..PredictiveConfig::default() });
+        let points = wall([0.9, 0.05], [0.9, 0.15]);
+        let r = decide_at(&mut cue, 0.0, &points, &[[0.0, 0.0], [10.0, 0.0]], &[]);
+        assert_ne!(r, Rumble::None);
+    }
+
+    #[test]
+    fn the_users_own_way_is_the_heading_they_last_walked_free() {
+        let mut own = OwnWay::default();
+        let walk = 1.0;
+        // 2.5 s straight at pace, nothing felt: the way is straight ahead
+        for k in 0..=75 {
+            own.update(f64::from(k) / 30.0, Some(0.0), 1.0, Rumble::None, walk);
+        }
+        assert!(own.bearing_rad().abs() < 1e-9);
+        // turned 90° to the left by a rumble: the way the user wants is now to their right
+        let t0 = 2.5;
+        for k in 1..=45 {
+            own.update(t0 + f64::from(k) / 30.0, Some(std::f64::consts::FRAC_PI_2 / 1.5), 0.4, Rumble::Left, walk);
+        }
+        let b = own.bearing_rad().to_degrees();
+        assert!((b + 90.0).abs() < 2.0, "bearing {b:.1}°");
+        let way = own.way();
+        assert!(way.points[1][1] < -7.9 && way.points[1][0].abs() < 0.3, "{:?}", way.points);
+        assert!(!way.ends_at_goal && way.walls.is_empty());
+        // walking free the new way for 2 s makes it the way
+        for k in 1..=70 {
+            own.update(t0 + 1.5 + f64::from(k) / 30.0, Some(0.0), 1.0, Rumble::None, walk);
+        }
+        assert!(own.bearing_rad().abs() < 1e-9, "{}", own.bearing_rad());
+        // turned off it again, then a frame without the gyro: where the user heads
+        // against the body is not known any more, and the way is straight ahead
+        let t1 = t0 + 1.5 + 70.0 / 30.0;
+        for k in 1..=15 {
+            own.update(t1 + f64::from(k) / 30.0, Some(1.0), 0.4, Rumble::Left, walk);
+        }
+        assert!((own.bearing_rad() + 0.5).abs() < 0.01, "{}", own.bearing_rad());
+        own.update(t1 + 16.0 / 30.0, None, 0.4, Rumble::Left, walk);
+        assert_eq!(own.bearing_rad(), 0.0);
     }
 }

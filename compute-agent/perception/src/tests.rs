@@ -816,3 +816,36 @@ fn after_its_ground_drifted_up_the_chest_camera_takes_the_floor_back_at_once_the
     assert!(cane.iter().all(|&s| s != GroundState::Found), "the cane camera: {cane:?}");
     assert_eq!(cane.last(), Some(&GroundState::Degraded));
 }
+
+#[test]
+fn the_cane_is_taken_to_find_a_bin_and_a_bench_not_a_table_top() {
+    // the cane camera (0.99 m up, 30 degrees down): per obstacle straight ahead, whether
+    // the scan takes the cane to find what set the range there
+    let finds_ahead = |blocks: &[Block]| {
+        let mut scene = Scene::kinect(0.99, 30.0);
+        scene.blocks.extend_from_slice(blocks);
+        let mut p = Pipeline::new(PerceptionConfig::default());
+        let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: Some(0.99), ..Default::default() };
+        let got = run(&mut p, &scene, &ctx).unwrap();
+        let mid = got.scan.ranges_m.len() / 2;
+        let ranged = got.scan.ranges_m.iter().take(mid).filter(|r| r.is_finite()).count();
+        assert!(got.scan.ranges_m[mid].is_finite(), "nothing ahead");
+        assert_eq!(p.cane_finds().len(), p.obstacle_points().len());
+        (got.scan.ranges_m[mid], p.cane_finds()[ranged])
+    };
+    let bin = Block { min: [1.5, -0.2, 0.0], max: [1.8, 0.2, 0.6] };
+    let (range, found) = finds_ahead(&[bin]);
+    assert!((range - 1.5).abs() < 0.05 && found, "a bin on the floor: {range} {found}");
+    // a table top 0.72-0.75 m up whose legs stand 0.5 m back: the cane sweeps under its edge
+    let top = Block { min: [1.5, -0.6, 0.72], max: [2.3, 0.6, 0.75] };
+    let legs = [
+        Block { min: [2.0, -0.55, 0.0], max: [2.05, -0.5, 0.72] },
+        Block { min: [2.0, 0.5, 0.0], max: [2.05, 0.55, 0.72] },
+    ];
+    let (range, found) = finds_ahead(&[top, legs[0], legs[1]]);
+    assert!((range - 1.5).abs() < 0.05 && !found, "a table top: {range} {found}");
+    // a bench seat whose front reaches the floor (a box)
+    let bench = Block { min: [1.5, -0.8, 0.0], max: [1.95, 0.8, 0.45] };
+    let (range, found) = finds_ahead(&[bench]);
+    assert!((range - 1.5).abs() < 0.05 && found, "a bench: {range} {found}");
+}
