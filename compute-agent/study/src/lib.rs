@@ -29,6 +29,7 @@ pub mod walk;
 pub mod world_groups;
 
 use anyhow::Context;
+use perception::predictive::{Guards, PredictiveConfig};
 use schemas::CostFunction;
 use sim::{CameraProfile, World};
 
@@ -156,6 +157,11 @@ pub struct CourseArgs {
     /// view, remembered, edges of lower ground), so only the perception's sensing limits it.
     #[arg(long, value_enum, default_value_t = oracle::Sees::World)]
     pub oracle_sees: oracle::Sees,
+    /// With `--oracle`: what it keeps from being touched: `all`, the cane and the body;
+    /// `body`, the body alone (the cane may touch, and the user is taken to turn away
+    /// from what it finds, as a cane user does).
+    #[arg(long, value_enum, default_value_t = oracle::Guards::All)]
+    pub oracle_guards: oracle::Guards,
     /// With `--oracle`: the turning rate it takes the user to have, degrees per second
     /// [default: the user's own, `--turn-rate-deg-s`] (a device knows only the typical user).
     #[arg(long)]
@@ -167,6 +173,13 @@ pub struct CourseArgs {
     /// clear is safe. The user's place on the route: --pose. Needs --body-gyro (the body's heading under the cane's sweep).
     #[arg(long, requires = "body_gyro", conflicts_with = "oracle")]
     pub predictive: bool,
+    /// The predictive cue guarding the body alone, with no map and no route: each frame
+    /// it walks the typical user ahead the way they last walked free (from the body
+    /// gyro), lets the cane touch what stands in the way (the user turns away from it,
+    /// as a cane user does) and warns only when the body would touch something all the
+    /// same. Needs --body-gyro.
+    #[arg(long, requires = "body_gyro", conflicts_with_all = ["oracle", "predictive"])]
+    pub body_guard: bool,
     /// With --predictive or --guide spoken: where the device takes the user to be: `filter`, the compute
     /// agent's particle filter on the world's floor plan (the cost functions decide
     /// while it does not track); `truth`, the simulator's, only to tell the filter's
@@ -388,11 +401,15 @@ impl CourseArgs {
             "--oracle-turn-rate-deg-s must be in (0, 720]"
         );
         anyhow::ensure!(
-            self.oracle.is_some() || (self.oracle_sees == oracle::Sees::World && self.oracle_turn_rate_deg_s.is_none()),
-            "--oracle-sees and --oracle-turn-rate-deg-s go with --oracle"
+            self.oracle.is_some()
+                || (self.oracle_sees == oracle::Sees::World
+                    && self.oracle_guards == oracle::Guards::All
+                    && self.oracle_turn_rate_deg_s.is_none()),
+            "--oracle-sees, --oracle-guards and --oracle-turn-rate-deg-s go with --oracle"
         );
         c.oracle = self.oracle.map(|k| oracle::OracleConfig {
             turn_rate_deg_s: self.oracle_turn_rate_deg_s,
+            guards: self.oracle_guards,
             ..oracle::OracleConfig::new(k, self.oracle_sees)
         });
         c.guide = self.guide;
@@ -442,6 +459,9 @@ impl CourseArgs {
             "--pose goes with --predictive or --guide spoken"
         );
         c.predictive = self.predictive.then(|| walk::predictive_for(&c));
+        if self.body_guard {
+            c.predictive = Some(PredictiveConfig { guards: Guards::Body, own_way: true, ..walk::predictive_for(&c) });
+        }
         c.pose = self.pose;
         // the particle filter runs for the predictive cue or the spoken guide, on --pose filter
         let filter = self.pose == walk::PoseSource::Filter && (self.predictive || self.guide == GuideKind::Spoken);
@@ -692,9 +712,11 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
         on_off(!args.no_rumble),
         config.oracle.map_or_else(String::new, |o| {
             let turn = o.turn_rate_deg_s.map_or_else(String::new, |r| format!(", taking the user to turn at {r:.0}°/s"));
-            format!(" (from the oracle: knows {:?}, sees {:?}{turn})", o.knows, o.sees).to_lowercase()
+            format!(" (from the oracle: knows {:?}, sees {:?}, guards {:?}{turn})", o.knows, o.sees, o.guards)
+                .to_lowercase()
         }) + &match (config.predictive, config.pose) {
             (None, _) => String::new(),
+            (Some(p), _) if p.own_way => " (body guard: the predictive cue on the body alone, the user's own way)".into(),
             (Some(_), walk::PoseSource::Filter) if config.odometry_noise != 1.0 => format!(
                 " (predictive: from the route and the particle filter's place, odometry errors x{})",
                 config.odometry_noise

@@ -16,9 +16,9 @@
 use schemas::Rumble;
 use sim::{CaneMount, World};
 
-use super::contacts::{cane_distance_m, RELEASE_M};
+use super::contacts::{cane_distance_m, RELEASE_M, TOUCH_M};
 use super::hands::Felt;
-use super::virtual_user::{Guide, UserParams, VirtualUser};
+use super::virtual_user::{Guide, Touch, UserParams, VirtualUser};
 use super::walk::sweep_scale;
 
 /// What the oracle's look-ahead is checked against.
@@ -46,6 +46,19 @@ pub enum Knows {
     Intent,
 }
 
+/// What the oracle keeps from being touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Guards {
+    /// The cane and the body: nothing is touched.
+    All,
+    /// The body alone: the cane may touch, and the user is taken to turn away from what
+    /// it finds, as a cane user does; a state is unsafe only when the body would touch
+    /// something all the same (overhangs, what the cane's sweep misses, a touch found
+    /// too late to turn from).
+    Body,
+}
+
 /// Free walking for this long, at pace, shows where the user wants to go, seconds.
 const INTENT_FREE_S: f64 = 2.0;
 
@@ -56,6 +69,8 @@ pub struct OracleConfig {
     pub knows: Knows,
     /// What its look-ahead is checked against.
     pub sees: Sees,
+    /// What it keeps from being touched.
+    pub guards: Guards,
     /// Look-ahead, seconds: a state is safe when nothing is touched this long after it
     /// is sent.
     pub horizon_s: f64,
@@ -83,6 +98,7 @@ impl OracleConfig {
         Self {
             knows,
             sees,
+            guards: Guards::All,
             horizon_s: 2.5,
             margin_m: 0.05,
             steps_hz: 60.0,
@@ -301,9 +317,9 @@ impl Seen<'_> {
         }
     }
 
-    /// Calls `f` with the index and the nearer of the body's and the cane's distance
-    /// (metres) of every obstacle or point within `reach_m` of them; distances beyond
-    /// `reach_m` may be lower bounds, and points beyond it are left out.
+    /// Calls `f` with the index and the body's and the cane's distances (metres) of
+    /// every obstacle or point within `reach_m` of either; distances beyond `reach_m`
+    /// may be lower bounds, and points beyond it are left out.
     #[allow(clippy::too_many_arguments)]
     fn near_m(
         &self,
@@ -313,19 +329,20 @@ impl Seen<'_> {
         (hand, tip): ([f64; 3], [f64; 3]),
         (radius_m, height_m): (f64, f64),
         reach_m: f64,
-        mut f: impl FnMut(usize, f64),
+        mut f: impl FnMut(usize, Apart),
     ) {
         match self {
             Seen::World(world) => {
-                let mut nearest = [f64::INFINITY; 64];
+                let far = Apart { body_m: f64::INFINITY, cane_m: f64::INFINITY };
+                let mut nearest = [far; 64];
                 for (id, shape) in world.obstacles_at(floor, t_s) {
-                    let body = shape.body_distance_m(body_xy[0], body_xy[1], radius_m, height_m);
-                    let cane = cane_distance_m(&shape, hand, tip, reach_m);
+                    let body_m = shape.body_distance_m(body_xy[0], body_xy[1], radius_m, height_m);
+                    let cane_m = cane_distance_m(&shape, hand, tip, reach_m);
                     let i = id.0 as usize;
                     match nearest.get_mut(i) {
-                        Some(d) => *d = d.min(body.min(cane)),
+                        Some(d) => *d = Apart { body_m: d.body_m.min(body_m), cane_m: d.cane_m.min(cane_m) },
                         // more obstacles than the stack holds: report each shape
-                        None => f(i, body.min(cane)),
+                        None => f(i, Apart { body_m, cane_m }),
                     }
                 }
                 for (i, &d) in nearest.iter().enumerate().take(world.obstacles().len()) {
@@ -342,15 +359,22 @@ impl Seen<'_> {
                 let len2 = (dx * dx + dy * dy).max(1e-12);
                 grid.near(lo, hi, |i, p| {
                     let (bx, by) = (p[0] - body_xy[0], p[1] - body_xy[1]);
-                    let body = (bx * bx + by * by).sqrt() - radius_m;
+                    let body_m = (bx * bx + by * by).sqrt() - radius_m;
                     let (px, py) = (p[0] - ax, p[1] - ay);
                     let s = ((px * dx + py * dy) / len2).clamp(0.0, 1.0);
                     let (cx, cy) = (px - s * dx, py - s * dy);
-                    f(i, body.min((cx * cx + cy * cy).sqrt()));
+                    f(i, Apart { body_m, cane_m: (cx * cx + cy * cy).sqrt() });
                 });
             }
         }
     }
+}
+
+/// How far an obstacle or point is from the body and from the cane, metres.
+#[derive(Debug, Clone, Copy)]
+struct Apart {
+    body_m: f64,
+    cane_m: f64,
 }
 
 /// What the hands feel of a rumble state.
@@ -410,6 +434,8 @@ fn first_touch_one_s(
     let dt = 1.0 / config.steps_hz;
     let steps = (config.horizon_s * config.steps_hz).ceil() as usize;
     let mut armed = vec![true; now.seen.len()];
+    let mut cane_armed = vec![true; now.seen.len()];
+    let body_only = config.guards == Guards::Body;
     // near enough to be told from a touch and from its release
     let reach_m = config.margin_m + 2.0 * RELEASE_M;
     let t0_s = now.t_s;
@@ -438,6 +464,7 @@ fn first_touch_one_s(
         let sweep = mount.sweep_rad(t) * sweep_scale(u.speed_m_s(), &params);
         let (hand, tip) = mount.cane_segment(&pose, sweep);
         let mut touched = false;
+        let mut cane_touch = false;
         now.seen.near_m(
             pose.floor,
             t,
@@ -445,16 +472,30 @@ fn first_touch_one_s(
             (hand, tip),
             (radius_m, params.height_m),
             reach_m,
-            |i, d| {
-                let Some(a) = armed.get_mut(i) else { return };
-                if d <= config.margin_m {
-                    touched |= *a && k > 0;
-                    *a = false;
-                } else if d > config.margin_m + RELEASE_M {
-                    *a = true;
+            |i, apart| {
+                let d = if body_only { apart.body_m } else { apart.body_m.min(apart.cane_m) };
+                if let Some(a) = armed.get_mut(i) {
+                    if d <= config.margin_m {
+                        touched |= *a && k > 0;
+                        *a = false;
+                    } else if d > config.margin_m + RELEASE_M {
+                        *a = true;
+                    }
+                }
+                if let Some(a) = cane_armed.get_mut(i).filter(|_| body_only) {
+                    if apart.cane_m <= TOUCH_M {
+                        cane_touch |= *a && k > 0;
+                        *a = false;
+                    } else if apart.cane_m > RELEASE_M {
+                        *a = true;
+                    }
                 }
             },
         );
+        if cane_touch {
+            // the user turns away from what the cane found, a reaction time later
+            u.touch(Touch { t_s: t, on_left: sweep >= 0.0 });
+        }
         if touched {
             return Some(t - t0_s);
         }
@@ -472,10 +513,13 @@ mod tests {
     /// +x, or (`beside`) along the way 0.8 m to the user's left; the goal 8 m ahead.
     fn world(beside: bool) -> World {
         let wall = if beside { "from = [0.5, 0.8]\nto = [6.0, 0.8]" } else { "from = [4.0, -0.5]\nto = [4.0, 0.5]" };
-        let toml = format!(
-            "name = \"t\"\nstart = {{ x_m = 0.0, y_m = 0.0 }}\ngoal = {{ x_m = 8.0, y_m = 0.0 }}\n\
-             [[walls]]\nlabel = \"wall\"\n{wall}\n"
-        );
+        world_with(&format!("[[walls]]\nlabel = \"wall\"\n{wall}\n"))
+    }
+
+    /// The user at the origin facing +x, the goal 8 m ahead, and `obstacles` (scene TOML).
+    fn world_with(obstacles: &str) -> World {
+        let toml =
+            format!("name = \"t\"\nstart = {{ x_m = 0.0, y_m = 0.0 }}\ngoal = {{ x_m = 8.0, y_m = 0.0 }}\n{obstacles}");
         World::from_toml(&toml, "t").unwrap_or_else(|e| panic!("{e}"))
     }
 
@@ -497,20 +541,33 @@ mod tests {
         first_cue_x_m: Option<f64>,
         /// Nearest the cane or the body came to the wall, metres.
         nearest_m: f64,
+        /// Nearest the body came to it, metres.
+        nearest_body_m: f64,
+        /// Touches of the cane (each felt by the user, who turns away).
+        cane_touches: u32,
+        /// Body's x at the cane's first touch.
+        first_cane_touch_x_m: Option<f64>,
     }
 
     /// The user walks 6 s towards the goal with the oracle's cues felt 50 ms after they
     /// are sent (no rendering, no perception): a closed loop of the oracle alone.
-    fn walk_with_oracle(world: &World, seen: Seen<'_>) -> Walked {
+    fn walk_with_oracle(world: &World, seen: Seen<'_>, guards: Guards) -> Walked {
         let params = UserParams::default();
         let mut user = VirtualUser::new(params, UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 });
         let guide = GoalSound { x_m: 8.0, y_m: 0.0 };
         let mount = CaneMount::default();
-        let mut oracle = Oracle::new(OracleConfig::new(Knows::Goal, Sees::World));
+        let mut oracle = Oracle::new(OracleConfig { guards, ..OracleConfig::new(Knows::Goal, Sees::World) });
         let (dt, latency_s) = (1.0 / 120.0, 0.05);
+        let mut cane_armed = true;
         let mut sent: std::collections::VecDeque<(f64, Felt)> = Default::default();
         let mut felt_now = Felt::None;
-        let mut out = Walked { first_cue_x_m: None, nearest_m: f64::INFINITY };
+        let mut out = Walked {
+            first_cue_x_m: None,
+            nearest_m: f64::INFINITY,
+            nearest_body_m: f64::INFINITY,
+            cane_touches: 0,
+            first_cane_touch_x_m: None,
+        };
         for step in 0..720u32 {
             let t = f64::from(step) * dt;
             let pose = user.pose();
@@ -545,18 +602,26 @@ mod tests {
             user.commit(next, speed);
             let p = user.pose();
             let sweep = mount.sweep_rad(t + dt) * sweep_scale(speed, &params);
-            let nearest = &mut out.nearest_m;
+            let mut cane_m = f64::INFINITY;
             Seen::World(world).near_m(
                 0,
                 t,
                 [p.x_m, p.y_m],
                 mount.cane_segment(&p, sweep),
-                (0.225, 1.8),
+                (0.225, params.height_m),
                 0.05,
                 |_, d| {
-                    *nearest = nearest.min(d);
+                    out.nearest_m = out.nearest_m.min(d.body_m.min(d.cane_m));
+                    out.nearest_body_m = out.nearest_body_m.min(d.body_m);
+                    cane_m = cane_m.min(d.cane_m);
                 },
             );
+            if cane_m <= TOUCH_M && cane_armed {
+                out.cane_touches += 1;
+                out.first_cane_touch_x_m.get_or_insert(p.x_m);
+                user.touch(Touch { t_s: t, on_left: sweep >= 0.0 });
+            }
+            cane_armed = if cane_m <= TOUCH_M { false } else { cane_armed || cane_m > RELEASE_M };
         }
         out
     }
@@ -564,7 +629,7 @@ mod tests {
     #[test]
     fn a_wall_across_the_way_is_warned_in_time_and_never_touched() {
         let w = world(false);
-        let walked = walk_with_oracle(&w, Seen::World(&w));
+        let walked = walk_with_oracle(&w, Seen::World(&w), Guards::All);
         let x = walked.first_cue_x_m.unwrap_or_else(|| panic!("no cue"));
         println!("first cue with the body at x = {x:.3} m, nearest {:.3} m", walked.nearest_m);
         // the wall's face is at 3.95 m, the still walking cane's tip 1.08 m ahead of the
@@ -578,8 +643,8 @@ mod tests {
     fn the_same_wall_held_as_points_is_warned_the_same_way() {
         let w = world(false);
         let points = wall_points(false);
-        let from_world = walk_with_oracle(&w, Seen::World(&w));
-        let from_points = walk_with_oracle(&w, Seen::Points(&points));
+        let from_world = walk_with_oracle(&w, Seen::World(&w), Guards::All);
+        let from_points = walk_with_oracle(&w, Seen::Points(&points), Guards::All);
         let (a, b) = (from_world.first_cue_x_m.unwrap_or(f64::NAN), from_points.first_cue_x_m.unwrap_or(f64::NAN));
         assert!((a - b).abs() <= 0.1, "first cue at x = {a:.2} (world) and {b:.2} m (points)");
         assert!(from_points.nearest_m > 0.04, "came within {:.3} m of the wall", from_points.nearest_m);
@@ -590,9 +655,46 @@ mod tests {
         let w = world(true);
         let points = wall_points(true);
         for seen in [Seen::World(&w), Seen::Points(&points)] {
-            let walked = walk_with_oracle(&w, seen);
+            let walked = walk_with_oracle(&w, seen, Guards::All);
             assert_eq!(walked.first_cue_x_m, None);
             assert!(walked.nearest_m > 0.1, "came within {:.3} m of the wall", walked.nearest_m);
         }
+    }
+
+    #[test]
+    fn guarding_the_body_warns_of_a_wall_later_than_guarding_the_cane_too() {
+        let w = world(false);
+        let walked = walk_with_oracle(&w, Seen::World(&w), Guards::Body);
+        println!(
+            "first cue at {:?}, first cane touch at {:?}, body within {:.3} m",
+            walked.first_cue_x_m, walked.first_cane_touch_x_m, walked.nearest_body_m
+        );
+        // the cane reaches the wall 1.08 m ahead of the body, and a user turning from
+        // it a reaction time later does not always stop short: the body-only oracle
+        // warns too, but later than one that keeps the cane off, and the body never
+        // reaches the wall
+        let all = walk_with_oracle(&w, Seen::World(&w), Guards::All);
+        let (x, x_all) = (walked.first_cue_x_m.unwrap_or(f64::INFINITY), all.first_cue_x_m.unwrap_or(f64::NAN));
+        assert!(x >= x_all + 0.3, "body only: first cue at x = {x:.2} m, keeping the cane off too: {x_all:.2} m");
+        assert!(walked.nearest_body_m > 0.04, "the body came within {:.3} m", walked.nearest_body_m);
+    }
+
+    #[test]
+    fn guarding_the_body_warns_of_a_sign_the_cane_sweeps_under() {
+        // a sign 1 m wide at 1.5-1.85 m across the way, 4 m ahead
+        let w = world_with(
+            "[[hanging]]\nlabel = \"sign\"\ncenter = [4.05, 0.0]\nsize_m = [0.1, 1.0]\nbottom_m = 1.5\ntop_m = 1.85\n",
+        );
+        let off = walk_with_oracle(&w, Seen::World(&w), Guards::Body);
+        let x = off.first_cue_x_m.unwrap_or_else(|| panic!("no cue for a sign the cane sweeps under"));
+        println!(
+            "first cue at x = {x:.3} m, {} cane touches, body within {:.3} m",
+            off.cane_touches, off.nearest_body_m
+        );
+        assert_eq!(off.cane_touches, 0, "the cane cannot touch a sign 1.5 m up");
+        // the sign's face is at 4.0 m, the body's front 0.225 m ahead of its centre: the
+        // cue comes within the last 2.5 s of walking, in time for the body to miss it
+        assert!((1.0..=3.4).contains(&x), "first cue with the body at x = {x:.2} m");
+        assert!(off.nearest_body_m > 0.04, "the body came within {:.3} m of the sign", off.nearest_body_m);
     }
 }

@@ -868,7 +868,8 @@ impl<'w> Walk<'w> {
         let wire = wire_frame(config, &renderer, guess);
         // the device's plan: the world's floor plan, as `wearnav map` exports it
         let spoken = config.guide == GuideKind::Spoken;
-        let filter = config.pose == PoseSource::Filter && (config.predictive.is_some() || spoken);
+        let routed = config.predictive.is_some_and(|p| !p.own_way);
+        let filter = config.pose == PoseSource::Filter && (routed || spoken);
         let building = (filter || spoken)
             .then(|| floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M).map_err(|e| format!("{e:#}")));
         let building = building.as_ref().map(|b| b.as_ref().map_err(String::as_str));
@@ -957,7 +958,7 @@ impl<'w> Walk<'w> {
             // (the spoken guide's way is the navigator's route)
             route_ahead: config
                 .predictive
-                .filter(|_| config.guide != GuideKind::Spoken)
+                .filter(|p| !p.own_way && config.guide != GuideKind::Spoken)
                 .map(|_| RouteAhead::new(device_route(world, config))),
             way: Vec::new(),
             known: (None, Vec::new()),
@@ -1146,7 +1147,7 @@ impl<'w> Walk<'w> {
                 }
             }
         }
-        let believed = believed.filter(|_| config.predictive.is_some());
+        let believed = believed.filter(|_| config.predictive.is_some_and(|p| !p.own_way));
         if let Some(at) = believed {
             if self.known.0 != Some(at.floor) {
                 self.known = (Some(at.floor), known_points(world, config.route_map, at.floor));
