@@ -403,8 +403,8 @@ impl Pipeline {
     /// Per [`Pipeline::obstacle_points`], whether a cane sweeping the floor would find
     /// it: true for what reaches down to near the floor in view
     /// ([`nearest_scan::ScanBuilder::cane_finds`]) and for edges of lower ground; false
-    /// for what overhangs (a table top, a sign) and for what the memory holds out of
-    /// view (not known to reach down).
+    /// for what overhangs (a table top, a sign); what the memory holds out of view, as
+    /// it was when seen.
     pub fn cane_finds(&self) -> &[bool] {
         &self.cane_finds
     }
@@ -524,15 +524,16 @@ impl Pipeline {
                 .cost_points
                 .iter()
                 .zip(out.scan.ranges_m.iter().zip(heights).filter(|(r, _)| r.is_finite()).map(|(_, h)| *h))
-                .map(|(p, h)| [p[0], p[1], h])
-                .chain(self.lower.edge.iter().map(|p| [p[0], p[1], 0.0]));
+                .zip(&self.cane_finds)
+                .map(|((p, h), &cane)| ([p[0], p[1], h], cane))
+                .chain(self.lower.edge.iter().map(|p| ([p[0], p[1], 0.0], true)));
             self.memory.update(ctx.stamp_ns, motion, &cone, seen, &cfg.memory);
             let lower = &mut self.lower;
             self.memory.unseen_lower(ctx.stamp_ns, &lower.floor, &lower.unseen, &cfg.memory, &mut lower.edge);
             self.cost_points.extend_from_slice(&lower.edge);
             self.cane_finds.resize(self.cost_points.len(), true);
             self.cost_points.extend_from_slice(&self.memory.out_of_view);
-            self.cane_finds.resize(self.cost_points.len(), false);
+            self.cane_finds.extend_from_slice(&self.memory.out_of_view_cane);
             out.remembered = self.memory.out_of_view.len();
             if cfg.dropoff.enabled && cfg.dropoff.edges {
                 let zone = dropoff::StepZone::new(&cfg.dropoff);

@@ -76,6 +76,34 @@ struct Cell {
     seen_x_m: f32,
     seen_y_m: f32,
     height_m: f32,
+    /// The cane would find it (it reached down near the floor when seen).
+    cane_finds: bool,
+}
+
+/// A scan obstacle as the memory takes it: `[x, y, height]` (user frame, metres), and
+/// whether the cane would find it (false for a bare point).
+pub trait ScanObstacle {
+    /// `[x, y, height]`.
+    fn point(&self) -> [f32; 3];
+    /// Whether the cane would find it.
+    fn cane_finds(&self) -> bool {
+        false
+    }
+}
+
+impl ScanObstacle for [f32; 3] {
+    fn point(&self) -> [f32; 3] {
+        *self
+    }
+}
+
+impl ScanObstacle for ([f32; 3], bool) {
+    fn point(&self) -> [f32; 3] {
+        self.0
+    }
+    fn cane_finds(&self) -> bool {
+        self.1
+    }
 }
 
 /// The remembered obstacles, binned in cells of the odometry frame.
@@ -92,10 +120,12 @@ pub struct ObstacleMemory {
     // cells of the odometry frame where the floor plane was seen, and when
     floor_seen: HashMap<(i64, i64), u64>,
     floor_pruned_ns: u64,
-    nearest_by_degree: Vec<f32>,
+    nearest_by_degree: Vec<(f32, bool)>,
     /// Remembered obstacles out of view this frame, user `(x, y)`, one per degree of
     /// bearing (the nearest cell covering it), like the scan's own density.
     pub out_of_view: Vec<[f32; 2]>,
+    /// Per `out_of_view`, whether the cane would find it (as seen when it was stored).
+    pub out_of_view_cane: Vec<bool>,
 }
 
 impl ObstacleMemory {
@@ -117,7 +147,7 @@ impl ObstacleMemory {
         stamp_ns: u64,
         motion: Option<Motion>,
         view: &ViewCone,
-        scan_obstacles: impl Iterator<Item = [f32; 3]>,
+        scan_obstacles: impl Iterator<Item = impl ScanObstacle>,
         cfg: &MemoryConfig,
     ) {
         if let Some(m) = motion.filter(Motion::is_finite) {
@@ -128,7 +158,7 @@ impl ObstacleMemory {
         }
         let to_user = self.user_at_pose();
         self.nearest_by_degree.clear();
-        self.nearest_by_degree.resize(360, f32::INFINITY);
+        self.nearest_by_degree.resize(360, (f32::INFINITY, false));
         let nearest = &mut self.nearest_by_degree;
         let margin_rad = cfg.view_margin_deg.to_radians();
         self.cells.retain(|_, cell| {
@@ -149,24 +179,30 @@ impl ObstacleMemory {
             let half = (0.5 * cfg.cell_m / r.max(cfg.cell_m)).to_degrees();
             for d in (centre - half).floor() as i32..=(centre + half).floor() as i32 {
                 let deg = d.rem_euclid(360) as usize;
-                nearest[deg] = nearest[deg].min(r);
+                if r < nearest[deg].0 {
+                    nearest[deg] = (r, cell.cane_finds);
+                }
             }
             true
         });
         self.out_of_view.clear();
-        for (deg, &r) in self.nearest_by_degree.iter().enumerate() {
+        self.out_of_view_cane.clear();
+        for (deg, &(r, cane)) in self.nearest_by_degree.iter().enumerate() {
             if r.is_finite() {
                 let b = (deg as f32 + 0.5).to_radians() - PI;
                 self.out_of_view.push([r * b.cos(), r * b.sin()]);
+                self.out_of_view_cane.push(cane);
             }
         }
         let cell_of = self.cells_at_pose(cfg);
-        for [x, y, h] in scan_obstacles {
+        for seen in scan_obstacles {
+            let ([x, y, h], cane_finds) = (seen.point(), seen.cane_finds());
             if !(x.is_finite() && y.is_finite() && h.is_finite()) || x.hypot(y) > cfg.radius_m {
                 continue;
             }
             let (key, [ox, oy]) = cell_of(x, y);
-            self.cells.insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: h });
+            let cell = Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: h, cane_finds };
+            self.cells.insert(key, cell);
         }
     }
 
@@ -235,8 +271,10 @@ impl ObstacleMemory {
                 continue;
             }
             out.push([x, y]);
-            self.cells
-                .insert(key, Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: 0.0 });
+            // lower ground: the cane's tip drops at its edge
+            let cell =
+                Cell { x_m: ox, y_m: oy, seen_ns: stamp_ns, seen_x_m: x, seen_y_m: y, height_m: 0.0, cane_finds: true };
+            self.cells.insert(key, cell);
         }
         let mut last = None;
         for &[x, y] in floor {
@@ -297,18 +335,37 @@ mod tests {
     }
 
     #[test]
+    fn what_the_cane_would_find_is_remembered_as_such() {
+        // a bin's foot (the cane finds it) to the left, a table top's edge (it does not)
+        // to the right; out of view after a half turn, each keeps what it was
+        let cfg = MemoryConfig::default();
+        let mut m = ObstacleMemory::default();
+        m.update(0, None, &view(), [([1.0, 0.3, 0.1], true), ([1.0, -0.3, 0.72], false)].into_iter(), &cfg);
+        let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 180f32.to_radians() };
+        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
+        assert_eq!(m.out_of_view.len(), m.out_of_view_cane.len());
+        // behind the user now: the bin on their right, the table on their left
+        let bin: Vec<bool> =
+            m.out_of_view.iter().zip(&m.out_of_view_cane).filter(|(p, _)| p[1] < 0.0).map(|(_, &c)| c).collect();
+        let table: Vec<bool> =
+            m.out_of_view.iter().zip(&m.out_of_view_cane).filter(|(p, _)| p[1] > 0.0).map(|(_, &c)| c).collect();
+        assert!(!bin.is_empty() && bin.iter().all(|&c| c), "{bin:?}");
+        assert!(!table.is_empty() && table.iter().all(|&c| !c), "{table:?}");
+    }
+
+    #[test]
     fn turning_left_moves_an_obstacle_ahead_to_the_right_and_it_decays() {
         let cfg = MemoryConfig::default();
         let mut m = ObstacleMemory::default();
         m.update(0, None, &view(), [[1.0, 0.0, 0.5]].into_iter(), &cfg);
         let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 90f32.to_radians() };
-        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         // one 10 cm cell 1 m away covers 5.7 degrees of bearing
         assert!((5..=7).contains(&m.out_of_view.len()), "{}", m.out_of_view.len());
         for &[x, y] in &m.out_of_view {
             assert!(x.abs() < 0.1 && (y + 1.0).abs() < 0.1, "({x}, {y})");
         }
-        m.update(FRAME_NS + cfg.ttl_ns + 1, None, &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS + cfg.ttl_ns + 1, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(m.out_of_view.is_empty());
     }
 
@@ -321,11 +378,11 @@ mod tests {
         // no longer ranges it there
         m.update(0, None, &view(), [[3.2, 0.0, 1.6]].into_iter(), &cfg);
         assert!(view().sees(3.2, 0.0, 1.6, 0.0));
-        m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(!m.out_of_view.is_empty(), "kept");
         // well inside (3 deg from the edge or more), the camera's word counts
         m.update(2 * FRAME_NS, None, &view(), [[6.0, 0.0, 1.6]].into_iter(), &cfg);
-        m.update(3 * FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        m.update(3 * FRAME_NS, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(m.out_of_view.iter().all(|p| p[0] < 5.0), "{:?}", m.out_of_view);
     }
 
@@ -335,13 +392,13 @@ mod tests {
         let mut m = ObstacleMemory::default();
         // beside the user, out of view: 0.5 m away a 10 cm cell covers 11.4 degrees
         m.update(0, None, &view(), [[0.0, 0.5, 0.5]].into_iter(), &cfg);
-        m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!((11..=13).contains(&m.out_of_view.len()), "{}", m.out_of_view.len());
         assert!(m.out_of_view.iter().all(|p| (p[0].hypot(p[1]) - 0.5).abs() < 1e-3));
         // 4 m away it covers 1.4: one or two degrees
         let mut far = ObstacleMemory::default();
         far.update(0, None, &view(), [[0.0, 4.0, 0.5]].into_iter(), &cfg);
-        far.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        far.update(FRAME_NS, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!((1..=2).contains(&far.out_of_view.len()), "{}", far.out_of_view.len());
     }
 
@@ -353,11 +410,11 @@ mod tests {
         m.update(0, None, &view(), [[0.0, 1.0, 0.5]].into_iter(), &cfg);
         // 5 s standing beside it: still there (the old 3 s time to live forgot it)
         for k in 1..=150u64 {
-            m.update(k * FRAME_NS, Some(still), &view(), std::iter::empty(), &cfg);
+            m.update(k * FRAME_NS, Some(still), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         assert!(!m.out_of_view.is_empty());
         // past the time to live, even standing, it goes
-        m.update(cfg.ttl_ns + 1, Some(still), &view(), std::iter::empty(), &cfg);
+        m.update(cfg.ttl_ns + 1, Some(still), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(m.out_of_view.is_empty());
         // walking on away from one behind the user (never in view) forgets it after
         // `forget_after_m`
@@ -367,11 +424,11 @@ mod tests {
         let back = Motion { forward_m: 0.02, left_m: 0.0, yaw_rad: 0.0 };
         let steps = (cfg.forget_after_m / 0.02).round() as u64;
         for k in 1..steps - 1 {
-            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty(), &cfg);
+            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         assert!(!w.out_of_view.is_empty(), "kept until {} m walked", cfg.forget_after_m);
         for k in steps - 1..steps + 2 {
-            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty(), &cfg);
+            w.update(k * FRAME_NS, Some(back), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         assert!(w.out_of_view.is_empty());
     }
@@ -383,29 +440,29 @@ mod tests {
         let mut out = Vec::new();
         // walking up, the floor 1 m ahead was seen (the strip x 0.95..1.05, y -0.3..0.3)
         let floor: Vec<[f32; 2]> = (-6..=6).map(|k| [1.0, 0.05 * k as f32]).collect();
-        m.update(0, None, &view(), std::iter::empty(), &cfg);
+        m.update(0, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         m.unseen_lower(0, &floor, &[], &cfg, &mut out);
         assert!(out.is_empty());
         // 0.6 m on, lower ground fills the bottom of the view: the floor under it may
         // be lower, except where it was seen (now 0.4 m ahead)
         let on = Motion { forward_m: 0.6, left_m: 0.0, yaw_rad: 0.0 };
-        m.update(FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, Some(on), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         let unseen = [[0.4, 0.0], [0.4, 0.2], [0.3, 0.0], [0.4, -0.6]];
         m.unseen_lower(FRAME_NS, &[], &unseen, &cfg, &mut out);
         assert_eq!(out, vec![[0.3, 0.0], [0.4, -0.6]]);
         // and both are remembered once the user turns away
         let turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 90f32.to_radians() };
-        m.update(2 * FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
+        m.update(2 * FRAME_NS, Some(turn), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         let near = |p: [f32; 2]| m.out_of_view.iter().any(|q| (q[0] - p[0]).hypot(q[1] - p[1]) < 0.05);
         assert!(near([0.0, -0.3]) && near([-0.6, -0.4]), "{:?}", m.out_of_view);
         // the floor seen (now on the right) outlasts the obstacles' time to live, and is
         // forgotten after its own
         let seen_floor = [[0.0, -0.4]];
         out.clear();
-        m.update(cfg.ttl_ns + 1, None, &view(), std::iter::empty(), &cfg);
+        m.update(cfg.ttl_ns + 1, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         m.unseen_lower(cfg.ttl_ns + 1, &[], &seen_floor, &cfg, &mut out);
         assert!(out.is_empty(), "{out:?}");
-        m.update(FLOOR_TTL_NS + 1, None, &view(), std::iter::empty(), &cfg);
+        m.update(FLOOR_TTL_NS + 1, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         m.unseen_lower(FLOOR_TTL_NS + 1, &[], &seen_floor, &cfg, &mut out);
         assert_eq!(out, seen_floor);
     }
@@ -417,7 +474,7 @@ mod tests {
         let zone = |from: f32, to: f32, half: f32| move |p: [f32; 2]| (from..=to).contains(&p[0]) && p[1].abs() <= half;
         let (from, to, half) = (-0.25, 0.0, 0.2);
         let mut m = ObstacleMemory::default();
-        m.update(0, None, &view(), std::iter::empty(), &cfg);
+        m.update(0, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         let mut out = Vec::new();
         // the floor 0.25 m ahead of the feet may be lower
         m.unseen_lower(0, &[], &[[-0.1, 0.05]], &cfg, &mut out);
@@ -425,7 +482,7 @@ mod tests {
         assert!(!m.lower_ground_where(zone(from, to, 0.01)), "0.05 m to the left");
         // turned round in place (the camera swings 0.7 m back round the feet): behind
         let turn = Motion { forward_m: -0.7, left_m: 0.0, yaw_rad: PI };
-        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, Some(turn), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(!m.lower_ground_where(zone(from, to, half)));
         assert!(m.lower_ground_where(zone(-0.65, -0.55, half)), "still remembered, 0.25 m behind the feet");
         // an obstacle there is no lower ground: the costs and the body see to it
@@ -445,15 +502,15 @@ mod tests {
         // the user, never in view) and stands 30 s
         let half_turn = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: -PI / 30.0 };
         for k in 1..=30u64 {
-            m.update(k * FRAME_NS, Some(half_turn), &view(), std::iter::empty(), &cfg);
+            m.update(k * FRAME_NS, Some(half_turn), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         let still = Motion { forward_m: 0.0, left_m: 0.0, yaw_rad: 0.0 };
-        m.update(30_000_000_000, Some(still), &view(), std::iter::empty(), &cfg);
+        m.update(30_000_000_000, Some(still), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         // the sign alone, now on the right (the chair back, 0.6 m behind it, is gone)
         let sign = |p: &[f32; 2]| (p[0] + 0.3).abs() < 0.1 && (p[1] + 3.5).abs() < 0.1;
         assert!(!m.out_of_view.is_empty() && m.out_of_view.iter().all(sign), "{:?}", m.out_of_view);
         // past a minute it goes too
-        m.update(cfg.overhead_ttl_ns + 1, Some(still), &view(), std::iter::empty(), &cfg);
+        m.update(cfg.overhead_ttl_ns + 1, Some(still), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(m.out_of_view.is_empty());
         // beyond the memory's radius it goes at once
         let mut w = ObstacleMemory::default();
@@ -461,11 +518,11 @@ mod tests {
         let on = Motion { forward_m: 0.5, left_m: 0.0, yaw_rad: 0.0 };
         let steps = ((cfg.radius_m - 0.5) / 0.5).round() as u64;
         for k in 1..steps {
-            w.update(k * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+            w.update(k * FRAME_NS, Some(on), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         assert!(!w.out_of_view.is_empty(), "kept within {} m", cfg.radius_m);
-        w.update(steps * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
-        w.update((steps + 1) * FRAME_NS, Some(on), &view(), std::iter::empty(), &cfg);
+        w.update(steps * FRAME_NS, Some(on), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
+        w.update((steps + 1) * FRAME_NS, Some(on), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(w.out_of_view.is_empty());
     }
 
@@ -474,7 +531,7 @@ mod tests {
         let cfg = MemoryConfig::default();
         let mut m = ObstacleMemory::default();
         m.update(0, None, &view(), [[2.0, 0.0, 0.5]].into_iter(), &cfg);
-        m.update(FRAME_NS, None, &view(), std::iter::empty(), &cfg);
+        m.update(FRAME_NS, None, &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         assert!(m.out_of_view.is_empty());
     }
 
@@ -495,7 +552,7 @@ mod tests {
         for k in 1..=160u64 {
             let d = angle(k) - angle(k - 1);
             let motion = Motion { forward_m: arm_m * (d.cos() - 1.0), left_m: arm_m * d.sin(), yaw_rad: d };
-            m.update(k * FRAME_NS, Some(motion), &view(), std::iter::empty(), &cfg);
+            m.update(k * FRAME_NS, Some(motion), &view(), std::iter::empty::<[f32; 3]>(), &cfg);
         }
         // back where it started: all of the sign is still there, where it was
         let ys: Vec<f32> = m.out_of_view.iter().map(|p| p[1]).collect();
