@@ -630,7 +630,7 @@ fn body_guard(base: &WalkConfig) -> WalkConfig {
 }
 
 #[test]
-fn guarding_the_body_leaves_a_narrow_corridor_to_the_cane_and_keeps_the_body_off_the_bench() {
+fn guarding_the_body_leaves_a_narrow_corridor_to_the_cane_and_keeps_the_body_off_a_corridors_bins() {
     // `corridor-narrow`: the cane alone walks it touching nothing; the cost functions
     // signal 17 times a walk there (`docs/beyond-the-course.md`). Guarding the body, the
     // device has nothing to say
@@ -641,24 +641,22 @@ fn guarding_the_body_leaves_a_narrow_corridor_to_the_cane_and_keeps_the_body_off
         assert!(out.contacts.is_empty(), "seed {seed}: {:?}", out.contacts);
         assert!(out.signals <= 2, "seed {seed}: {} signals", out.signals);
     }
-    // `lobby-bench`: the cane alone walks it in 16-48 s and the body meets the bench, the
-    // bollards or the sunken area 15 times in these 4 walks; guarding the body, every walk
-    // gets through and the body touches 3 times
-    let (w, base) = builtin_by_route("lobby-bench", 90.0);
+    // `gen:corridor:3` (a world nothing was tuned on): with the cane alone the body meets
+    // what stands in the corridor 19 times in these two walks, taking 52 s a walk;
+    // guarding the body, once, in 19 s
+    let w = World::load("gen:corridor:3").unwrap_or_else(|e| panic!("{e}"));
+    let base = WalkConfig { timeout_s: 90.0, ..base };
     let off = WalkConfig { rumble: false, ..base.clone() };
     let (mut guarded, mut alone) = (0, 0);
-    for seed in 1..=4 {
+    for seed in 1..=2 {
         let out = walk(&w, &body_guard(&base), seed);
-        assert!(out.completed, "seed {seed}: {}", out.verdict());
+        assert!(out.completed && out.time_s < 40.0, "seed {seed}: {}", out.verdict());
         guarded += out.count(Part::Body, None);
         let out = walk(&w, &off, seed);
         assert!(out.completed, "seed {seed}, device off: {}", out.verdict());
         alone += out.count(Part::Body, None);
     }
-    assert!(
-        guarded <= 4 && alone >= 3 * guarded.max(1),
-        "body contacts: {guarded} guarded, {alone} with the cane alone"
-    );
+    assert!(guarded <= 2 && alone >= 10, "body contacts: {guarded} guarded, {alone} with the cane alone");
 }
 
 #[test]
