@@ -250,7 +250,7 @@ impl ScanBuilder {
                     insert_sorted(&mut self.nearest_sq[b], &mut self.nearest_height[b], r_sq, h);
                 }
                 if !floor && h < CANE_FINDS_BELOW_M {
-                    insert_nearest(&mut self.low_sq[b], r_sq);
+                    let _ = insert_nearest(&mut self.low_sq[b], r_sq);
                 }
             }
         }
@@ -296,31 +296,23 @@ fn insert_farthest(r: &mut [f32; 4], r_sq: f32) {
     r[j] = r_sq;
 }
 
-/// Keeps the four smallest squared ranges, smallest first.
-fn insert_nearest(r: &mut [f32; 4], r_sq: f32) {
+/// Keeps the four smallest squared ranges, smallest first; returns where `r_sq` went.
+fn insert_nearest(r: &mut [f32; 4], r_sq: f32) -> Option<usize> {
     if r_sq >= r[3] {
-        return;
+        return None;
     }
-    let mut j = 3;
-    while j > 0 && r[j - 1] > r_sq {
-        r[j] = r[j - 1];
-        j -= 1;
-    }
+    let j = r.partition_point(|&v| v <= r_sq);
+    r.copy_within(j..3, j + 1);
     r[j] = r_sq;
+    Some(j)
 }
 
+/// [`insert_nearest`], with each range's height kept beside it.
 fn insert_sorted(r: &mut [f32; 4], h: &mut [f32; 4], r_sq: f32, height: f32) {
-    if r_sq >= r[3] {
-        return;
+    if let Some(j) = insert_nearest(r, r_sq) {
+        h.copy_within(j..3, j + 1);
+        h[j] = height;
     }
-    let mut j = 3;
-    while j > 0 && r[j - 1] > r_sq {
-        r[j] = r[j - 1];
-        h[j] = h[j - 1];
-        j -= 1;
-    }
-    r[j] = r_sq;
-    h[j] = height;
 }
 
 #[cfg(test)]

@@ -133,7 +133,7 @@ pub struct PredictiveConfig {
     /// What the cue keeps from being touched.
     pub guards: Guards,
     /// A frame without a way gets one from the user's own walking (the heading they
-    /// last walked free, [`PredictiveCue::decide_own_way`]) instead of none.
+    /// last walked free, [`OwnWay`]; the frame step keeps it) instead of none.
     pub own_way: bool,
 }
 
@@ -241,6 +241,8 @@ pub struct PredictiveCue {
     phase: Option<(f64, f64)>,
     /// Guarding the body alone: per point, whether the cane is clear of it again.
     cane_armed: Vec<bool>,
+    /// The look-ahead's turns away from touches, when acted on and on the user's left.
+    pending: VecDeque<(f64, bool)>,
 }
 
 /// The states tried, in the order preferred among the safe ones after clear.
@@ -266,6 +268,7 @@ impl PredictiveCue {
             last_sweep: None,
             phase: None,
             cane_armed: Vec::new(),
+            pending: VecDeque::new(),
         }
     }
 
@@ -459,7 +462,14 @@ impl PredictiveCue {
     /// for the quickest and the slowest user; `None` when nothing is touched.
     fn first_touch_s(&mut self, now: &Ahead<'_>, state: Rumble, then: Option<(f64, Rumble)>) -> Option<f64> {
         let factors = self.config.user.reaction_factors;
-        factors.iter().filter_map(|&f| self.first_touch_one_s(now, state, then, f)).min_by(f64::total_cmp)
+        // the turns away the look-ahead has yet to act on: one buffer for every walk
+        let mut pending = std::mem::take(&mut self.pending);
+        let first = factors
+            .iter()
+            .filter_map(|&f| self.first_touch_one_s(now, state, then, f, &mut pending))
+            .min_by(f64::total_cmp);
+        self.pending = pending;
+        first
     }
 
     fn first_touch_one_s(
@@ -468,6 +478,7 @@ impl PredictiveCue {
         state: Rumble,
         then: Option<(f64, Rumble)>,
         factor: f64,
+        pending: &mut VecDeque<(f64, bool)>,
     ) -> Option<f64> {
         let c = self.config;
         let u = c.user;
@@ -509,8 +520,8 @@ impl PredictiveCue {
         // touch on the other side while still turning from the last is a corner: the
         // user keeps turning the same way)
         let mut bump = Bump { until_s: f64::NEG_INFINITY, left: true, last: None };
-        let mut pending: VecDeque<(f64, bool)> =
-            self.touches.iter().map(|&(t, on_left)| (t + reaction_s, on_left)).collect();
+        pending.clear();
+        pending.extend(self.touches.iter().map(|&(t, on_left)| (t + reaction_s, on_left)));
         while let Some((at, on_left)) = pending.front().copied().filter(|&(at, _)| at <= t0) {
             pending.pop_front();
             bump.act(at, on_left, &u);
@@ -822,7 +833,7 @@ impl OwnWay {
         } else {
             self.free_since_s = None;
         }
-        let a = self.intent_rad.map_or(0.0, |i| wrap_pi(i - self.heading_rad));
+        let a = self.bearing_rad();
         self.points.clear();
         self.points.extend([[0.0, 0.0], [OWN_WAY_M * a.cos(), OWN_WAY_M * a.sin()]]);
     }

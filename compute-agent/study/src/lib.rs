@@ -458,10 +458,11 @@ impl CourseArgs {
             self.predictive || self.guide == GuideKind::Spoken || self.pose == walk::PoseSource::Filter,
             "--pose goes with --predictive or --guide spoken"
         );
-        c.predictive = self.predictive.then(|| walk::predictive_for(&c));
-        if self.body_guard {
-            c.predictive = Some(PredictiveConfig { guards: Guards::Body, own_way: true, ..walk::predictive_for(&c) });
-        }
+        c.predictive = if self.body_guard {
+            Some(PredictiveConfig { guards: Guards::Body, own_way: true, ..walk::predictive_for(&c) })
+        } else {
+            self.predictive.then(|| walk::predictive_for(&c))
+        };
         c.pose = self.pose;
         // the particle filter runs for the predictive cue or the spoken guide, on --pose filter
         let filter = self.pose == walk::PoseSource::Filter && (self.predictive || self.guide == GuideKind::Spoken);

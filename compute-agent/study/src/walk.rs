@@ -245,6 +245,12 @@ pub fn xtion_qvga() -> CameraProfile {
 }
 
 impl WalkConfig {
+    /// The predictive cue on the route the device knows, from the user's place (not on
+    /// the user's own way, which needs neither).
+    pub fn predictive_on_route(&self) -> bool {
+        self.predictive.is_some_and(|p| !p.own_way)
+    }
+
     /// How far along the route the user is pointed, metres: as set, or fitted to the
     /// user ([`route_lookahead_m`]).
     pub fn lookahead_m(&self) -> f64 {
@@ -868,8 +874,7 @@ impl<'w> Walk<'w> {
         let wire = wire_frame(config, &renderer, guess);
         // the device's plan: the world's floor plan, as `wearnav map` exports it
         let spoken = config.guide == GuideKind::Spoken;
-        let routed = config.predictive.is_some_and(|p| !p.own_way);
-        let filter = config.pose == PoseSource::Filter && (routed || spoken);
+        let filter = config.pose == PoseSource::Filter && (config.predictive_on_route() || spoken);
         let building = (filter || spoken)
             .then(|| floor_plan::export(world, floor_plan::DEFAULT_RESOLUTION_M).map_err(|e| format!("{e:#}")));
         let building = building.as_ref().map(|b| b.as_ref().map_err(String::as_str));
@@ -956,10 +961,8 @@ impl<'w> Walk<'w> {
             oracle: config.oracle.map(Oracle::new),
             seen_points: PointGrid::default(),
             // (the spoken guide's way is the navigator's route)
-            route_ahead: config
-                .predictive
-                .filter(|p| !p.own_way && config.guide != GuideKind::Spoken)
-                .map(|_| RouteAhead::new(device_route(world, config))),
+            route_ahead: (config.predictive_on_route() && config.guide != GuideKind::Spoken)
+                .then(|| RouteAhead::new(device_route(world, config))),
             way: Vec::new(),
             known: (None, Vec::new()),
             known_near: Vec::new(),
@@ -1147,7 +1150,7 @@ impl<'w> Walk<'w> {
                 }
             }
         }
-        let believed = believed.filter(|_| config.predictive.is_some_and(|p| !p.own_way));
+        let believed = believed.filter(|_| config.predictive_on_route());
         if let Some(at) = believed {
             if self.known.0 != Some(at.floor) {
                 self.known = (Some(at.floor), known_points(world, config.route_map, at.floor));
