@@ -228,11 +228,13 @@ impl Chest {
             way: None,
         };
         match self.step.process(input, &mut perception::NoTimer) {
-            StepOutput::Perceived { hazard, .. } => step.second_view_heard(ViewState::of(&hazard, capture_ns)),
+            StepOutput::Perceived { hazard, .. } => {
+                step.second_view_heard(ViewState::of(&hazard, capture_ns), self.step.obstacle_points())
+            }
             StepOutput::Refused { error, blind } => {
                 health.reject(&frame.key, error.kind(), &error);
                 if let Some(blind) = blind {
-                    step.second_view_heard(ViewState::of(&blind.hazard, capture_ns));
+                    step.second_view_heard(ViewState::of(&blind.hazard, capture_ns), &[]);
                 }
             }
         }

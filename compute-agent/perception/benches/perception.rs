@@ -249,6 +249,7 @@ fn predictive_bench(runs: usize) {
             way: Way { points: &way, ends_at_goal: true, walls: &walls },
             points: &points,
             cane_finds: &[],
+            body_points: &[],
             sweep_rad: sweep(k),
             speed_m_s: 1.0,
             yaw_rate_rad_s: Some(0.0),

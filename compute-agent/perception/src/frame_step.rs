@@ -161,10 +161,12 @@ impl ComputeStep {
         self
     }
 
-    /// A state of the second device (from its own step's hazard).
-    pub fn second_view_heard(&mut self, state: ViewState) {
+    /// A state of the second device (from its own step's hazard) and the obstacle
+    /// points its step held, the device's user frame ([`ComputeStep::obstacle_points`];
+    /// none for a refused frame): the predictive cue looks ahead among them too.
+    pub fn second_view_heard(&mut self, state: ViewState, points: &[[f32; 2]]) {
         if let Some((view, _)) = self.second.as_mut() {
-            view.heard(state);
+            view.heard(state, points);
         }
     }
 
@@ -251,12 +253,16 @@ impl ComputeStep {
                     // a way that is no way is refused, never replaced by the user's own
                     let way = if given { way } else { own.then(|| self.own_way.way()) };
                     if let Some(way) = way.filter(|_| !perception.dropoff_ahead) {
+                        // what the second device holds overhangs: only the body touches it
+                        let body_points =
+                            self.second.as_ref().map_or(&[][..], |(v, _)| v.fresh_points(input.capture_ns));
                         timer.start("predictive");
                         perception.rumble = p.decide(&Ahead {
                             t_s,
                             way,
                             points: self.pipeline.obstacle_points(),
                             cane_finds: self.pipeline.cane_finds(),
+                            body_points,
                             sweep_rad: f64::from(perception.sweep_rad),
                             speed_m_s: speed,
                             yaw_rate_rad_s: yaw_rate,
@@ -266,7 +272,13 @@ impl ComputeStep {
                     }
                 }
                 if let Some((view, joined)) = self.second.as_mut() {
-                    *joined = Some(view.join(input.capture_ns, &mut perception));
+                    // the predictive cue took the second device's points; the cost
+                    // functions take its state
+                    *joined = Some(if perception.predictive {
+                        view.fused(input.capture_ns, &mut perception)
+                    } else {
+                        view.join(input.capture_ns, &mut perception)
+                    });
                 }
                 if let Some(p) = self.predictive.as_mut() {
                     p.sent(t_s, perception.rumble);
@@ -481,7 +493,7 @@ mod tests {
             let (chest_hazard, _) = perceived(chest.process(input(&chest_frame, seq), &mut NoTimer));
             assert_ne!(chest_hazard.rumble, Rumble::None, "the chest camera sees the sign");
             assert!((chest_hazard.nearest_m - 1.2).abs() < 0.05, "{}", chest_hazard.nearest_m);
-            cane.second_view_heard(ViewState::of(&chest_hazard, seq * 33_333_333));
+            cane.second_view_heard(ViewState::of(&chest_hazard, seq * 33_333_333), chest.obstacle_points());
             let (hazard, intent) = perceived(cane.process(input(&cane_frame, seq), &mut NoTimer));
             let (hazard_alone, _) = perceived(alone.process(input(&cane_frame, seq), &mut NoTimer));
             assert_eq!((hazard_alone.rumble, hazard_alone.nearest_m), (Rumble::None, f32::INFINITY), "never in view");
@@ -495,6 +507,50 @@ mod tests {
         let (hazard, _) = perceived(cane.process(late, &mut NoTimer));
         assert_eq!(hazard.rumble, Rumble::None);
         assert_eq!(cane.second_view().map(|(v, j)| (v.counts(), j)), Some(((3, 1), Some(Joined::Stale))));
+    }
+
+    #[test]
+    fn the_predictive_cue_looks_ahead_among_the_chest_cameras_points() {
+        // a wall cabinet 1.1-1.5 m up, 0.6 m ahead, 0.8 m wide across the way: above
+        // the cane camera's view, in the chest camera's
+        let cabinet = crate::synthetic_scene::Block { min: [0.6, -0.4, 1.1], max: [0.9, 0.4, 1.5] };
+        let frame = |height_m: f32, pitch_deg: f32| {
+            let mut scene = Scene::kinect(height_m, pitch_deg);
+            scene.blocks.push(cabinet);
+            let mut f = scene.depth_frame(DepthEncoding::Raw).unwrap();
+            f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
+            f
+        };
+        let (cane_frame, chest_frame) = (frame(0.99, 30.0), frame(1.3, 10.0));
+        let way = [[0.0, 0.0], [10.0, 0.0]];
+        let way = Some(Way { points: &way, ends_at_goal: false, walls: &[] });
+        let predictive = || {
+            ComputeStep::new(PerceptionConfig::default(), CueConfig::default())
+                .with_predictive(PredictiveConfig::default())
+        };
+        let mut chest = ComputeStep::new(PerceptionConfig::default().for_chest(), CueConfig::default());
+        let mut cane = predictive().with_second_view(SecondView::default());
+        let mut alone = predictive();
+        for seq in 1..=3 {
+            let chest_hazard = match chest.process(input(&chest_frame, seq), &mut NoTimer) {
+                StepOutput::Perceived { hazard, .. } => hazard,
+                StepOutput::Refused { error, .. } => panic!("{error}"),
+            };
+            let near = chest.obstacle_points().iter().map(|p| p[0].hypot(p[1])).fold(f32::INFINITY, f32::min);
+            assert!((near - 0.6).abs() < 0.05, "the chest holds the cabinet's front: {near}");
+            cane.second_view_heard(ViewState::of(&chest_hazard, seq * 33_333_333), chest.obstacle_points());
+            let decided =
+                |step: &mut ComputeStep| match step.process(FrameIn { way, ..input(&cane_frame, seq) }, &mut NoTimer) {
+                    StepOutput::Perceived { hazard, .. } => {
+                        assert!(hazard.predictive);
+                        hazard.rumble
+                    }
+                    StepOutput::Refused { error, .. } => panic!("{error}"),
+                };
+            assert_eq!(decided(&mut alone), Rumble::None, "the cane camera alone sees nothing");
+            assert_ne!(decided(&mut cane), Rumble::None, "the body would walk into the cabinet");
+            assert_eq!(cane.second_view().map(|(_, j)| j), Some(Some(Joined::Joined)));
+        }
     }
 
     #[test]

@@ -205,6 +205,10 @@ pub struct Ahead<'a> {
     /// near the floor; [`crate::Pipeline::cane_finds`]); a point without an entry is
     /// taken not to. Read only when guarding the body alone.
     pub cane_finds: &'a [bool],
+    /// What a second device holds that only the body can touch (what overhangs from
+    /// chest height: a sign, a lamp, a cabinet a chest camera sees and the cane passes
+    /// under), body frame (x forward, y left, metres, from the body's centre).
+    pub body_points: &'a [[f32; 2]],
     /// The camera's angle to the body's heading, radians, positive left.
     pub sweep_rad: f64,
     /// The body's walking speed, m/s.
@@ -221,9 +225,12 @@ pub struct PredictiveCue {
     /// second.
     sent: VecDeque<(f64, Rumble)>,
     /// The frame's points in the body frame, near enough to matter, and whether the
-    /// cane would find each.
+    /// cane can touch each (guarding the body alone: whether it would find it; never
+    /// what only the body can touch).
     points: Vec<[f64; 2]>,
     point_cane: Vec<bool>,
+    /// `points` from here on are the second device's ([`Ahead::body_points`]).
+    body_from: usize,
     armed: Vec<bool>,
     /// Distance along the frame's way of each of its points, metres.
     way_along: Vec<f64>,
@@ -245,6 +252,9 @@ pub struct PredictiveCue {
     pending: VecDeque<(f64, bool)>,
 }
 
+/// How far ahead the point lies that a user walking straight on heads for, metres.
+const STRAIGHT_ON_M: f64 = 100.0;
+
 /// The states tried, in the order preferred among the safe ones after clear.
 const STATES: [Rumble; 3] = [Rumble::Left, Rumble::Right, Rumble::Both];
 
@@ -260,6 +270,7 @@ impl PredictiveCue {
             sent: VecDeque::new(),
             points: Vec::new(),
             point_cane: Vec::new(),
+            body_from: 0,
             armed: Vec::new(),
             way_along: Vec::new(),
             touches: VecDeque::new(),
@@ -358,12 +369,22 @@ impl PredictiveCue {
             + RELEASE_M;
         self.points.clear();
         self.point_cane.clear();
+        let body_only = c.guards == Guards::Body;
         for (i, p) in now.points.iter().enumerate() {
             let (x, y) = (f64::from(p[0]), f64::from(p[1]));
             let q = [camera[0] + k * x - s * y, camera[1] + s * x + k * y];
             if x.is_finite() && y.is_finite() && q[0].hypot(q[1]) <= reach {
                 self.points.push(q);
-                self.point_cane.push(now.cane_finds.get(i).copied().unwrap_or(false));
+                // guarding the body alone, the cane passes under what it would not find
+                self.point_cane.push(!body_only || now.cane_finds.get(i).copied().unwrap_or(false));
+            }
+        }
+        self.body_from = self.points.len();
+        for p in now.body_points {
+            let q = [f64::from(p[0]), f64::from(p[1])];
+            if q[0].is_finite() && q[1].is_finite() && q[0].hypot(q[1]) <= reach {
+                self.points.push(q);
+                self.point_cane.push(false);
             }
         }
     }
@@ -375,14 +396,12 @@ impl PredictiveCue {
         let c = &self.config;
         let fan = self.fan_at(0.0, 0.0, 0.0, now.speed_m_s, now.t_s);
         let radius_m = c.user.shoulder_width_m / 2.0;
-        let body_only = c.guards == Guards::Body;
         let nearest = self
             .points
             .iter()
             .zip(&self.point_cane)
-            .map(|(p, &found)| {
-                // guarding the body alone, the cane passes under what it would not find
-                let cane = if body_only && !found { f64::INFINITY } else { fan.distance_m(*p) };
+            .map(|(p, &reaches)| {
+                let cane = if reaches { fan.distance_m(*p) } else { f64::INFINITY };
                 ((p[0].hypot(p[1]) - radius_m).min(cane), p[1] > 0.0)
             })
             .min_by(|a, b| a.0.total_cmp(&b.0));
@@ -460,16 +479,33 @@ impl PredictiveCue {
 
     /// Seconds from now to the first new touch if `state` is sent now (then `then`),
     /// for the quickest and the slowest user; `None` when nothing is touched.
+    ///
+    /// What only the body can touch (a second device's points: a sign, a lamp) is also
+    /// checked for a user who walks straight on, whatever the way, as far as they would
+    /// need to stop ([`Self::stopping_s`]): the cane gives no second chance there, and a
+    /// user led off the way (by a companion, by the sound they head for, by their own
+    /// idea of it) walks under it all the same.
     fn first_touch_s(&mut self, now: &Ahead<'_>, state: Rumble, then: Option<(f64, Rumble)>) -> Option<f64> {
         let factors = self.config.user.reaction_factors;
+        let ways: &[bool] = if self.body_from < self.points.len() { &[false, true] } else { &[false] };
         // the turns away the look-ahead has yet to act on: one buffer for every walk
         let mut pending = std::mem::take(&mut self.pending);
-        let first = factors
+        let first = ways
             .iter()
-            .filter_map(|&f| self.first_touch_one_s(now, state, then, f, &mut pending))
+            .flat_map(|&straight_on| factors.iter().map(move |&f| (straight_on, f)))
+            .filter_map(|(straight_on, f)| self.first_touch_one_s(now, state, then, f, straight_on, &mut pending))
             .min_by(f64::total_cmp);
         self.pending = pending;
         first
+    }
+
+    /// From a state sent now to the slowest user standing still, walking at
+    /// `speed_m_s` (at least the model's pace), seconds: the latency, the reaction,
+    /// the slowing down, and a frame's margin.
+    fn stopping_s(&self, speed_m_s: f64) -> f64 {
+        let (c, u) = (&self.config, &self.config.user);
+        let slowest = u.reaction_s * u.reaction_factors[1].max(1.0);
+        c.latency_s + slowest + speed_m_s.max(u.walk_speed_m_s) / u.accel_m_s2.max(1e-6) + 1.0 / c.steps_hz
     }
 
     fn first_touch_one_s(
@@ -478,6 +514,7 @@ impl PredictiveCue {
         state: Rumble,
         then: Option<(f64, Rumble)>,
         factor: f64,
+        straight_on: bool,
         pending: &mut VecDeque<(f64, bool)>,
     ) -> Option<f64> {
         let c = self.config;
@@ -486,7 +523,8 @@ impl PredictiveCue {
         let turn = u.turn_rate_deg_s.to_radians();
         let radius_m = u.shoulder_width_m / 2.0;
         let dt = 1.0 / c.steps_hz;
-        let steps = (c.horizon_s * c.steps_hz).ceil() as usize;
+        let horizon_s = if straight_on { self.stopping_s(now.speed_m_s) } else { c.horizon_s };
+        let steps = (horizon_s * c.steps_hz).ceil() as usize;
         let t0 = now.t_s;
         let acting_at = |cue: &Self, t: f64| cue.felt_at(t0, t - reaction_s, state, then);
 
@@ -504,7 +542,9 @@ impl PredictiveCue {
         let mut way = WayFollower { points: now.way.points, along_m: &self.way_along, progress_m: 0.0 };
         let walls = now.way.walls;
         let in_sight = |a: [f64; 2], b: [f64; 2]| clear_line(walls, a, b, radius_m);
-        let mut target = way.target(x, y, u.lookahead_m, &in_sight);
+        // walking straight on: heading for a point far ahead, back to it after a turn
+        let mut target =
+            if straight_on { Some([STRAIGHT_ON_M, 0.0]) } else { way.target(x, y, u.lookahead_m, &in_sight) };
         let err = |target: Option<[f64; 2]>, x: f64, y: f64, yaw: f64| {
             target.and_then(|p| {
                 let (dx, dy) = (p[0] - x, p[1] - y);
@@ -543,7 +583,7 @@ impl PredictiveCue {
         for k in 0..=steps {
             let t = t0 + k as f64 * dt;
             if k > 0 {
-                if t - targeted_at >= u.retarget_s {
+                if t - targeted_at >= u.retarget_s && !straight_on {
                     target = way.target(x, y, u.lookahead_m, &in_sight);
                     targeted_at = t;
                 }
@@ -581,7 +621,7 @@ impl PredictiveCue {
                 y += speed * dt * mid.sin();
                 yaw += rate * dt;
             }
-            if goal.is_some_and(|g| (g[0] - x).hypot(g[1] - y) <= c.goal_radius_m) {
+            if !straight_on && goal.is_some_and(|g| (g[0] - x).hypot(g[1] - y) <= c.goal_radius_m) {
                 return None;
             }
             let fan = self.fan_at(x, y, yaw, speed, t);
@@ -591,7 +631,9 @@ impl PredictiveCue {
             };
             let mut touched = false;
             let mut cane_touch: Option<bool> = None;
-            for (i, (p, armed)) in self.points.iter().zip(self.armed.iter_mut()).enumerate() {
+            // walking straight on, only what the body alone can touch
+            let from = if straight_on { self.body_from } else { 0 };
+            for (i, (p, armed)) in self.points.iter().zip(self.armed.iter_mut()).enumerate().skip(from) {
                 let (bx, by) = (p[0] - x, p[1] - y);
                 let b2 = bx * bx + by * by;
                 if b2 > near2 {
@@ -602,8 +644,7 @@ impl PredictiveCue {
                     continue;
                 }
                 let body = b2.sqrt() - radius_m;
-                // guarding the body alone, the cane passes under what it would not find
-                let cane = if body_only && !self.point_cane[i] { f64::INFINITY } else { fan.distance_m(*p) };
+                let cane = if self.point_cane[i] { fan.distance_m(*p) } else { f64::INFINITY };
                 let d = if body_only { body } else { body.min(cane) };
                 if d <= c.margin_m {
                     touched |= *armed && k > 0;
@@ -974,6 +1015,7 @@ mod tests {
             way: Way { points: way, ends_at_goal: true, walls },
             points,
             cane_finds: &finds,
+            body_points: &[],
             sweep_rad: 0.0,
             speed_m_s: 1.0,
             yaw_rate_rad_s: Some(0.0),
@@ -1052,6 +1094,7 @@ mod tests {
                     way: Way { points: &way, ends_at_goal: true, walls: &known(&points) },
                     points: &points,
                     cane_finds: &[],
+                    body_points: &[],
                     sweep_rad: 0.0,
                     speed_m_s: 1.0,
                     yaw_rate_rad_s: Some(0.0),
@@ -1098,6 +1141,7 @@ mod tests {
                     way: Way { points: &[], ends_at_goal: false, walls: &[] },
                     points: &[],
                     cane_finds: &[],
+                    body_points: &[],
                     sweep_rad: sweep(t),
                     speed_m_s: 1.0,
                     yaw_rate_rad_s: None,
@@ -1122,6 +1166,7 @@ mod tests {
                 way: Way { points: &[[0.0, 0.0], [10.0, 0.0]], ends_at_goal: true, walls: &[] },
                 points: post,
                 cane_finds: &[],
+                body_points: &[],
                 sweep_rad: 0.0,
                 speed_m_s: 1.0,
                 yaw_rate_rad_s: None,
@@ -1200,6 +1245,67 @@ mod tests {
         let points = wall([0.9, 0.05], [0.9, 0.15]);
         let r = decide_at(&mut cue, 0.0, &points, &[[0.0, 0.0], [10.0, 0.0]], &[]);
         assert_ne!(r, Rumble::None);
+    }
+
+    #[test]
+    fn the_cane_passes_under_what_only_the_body_can_touch() {
+        // one point 2 m ahead on the way: held by the cane camera, the cane (its tip
+        // 1.08 m ahead of the body) meets it first; held as a sign only the body can
+        // touch (a chest camera's), the body does, 0.275 m short of it
+        let way = [[0.0, 0.0], [10.0, 0.0]];
+        let camera_x = (CaneModel::default().hand_forward_m + CaneModel::default().camera_from_hand_m) as f32;
+        let first_touch = |camera: &[[f32; 2]], body: &[[f32; 2]]| {
+            let mut cue = PredictiveCue::new(PredictiveConfig::default());
+            let now = Ahead {
+                t_s: 0.0,
+                way: Way { points: &way, ends_at_goal: false, walls: &[] },
+                points: camera,
+                cane_finds: &[],
+                body_points: body,
+                sweep_rad: 0.0,
+                speed_m_s: 1.0,
+                yaw_rate_rad_s: Some(0.0),
+            };
+            cue.load_frame(&now);
+            cue.first_touch_s(&now, Rumble::None, None)
+        };
+        let by_cane = first_touch(&[[2.0 - camera_x, 0.0]], &[]).expect("the cane meets the point");
+        let by_body = first_touch(&[], &[[2.0, 0.0]]).expect("the body meets the sign");
+        assert!((by_body - 1.72).abs() < 0.05, "the body meets it at {by_body:.2} s");
+        assert!(by_body > by_cane + 0.6, "cane {by_cane:.2} s, body {by_body:.2} s");
+        // beside the way, 0.4 m off the body's path: the body passes it
+        assert_eq!(first_touch(&[], &[[1.5, 0.4]]), None);
+    }
+
+    #[test]
+    fn what_only_the_body_can_touch_is_never_cleared_within_the_stopping_time_straight_on() {
+        // the way turns left half a metre on; a sign only the body can touch hangs
+        // straight ahead, 0.8 m wide across the heading: a user who follows the way
+        // passes it, one led on straight (a companion, the sound they head for) does not
+        let way = [[0.0, 0.0], [0.5, 0.0], [0.5, 10.0]];
+        let sign = |x: f32| (0..=16).map(|i| [x, -0.4 + 0.05 * i as f32]).collect::<Vec<_>>();
+        let decide = |body: &[[f32; 2]]| {
+            let mut cue = PredictiveCue::new(PredictiveConfig::default());
+            let now = Ahead {
+                t_s: 0.0,
+                way: Way { points: &way, ends_at_goal: false, walls: &[] },
+                points: &[],
+                cane_finds: &[],
+                body_points: body,
+                sweep_rad: 0.0,
+                speed_m_s: 1.0,
+                yaw_rate_rad_s: Some(0.0),
+            };
+            let state = cue.decide(&now);
+            (state, cue.stopping_s(1.0))
+        };
+        // 1 m on: the body, walking on, meets it in 0.73 s, sooner than the slowest user
+        // stops (1.21 s): not clear, though the way turns off before it
+        let (state, stopping_s) = decide(&sign(1.0));
+        assert!((stopping_s - 1.208).abs() < 0.01, "{stopping_s}");
+        assert_ne!(state, Rumble::None);
+        // 2.5 m on: the user following the way turns off long before; no warning yet
+        assert_eq!(decide(&sign(2.5)).0, Rumble::None);
     }
 
     #[test]

@@ -11,6 +11,13 @@
 //! [`SecondView::max_age_ns`], or one from a chest device that cannot see (its ground
 //! degraded, its frames refused), is not joined, and [`Joined::Stale`] says so, so the
 //! owner can tell the user the head-high view is gone.
+//!
+//! The predictive cue ([`crate::predictive`]) takes more than the chest's state: the
+//! obstacle points its step holds (what overhangs from 1 m up, in view and remembered),
+//! put in the body's frame, join the cane camera's in its look-ahead as points only the
+//! body can touch ([`SecondView::fresh_points`]); the chest's own state is then not
+//! joined as well ([`SecondView::fused`]): the look-ahead already kept the body off
+//! what it warns of, and its costs would warn of what is not in the way.
 
 use schemas::{GroundState, Hazard, Rumble};
 
@@ -58,11 +65,18 @@ pub enum Joined {
     Stale,
 }
 
-/// The chest device's last state and the counts of frames joined and not.
+/// How far ahead of the body's centre a chest camera is worn, metres (on the sternum,
+/// 12 cm in front of the body's axis): its points' offset into the body's frame.
+pub const CHEST_AHEAD_OF_BODY_M: f32 = 0.12;
+
+/// The chest device's last state and points, and the counts of frames joined and not.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SecondView {
     max_age_ns: u64,
+    ahead_of_body_m: f32,
     last: Option<ViewState>,
+    /// The last state's obstacle points, body frame (x forward, y left, metres).
+    points: Vec<[f32; 2]>,
     joined: u64,
     stale: u64,
 }
@@ -74,9 +88,16 @@ impl Default for SecondView {
 }
 
 impl SecondView {
-    /// Nothing heard yet; states older than `max_age_ns` are not joined.
+    /// Nothing heard yet; states older than `max_age_ns` are not joined; the device
+    /// worn [`CHEST_AHEAD_OF_BODY_M`] ahead of the body's centre.
     pub fn new(max_age_ns: u64) -> Self {
-        Self { max_age_ns, last: None, joined: 0, stale: 0 }
+        Self { max_age_ns, ahead_of_body_m: CHEST_AHEAD_OF_BODY_M, last: None, points: Vec::new(), joined: 0, stale: 0 }
+    }
+
+    /// The same, for a device worn `metres` ahead of the body's centre.
+    pub fn ahead_of_body(mut self, metres: f32) -> Self {
+        self.ahead_of_body_m = metres;
+        self
     }
 
     /// How old a chest state may be when joined, ns.
@@ -84,17 +105,48 @@ impl SecondView {
         self.max_age_ns
     }
 
-    /// A chest frame's state (an older one than the last heard is ignored: frames
-    /// may arrive out of order).
-    pub fn heard(&mut self, state: ViewState) {
+    /// A chest frame's state and the obstacle points its step held, the device's own
+    /// user frame (x forward from its place on the floor, y left, metres:
+    /// [`crate::ComputeStep::obstacle_points`]; none for a refused frame). An older
+    /// frame than the last heard is ignored: frames may arrive out of order.
+    pub fn heard(&mut self, state: ViewState, points: &[[f32; 2]]) {
         if self.last.is_none_or(|l| state.capture_ns >= l.capture_ns) {
             self.last = Some(state);
+            self.points.clear();
+            let ahead = self.ahead_of_body_m;
+            self.points.extend(points.iter().map(|p| [p[0] + ahead, p[1]]));
         }
     }
 
     /// The chest's state, when fresh for a cane frame captured at `capture_ns` and seeing.
     pub fn fresh(&self, capture_ns: u64) -> Option<ViewState> {
         self.last.filter(|l| !l.blind && capture_ns.saturating_sub(l.capture_ns) <= self.max_age_ns)
+    }
+
+    /// The chest's obstacle points in the body's frame, when its state is fresh for a
+    /// cane frame captured at `capture_ns` and seeing; none otherwise.
+    pub fn fresh_points(&self, capture_ns: u64) -> &[[f32; 2]] {
+        match self.fresh(capture_ns) {
+            Some(_) => &self.points,
+            None => &[],
+        }
+    }
+
+    /// A cane frame whose cue took the chest's points ([`Self::fresh_points`]) rather
+    /// than its state: its rumble stays the cue's, and while it warns, the chest's
+    /// nearest obstacle sets the pulse when it is the nearer. Counted as [`Self::join`]
+    /// counts.
+    pub fn fused(&mut self, capture_ns: u64, p: &mut Perception) -> Joined {
+        let Some(chest) = self.fresh(capture_ns) else {
+            self.stale += 1;
+            return Joined::Stale;
+        };
+        self.joined += 1;
+        if p.rumble != Rumble::None && chest.nearest_m < p.nearest_m {
+            p.nearest_m = chest.nearest_m;
+            p.nearest_bearing_deg = chest.nearest_bearing_deg;
+        }
+        Joined::Joined
     }
 
     /// Joins the chest's state to a cane frame's perception: its rumble becomes the
@@ -163,7 +215,7 @@ mod tests {
     #[test]
     fn a_fresh_chest_warning_is_joined_and_its_nearer_obstacle_sets_the_pulse() {
         let mut view = SecondView::default();
-        view.heard(state(1_000_000_000, Rumble::Left, 1.1));
+        view.heard(state(1_000_000_000, Rumble::Left, 1.1), &[]);
         // a clear cane frame 100 ms later: the chest's lamp warns, at its distance
         let mut p = cane(Rumble::None, f32::INFINITY);
         assert_eq!(view.join(1_100_000_000, &mut p), Joined::Joined);
@@ -173,7 +225,7 @@ mod tests {
         view.join(1_100_000_000, &mut p);
         assert_eq!((p.rumble, p.nearest_m, p.nearest_bearing_deg), (Rumble::Both, 0.6, -5.0));
         // a chest that says clear changes nothing
-        view.heard(state(1_200_000_000, Rumble::None, 0.4));
+        view.heard(state(1_200_000_000, Rumble::None, 0.4), &[]);
         let mut p = cane(Rumble::Right, 0.9);
         view.join(1_200_000_000, &mut p);
         assert_eq!((p.rumble, p.nearest_m), (Rumble::Right, 0.9));
@@ -185,20 +237,43 @@ mod tests {
         let mut view = SecondView::new(300_000_000);
         let mut p = cane(Rumble::None, f32::INFINITY);
         assert_eq!(view.join(1_000_000_000, &mut p), Joined::Stale, "nothing heard yet");
-        view.heard(state(1_000_000_000, Rumble::Both, 0.8));
+        view.heard(state(1_000_000_000, Rumble::Both, 0.8), &[]);
         assert_eq!(view.join(1_300_000_000, &mut p), Joined::Joined, "300 ms: still fresh");
         let mut p = cane(Rumble::None, f32::INFINITY);
         assert_eq!(view.join(1_300_000_001, &mut p), Joined::Stale);
         assert_eq!(p.rumble, Rumble::None, "a stale warning is not the cane's");
         // an older frame arriving late does not replace the newer one
-        view.heard(state(900_000_000, Rumble::None, f32::INFINITY));
+        view.heard(state(900_000_000, Rumble::None, f32::INFINITY), &[]);
         assert_eq!(view.fresh(1_000_000_000).map(|s| s.rumble), Some(Rumble::Both));
         // a chest that cannot see is not joined, whatever it says
-        view.heard(ViewState { blind: true, ..state(1_400_000_000, Rumble::Both, f32::NAN) });
+        view.heard(ViewState { blind: true, ..state(1_400_000_000, Rumble::Both, f32::NAN) }, &[]);
         let mut p = cane(Rumble::Left, 2.0);
         assert_eq!(view.join(1_400_000_000, &mut p), Joined::Stale);
         assert_eq!((p.rumble, p.nearest_m), (Rumble::Left, 2.0));
         assert_eq!(view.counts(), (1, 3));
+    }
+
+    #[test]
+    fn fused_the_chest_keeps_its_points_fresh_and_sets_the_pulse_not_the_rumble() {
+        let mut view = SecondView::default().ahead_of_body(0.12);
+        view.heard(state(1_000_000_000, Rumble::Left, 1.1), &[[1.0, 0.2], [1.1, -0.3]]);
+        // in the body's frame: 12 cm further on
+        assert_eq!(view.fresh_points(1_100_000_000), &[[1.12, 0.2], [1.22, -0.3]]);
+        // the cue says clear: the chest's warning is not joined
+        let mut p = cane(Rumble::None, f32::INFINITY);
+        assert_eq!(view.fused(1_100_000_000, &mut p), Joined::Joined);
+        assert_eq!((p.rumble, p.nearest_m), (Rumble::None, f32::INFINITY));
+        // the cue warns: the chest's nearer obstacle sets the pulse
+        let mut p = cane(Rumble::Right, 2.0);
+        view.fused(1_100_000_000, &mut p);
+        assert_eq!((p.rumble, p.nearest_m, p.nearest_bearing_deg), (Rumble::Right, 1.1, 20.0));
+        // stale or blind, no points
+        assert!(view.fresh_points(1_300_000_001).is_empty());
+        view.heard(ViewState { blind: true, ..state(1_400_000_000, Rumble::None, f32::INFINITY) }, &[[1.0, 0.0]]);
+        assert!(view.fresh_points(1_400_000_000).is_empty());
+        let mut p = cane(Rumble::Both, 0.5);
+        assert_eq!(view.fused(1_400_000_000, &mut p), Joined::Stale);
+        assert_eq!(view.counts(), (2, 1));
     }
 
     #[test]

@@ -511,8 +511,9 @@ impl ChestCamera {
         }
     }
 
-    /// The chest frame at `t`: its state for the cane's step to join (`None` while its
-    /// refusals are too few to say it is blind).
+    /// The chest frame at `t`: its state and obstacle points for the cane's step to
+    /// join (`None` while its refusals are too few to say it is blind; no points for a
+    /// refused frame).
     fn frame(
         &mut self,
         world: &World,
@@ -521,7 +522,7 @@ impl ChestCamera {
         now: u64,
         seq: u64,
         body_yaw_rate_rad_s: Option<f32>,
-    ) -> Option<ViewState> {
+    ) -> Option<(ViewState, &[[f32; 2]])> {
         let camera = self.mount.camera_pose(pose, 0.0);
         self.renderer.render(world, &camera, t, &mut self.depth_rng, &mut self.depth);
         pack(&self.depth, &camera, &mut self.gravity_rng, &mut self.wire);
@@ -535,8 +536,8 @@ impl ChestCamera {
         self.last = Some((floor_pose, now));
         let input = FrameIn { data: FrameData::Wire(&self.wire), seq, capture_ns: now, body_yaw_rate_rad_s, way: None };
         match self.step.process(input, &mut NoTimer) {
-            StepOutput::Perceived { hazard, .. } => Some(ViewState::of(&hazard, now)),
-            StepOutput::Refused { blind, .. } => blind.map(|b| ViewState::of(&b.hazard, now)),
+            StepOutput::Perceived { hazard, .. } => Some((ViewState::of(&hazard, now), self.step.obstacle_points())),
+            StepOutput::Refused { blind, .. } => blind.map(|b| (ViewState::of(&b.hazard, now), &[][..])),
         }
     }
 }
@@ -862,8 +863,8 @@ impl<'w> Walk<'w> {
         let renderer = Renderer::new(config.camera.clone());
         // the compute agent's own frame step, fed frames as the sensor agent packs them
         let mut frame_step = ComputeStep::new(config.perception.clone(), config.cue.clone());
-        if chest.is_some() {
-            frame_step = frame_step.with_second_view(SecondView::default());
+        if let Some(mount) = config.chest {
+            frame_step = frame_step.with_second_view(SecondView::default().ahead_of_body(mount.forward_m as f32));
         }
         if let Some(p) = config.predictive {
             frame_step = frame_step.with_predictive(p);
@@ -1066,8 +1067,9 @@ impl<'w> Walk<'w> {
         let body_yaw_rate_rad_s = self.body_gyro.as_mut().and_then(|gyro| gyro.read(t, pose.yaw_rad, speed_fraction));
         if let Some(chest) = self.chest.as_mut() {
             // the chest camera's frame, captured with the cane's, through its own step
-            if let Some(state) = chest.frame(world, pose, t, now, self.out.frames as u64, body_yaw_rate_rad_s) {
-                self.frame_step.second_view_heard(state);
+            if let Some((state, points)) = chest.frame(world, pose, t, now, self.out.frames as u64, body_yaw_rate_rad_s)
+            {
+                self.frame_step.second_view_heard(state, points);
             }
             self.seen.update(chest.renderer.obstacle_ids(), &chest.depth, t);
         }

@@ -660,6 +660,32 @@ fn guarding_the_body_leaves_a_narrow_corridor_to_the_cane_and_keeps_the_body_off
 }
 
 #[test]
+fn guarding_the_body_with_a_chest_camera_keeps_the_head_off_a_hanging_lamp() {
+    // `hanging-lamp`: the route passes under a lamp 1.55 m up that the cane camera never
+    // sees and its cane passes under: guarding the body, the head meets it on every walk.
+    // With the chest camera's points in the look-ahead (only the body can touch them)
+    // the cue turns the user off it
+    let (w, base) = builtin_by_route("hanging-lamp", 40.0);
+    let guard = body_guard(&base);
+    let with_chest = WalkConfig { chest: Some(sim::ChestMount::default()), ..guard.clone() };
+    let head = |out: &study::walk::WalkOutcome| out.contacts.iter().filter(|c| c.head_high).count();
+    for seed in 1..=3 {
+        let out = walk(&w, &guard, seed);
+        assert!(out.completed, "seed {seed}, cane camera alone: {}", out.verdict());
+        assert_eq!(head(&out), 1, "seed {seed}, cane camera alone: {:?}", out.contacts);
+        let out = walk(&w, &with_chest, seed);
+        assert!(
+            out.completed && out.time_s < 20.0,
+            "seed {seed}, with the chest: {} in {} s",
+            out.verdict(),
+            out.time_s
+        );
+        assert_eq!(out.count(Part::Body, None), 0, "seed {seed}, with the chest: {:?}", out.contacts);
+        assert!(out.signals <= 3, "seed {seed}, with the chest: {} signals", out.signals);
+    }
+}
+
+#[test]
 fn the_predictive_cue_on_the_particle_filters_place_walks_a_narrow_corridor_untouched() {
     // `corridor-narrow` (1.6 m, its bin, cabinet and sign kept clear of by the route): the
     // device's own filter on the floor plan, told where the walk starts, tracks within a
