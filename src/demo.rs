@@ -61,8 +61,8 @@ pub struct DemoArgs {
     pub predictive: bool,
     /// On a simulated world: a second depth camera worn at the chest (1.3 m up, 10°
     /// down, published as device `chest`), whose cue the compute agent joins to the
-    /// cane camera's (with --predictive: whose obstacles join the cue's look-ahead), so
-    /// what overhangs at head height is warned of.
+    /// cane camera's (with --predictive, whose obstacles join the cue's look-ahead
+    /// too), so what overhangs at head height is warned of.
     #[arg(long)]
     pub chest: bool,
 }

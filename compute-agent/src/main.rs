@@ -49,9 +49,9 @@ struct Cli {
     /// agent of its own): its frames are perceived on their own, warning only of what
     /// overhangs from 1 m up (a lamp, a sign, a cabinet standing out from a wall), and
     /// its cue is joined to every other camera's while it is fresh (300 ms; with
-    /// --predictive, its obstacles join the cue's look-ahead instead, as what only the
-    /// body can touch); when it falls silent or cannot see, the log and the health
-    /// status say so and the cane camera's cue goes on alone.
+    /// --predictive, its obstacles join the cue's look-ahead too, as what only the body
+    /// can touch); when it falls silent or cannot see, the log and the health status say
+    /// so and the cane camera's cue goes on alone.
     #[arg(long, value_name = "DEVICE")]
     chest_device: Option<String>,
     /// Device of the cane camera (`sensor/<device>/depth` and `/odom`): only its frames

@@ -272,13 +272,9 @@ impl ComputeStep {
                     }
                 }
                 if let Some((view, joined)) = self.second.as_mut() {
-                    // the predictive cue took the second device's points; the cost
-                    // functions take its state
-                    *joined = Some(if perception.predictive {
-                        view.fused(input.capture_ns, &mut perception)
-                    } else {
-                        view.join(input.capture_ns, &mut perception)
-                    });
+                    // the predictive cue took the second device's points too: its state
+                    // is joined all the same (a head-high touch is an injury)
+                    *joined = Some(view.join(input.capture_ns, &mut perception));
                 }
                 if let Some(p) = self.predictive.as_mut() {
                     p.sent(t_s, perception.rumble);
@@ -538,7 +534,10 @@ mod tests {
             };
             let near = chest.obstacle_points().iter().map(|p| p[0].hypot(p[1])).fold(f32::INFINITY, f32::min);
             assert!((near - 0.6).abs() < 0.05, "the chest holds the cabinet's front: {near}");
-            cane.second_view_heard(ViewState::of(&chest_hazard, seq * 33_333_333), chest.obstacle_points());
+            // the chest's own state taken to be clear: whatever the cue warns of, it
+            // found among the chest's points
+            let clear = ViewState { rumble: Rumble::None, ..ViewState::of(&chest_hazard, seq * 33_333_333) };
+            cane.second_view_heard(clear, chest.obstacle_points());
             let decided =
                 |step: &mut ComputeStep| match step.process(FrameIn { way, ..input(&cane_frame, seq) }, &mut NoTimer) {
                     StepOutput::Perceived { hazard, .. } => {

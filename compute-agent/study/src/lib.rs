@@ -246,7 +246,7 @@ pub struct CourseArgs {
     /// up (a lamp, a sign, a cabinet standing out from a wall; never in the cane
     /// camera's view) and joins that cue to the cane camera's: a side either warns of
     /// is warned. With --predictive or --body-guard its obstacles join the cue's
-    /// look-ahead instead, as what only the body can touch.
+    /// look-ahead too, as what only the body can touch.
     #[arg(long)]
     pub chest: bool,
     /// With --chest: the chest camera's pitch below the horizontal, degrees.
