@@ -463,20 +463,26 @@ mod tests {
         assert_eq!(step.ways_refused(), 1);
     }
 
+    /// The same `block` seen by a cane camera (0.99 m up, 30 degrees down) and a chest
+    /// camera (1.3 m up, 10 degrees down), each frame with its mount guess.
+    fn cane_and_chest_frames(block: crate::synthetic_scene::Block) -> (DepthFrame, DepthFrame) {
+        let frame = |height_m: f32, pitch_deg: f32| {
+            let mut scene = Scene::kinect(height_m, pitch_deg);
+            scene.blocks.push(block);
+            let mut f = scene.depth_frame(DepthEncoding::Raw).unwrap();
+            f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
+            f
+        };
+        (frame(0.99, 30.0), frame(1.3, 10.0))
+    }
+
     #[test]
     fn a_chest_camera_warns_of_a_head_high_sign_the_cane_camera_cannot_see() {
         // a sign hanging 1.6-1.95 m up, 1.2 m ahead, 0.8 m wide across the way: under the
         // cane camera's view (0.99 m up, 30 degrees down), in the chest camera's (1.3 m,
         // 10 degrees down)
         let sign = crate::synthetic_scene::Block { min: [1.2, -0.4, 1.6], max: [1.3, 0.4, 1.95] };
-        let frame = |height_m: f32, pitch_deg: f32| {
-            let mut scene = Scene::kinect(height_m, pitch_deg);
-            scene.blocks.push(sign);
-            let mut f = scene.depth_frame(DepthEncoding::Raw).unwrap();
-            f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
-            f
-        };
-        let (cane_frame, chest_frame) = (frame(0.99, 30.0), frame(1.3, 10.0));
+        let (cane_frame, chest_frame) = cane_and_chest_frames(sign);
         let perceived = |out: StepOutput| match out {
             StepOutput::Perceived { hazard, intent, .. } => (hazard, intent),
             StepOutput::Refused { error, .. } => panic!("{error}"),
@@ -510,14 +516,7 @@ mod tests {
         // a wall cabinet 1.1-1.5 m up, 0.6 m ahead, 0.8 m wide across the way: above
         // the cane camera's view, in the chest camera's
         let cabinet = crate::synthetic_scene::Block { min: [0.6, -0.4, 1.1], max: [0.9, 0.4, 1.5] };
-        let frame = |height_m: f32, pitch_deg: f32| {
-            let mut scene = Scene::kinect(height_m, pitch_deg);
-            scene.blocks.push(cabinet);
-            let mut f = scene.depth_frame(DepthEncoding::Raw).unwrap();
-            f.mount = Some(schemas::MountGuess { height_m, pitch_deg });
-            f
-        };
-        let (cane_frame, chest_frame) = (frame(0.99, 30.0), frame(1.3, 10.0));
+        let (cane_frame, chest_frame) = cane_and_chest_frames(cabinet);
         let way = [[0.0, 0.0], [10.0, 0.0]];
         let way = Some(Way { points: &way, ends_at_goal: false, walls: &[] });
         let predictive = || {
