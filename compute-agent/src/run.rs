@@ -57,7 +57,7 @@ pub struct ComputeConfig {
     pub chest_device: Option<String>,
     /// The cane camera's device: only its frames and odometry go through the cane's
     /// step. `None`: the first camera heard (the chest camera aside). Another camera's
-    /// are refused and counted as `other_camera` ([`CaneCamera`]).
+    /// are refused and counted as `other_camera`.
     pub cane_device: Option<String>,
 }
 

@@ -10,7 +10,7 @@
 //! them.
 //!
 //! Pure parts (no bus, no clock): [`haptic_cue`], [`speech_queue`], [`watchdog`],
-//! [`wiimote::protocol`], [`speechd::ssip`], [`evdev::ff`]. [`feedback`] joins them to devices; [`run`] is the bus loop.
+//! [`wiimote::protocol`], [`speechd::ssip`], [`evdev::ff`]. [`feedback`] joins them to devices; [`run()`] is the bus loop.
 
 pub mod config;
 pub mod console;

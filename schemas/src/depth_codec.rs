@@ -26,7 +26,7 @@
 //!    of four dependent operations per pixel, while left prediction's is one addition
 //!    per four pixels (the running sums of each quad's codes are a table).
 //! 4. **Entropy coding.** Four horizontally adjacent pixels' codes (pixel `i` at bits
-//!    `2i`) form one 8-bit quad symbol, coded with rANS ([`rans`]) under 8 contexts
+//!    `2i`) form one 8-bit quad symbol, coded with rANS (the private `rans` module) under 8 contexts
 //!    from the row above: the activity of the quad above (its codes' sizes, 0 / 1 for
 //!    +-1 / 2 for an exception, summed and capped at 3) times 2, plus 1 if the quad
 //!    above-right is not all zero. Codes of invalid pixels (and of the padding past a

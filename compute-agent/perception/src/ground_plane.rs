@@ -86,7 +86,7 @@ impl GroundSearch {
     /// `expected_offset_m`, within `cfg.max_offset_jump_m` of it; `None` when nothing
     /// plane-like below the camera holds enough points, or only points of several
     /// surfaces. Without a mount guess or a running ground, a seat or box top is told
-    /// from the floor by what lies under it ([`GroundSearch::under`]).
+    /// from the floor by what lies under it (`GroundSearch::under`).
     pub fn fit(
         &mut self,
         cloud: &SampledCloud,

@@ -13,7 +13,7 @@
 //! | ground removal, above-head removal, user frame, 1-degree scan | [`nearest_scan`] | sec. 2.2-2.3 |
 //! | FICF / CACF costs and Table 2.1 | [`cost_function`] | sec. 2.4 |
 //! | drop-offs, memory, TTC, debounce | [`dropoff`], [`obstacle_memory`], [`time_to_collision`], [`hysteresis`] | beyond |
-//! | haptic intent | [`cue`] | Table 2.1 + ISANA's beep rate |
+//! | haptic intent | [`cue()`] | Table 2.1 + ISANA's beep rate |
 //!
 //! Around the pipeline: [`frame_step`], the compute agent's whole step on a frame as
 //! the wire carries it (decode, [`odometry`] held until its frame, perceive, cue, the
@@ -151,8 +151,8 @@ pub struct FrameContext {
     pub body_yaw_rate_rad_s: Option<f32>,
     /// The camera's height above the floor as the sender believes it (the frame's
     /// mount guess), metres: the ground is looked for only within
-    /// [`GroundConfig::mount_tolerance_m`] of it. `None`: within
-    /// [`GroundConfig::camera_height_range_m`].
+    /// [`config::GroundConfig::mount_tolerance_m`] of it. `None`: within
+    /// [`config::GroundConfig::camera_height_range_m`].
     pub mount_height_m: Option<f32>,
     /// The camera's pitch below the horizontal as the sender believes it (the frame's
     /// mount guess), degrees: without gravity, the floor is looked for around the up

@@ -199,7 +199,7 @@ static NO_GEOMETRY: FloorGeometry = FloorGeometry {
 
 impl World {
     /// A built-in world by name, a generated one (`gen:<kind>:<seed>`, see
-    /// [`generate`](super::generate)), or else a scene file at that path.
+    /// [`generate`]), or else a scene file at that path.
     pub fn load(name_or_path: &str) -> Result<World, SceneError> {
         if let Some(world) = Self::builtin(name_or_path) {
             return world;
@@ -428,7 +428,7 @@ impl World {
 
     /// Whether a body 0.5 m wide and 1.85 m tall can get from the start to the goal
     /// past every fixed obstacle (people move aside): the generator's own test
-    /// ([`generate::way_through`](super::generate::way_through): a 5 cm grid, every
+    /// ([`generate::way_through`]: a 5 cm grid, every
     /// obstacle grown by the body's half width and 5 cm, a search). `None` when the goal
     /// is on another floor (not searched). Worked out once per world (milliseconds).
     pub fn way_through(&self) -> Option<bool> {
