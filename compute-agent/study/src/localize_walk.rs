@@ -363,8 +363,56 @@ pub fn localize_walk(
     world: &World,
     seed: u64,
     config: &LocalizeWalkConfig,
+    clock_ms: impl FnMut() -> f64,
+) -> Result<WalkLocalization, LocalizeWalkError> {
+    PerceivedWalk::new(world, seed, config).localize(config, clock_ms)
+}
+
+/// One walk, run and perceived once, to be localized with one filter configuration or
+/// several (the walk does not depend on the filter: the same seed gives the same walk,
+/// frames and scans whatever the filter is told).
+pub struct PerceivedWalk<'w> {
+    world: &'w World,
+    seed: u64,
+    /// What it was walked with: its walk, end radius and stuck time are this walk's.
+    walked: LocalizeWalkConfig,
+    trace: Vec<TraceRow>,
+    scans: Vec<Option<CaneScan>>,
+    odometry: Vec<Vec<schemas::OdomIncrement>>,
+    replay_mismatches: usize,
+}
+
+impl<'w> PerceivedWalk<'w> {
+    /// Walks `world` with `seed` as `config` says (its walk, end radius and stuck time)
+    /// and perceives every frame.
+    pub fn new(world: &'w World, seed: u64, config: &LocalizeWalkConfig) -> Self {
+        let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
+        Self { world, seed, walked: config.clone(), trace, scans, odometry, replay_mismatches }
+    }
+
+    /// Localizes the walk with `config`'s filter, map, scans, signs and corrections;
+    /// the walk, end radius and stuck time are the walk's own, not `config`'s.
+    pub fn localize(
+        &self,
+        config: &LocalizeWalkConfig,
+        clock_ms: impl FnMut() -> f64,
+    ) -> Result<WalkLocalization, LocalizeWalkError> {
+        let config = &LocalizeWalkConfig {
+            walk: self.walked.walk.clone(),
+            end_radius_m: self.walked.end_radius_m,
+            stuck_s: self.walked.stuck_s,
+            ..config.clone()
+        };
+        localize_perceived(self, config, clock_ms)
+    }
+}
+
+fn localize_perceived(
+    walk: &PerceivedWalk<'_>,
+    config: &LocalizeWalkConfig,
     mut clock_ms: impl FnMut() -> f64,
 ) -> Result<WalkLocalization, LocalizeWalkError> {
+    let (world, seed) = (walk.world, walk.seed);
     let level = world.start().floor;
     let building = config.map.export(world, config.resolution_m, &config.walk.perception)?;
     let floor = building
@@ -379,7 +427,8 @@ pub fn localize_walk(
     let free_fit = config.filter.free_space.unwrap_or_default();
     let (mut free_points, mut free_ray_ends) = (Vec::new(), Vec::new());
 
-    let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
+    let (trace, scans, odometry, replay_mismatches) =
+        (&walk.trace, &walk.scans, &walk.odometry, walk.replay_mismatches);
     if trace.is_empty() || trace.len() != scans.len() {
         return Err(LocalizeWalkError::NoFrames(world.name().to_string()));
     }

@@ -8,14 +8,19 @@
 
 use localization::{CornerConfig, FilterConfig, FreeSpaceConfig, WallFitConfig};
 use sim::World;
-use study::localize_walk::{localize_walk, LocalizationMap, LocalizeWalkConfig, ScanUse, WalkLocalization};
+use study::localize_walk::{LocalizationMap, LocalizeWalkConfig, PerceivedWalk, ScanUse, WalkLocalization};
 
-fn run_with(name: &str, seed: u64, config: &LocalizeWalkConfig) -> WalkLocalization {
+/// One walk of `name` with `seed` (walked as the configurations' walk says: they share
+/// it), localized with each configuration.
+fn run_each<const N: usize>(name: &str, seed: u64, configs: [&LocalizeWalkConfig; N]) -> [WalkLocalization; N] {
     let world = World::load(name).unwrap_or_else(|e| panic!("{e}"));
-    let t0 = std::time::Instant::now();
-    let r = localize_walk(&world, seed, config, || t0.elapsed().as_secs_f64() * 1e3).unwrap_or_else(|e| panic!("{e}"));
-    eprint!("{}", r.summary_text());
-    r
+    let walk = PerceivedWalk::new(&world, seed, configs[0]);
+    configs.map(|config| {
+        let t0 = std::time::Instant::now();
+        let r = walk.localize(config, || t0.elapsed().as_secs_f64() * 1e3).unwrap_or_else(|e| panic!("{e}"));
+        eprint!("{}", r.summary_text());
+        r
+    })
 }
 
 /// What every localized walk must show: the replay of the walk's frames is exact, the
@@ -31,7 +36,10 @@ fn check_common(r: &WalkLocalization) {
 
 #[test]
 fn corridor_walk_is_tracked_within_half_a_metre_by_the_cane_scan_and_door_signs() {
-    let r = run_with("corridor", 1, &LocalizeWalkConfig::default());
+    // the same walk with the signs, without them, and with one misread
+    let blind = LocalizeWalkConfig { signs: None, ..Default::default() };
+    let misread = LocalizeWalkConfig { misread_after_m: Some(20.0), ..Default::default() };
+    let [r, blind, misread] = run_each("corridor", 1, [&LocalizeWalkConfig::default(), &blind, &misread]);
     check_common(&r);
     let s = &r.summary;
     // measured: RMSE 0.245 m (along the corridor 0.207, across 0.131), p95 0.589 m,
@@ -46,7 +54,6 @@ fn corridor_walk_is_tracked_within_half_a_metre_by_the_cane_scan_and_door_signs(
 
     // without the door signs the place along the corridor wanders further (measured:
     // along 0.339 m against 0.207 m)
-    let blind = run_with("corridor", 1, &LocalizeWalkConfig { signs: None, ..Default::default() });
     check_common(&blind);
     assert_eq!(blind.summary.doors_read, 0);
     assert!(blind.summary.along_rmse_m > 1.3 * s.along_rmse_m, "{}", blind.summary_text());
@@ -54,7 +61,6 @@ fn corridor_walk_is_tracked_within_half_a_metre_by_the_cane_scan_and_door_signs(
     // a sign misread as another door's number after 20 m: the issue asks the estimate
     // back within 0.5 m in at most 5 m of walking (measured: it never left 0.5 m; the
     // worst error in the 5 m after the misread 0.48 m)
-    let misread = run_with("corridor", 1, &LocalizeWalkConfig { misread_after_m: Some(20.0), ..Default::default() });
     check_common(&misread);
     let m = &misread.summary;
     assert!(m.doors_misread >= 1, "{}", misread.summary_text());
@@ -73,10 +79,10 @@ fn in_a_furnished_office_the_filter_tracks_on_the_mapped_map_and_not_on_the_wall
     // the first 60 s of the walk (it ends at 94 s), on either map
     let d = LocalizeWalkConfig::default();
     let first_minute = LocalizeWalkConfig { walk: study::walk::WalkConfig { timeout_s: 60.0, ..d.walk.clone() }, ..d };
-    let plan = run_with("gen:office:1", 1, &first_minute);
+    let mapped = LocalizeWalkConfig { map: LocalizationMap::Mapped, ..first_minute.clone() };
+    let [plan, mapped] = run_each("gen:office:1", 1, [&first_minute, &mapped]);
     assert!(plan.summary.truth_fit_median_m > 1.0, "{}", plan.summary_text());
     assert!(plan.summary.position_rmse_m > 2.0, "{}", plan.summary_text());
-    let mapped = run_with("gen:office:1", 1, &LocalizeWalkConfig { map: LocalizationMap::Mapped, ..first_minute });
     check_common(&mapped);
     let s = &mapped.summary;
     assert!(s.position_rmse_m < 0.4 && s.position_p95_m < 0.8, "{}", mapped.summary_text());
@@ -99,10 +105,9 @@ fn among_furniture_the_floor_plan_lacks_a_persons_recovery_keeps_the_place_the_u
         filter: FilterConfig { recovery_anchor: None, ..first_minute.filter.clone() },
         ..first_minute.clone()
     };
-    let uniform = run_with("gen:office:4", 1, &anywhere);
+    let [uniform, near] = run_each("gen:office:4", 1, [&anywhere, &first_minute]);
     assert!(uniform.summary.position_rmse_m > 2.0, "{}", uniform.summary_text());
     assert!(uniform.summary.tracking_over_1m > 100, "{}", uniform.summary_text());
-    let near = run_with("gen:office:4", 1, &first_minute);
     let s = &near.summary;
     assert_eq!((s.replay_mismatches, s.odometry_rejected), (0, 0));
     assert_eq!(s.tracking_over_1m, 0, "Tracking while more than 1 m off: {}", near.summary_text());
@@ -121,7 +126,7 @@ fn the_wall_angle_holds_the_heading_within_3_degrees_where_the_scan_alone_does_n
     // at the bin's edge, not its centre). Off by default: along a corridor without door
     // signs it moves the place (docs/localization.md, "The wall angle").
     let walls = LocalizeWalkConfig { wall_angles: Some(WallFitConfig::default()), ..Default::default() };
-    let with = run_with("building", 8, &walls);
+    let [with, without] = run_each("building", 8, [&walls, &LocalizeWalkConfig::default()]);
     check_common(&with);
     let s = &with.summary;
     assert!(s.walls_found * 2 > s.frames, "{}", with.summary_text());
@@ -129,7 +134,6 @@ fn the_wall_angle_holds_the_heading_within_3_degrees_where_the_scan_alone_does_n
     assert!(s.wall_angles_used >= 20, "{}", with.summary_text());
     assert!(s.heading_rmse_deg < 3.0, "{}", with.summary_text());
     assert!(s.position_rmse_m < 0.3, "{}", with.summary_text());
-    let without = run_with("building", 8, &LocalizeWalkConfig::default());
     assert_eq!(without.summary.wall_angles_used, 0);
     assert_eq!(without.summary.walls_found, s.walls_found, "the same walk, the same scans");
     assert!(without.summary.heading_rmse_deg > 3.0, "{}", without.summary_text());
@@ -145,7 +149,7 @@ fn the_corners_two_walls_of_a_scan_meet_at_are_the_corners_of_the_maps_outline()
     // to the filter at 20 updates. The place on this walk: RMSE 0.232 -> 0.168 m; over
     // other walks and worlds mixed, so off by default (docs/localization.md, "Corners").
     let corners = LocalizeWalkConfig { corners: Some(CornerConfig::default()), ..Default::default() };
-    let r = run_with("corridor", 1, &corners);
+    let [r] = run_each("corridor", 1, [&corners]);
     check_common(&r);
     let s = &r.summary;
     assert!(s.corners_found >= 50, "{}", r.summary_text());
@@ -157,7 +161,9 @@ fn the_corners_two_walls_of_a_scan_meet_at_are_the_corners_of_the_maps_outline()
 
 #[test]
 fn building_ground_floor_walk_is_tracked_and_dead_reckoning_is_not() {
-    let r = run_with("building", 1, &LocalizeWalkConfig::default());
+    // with the scans and signs, and the same walk without them (odometry and gyro alone)
+    let dead = LocalizeWalkConfig { scans: ScanUse::None, signs: None, ..Default::default() };
+    let [r, dead] = run_each("building", 1, [&LocalizeWalkConfig::default(), &dead]);
     check_common(&r);
     let s = &r.summary;
     // measured: RMSE 0.199 m (along 0.191, across 0.057), p95 0.441 m, heading RMSE
@@ -167,8 +173,6 @@ fn building_ground_floor_walk_is_tracked_and_dead_reckoning_is_not() {
     assert!(s.position_p95_m < 0.75, "{}", r.summary_text());
     assert!(s.heading_rmse_deg < 3.5, "{}", r.summary_text());
     assert!(s.tracking_fraction > 0.5, "{}", r.summary_text());
-    // the same walk without the scans and signs (odometry and gyro alone)
-    let dead = run_with("building", 1, &LocalizeWalkConfig { scans: ScanUse::None, signs: None, ..Default::default() });
     assert!(dead.summary.position_rmse_m > 2.0 * s.position_rmse_m, "{}", dead.summary_text());
     assert!(dead.summary.heading_rmse_deg > 1.5 * s.heading_rmse_deg, "{}", dead.summary_text());
 }
@@ -178,12 +182,11 @@ fn free_space_holds_the_building_walk_nearer_and_the_floor_plan_agrees_with_the_
     // The floor the cane camera saw free along each bearing, which the plan must not put
     // a wall across: on the building's ground floor the scan's walls end at halls and
     // openings, where the hits alone let the estimate fall back.
-    let without = run_with("building", 1, &LocalizeWalkConfig::default());
     let free = LocalizeWalkConfig {
         filter: FilterConfig { free_space: Some(FreeSpaceConfig::default()), ..Default::default() },
         ..Default::default()
     };
-    let with = run_with("building", 1, &free);
+    let [without, with] = run_each("building", 1, [&LocalizeWalkConfig::default(), &free]);
     check_common(&with);
     let (a, b) = (&without.summary, &with.summary);
     // measured: RMSE 0.199 -> 0.118 m (along 0.191 -> 0.112), heading 2.67 -> 1.67°;
