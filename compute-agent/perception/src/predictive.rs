@@ -232,6 +232,9 @@ pub struct PredictiveCue {
     /// `points` from here on are the second device's ([`Ahead::body_points`]).
     body_from: usize,
     armed: Vec<bool>,
+    /// Per point, the body's distance to it when the look-ahead began within the margin
+    /// (infinite otherwise, or once the body came clear of it again).
+    inside_m: Vec<f64>,
     /// Distance along the frame's way of each of its points, metres.
     way_along: Vec<f64>,
     /// Touches the cane or the body made, as the device sees them (what it holds within
@@ -258,6 +261,13 @@ const STRAIGHT_ON_M: f64 = 100.0;
 /// The states tried, in the order preferred among the safe ones after clear.
 const STATES: [Rumble; 3] = [Rumble::Left, Rumble::Right, Rumble::Both];
 
+/// A point the body already stands within the margin of counts as touched when the
+/// body comes this much nearer to it than it began, metres, ...
+const DEEPER_M: f64 = 0.01;
+/// ... and nearer than this: standing 3 cm from a desk's edge is no touch yet, walking
+/// on into it is; swaying 4 cm from a wall walked along is neither.
+const INSIDE_TOUCH_M: f64 = 0.02;
+
 /// A point counts as touched again only after it came this much further than the
 /// margin from the cane and the body, metres.
 const RELEASE_M: f64 = 0.05;
@@ -272,6 +282,7 @@ impl PredictiveCue {
             point_cane: Vec::new(),
             body_from: 0,
             armed: Vec::new(),
+            inside_m: Vec::new(),
             way_along: Vec::new(),
             touches: VecDeque::new(),
             touching: false,
@@ -575,6 +586,9 @@ impl PredictiveCue {
 
         self.armed.clear();
         self.armed.resize(self.points.len(), true);
+        self.inside_m.clear();
+        self.inside_m.resize(self.points.len(), f64::INFINITY);
+        let mut any_inside = false;
         let body_only = c.guards == Guards::Body;
         self.cane_armed.clear();
         self.cane_armed.resize(if body_only { self.points.len() } else { 0 }, true);
@@ -651,6 +665,20 @@ impl PredictiveCue {
                     *armed = false;
                 } else if d > c.margin_m + RELEASE_M {
                     *armed = true;
+                }
+                // the body already within the margin: walking on into it is a touch (the
+                // margin's own rule above never counts it: a touch begins only outside)
+                if k == 0 {
+                    if body <= c.margin_m {
+                        self.inside_m[i] = body;
+                        any_inside = true;
+                    }
+                } else if any_inside && self.inside_m[i].is_finite() {
+                    if body > c.margin_m + RELEASE_M {
+                        self.inside_m[i] = f64::INFINITY;
+                    } else if body < (self.inside_m[i] - DEEPER_M).min(INSIDE_TOUCH_M) {
+                        touched = true;
+                    }
                 }
                 // guarding the body alone: what the cane finds turns the user away
                 if let Some(a) = self.cane_armed.get_mut(i) {
@@ -1245,6 +1273,43 @@ mod tests {
         let points = wall([0.9, 0.05], [0.9, 0.15]);
         let r = decide_at(&mut cue, 0.0, &points, &[[0.0, 0.0], [10.0, 0.0]], &[]);
         assert_ne!(r, Rumble::None);
+    }
+
+    #[test]
+    fn a_user_standing_at_what_the_cue_holds_is_never_told_to_walk_on_into_it() {
+        // stopped by a rumble 3 cm short of the one point held of a desk's edge on the way,
+        // which the cane passes under (as in the study's gen:office:2, seed 2, where the
+        // cue then said "left" 3 cm from a partition it held out of view, and the body
+        // walked into it): within the margin already, so no touch begins, but walking on
+        // is one
+        let radius = UserModel::default().shoulder_width_m / 2.0;
+        let camera_x = CaneModel::default().hand_forward_m + CaneModel::default().camera_from_hand_m;
+        let points = [[(radius + 0.03 - camera_x) as f32, 0.0]];
+        let way = [[0.0, 0.0], [10.0, 0.0]];
+        let mut cue = PredictiveCue::new(PredictiveConfig { guards: Guards::Body, ..PredictiveConfig::default() });
+        // stopped there 5 s ago, long enough for the model's turn away from that touch
+        // to be over: the user stands, turning in place, until told otherwise
+        cue.sent(-6.0, Rumble::Both);
+        let mut now = Ahead {
+            t_s: -5.0,
+            way: Way { points: &way, ends_at_goal: false, walls: &[] },
+            points: &points,
+            cane_finds: &[],
+            body_points: &[],
+            sweep_rad: 0.0,
+            speed_m_s: 0.0,
+            yaw_rate_rad_s: Some(0.0),
+        };
+        cue.load_frame(&now);
+        now.t_s = 0.0;
+        cue.load_frame(&now);
+        for state in [Rumble::None, Rumble::Left, Rumble::Right] {
+            let t = cue.first_touch_s(&now, state, None);
+            assert!(t.is_some_and(|t| t < 1.0), "{state:?}: {t:?}");
+        }
+        // turning in place keeps the body where it is
+        assert_eq!(cue.first_touch_s(&now, Rumble::Both, None), None);
+        assert_eq!(cue.decide(&now), Rumble::Both);
     }
 
     #[test]
