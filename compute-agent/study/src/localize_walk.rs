@@ -374,8 +374,10 @@ pub fn localize_walk(
 pub struct PerceivedWalk<'w> {
     world: &'w World,
     seed: u64,
-    /// What it was walked with: its walk, end radius and stuck time are this walk's.
-    walked: LocalizeWalkConfig,
+    /// What it was walked with ([`LocalizeWalkConfig::walk`], `end_radius_m`, `stuck_s`).
+    walk: WalkConfig,
+    end_radius_m: f64,
+    stuck_s: f64,
     trace: Vec<TraceRow>,
     scans: Vec<Option<CaneScan>>,
     odometry: Vec<Vec<schemas::OdomIncrement>>,
@@ -387,7 +389,8 @@ impl<'w> PerceivedWalk<'w> {
     /// and perceives every frame.
     pub fn new(world: &'w World, seed: u64, config: &LocalizeWalkConfig) -> Self {
         let (trace, scans, odometry, replay_mismatches) = walk_and_perceive(world, seed, config);
-        Self { world, seed, walked: config.clone(), trace, scans, odometry, replay_mismatches }
+        let (walk, end_radius_m, stuck_s) = (config.walk.clone(), config.end_radius_m, config.stuck_s);
+        Self { world, seed, walk, end_radius_m, stuck_s, trace, scans, odometry, replay_mismatches }
     }
 
     /// Localizes the walk with `config`'s filter, map, scans, signs and corrections;
@@ -398,9 +401,9 @@ impl<'w> PerceivedWalk<'w> {
         clock_ms: impl FnMut() -> f64,
     ) -> Result<WalkLocalization, LocalizeWalkError> {
         let config = &LocalizeWalkConfig {
-            walk: self.walked.walk.clone(),
-            end_radius_m: self.walked.end_radius_m,
-            stuck_s: self.walked.stuck_s,
+            walk: self.walk.clone(),
+            end_radius_m: self.end_radius_m,
+            stuck_s: self.stuck_s,
             ..config.clone()
         };
         localize_perceived(self, config, clock_ms)
