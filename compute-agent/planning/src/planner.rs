@@ -186,6 +186,35 @@ impl Planner {
             || route.waypoints.windows(2).any(|w| !clear_of_discs(&self.discs, w[0], w[1]))
     }
 
+    /// True when an active obstacle stands on what is left of `route` for a user at
+    /// `from` heading for its waypoint `next`: the line from `from` to that waypoint, or
+    /// a segment after it, passes within `pass_m` of the obstacle itself (its radius,
+    /// not its disc: `pass_m` is how near the user may pass, e.g. half the body's
+    /// width; the planner's clearance keeps new routes farther). An obstacle `from` is
+    /// already that near is left out: what the user stands beside is the obstacle
+    /// cue's to warn of, and any way from there starts beside it. Cost: obstacles times
+    /// segments.
+    pub fn blocks_ahead(&self, route: &Route, from: [f64; 2], next: usize, pass_m: f64) -> bool {
+        let reach = |d: &Disc| (d.radius_m - self.clearance_m).max(0.0) + pass_m;
+        let ahead: Vec<Disc> = self
+            .discs
+            .iter()
+            .filter(|d| dist(from, [d.x, d.y]) >= reach(d))
+            .map(|d| Disc { radius_m: reach(d), ..*d })
+            .collect();
+        let Some(rest) = route.waypoints.get(next..) else {
+            return false;
+        };
+        let mut a = from;
+        for &b in rest {
+            if !clear_of_discs(&ahead, a, b) {
+                return true;
+            }
+            a = b;
+        }
+        false
+    }
+
     /// Replans from where the user is to the goal of `route`.
     pub fn replan(&mut self, route: &Route, from: [f64; 2]) -> Result<Route, PlanError> {
         self.plan(from, route.goal())

@@ -140,6 +140,31 @@ fn obstacle_on_the_route_forces_a_detour_and_restore_brings_the_route_back() {
 }
 
 #[test]
+fn an_obstacle_blocks_the_way_ahead_only_where_the_body_would_touch_it_before_the_user() {
+    let mut p = planner();
+    let (a, b) = ([14.5, 1.0], [14.5, 21.0]);
+    let route = p.plan(a, b).unwrap();
+    // one straight segment up the corridor
+    assert_eq!(route.waypoints.len(), 2, "{:?}", route.waypoints);
+    // an obstacle 0.1 m across on the line, the body passing within 0.25 m of it
+    p.add_obstacle(14.5, 6.0, 0.1);
+    // the user at y = 3 heading up: the obstacle 3 m ahead is on the way
+    assert!(p.blocks_ahead(&route, [14.5, 3.0], 1, 0.25));
+    // past it (y = 8): behind the user, not on the way left
+    assert!(!p.blocks_ahead(&route, [14.5, 8.0], 1, 0.25));
+    // standing 0.3 m short of it: the cue's, not the plan's
+    assert!(!p.blocks_ahead(&route, [14.5, 5.7], 1, 0.25));
+    // beside the way, 0.4 m off the line: the body passes it (the clearance of 0.3 m
+    // would not, but that is for new routes)
+    let mut q = planner();
+    q.add_obstacle(14.1, 6.0, 0.1);
+    assert!(!q.blocks_ahead(&route, [14.5, 3.0], 1, 0.25));
+    assert!(q.blocks_ahead(&route, [14.5, 3.0], 1, 0.35));
+    // no waypoint left to head for: nothing ahead
+    assert!(!p.blocks_ahead(&route, [14.5, 3.0], 2, 0.25));
+}
+
+#[test]
 fn stray_user_rejoins_the_nearest_route_node_or_asks_for_a_replan() {
     let mut p = planner();
     let r = p.plan(LONGEST.0, LONGEST.1).unwrap();
