@@ -376,6 +376,32 @@ impl Tracker {
         self.pf.estimate()
     }
 
+    /// Where the camera is by the estimate and the sweep of now: map x, y (metres) and
+    /// the direction it looks (radians counter-clockwise from +x), the frame the
+    /// perception's points (x forward, y left) are read in, as the scans are.
+    pub fn camera_in_map(&self) -> ([f64; 2], f64) {
+        let e = self.estimate();
+        let c = self.config.cane;
+        let (h, s) = (e.pose.heading_rad, self.sweep_rad);
+        let x = e.pose.x_m + h.cos() * c.hand_forward_m + (h + s).cos() * c.camera_from_hand_m;
+        let y = e.pose.y_m + h.sin() * c.hand_forward_m + (h + s).sin() * c.camera_from_hand_m;
+        ([x, y], h + s)
+    }
+
+    /// The perception's `points` (the camera's floor frame: x forward, y left, metres)
+    /// in the map, where the estimate and the sweep of now put the camera, into `out`
+    /// (cleared first); returns where the camera is.
+    pub fn points_in_map(&self, points: &[[f32; 2]], out: &mut Vec<[f64; 2]>) -> [f64; 2] {
+        let (camera, yaw) = self.camera_in_map();
+        let (s, c) = yaw.sin_cos();
+        out.clear();
+        out.extend(points.iter().map(|p| {
+            let (x, y) = (f64::from(p[0]), f64::from(p[1]));
+            [camera[0] + c * x - s * y, camera[1] + s * x + c * y]
+        }));
+        camera
+    }
+
     /// The sweep the scan is read with now, radians (positive: to the left).
     pub fn sweep_rad(&self) -> f64 {
         self.sweep_rad
@@ -541,6 +567,28 @@ normal = [0.0, -1.0]
 
     fn odom(forward_m: f64, yaw_rad: f64, from_ns: u64, to_ns: u64) -> schemas::OdomIncrement {
         schemas::OdomIncrement { from_ns, to_ns, forward_m: forward_m as f32, left_m: 0.0, yaw_rad: yaw_rad as f32 }
+    }
+
+    #[test]
+    fn the_perceptions_points_are_placed_on_the_map_from_the_camera_ahead_of_the_body() {
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 1).unwrap();
+        // the user at (5, 2) facing +y (a quarter turn left of the map's +x), no sweep
+        t.start_at(0, Pose2::new(5.0, 2.0, std::f64::consts::FRAC_PI_2)).unwrap();
+        let e = t.estimate();
+        let c = CaneOnBody::default();
+        let ahead = c.hand_forward_m + c.camera_from_hand_m;
+        let mut out = vec![[9.0, 9.0]];
+        // a point 1 m ahead of the camera and one 0.5 m to its left
+        let camera = t.points_in_map(&[[1.0, 0.0], [0.0, 0.5]], &mut out);
+        let (x, y, h) = (e.pose.x_m, e.pose.y_m, e.pose.heading_rad);
+        assert!((camera[0] - (x + h.cos() * ahead)).abs() < 1e-9 && (camera[1] - (y + h.sin() * ahead)).abs() < 1e-9);
+        assert_eq!(out.len(), 2, "cleared first: {out:?}");
+        let want = [[camera[0] + h.cos(), camera[1] + h.sin()], [camera[0] - 0.5 * h.sin(), camera[1] + 0.5 * h.cos()]];
+        for (got, want) in out.iter().zip(want) {
+            assert!((got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6, "{got:?} against {want:?}");
+        }
+        // facing +y, "ahead" is +y on the map and "left" is -x
+        assert!(out[0][1] > camera[1] + 0.99 && out[1][0] < camera[0] - 0.49, "{out:?}");
     }
 
     #[test]
