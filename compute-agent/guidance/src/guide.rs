@@ -138,6 +138,9 @@ pub struct Guide {
     /// the last instruction was not heard: the next one gets a key of its own (the
     /// feedback agent remembers the key of what it started, even if it was cut)
     again: bool,
+    /// the route is a way round something the camera found on the last one: its start
+    /// says so
+    detour: bool,
 }
 
 impl Guide {
@@ -167,6 +170,7 @@ impl Guide {
             serial: 0,
             headings: Headings::default(),
             again: false,
+            detour: false,
         };
         g.set_legs(legs);
         g
@@ -193,7 +197,22 @@ impl Guide {
         self.set_legs(route.legs);
     }
 
+    /// Replaces the route with a way round something found standing on it
+    /// ([`crate::Navigator::perceived`]): as [`Guide::set_route`], and the new route's
+    /// start says why it changed ("Something stands in the way. A way round: ...").
+    pub fn set_detour(&mut self, route: BuildingRoute) {
+        self.set_legs(route.legs);
+        self.detour = true;
+    }
+
+    /// The current leg's route and the index of the waypoint ahead on it; `None` once
+    /// arrived.
+    pub fn way_left(&self) -> Option<(&Route, usize)> {
+        (!self.arrived).then(|| self.legs.get(self.leg).map(|l| (&l.route, self.target))).flatten()
+    }
+
     fn set_legs(&mut self, legs: Vec<Leg>) {
+        self.detour = false;
         self.legs = legs;
         self.generation += 1;
         self.leg = 0;
@@ -598,11 +617,16 @@ impl Guide {
         let back = self.back_on_route && self.started_leg == Some(self.leg);
         let text = self.start_words(pose, pr, back);
         self.serial += 1;
-        let key = if back { format!("leg{}/back/{}", self.leg, self.serial) } else { format!("leg{}/start", self.leg) };
+        let key = match (back, self.detour) {
+            (true, _) => format!("leg{}/back/{}", self.leg, self.serial),
+            (false, true) => format!("leg{}/detour/{}", self.leg, self.serial),
+            (false, false) => format!("leg{}/start", self.leg),
+        };
         let i = self.issue(InstructionKind::Start { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
         if i.is_some() {
             self.started_leg = Some(self.leg);
             self.back_on_route = false;
+            self.detour = false;
         }
         i
     }
@@ -614,6 +638,7 @@ impl Guide {
         let total = distance_phrase(total, &self.profile);
         let head = match (self.leg, self.destination.as_str()) {
             _ if back => "Back on the route.".to_string(),
+            (0, _) if self.detour => format!("Something stands in the way. A way round: {total}."),
             (0, "") => format!("Route: {total}."),
             (0, d) => format!("Route to {d}: {total}."),
             (_, "") => format!("Floor {}: {total} to go.", self.route().floor),

@@ -11,6 +11,7 @@
 //! | "where am I" | [`where_am_i`] | ISANA (area tree); Zhang et al. (door numbers) |
 //! | what goes to the feedback agent | [`instruction`] | ARCHITECTURE.md safety rule 3 |
 //! | commands, planning, replanning, route state | [`navigator`] | ISANA (floor confirmed by the user) |
+//! | what the camera finds that the plan lacks, on the planner: ways round it | [`perceived`] | ISANA (obstacle-driven node removal) |
 //! | the way ahead for the predictive cue | [`way`] | ours (`docs/predictive-cue.md`) |
 //!
 //! Wording rules, thresholds and where each comes from: `docs/guidance.md`.
@@ -18,6 +19,7 @@
 pub mod guide;
 pub mod instruction;
 pub mod navigator;
+pub mod perceived;
 pub mod profile;
 pub mod utterance;
 pub mod way;

@@ -12,6 +12,7 @@ use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
 use crate::guide::{Guide, Headings, UserPose};
+use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
 use crate::utterance::distance_phrase;
 use crate::where_am_i::where_am_i;
@@ -19,6 +20,22 @@ use crate::where_am_i::where_am_i;
 /// How long an answer or an announcement of the navigator's own may wait for the
 /// speaker, ms (as the guide's answers).
 const ANSWER_TTL_MS: u32 = 5000;
+/// After a way round what the camera found, the next is looked for no sooner than this,
+/// ms: the user hears one new route and turns by it before the next (a cell that comes
+/// and goes in the view would otherwise change the route at every frame).
+pub const DETOUR_EVERY_MS: u64 = 4000;
+/// A way round is said only when it leaves the route by at least this much, metres:
+/// nearer, it is a sidestep round a bin or a post, which the cane and the obstacle cue
+/// give better than "turn right, then go straight on" (told as turns, small sidesteps
+/// sent users on a pavement off their way: docs/guidance.md).
+pub const DETOUR_MIN_M: f64 = 1.0;
+/// A way round longer than this many times what was left of the route, plus
+/// [`DETOUR_MAX_EXTRA_M`], is not taken: round the far end of a block, or along a road
+/// past a kerb a floor plan draws as a line, it is no way round a bin (the route is kept
+/// and the cane and the cue find their way past).
+pub const DETOUR_MAX_FACTOR: f64 = 1.5;
+/// See [`DETOUR_MAX_FACTOR`], metres.
+pub const DETOUR_MAX_EXTRA_M: f64 = 10.0;
 
 /// What a command changed beyond speech.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -58,6 +75,13 @@ pub struct Navigator {
     /// the poses' headings over the last second, handed to a new route's guide (was
     /// the user turning when it was planned?)
     headings: Headings,
+    /// what the camera found that the plan does not have, on the planner
+    perceived: Perceived,
+    /// when the last way round was looked for, ms
+    detour_tried_ms: Option<u64>,
+    /// ways round laid, looked for without one found (or only a far longer one), and
+    /// found but no farther from the route than a sidestep
+    detours: (u64, u64, u64),
 }
 
 impl Navigator {
@@ -82,6 +106,9 @@ impl Navigator {
             problem: None,
             serial: 0,
             headings: Headings::default(),
+            perceived: Perceived::default(),
+            detour_tried_ms: None,
+            detours: (0, 0, 0),
         }
     }
 
@@ -231,7 +258,7 @@ impl Navigator {
         if instruction.needs_replan() {
             let goal = self.trip.as_ref()?.goal;
             let from = FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m };
-            match self.planner.plan(from, goal) {
+            match self.plan(from, goal) {
                 Ok(route) => {
                     if let Some(g) = self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
                         g.set_route(route);
@@ -241,6 +268,84 @@ impl Navigator {
             }
         }
         Some(instruction.speech())
+    }
+
+    /// What the perception holds now, map frame of `pose.floor` (`camera`: where the
+    /// camera is): what the plan does not have becomes an obstacle of the planner
+    /// ([`Perceived`]); when one stands on the route ahead, a way round it is planned
+    /// from `pose`, and the guide starts it ("Something stands in the way. A way round:
+    /// ..."), at most once in [`DETOUR_EVERY_MS`]. No way round: the route is kept (the
+    /// obstacle cue and the cane are for what stands on it) and the reason is left for
+    /// the log ([`Navigator::take_problem`]). Nothing is taken while the position is not
+    /// confident: a point is only where the position puts it.
+    pub fn perceived(&mut self, pose: &UserPose, camera: [f64; 2], points: &[[f64; 2]], now_ms: u64) {
+        let finite = pose.x_m.is_finite() && pose.y_m.is_finite() && camera[0].is_finite() && camera[1].is_finite();
+        if !(pose.confident && finite) {
+            return;
+        }
+        self.perceived.update(&mut self.planner, pose.floor, camera, points, now_ms);
+        if self.detour_tried_ms.is_some_and(|t| now_ms < t.saturating_add(DETOUR_EVERY_MS)) {
+            return;
+        }
+        let Some(trip) = self.trip.as_ref() else {
+            return;
+        };
+        let goal = trip.goal;
+        let Some((route, next)) = trip.guide.as_ref().and_then(Guide::way_left) else {
+            return;
+        };
+        let Some(planner) = self.planner.floor(pose.floor).filter(|_| route.floor == pose.floor) else {
+            return;
+        };
+        if !planner.blocks_ahead(route, [pose.x_m, pose.y_m], next, PASS_M) {
+            return;
+        }
+        self.detour_tried_ms = Some(now_ms);
+        let from = [pose.x_m, pose.y_m];
+        let old: Vec<[f64; 2]> =
+            std::iter::once(from).chain(route.waypoints[next.min(route.waypoints.len())..].iter().copied()).collect();
+        match self.planner.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
+            Ok(round) => {
+                // a way round that never leaves the old route by more than a sidestep is
+                // the cane's and the cue's (a bin beside the pavement), not a new route
+                let apart = round.legs.first().map_or(0.0, |l| farthest_from(&l.route.points, &old));
+                if apart < DETOUR_MIN_M {
+                    self.detours.2 += 1;
+                    return;
+                }
+                let left_m: f64 = old.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum();
+                if round.walk_length_m > DETOUR_MAX_FACTOR * left_m + DETOUR_MAX_EXTRA_M {
+                    self.detours.1 += 1;
+                    self.problem = Some(format!(
+                        "something stands on the route ahead; the way round is {:.0} m against {left_m:.0} m left: the route is kept",
+                        round.walk_length_m
+                    ));
+                    return;
+                }
+                self.detours.0 += 1;
+                if let Some(g) = self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
+                    g.set_detour(round);
+                }
+            }
+            Err(e) => {
+                self.detours.1 += 1;
+                self.problem = Some(format!(
+                    "something stands on the route ahead and there is no way round it ({e}): the route is kept"
+                ));
+            }
+        }
+    }
+
+    /// Ways round what the camera found: laid, looked for without one found, and found
+    /// but within [`DETOUR_MIN_M`] of the route (left to the cane and the cue).
+    pub fn detours(&self) -> (u64, u64, u64) {
+        self.detours
+    }
+
+    /// What the camera found that blocks the planner's graph now, in cells, and the
+    /// points refused (not finite, out of range).
+    pub fn perceived_obstacles(&self) -> (usize, u64) {
+        (self.perceived.obstacles(), self.perceived.refused())
     }
 
     /// The feedback agent never finished saying `text` (`feedback/applied`: dropped or
@@ -263,7 +368,6 @@ impl Navigator {
         let place = self.find(to)?.clone();
         let goal = FloorPoint { floor: place.floor, x: place.x, y: place.y };
         let route = self
-            .planner
             .plan(FloorPoint { floor: from.floor, x: from.x_m, y: from.y_m }, goal)
             .map_err(|e| format!("no way to {}: {e}", place.name))?;
         let instruction = summary(&route, &self.profile);
@@ -277,7 +381,7 @@ impl Navigator {
     fn plan_trip(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
         let trip = self.trip.as_ref()?;
         let (goal, label) = (trip.goal, trip.label.clone());
-        match self.planner.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
+        match self.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
             Ok(route) => {
                 let mut guide = Guide::building(route, &label, self.semantic.clone(), self.profile);
                 guide.headings = self.headings.clone();
@@ -288,6 +392,19 @@ impl Navigator {
                 self.step(pose, now_ms)
             }
             Err(e) => Some(self.unreachable(&e.to_string())),
+        }
+    }
+
+    /// A route from `from` to `to`; when what the camera found leaves none, the plan's
+    /// own (what was found is given back: a user walled in by it, or snapped past it,
+    /// is better guided on the plan than left without a route).
+    fn plan(&mut self, from: FloorPoint, to: FloorPoint) -> Result<BuildingRoute, planning::PlanError> {
+        match self.planner.plan(from, to) {
+            Err(_) if self.perceived.obstacles() > 0 => {
+                self.perceived.clear(&mut self.planner);
+                self.planner.plan(from, to)
+            }
+            result => result,
         }
     }
 
@@ -317,6 +434,19 @@ impl Navigator {
         self.last_said = Some(s.clone());
         s
     }
+}
+
+/// The farthest any of `points` is from the polyline `line`, metres.
+fn farthest_from(points: &[[f64; 2]], line: &[[f64; 2]]) -> f64 {
+    let near = |p: [f64; 2]| match line {
+        [] => f64::INFINITY,
+        [only] => (p[0] - only[0]).hypot(p[1] - only[1]),
+        _ => line
+            .windows(2)
+            .map(|w| planning::smoothing::segment_point_distance(w[0], w[1], p))
+            .fold(f64::INFINITY, f64::min),
+    };
+    points.iter().map(|&p| near(p)).fold(0.0, f64::max)
 }
 
 /// "25 metres, by the elevator to floor 1": a route in a few words.

@@ -253,3 +253,139 @@ fn a_preview_plans_without_starting_guidance() {
     let unsure = UserPose { confident: false, ..here };
     assert_eq!(nav.preview(&unsure, "room 214").unwrap_err(), "the position is not known yet");
 }
+
+/// A room 10 x 6 m (free x 0.5..9.5, y 0.5..5.5) with "door A" at its west end and
+/// "door B" at its east end: a floor plan, walls only.
+fn room_navigator() -> Navigator {
+    let (w, h) = ((10.0 / RES_M) as usize, (6.0 / RES_M) as usize);
+    let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+    let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
+    for r in 0..h {
+        for c in 0..w {
+            let (x, y) = g.cell_center(c, r);
+            if (0.5..=9.5).contains(&x) && (0.5..=5.5).contains(&y) {
+                g.set(c, r, Cell::Free);
+            }
+        }
+    }
+    let layer = r#"
+[[label]]
+name = "door A"
+x = 1.0
+y = 3.0
+floor = 0
+
+[[label]]
+name = "door B"
+x = 9.0
+y = 3.0
+floor = 0
+"#;
+    let layer = SemanticLayer::parse(layer, Path::new("room.toml")).unwrap();
+    let building =
+        Building::new(vec![Floor { level: 0, grid: g, semantic: layer.floor(0) }], Path::new("room")).unwrap();
+    Navigator::new(&building, UserProfile::default(), GuidanceProfile::default())
+}
+
+/// A desk's front as the camera sees it: points every 5 cm along x = 5, y from `y0` to `y1`.
+fn desk(y0: f64, y1: f64) -> Vec<[f64; 2]> {
+    let n = ((y1 - y0) / 0.05).round() as usize;
+    (0..=n).map(|k| [5.0, y0 + k as f64 * 0.05]).collect()
+}
+
+#[test]
+fn a_desk_the_plan_lacks_on_the_route_ahead_gets_a_way_round_said_once() {
+    let mut nav = room_navigator();
+    let start = at(1.0, 3.0, 0.0, 0);
+    let r = nav.command(&go("door B"), &start, 0);
+    assert_eq!(texts(&r.speech), ["Route to door B: 8 metres. Go straight on."]);
+    let straight = nav.state(&start);
+    assert!(straight.route.iter().all(|p| (p.y_m - 3.0).abs() < 0.1), "{:?}", straight.route);
+
+    // walking on, the camera 0.35 m ahead of the body sees a desk across the way
+    // (y 2.0 to 4.0): not in the plan, so on the planner; a way round is laid
+    let user = at(3.0, 3.0, 0.0, 0);
+    nav.perceived(&user, [3.35, 3.0], &desk(2.0, 4.0), 1000);
+    assert_eq!(nav.detours(), (1, 0, 0));
+    // 41 points, 20 cm cells: 11 cells
+    assert_eq!(nav.perceived_obstacles(), (11, 0));
+    // (after the spacing since the last instruction)
+    let said = nav.step(&user, 4000).expect("the new route's start").text;
+    assert!(said.starts_with("Something stands in the way. A way round: "), "{said}");
+    assert!(said.ends_with(", then go straight on."), "{said}");
+    let round = nav.state(&user);
+    assert_eq!(round.status, RouteStatus::Guiding);
+    // every leg of the new route keeps the body (0.3 m clearance) off the desk
+    let mut from = [user.x_m, user.y_m];
+    for p in &round.route {
+        let to = [f64::from(p.x_m), f64::from(p.y_m)];
+        for d in desk(2.0, 4.0) {
+            let gap = segment_distance(from, to, d);
+            assert!(gap >= 0.3, "the route passes {gap:.2} m from the desk at {d:?}: {:?}", round.route);
+        }
+        from = to;
+    }
+    let last = round.route.last().unwrap();
+    assert!((f64::from(last.x_m) - 9.0).abs() <= 0.1 && (f64::from(last.y_m) - 3.0).abs() <= 0.1);
+
+    // the desk seen again from the new route: nothing new stands on it, no new route
+    nav.perceived(&user, [3.35, 3.0], &desk(2.0, 4.0), 6000);
+    assert_eq!(nav.detours(), (1, 0, 0));
+    // not seen for 15 s: given back to the graph
+    nav.perceived(&user, [3.35, 3.0], &[], 21_000);
+    assert_eq!(nav.perceived_obstacles(), (0, 0));
+}
+
+#[test]
+fn a_bin_on_the_route_is_a_sidestep_for_the_cane_not_a_new_route() {
+    let mut nav = room_navigator();
+    let start = at(1.0, 3.0, 0.0, 0);
+    assert_eq!(nav.command(&go("door B"), &start, 0).speech.len(), 1);
+    let user = at(3.0, 3.0, 0.0, 0);
+    // a bin 0.3 m across on the route 2 m ahead: a way round exists, half a metre aside
+    let bin: Vec<[f64; 2]> =
+        (0..7).flat_map(|i| (0..7).map(move |j| [4.85 + 0.05 * f64::from(i), 2.85 + 0.05 * f64::from(j)])).collect();
+    nav.perceived(&user, [3.35, 3.0], &bin, 1000);
+    assert_eq!(nav.detours(), (0, 0, 1));
+    assert_eq!(nav.step(&user, 4000), None, "nothing to say: the route is as it was");
+    let kept = nav.state(&user);
+    assert!(kept.route.iter().all(|p| (p.y_m - 3.0).abs() < 0.1), "{:?}", kept.route);
+}
+
+#[test]
+fn what_the_plan_has_no_confident_position_and_no_way_round_leave_the_route_as_it_is() {
+    let mut nav = room_navigator();
+    let start = at(1.0, 3.0, 0.0, 0);
+    assert_eq!(nav.command(&go("door B"), &start, 0).speech.len(), 1);
+    let user = at(3.0, 3.0, 0.0, 0);
+    // the room's walls, seen: the plan has them
+    let walls: Vec<[f64; 2]> = (0..60).map(|k| [3.5 + k as f64 * 0.05, 0.45]).collect();
+    nav.perceived(&user, [3.35, 3.0], &walls, 1000);
+    assert_eq!((nav.perceived_obstacles(), nav.detours()), ((0, 0), (0, 0, 0)));
+    // a desk while the position is not confident: nowhere to put it
+    let lost = UserPose { confident: false, ..user };
+    nav.perceived(&lost, [3.35, 3.0], &desk(2.0, 4.0), 2000);
+    assert_eq!((nav.perceived_obstacles(), nav.detours()), ((0, 0), (0, 0, 0)));
+    // points that are no points, or 30 m off: refused and counted
+    nav.perceived(&user, [3.35, 3.0], &[[f64::NAN, 3.0], [33.0, 3.0]], 3000);
+    assert_eq!(nav.perceived_obstacles(), (0, 2));
+    // a desk across the whole room: no way round, the route is kept and the log told why
+    nav.perceived(&user, [3.35, 3.0], &desk(0.5, 5.5), 4000);
+    assert_eq!(nav.detours(), (0, 1, 0));
+    let problem = nav.take_problem().expect("a reason for the log");
+    assert!(problem.starts_with("something stands on the route ahead and there is no way round it"), "{problem}");
+    let kept = nav.state(&user);
+    assert_eq!(kept.status, RouteStatus::Guiding);
+    assert!(kept.route.iter().all(|p| (p.y_m - 3.0).abs() < 0.1), "{:?}", kept.route);
+    // and not looked for again before 4 s have passed
+    nav.perceived(&user, [3.35, 3.0], &desk(0.5, 5.5), 5000);
+    assert_eq!(nav.detours(), (0, 1, 0));
+}
+
+/// Distance from `p` to the segment `a`-`b`.
+fn segment_distance(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
+    let (vx, vy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = vx * vx + vy * vy;
+    let t = if len2 > 0.0 { (((p[0] - a[0]) * vx + (p[1] - a[1]) * vy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (a[0] + t * vx - p[0]).hypot(a[1] + t * vy - p[1])
+}
