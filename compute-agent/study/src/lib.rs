@@ -186,6 +186,12 @@ pub struct CourseArgs {
     /// error from the cue's.
     #[arg(long, value_enum, default_value_t = walk::PoseSource::Filter)]
     pub pose: walk::PoseSource,
+    /// With --guide spoken: what the perception holds goes onto the navigator's planner
+    /// (what the floor plan does not have: furniture, bins, people), and a route with
+    /// something standing on it ahead is laid round it ("Something stands in the way. A
+    /// way round: ..."), at most once in 4 s.
+    #[arg(long)]
+    pub ways_round: bool,
     /// With --pose filter: the map the particle filter localizes on: `floor-plan` (the
     /// walls `wearnav map` exports) or `mapped` (also the furniture and hanging obstacles
     /// a mapping run would record; no people, no chairs). Routes are planned on the floor
@@ -481,6 +487,8 @@ impl CourseArgs {
             "--odometry-noise goes with --pose filter (and --predictive or --guide spoken)"
         );
         c.odometry_noise = self.odometry_noise;
+        anyhow::ensure!(!self.ways_round || self.guide == GuideKind::Spoken, "--ways-round goes with --guide spoken");
+        c.ways_round = self.ways_round;
         Ok(c)
     }
 }
@@ -824,8 +832,14 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
             format!("; heard {heard} utterances, {prompts} off-route prompts in {:.0} m", w.path_m)
         }
     };
+    let round = match w.ways_round {
+        None => String::new(),
+        Some((laid, none, sidesteps)) => {
+            format!("; {laid} ways round said ({none} looked for and none found, {sidesteps} only a sidestep)")
+        }
+    };
     format!(
-        "seed {}: {} in {:.1} s, {} cane and {} body contacts{localization}{heard}",
+        "seed {}: {} in {:.1} s, {} cane and {} body contacts{localization}{heard}{round}",
         w.seed,
         w.verdict(),
         w.time_s,

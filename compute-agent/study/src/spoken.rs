@@ -282,6 +282,19 @@ impl SpokenDevice {
         self.navigator.not_heard(text)
     }
 
+    /// What the perception holds now, map frame (`camera`: where the camera is), at the
+    /// believed `pose`: ways round what stands on the route
+    /// (`guidance::Navigator::perceived`).
+    pub fn perceived(&mut self, pose: &UserPose, camera: [f64; 2], points: &[[f64; 2]], now_ms: u64) {
+        self.navigator.perceived(pose, camera, points, now_ms);
+    }
+
+    /// Ways round what the camera found: laid, looked for without one found, and
+    /// found but within a sidestep of the route.
+    pub fn detours(&self) -> (u64, u64, u64) {
+        self.navigator.detours()
+    }
+
     /// Where guidance stands at `pose` (`route/state`).
     pub fn state(&self, pose: &UserPose) -> RouteState {
         self.navigator.state(pose)

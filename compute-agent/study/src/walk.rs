@@ -185,6 +185,10 @@ pub struct WalkConfig {
     /// body's speed are made from, made worse to see how the cue degrades as the place's
     /// error grows.
     pub odometry_noise: f64,
+    /// With the spoken guide: what the perception holds goes onto the navigator's
+    /// planner, and a route with something standing on it ahead is laid round it
+    /// (`guidance::Navigator::perceived`). Off: the route is the floor plan's alone.
+    pub ways_round: bool,
 }
 
 /// Where the predictive cue takes the user to be.
@@ -288,6 +292,7 @@ impl Default for WalkConfig {
             pose: PoseSource::Filter,
             localization_map: floor_plan::LocalizationMap::FloorPlan,
             odometry_noise: 1.0,
+            ways_round: false,
         }
     }
 }
@@ -422,6 +427,9 @@ pub struct WalkOutcome {
     /// With the spoken guide: utterances heard to their end, and of them the prompts to
     /// come back to the route ("Off the route: ...").
     pub heard: Option<(u32, u32)>,
+    /// With the spoken guide: ways round what the camera found (`--ways-round`): laid,
+    /// looked for without one found, and found but within a sidestep of the route.
+    pub ways_round: Option<(u64, u64, u64)>,
     /// One row per camera frame when [`WalkConfig::trace`] asked for it.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
@@ -805,6 +813,8 @@ pub struct Walk<'w> {
     /// With the predictive cue: the route the device knows, and the way ahead.
     route_ahead: Option<RouteAhead>,
     way: Vec<[f64; 2]>,
+    /// With `WalkConfig::ways_round`: what the perception holds, map frame.
+    held_in_map: Vec<[f64; 2]>,
     /// What the user knows of the floor (the route map's walls and level changes) as
     /// points every 10 cm, map frame, and the floor they are of; near ones in the body
     /// frame.
@@ -927,6 +937,7 @@ impl<'w> Walk<'w> {
             way_through: world.way_through(),
             localization: None,
             heard: (config.guide == GuideKind::Spoken).then_some((0, 0)),
+            ways_round: None,
             trace: Vec::new(),
         };
         Self {
@@ -965,6 +976,7 @@ impl<'w> Walk<'w> {
             route_ahead: (config.predictive_on_route() && config.guide != GuideKind::Spoken)
                 .then(|| RouteAhead::new(device_route(world, config))),
             way: Vec::new(),
+            held_in_map: Vec::new(),
             known: (None, Vec::new()),
             known_near: Vec::new(),
             tracker,
@@ -1035,6 +1047,7 @@ impl<'w> Walk<'w> {
     /// What happened, once the walk is over.
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
+        self.out.ways_round = self.spoken.as_ref().filter(|_| self.config.ways_round).map(SpokenDevice::detours);
         if self.tracker.is_some() {
             let (pos2, head2, n, over, turned) = self.tracked_error;
             // never tracked: no error to give (NaN, `null` in JSON)
@@ -1201,6 +1214,41 @@ impl<'w> Walk<'w> {
             StepOutput::Perceived { perception, hazard, intent } => {
                 if let Some(tracker) = self.tracker.as_mut() {
                     tracker.frame(&perception.scan, now, cane_rate, body_yaw_rate_rad_s.map(f64::from));
+                }
+                if let Some(device) = self.spoken.as_mut().filter(|_| config.ways_round) {
+                    // what the perception holds, placed where the device believes the camera is
+                    let held = self.frame_step.obstacle_points();
+                    let (at, camera) = match (&self.tracker, config.pose) {
+                        (Some(tracker), PoseSource::Filter) => {
+                            let e = tracker.estimate();
+                            let at = guidance::UserPose {
+                                x_m: e.pose.x_m,
+                                y_m: e.pose.y_m,
+                                heading_rad: e.pose.heading_rad,
+                                floor: e.level,
+                                confident: e.status == localization::Status::Tracking,
+                            };
+                            (at, tracker.points_in_map(held, &mut self.held_in_map))
+                        }
+                        _ => {
+                            let at = guidance::UserPose {
+                                x_m: pose.x_m,
+                                y_m: pose.y_m,
+                                heading_rad: pose.yaw_rad,
+                                floor: pose.floor,
+                                confident: true,
+                            };
+                            let (s, c) = floor_pose.yaw_rad.sin_cos();
+                            let (cx, cy) = (floor_pose.x_m, floor_pose.y_m);
+                            self.held_in_map.clear();
+                            self.held_in_map.extend(held.iter().map(|p| {
+                                let (x, y) = (f64::from(p[0]), f64::from(p[1]));
+                                [cx + c * x - s * y, cy + s * x + c * y]
+                            }));
+                            (at, [cx, cy])
+                        }
+                    };
+                    device.perceived(&at, camera, &self.held_in_map, (t * 1000.0) as u64);
                 }
                 Ok((hazard, intent, perception.turn_ahead))
             }
