@@ -563,7 +563,11 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     // the building's scripted walk: from the entrance (1, 5) east to the stairs
     let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:building"]);
     let map = building_map();
-    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map, "--start", "1,5,0,0", "--predictive"]);
+    // with the camera's finds on the planner (--ways-round): they must not cost the
+    // preview or the route below (a user standing among what the camera holds was once
+    // planned no way from)
+    let args = ["--map", &map, "--start", "1,5,0,0", "--predictive", "--ways-round"];
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &args);
 
     let tracked = wait_for(&poses, Duration::from_secs(30), |p| p.body.status == LocalizationStatus::Tracking).await;
     let tracked = tracked.expect("localization never tracked");

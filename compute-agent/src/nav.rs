@@ -96,6 +96,9 @@ pub struct NavConfig {
     pub guidance: GuidanceProfile,
     /// Seed of the filter's random draws.
     pub seed: u64,
+    /// What the perception holds that the map lacks goes onto the planner, and a route
+    /// with something standing on it ahead is laid round it (`Navigator::perceived`).
+    pub ways_round: bool,
 }
 
 impl NavConfig {
@@ -108,6 +111,7 @@ impl NavConfig {
             route: UserProfile::default(),
             guidance: GuidanceProfile::default(),
             seed: 1,
+            ways_round: false,
         }
     }
 }
@@ -144,6 +148,9 @@ pub struct Nav {
     walls: Vec<(i32, Vec<[f64; 2]>)>,
     way: Vec<[f64; 2]>,
     walls_near: Vec<[f64; 2]>,
+    /// what the perception holds, map frame, and whether it goes onto the planner
+    held: Vec<[f64; 2]>,
+    ways_round: bool,
 }
 
 impl Nav {
@@ -207,6 +214,8 @@ impl Nav {
             walls: building.floors().iter().map(|f| (f.level, wall_points(&f.grid))).collect(),
             way: Vec::new(),
             walls_near: Vec::new(),
+            held: Vec::new(),
+            ways_round: config.ways_round,
         })
     }
 
@@ -279,8 +288,11 @@ impl Nav {
         }
     }
 
-    /// One frame's scan: the filter corrects, the guide speaks if it has something to say.
-    pub async fn frame(&mut self, scan: &Scan, capture_ns: u64, body_yaw_rate: Option<f32>) {
+    /// One frame's scan and the obstacle points the perception holds (the camera's
+    /// floor frame, x forward, y left): the filter corrects, what stands on the route
+    /// ahead and the floor plan lacks gets a way round (`Navigator::perceived`), the
+    /// guide speaks if it has something to say.
+    pub async fn frame(&mut self, scan: &Scan, held: &[[f32; 2]], capture_ns: u64, body_yaw_rate: Option<f32>) {
         let cane = self.cane_rate.rate_at(capture_ns, bus::now_ns()).map(f64::from);
         self.tracker.frame(scan, capture_ns, cane, body_yaw_rate.map(f64::from));
         if let Some(news) = self.tracker.news() {
@@ -290,6 +302,15 @@ impl Nav {
         }
         let pose = self.user_pose();
         let now_ms = self.now_ms();
+        if self.ways_round {
+            let camera = self.tracker.points_in_map(held, &mut self.held);
+            let before = self.navigator.detours().0;
+            self.navigator.perceived(&pose, camera, &self.held, now_ms);
+            if self.navigator.detours().0 > before {
+                let (cells, _) = self.navigator.perceived_obstacles();
+                tracing::info!("guidance: something stands on the route ahead: a way round ({cells} cells seen that the map lacks)");
+            }
+        }
         if let Some(speech) = self.navigator.step(&pose, now_ms) {
             tracing::info!("guidance: {}", speech.text);
             self.say(capture_ns, speech).await;

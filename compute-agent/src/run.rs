@@ -412,7 +412,7 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                 let status = (!status.is_empty()).then(|| status.join("; "));
                 let scan = process(&frame, body_yaw_rate_rad_s, way, &mut step, &health, &mut out, status).await;
                 if let (Some(n), Some(scan)) = (nav.as_mut(), scan) {
-                    n.frame(&scan, frame.header.capture_ns, body_yaw_rate_rad_s).await;
+                    n.frame(&scan, step.obstacle_points(), frame.header.capture_ns, body_yaw_rate_rad_s).await;
                 }
             }
         }
