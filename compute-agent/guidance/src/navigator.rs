@@ -20,6 +20,10 @@ use crate::where_am_i::where_am_i;
 /// How long an answer or an announcement of the navigator's own may wait for the
 /// speaker, ms (as the guide's answers).
 const ANSWER_TTL_MS: u32 = 5000;
+/// With no way to the destination, it is planned again, unasked, once the position is
+/// this far from where the last plan failed, metres (a position found again elsewhere,
+/// a user who walked on); "repeat" plans again at once.
+pub const NO_WAY_RETRY_M: f64 = 2.0;
 /// After a way round what the camera found, the next is looked for no sooner than this,
 /// ms: the user hears one new route and turns by it before the next (a cell that comes
 /// and goes in the view would otherwise change the route at every frame).
@@ -58,6 +62,8 @@ struct Trip {
     guide: Option<Guide>,
     /// why there is no guide: waiting for the position, or no way there
     held: RouteStatus,
+    /// with no way there: the floor and place it was planned from last
+    no_way_from: Option<(i32, [f64; 2])>,
 }
 
 /// Commands, pose and plan in; speech and route state out. Pure: time is an argument.
@@ -175,8 +181,13 @@ impl Navigator {
                 Err(text) => out.speech.push(self.say(text, "destination/unknown")),
                 Ok(place) => {
                     let (name, goal) = (place.name.clone(), FloorPoint { floor: place.floor, x: place.x, y: place.y });
-                    self.trip =
-                        Some(Trip { label: name.clone(), goal, guide: None, held: RouteStatus::WaitingForPosition });
+                    self.trip = Some(Trip {
+                        label: name.clone(),
+                        goal,
+                        guide: None,
+                        held: RouteStatus::WaitingForPosition,
+                        no_way_from: None,
+                    });
                     if pose.confident {
                         if let Some(s) = self.plan_trip(pose, now_ms) {
                             out.speech.push(s);
@@ -250,6 +261,23 @@ impl Navigator {
             if trip.held == RouteStatus::WaitingForPosition && pose.confident {
                 return self.plan_trip(pose, now_ms);
             }
+            if trip.held == RouteStatus::Unreachable && pose.confident && moved_from(trip.no_way_from, pose) {
+                // no way from where it was planned: from here, perhaps (a position found
+                // again elsewhere, a user who walked on); said only when there is one
+                let goal = trip.goal;
+                let route = self.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal);
+                let (floor, at) = (pose.floor, [pose.x_m, pose.y_m]);
+                if let Some(t) = self.trip.as_mut() {
+                    t.no_way_from = Some((floor, at));
+                }
+                let route = route.ok()?;
+                let mut guide = Guide::building(route, &self.trip.as_ref()?.label, self.semantic.clone(), self.profile);
+                guide.headings = self.headings.clone();
+                if let Some(t) = self.trip.as_mut() {
+                    (t.guide, t.held) = (Some(guide), RouteStatus::Guiding);
+                }
+                return self.step(pose, now_ms);
+            }
             return None;
         }
         let graph = self.planner.floor(pose.floor).map(|p| p.graph());
@@ -264,7 +292,7 @@ impl Navigator {
                         g.set_route(route);
                     }
                 }
-                Err(e) => return Some(self.unreachable(&e.to_string())),
+                Err(e) => return Some(self.unreachable(&e.to_string(), pose)),
             }
         }
         Some(instruction.speech())
@@ -372,7 +400,7 @@ impl Navigator {
             .map_err(|e| format!("no way to {}: {e}", place.name))?;
         let instruction = summary(&route, &self.profile);
         let guide = Guide::building(route, &place.name, self.semantic.clone(), self.profile);
-        let trip = Trip { label: place.name, goal, guide: Some(guide), held: RouteStatus::Guiding };
+        let trip = Trip { label: place.name, goal, guide: Some(guide), held: RouteStatus::Guiding, no_way_from: None };
         Ok(RouteState { status: RouteStatus::Preview, instruction, ..state_of(Some(&trip), from) })
     }
 
@@ -391,7 +419,7 @@ impl Navigator {
                 }
                 self.step(pose, now_ms)
             }
-            Err(e) => Some(self.unreachable(&e.to_string())),
+            Err(e) => Some(self.unreachable(&e.to_string(), pose)),
         }
     }
 
@@ -408,11 +436,12 @@ impl Navigator {
         }
     }
 
-    fn unreachable(&mut self, why: &str) -> SpeechIntent {
+    fn unreachable(&mut self, why: &str, pose: &UserPose) -> SpeechIntent {
         let label = match self.trip.as_mut() {
             Some(t) => {
                 t.guide = None;
                 t.held = RouteStatus::Unreachable;
+                t.no_way_from = Some((pose.floor, [pose.x_m, pose.y_m]));
                 t.label.clone()
             }
             None => String::new(),
@@ -434,6 +463,13 @@ impl Navigator {
         self.last_said = Some(s.clone());
         s
     }
+}
+
+/// True when `pose` is [`NO_WAY_RETRY_M`] or more from where no way was found (or on
+/// another floor).
+fn moved_from(no_way_from: Option<(i32, [f64; 2])>, pose: &UserPose) -> bool {
+    no_way_from
+        .is_none_or(|(floor, [x, y])| floor != pose.floor || (pose.x_m - x).hypot(pose.y_m - y) >= NO_WAY_RETRY_M)
 }
 
 /// The farthest any of `points` is from the polyline `line`, metres.

@@ -241,6 +241,24 @@ fn repeat_after_no_way_plans_again_from_the_position_of_now() {
 }
 
 #[test]
+fn with_no_way_the_route_is_planned_again_unasked_once_the_position_has_moved_on() {
+    // the position (wrongly) inside the closed room: no way, said once
+    let mut nav = navigator();
+    let wrong = at(4.0, 4.0, 0.0, 0);
+    let r = nav.command(&go("room 204"), &wrong, 0);
+    assert_eq!(texts(&r.speech), ["I cannot find a way to room 204 from here."]);
+    // still there, or 1 m on: not planned again, nothing said
+    assert_eq!(nav.step(&wrong, 1000), None);
+    assert_eq!(nav.step(&at(5.0, 4.0, 0.0, 0), 2000), None);
+    assert_eq!(nav.state(&wrong).status, RouteStatus::Unreachable);
+    // found again in the corridor: the route, without being asked
+    let here = at(1.5, 11.5, 0.0, 0);
+    let s = nav.step(&here, 3000).expect("the route from where the user is now");
+    assert_eq!(s.text, "Route to room 204: 40 metres. Go straight on.");
+    assert_eq!(nav.state(&here).status, RouteStatus::Guiding);
+}
+
+#[test]
 fn a_preview_plans_without_starting_guidance() {
     let mut nav = navigator();
     let here = at(1.5, 11.5, 0.0, 0);
