@@ -571,6 +571,9 @@ fn worlds_that_are_not_there_or_flags_that_do_not_fit_groups_are_refused_before_
     assert!(err.contains("--odometry-noise must be between 0 (perfect odometry) and 10"), "{err}");
     let err = run("--world corridor --guide spoken --odometry-noise nan").unwrap_err();
     assert!(err.contains("--odometry-noise must be between"), "{err}");
+    // ways round are the navigator's: only with its spoken guide
+    let err = run("--world corridor --guide route --ways-round").unwrap_err();
+    assert!(err.contains("--ways-round goes with --guide spoken"), "{err}");
     let base = Cli::parse_from(["course", "--worlds", "gen:office", "--count", "3"]).args;
     let refused = base.with_flags("--count 4").err().map(|e| format!("{e:#}")).unwrap_or_default();
     assert!(refused.contains("--count, --seed and --runs must stay the same"), "{refused}");
