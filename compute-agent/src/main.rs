@@ -93,8 +93,8 @@ struct Cli {
     /// What the camera finds that the floor map lacks (a desk, a bench, a person) goes
     /// onto the planner, and a route something stands on ahead is laid round it:
     /// "Something stands in the way. A way round: ..." (docs/guidance.md, "Ways round
-    /// what the camera finds"). Off by default: on generated worlds it did not help the
-    /// spoken guide's users on the worlds it was not tuned on.
+    /// what the camera finds"). Off by default: on the generated worlds it was not tuned
+    /// on, the spoken guide's users completed fewer walks with it.
     #[arg(long, requires = "map")]
     ways_round: bool,
 }

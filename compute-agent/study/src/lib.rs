@@ -189,7 +189,8 @@ pub struct CourseArgs {
     /// With --guide spoken: what the perception holds goes onto the navigator's planner
     /// (what the floor plan does not have: furniture, bins, people), and a route with
     /// something standing on it ahead is laid round it ("Something stands in the way. A
-    /// way round: ..."), at most once in 4 s.
+    /// way round: ..."), at most once in 4 s: the compute agent's --ways-round (off
+    /// there too; docs/guidance.md, "Ways round what the camera finds").
     #[arg(long)]
     pub ways_round: bool,
     /// With --pose filter: the map the particle filter localizes on: `floor-plan` (the
