@@ -270,12 +270,7 @@ impl Navigator {
                 if let Some(t) = self.trip.as_mut() {
                     t.no_way_from = Some((floor, at));
                 }
-                let route = route.ok()?;
-                let mut guide = Guide::building(route, &self.trip.as_ref()?.label, self.semantic.clone(), self.profile);
-                guide.headings = self.headings.clone();
-                if let Some(t) = self.trip.as_mut() {
-                    (t.guide, t.held) = (Some(guide), RouteStatus::Guiding);
-                }
+                self.start_guide(route.ok()?);
                 return self.step(pose, now_ms);
             }
             return None;
@@ -408,19 +403,25 @@ impl Navigator {
     /// route's first instruction itself, next step).
     fn plan_trip(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
         let trip = self.trip.as_ref()?;
-        let (goal, label) = (trip.goal, trip.label.clone());
+        let goal = trip.goal;
         match self.plan(FloorPoint { floor: pose.floor, x: pose.x_m, y: pose.y_m }, goal) {
             Ok(route) => {
-                let mut guide = Guide::building(route, &label, self.semantic.clone(), self.profile);
-                guide.headings = self.headings.clone();
-                if let Some(t) = self.trip.as_mut() {
-                    t.guide = Some(guide);
-                    t.held = RouteStatus::Guiding;
-                }
+                self.start_guide(route);
                 self.step(pose, now_ms)
             }
             Err(e) => Some(self.unreachable(&e.to_string(), pose)),
         }
+    }
+
+    /// The trip follows `route` from now on, with a new guide (told how the heading
+    /// turned over the last second).
+    fn start_guide(&mut self, route: BuildingRoute) {
+        let Some(t) = self.trip.as_mut() else {
+            return;
+        };
+        let mut guide = Guide::building(route, &t.label, self.semantic.clone(), self.profile);
+        guide.headings = self.headings.clone();
+        (t.guide, t.held) = (Some(guide), RouteStatus::Guiding);
     }
 
     /// A route from `from` to `to`; when what the camera found leaves none, the plan's

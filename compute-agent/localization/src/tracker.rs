@@ -393,12 +393,7 @@ impl Tracker {
     /// (cleared first); returns where the camera is.
     pub fn points_in_map(&self, points: &[[f32; 2]], out: &mut Vec<[f64; 2]>) -> [f64; 2] {
         let (camera, yaw) = self.camera_in_map();
-        let (s, c) = yaw.sin_cos();
-        out.clear();
-        out.extend(points.iter().map(|p| {
-            let (x, y) = (f64::from(p[0]), f64::from(p[1]));
-            [camera[0] + c * x - s * y, camera[1] + s * x + c * y]
-        }));
+        place_points(camera, yaw, points, out);
         camera
     }
 
@@ -464,6 +459,18 @@ impl Tracker {
         self.scan.sensor_left_m = s * c.camera_from_hand_m;
         self.scan.sensor_yaw_rad = self.sweep_rad;
     }
+}
+
+/// `points` in a camera's floor frame (x forward, y left, metres) placed on the map for
+/// a camera at `camera` looking along `yaw` (radians counter-clockwise from +x), into
+/// `out` (cleared first).
+pub fn place_points(camera: [f64; 2], yaw: f64, points: &[[f32; 2]], out: &mut Vec<[f64; 2]>) {
+    let (s, c) = yaw.sin_cos();
+    out.clear();
+    out.extend(points.iter().map(|p| {
+        let (x, y) = (f64::from(p[0]), f64::from(p[1]));
+        [camera[0] + c * x - s * y, camera[1] + s * x + c * y]
+    }));
 }
 
 /// The filter's status as the wire says it.

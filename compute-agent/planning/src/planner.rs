@@ -10,7 +10,7 @@ use crate::astar::AStar;
 use crate::error::{End, PlanError};
 use crate::nav_graph::{NavGraph, NavGraphConfig};
 use crate::route::{dist, Route};
-use crate::smoothing::{clear_of_discs, grid_line_not_occupied, smooth, Disc};
+use crate::smoothing::{clear_of_discs, grid_line_not_occupied, segment_point_distance, smooth, Disc};
 
 /// How far an end that is not walkable may be moved to the nearest walkable vertex, by
 /// default (1 m: about two strides; farther and the user should be told instead).
@@ -196,18 +196,16 @@ impl Planner {
     /// segments.
     pub fn blocks_ahead(&self, route: &Route, from: [f64; 2], next: usize, pass_m: f64) -> bool {
         let reach = |d: &Disc| (d.radius_m - self.clearance_m).max(0.0) + pass_m;
-        let ahead: Vec<Disc> = self
-            .discs
-            .iter()
-            .filter(|d| dist(from, [d.x, d.y]) >= reach(d))
-            .map(|d| Disc { radius_m: reach(d), ..*d })
-            .collect();
         let Some(rest) = route.waypoints.get(next..) else {
             return false;
         };
         let mut a = from;
         for &b in rest {
-            if !clear_of_discs(&ahead, a, b) {
+            let touched = |d: &Disc| {
+                let r = reach(d);
+                dist(from, [d.x, d.y]) >= r && segment_point_distance(a, b, [d.x, d.y]) < r
+            };
+            if self.discs.iter().any(touched) {
                 return true;
             }
             a = b;

@@ -691,6 +691,37 @@ pub fn predictive_for(config: &WalkConfig) -> PredictiveConfig {
     }
 }
 
+/// Where the device's guide takes the user to be: the simulator's place (`Truth`), or
+/// the filter's estimate, confident while it tracks (with no filter, nowhere).
+fn guided_pose(tracker: Option<&Tracker>, source: PoseSource, pose: &UserPose) -> guidance::UserPose {
+    match (tracker, source) {
+        (_, PoseSource::Truth) => guidance::UserPose {
+            x_m: pose.x_m,
+            y_m: pose.y_m,
+            heading_rad: pose.yaw_rad,
+            floor: pose.floor,
+            confident: true,
+        },
+        (Some(tracker), PoseSource::Filter) => {
+            let e = tracker.estimate();
+            guidance::UserPose {
+                x_m: e.pose.x_m,
+                y_m: e.pose.y_m,
+                heading_rad: e.pose.heading_rad,
+                floor: e.level,
+                confident: e.status == localization::Status::Tracking,
+            }
+        }
+        (None, PoseSource::Filter) => guidance::UserPose {
+            x_m: f64::NAN,
+            y_m: f64::NAN,
+            heading_rad: f64::NAN,
+            floor: pose.floor,
+            confident: false,
+        },
+    }
+}
+
 /// A guide for `kind` in `world`.
 fn guide_for<'a>(
     kind: GuideKind,
@@ -1126,32 +1157,7 @@ impl<'w> Walk<'w> {
         };
         if let Some(device) = self.spoken.as_mut() {
             // the guide speaks from where the device believes the user is
-            let g = match (&self.tracker, config.pose) {
-                (_, PoseSource::Truth) => guidance::UserPose {
-                    x_m: pose.x_m,
-                    y_m: pose.y_m,
-                    heading_rad: pose.yaw_rad,
-                    floor: pose.floor,
-                    confident: true,
-                },
-                (Some(tracker), PoseSource::Filter) => {
-                    let e = tracker.estimate();
-                    guidance::UserPose {
-                        x_m: e.pose.x_m,
-                        y_m: e.pose.y_m,
-                        heading_rad: e.pose.heading_rad,
-                        floor: e.level,
-                        confident: e.status == localization::Status::Tracking,
-                    }
-                }
-                (None, PoseSource::Filter) => guidance::UserPose {
-                    x_m: f64::NAN,
-                    y_m: f64::NAN,
-                    heading_rad: f64::NAN,
-                    floor: pose.floor,
-                    confident: false,
-                },
-            };
+            let g = guided_pose(self.tracker.as_ref(), config.pose, pose);
             let news = self.tracker.as_mut().and_then(Tracker::news);
             let now_ms = (t * 1000.0) as u64;
             for asked in std::mem::take(&mut self.ear.borrow_mut().asked) {
@@ -1218,34 +1224,18 @@ impl<'w> Walk<'w> {
                 if let Some(device) = self.spoken.as_mut().filter(|_| config.ways_round) {
                     // what the perception holds, placed where the device believes the camera is
                     let held = self.frame_step.obstacle_points();
-                    let (at, camera) = match (&self.tracker, config.pose) {
-                        (Some(tracker), PoseSource::Filter) => {
-                            let e = tracker.estimate();
-                            let at = guidance::UserPose {
-                                x_m: e.pose.x_m,
-                                y_m: e.pose.y_m,
-                                heading_rad: e.pose.heading_rad,
-                                floor: e.level,
-                                confident: e.status == localization::Status::Tracking,
-                            };
-                            (at, tracker.points_in_map(held, &mut self.held_in_map))
-                        }
+                    let at = guided_pose(self.tracker.as_ref(), config.pose, pose);
+                    let camera = match (&self.tracker, config.pose) {
+                        (Some(tracker), PoseSource::Filter) => tracker.points_in_map(held, &mut self.held_in_map),
                         _ => {
-                            let at = guidance::UserPose {
-                                x_m: pose.x_m,
-                                y_m: pose.y_m,
-                                heading_rad: pose.yaw_rad,
-                                floor: pose.floor,
-                                confident: true,
-                            };
-                            let (s, c) = floor_pose.yaw_rad.sin_cos();
-                            let (cx, cy) = (floor_pose.x_m, floor_pose.y_m);
-                            self.held_in_map.clear();
-                            self.held_in_map.extend(held.iter().map(|p| {
-                                let (x, y) = (f64::from(p[0]), f64::from(p[1]));
-                                [cx + c * x - s * y, cy + s * x + c * y]
-                            }));
-                            (at, [cx, cy])
+                            let camera = [floor_pose.x_m, floor_pose.y_m];
+                            localization::tracker::place_points(
+                                camera,
+                                floor_pose.yaw_rad,
+                                held,
+                                &mut self.held_in_map,
+                            );
+                            camera
                         }
                     };
                     device.perceived(&at, camera, &self.held_in_map, (t * 1000.0) as u64);
