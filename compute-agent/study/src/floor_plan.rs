@@ -20,6 +20,7 @@
 //! | corner | | corner (the format has no name for it) |
 //! | goal | | label (its name, or `goal`), listed first |
 //! | furniture, hanging, people | free | |
+//! | free floor beyond the scene's `[plan_extent]` | unknown | |
 //!
 //! Changes of floor level are occupied: a route for a blind walker goes round a step or
 //! a hole when the plan has a way round (the `step-down` world's own walk does), and a
@@ -31,7 +32,9 @@
 //! footprint's centre line (along its longer side) passes through it, or when the
 //! footprint is thinner than a cell's diagonal and overlaps it; so a wall of any
 //! thickness and angle is a 4-connected band along its whole length, never with a gap.
-//! Everything else in the grid is free. The grid covers everything on the floor (walls,
+//! Everything else in the grid is free, but for what lies beyond the scene's
+//! `[plan_extent]` (a generated street's: the pavement's ends, past the kerb): the
+//! building's plan does not cover it, so it is unknown, and no route is laid there. The grid covers everything on the floor (walls,
 //! openings, rooms, doors, corners, gateway stops, start and goal) with [`MARGIN_M`]
 //! around it, its cells aligned on multiples of the resolution.
 
@@ -184,6 +187,9 @@ fn export_with(
                 occupy(&mut grid, Footprint { center_m: c.center_m, half_size_m: [r, r], yaw_rad: 0.0 });
             }
         }
+        if let Some(extent) = world.plan_extent(level) {
+            unknown_beyond(&mut grid, extent);
+        }
         let layer = semantic_layer(world, &gateways, level, &grid);
         // checked as a loaded file is (door numbers unique, areas well formed, ...)
         let name = format!("{}:floor{level}", world.name());
@@ -241,6 +247,20 @@ impl Footprint {
             && (y_m - self.center_m[1]).abs() < h + ey - TOUCH_M
             && lx.abs() < self.half_size_m[0] + square_radius
             && ly.abs() < self.half_size_m[1] + square_radius
+    }
+}
+
+/// Marks the free cells whose centre lies outside `extent` (min and max corners)
+/// unknown: what the building's plan does not cover.
+fn unknown_beyond(grid: &mut OccupancyGrid, (min, max): ([f64; 2], [f64; 2])) {
+    for row in 0..grid.height() {
+        for col in 0..grid.width() {
+            let (x, y) = grid.cell_center(col, row);
+            let inside = min[0] <= x && x <= max[0] && min[1] <= y && y <= max[1];
+            if !inside && grid.get(col, row) == Some(Cell::Free) {
+                grid.set(col, row, Cell::Unknown);
+            }
+        }
     }
 }
 

@@ -395,3 +395,34 @@ fn the_sample_map_in_the_repo_is_what_wearnav_map_writes_for_the_building_world(
         "maps/building differs from the world's floor plan: run `cargo run --release -- map --world building --out maps/building`"
     );
 }
+
+#[test]
+fn a_generated_streets_plan_ends_with_its_pavement_so_no_route_crosses_the_road_or_goes_behind_the_building() {
+    for name in ["gen:street:1", "gen:street:2"] {
+        let (w, b) = exported(name);
+        let ([x0, y0], [x1, y1]) = w.plan_extent(0).unwrap_or_else(|| panic!("{name}: no plan extent"));
+        let grid = &b.floor(0).unwrap_or_else(|| panic!("{name}: floor 0")).grid;
+        let (start, goal) = (w.start(), w.goal());
+        let mid = (x0 + x1) / 2.0;
+        // behind the building wall, past the pavement's end, across the road: before,
+        // the map's margin was free floor there (a route went round the wall's end and
+        // along the far side of the road)
+        for (what, x, y) in [("behind the building", mid, y0 - 0.7), ("past the end", x0 - 1.5, start.y_m)] {
+            assert_eq!(cell_at(&b, 0, x, y), Some(Cell::Unknown), "{name}: {what} ({x}, {y})");
+        }
+        assert_ne!(cell_at(&b, 0, mid, y1 + 2.5), Some(Cell::Free), "{name}: across the road");
+        assert_eq!(cell_at(&b, 0, start.x_m, start.y_m), Some(Cell::Free), "{name}: the start");
+        let mut planner = Planner::new(0, grid, &NavGraphConfig::default());
+        let from = [start.x_m, start.y_m];
+        let route = planner.plan(from, [goal.x_m, goal.y_m]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for p in &route.points {
+            assert!((x0..=x1).contains(&p[0]) && (y0..=y1).contains(&p[1]), "{name}: {p:?} off the pavement");
+        }
+        for (what, to) in [("behind the building", [mid, y0 - 0.8]), ("across the road", [mid, y1 + 2.5])] {
+            match planner.plan(from, to) {
+                Ok(r) => panic!("{name}: a route {what}: {:?}", r.waypoints),
+                Err(e) => println!("{name}: {what}: {e}"),
+            }
+        }
+    }
+}

@@ -31,6 +31,10 @@
 //!
 //! [floor_plan_route]            # optional: the route laid on the walls alone
 //! waypoints = [[1.75, 8.5], [5.0, 8.5]]   # from `start`, the goal not repeated
+//!
+//! [plan_extent]                 # optional: what the building's plan covers
+//! min = [-0.5, -0.2]            # beyond it the exported floor plan is unknown,
+//! max = [30.5, 4.0]             # so no route is laid there
 //! ```
 //!
 //! Item tables: `walls`, `boxes`, `cylinders`, `poles`, `tables`, `chairs`, `hanging`,
@@ -201,6 +205,25 @@ pub struct SceneFile {
     pub walker: Option<Spanned<WalkerSpec>>,
     /// The route a planner would lay on the floor plan alone (optional).
     pub floor_plan_route: Option<Spanned<FloorPlanRouteSpec>>,
+    /// What the building's plan covers of one floor (optional; without it, everything
+    /// on the floor with a margin round it).
+    pub plan_extent: Option<Spanned<PlanExtentSpec>>,
+}
+
+/// The rectangle of a floor that the building's plan covers. A plan of a pavement
+/// ends at the pavement's ends and at the kerb: it says nothing of what lies across
+/// the road or behind the building, so the floor plan exported from the world leaves
+/// that unknown, and no route is laid there.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanExtentSpec {
+    /// The floor (default 0).
+    #[serde(default)]
+    pub floor: i32,
+    /// Smallest x and y, map metres.
+    pub min: [f64; 2],
+    /// Largest x and y, map metres.
+    pub max: [f64; 2],
 }
 
 /// A route laid on the floor plan alone: walls and dividers, no furniture, no hanging
@@ -866,6 +889,22 @@ fn validate(scene: &SceneFile, text: &str, origin: &str) -> Result<(), SceneErro
         c.positive("speed_m_s", v.speed_m_s)?;
         c.positive("turn_rate_deg_s", v.turn_rate_deg_s)?;
     }
+    if let Some(e) = &scene.plan_extent {
+        let (v, c) = (e.get_ref(), check(e.span(), "plan_extent".into()));
+        c.floor(&floors, v.floor)?;
+        c.finite("min", &v.min)?;
+        c.finite("max", &v.max)?;
+        if v.min[0] >= v.max[0] || v.min[1] >= v.max[1] {
+            return Err(c.fail(format!("min {:?} must be below max {:?} in x and in y", v.min, v.max)));
+        }
+        let (start, goal) = (scene.start.get_ref(), scene.goal.get_ref());
+        let ends = [("start", start.floor, [start.x_m, start.y_m]), ("goal", goal.floor, [goal.x_m, goal.y_m])];
+        for (name, floor, [x, y]) in ends {
+            if floor == v.floor && !(v.min[0] <= x && x <= v.max[0] && v.min[1] <= y && y <= v.max[1]) {
+                return Err(c.fail(format!("the {name} ({x}, {y}) lies outside it: no route could reach it")));
+            }
+        }
+    }
     if let Some(r) = &scene.floor_plan_route {
         let c = check(r.span(), "floor_plan_route".into());
         for p in &r.get_ref().waypoints {
@@ -1029,6 +1068,23 @@ mod tests {
         assert_eq!(scene.floor_plan_route.map(|r| r.into_inner().waypoints), Some(vec![[0.5, 1.0], [1.0, 1.0]]));
         let err = parse_scene(&format!("{HEAD}[floor_plan_route]\nwaypoints = [[0.5, nan]]\n"), "x").unwrap_err();
         assert!(err.to_string().starts_with("x:4: floor_plan_route"), "{err}");
+    }
+
+    #[test]
+    fn a_plan_extent_loads_and_one_that_is_empty_leaves_out_the_goal_or_names_no_floor_is_refused() {
+        let extent = |body: &str| parse_scene(&format!("{HEAD}[plan_extent]\n{body}\n"), "x");
+        let scene = extent("min = [-0.5, -0.5]\nmax = [1.5, 0.5]").unwrap_or_else(|e| panic!("{e}"));
+        let e = scene.plan_extent.map(|e| e.into_inner()).unwrap_or_else(|| panic!("no extent"));
+        assert_eq!((e.floor, e.min, e.max), (0, [-0.5, -0.5], [1.5, 0.5]));
+        for (body, reason) in [
+            ("min = [1.0, -0.5]\nmax = [1.0, 0.5]", "min [1.0, -0.5] must be below max [1.0, 0.5] in x and in y"),
+            ("min = [-0.5, -0.5]\nmax = [0.5, 0.5]", "the goal (1, 0) lies outside it: no route could reach it"),
+            ("min = [-0.5, nan]\nmax = [1.5, 0.5]", "min must be finite"),
+            ("floor = 2\nmin = [-0.5, -0.5]\nmax = [1.5, 0.5]", "floor 2 does not exist"),
+        ] {
+            let err = extent(body).unwrap_err().to_string();
+            assert!(err.starts_with("x:4: plan_extent: ") && err.contains(reason), "{body}: {err}");
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::generate;
 use super::scene::{
-    self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, RoomSpec, SceneError,
+    self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, PlanExtentSpec, RoomSpec, SceneError,
     SceneFile, StairsSpec, WalkerSpec, LEG_INSET_M,
 };
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
@@ -184,6 +184,7 @@ pub struct World {
     stairs: Vec<StairsSpec>,
     walker: Option<WalkerSpec>,
     floor_plan_route: Option<Vec<[f64; 2]>>,
+    plan_extent: Option<PlanExtentSpec>,
     /// [`World::way_through`], worked out the first time it is asked
     way_through: std::sync::OnceLock<Option<bool>>,
 }
@@ -422,6 +423,7 @@ impl World {
             stairs: scene.stairs.iter().map(|d| d.get_ref().clone()).collect(),
             walker: scene.walker.as_ref().map(|w| w.get_ref().clone()),
             floor_plan_route: scene.floor_plan_route.as_ref().map(|r| r.get_ref().waypoints.clone()),
+            plan_extent: scene.plan_extent.as_ref().map(|e| e.get_ref().clone()),
             way_through: std::sync::OnceLock::new(),
         }
     }
@@ -489,6 +491,12 @@ impl World {
     /// obstacles): its points between the start and the goal, when the scene has one.
     pub fn floor_plan_route(&self) -> Option<&[[f64; 2]]> {
         self.floor_plan_route.as_deref()
+    }
+
+    /// What the building's plan covers of floor `level` (min and max corners, map
+    /// metres), when the scene says (`[plan_extent]`): beyond it the plan says nothing.
+    pub fn plan_extent(&self, level: i32) -> Option<([f64; 2], [f64; 2])> {
+        self.plan_extent.as_ref().filter(|e| e.floor == level).map(|e| (e.min, e.max))
     }
 
     /// Every floor, by ascending index.

@@ -82,7 +82,9 @@ pub(super) struct Layout {
     pub route: Vec<[f64; 2]>,
     /// The way round every obstacle, start left out, goal last (`[walker]`).
     pub way: Vec<[f64; 2]>,
-    /// Where the way through is searched (min, max corners), when not round the walls.
+    /// Where the way through is searched (min, max corners), when not round the walls;
+    /// also what the floor plan covers (`[plan_extent]`): a pavement's plan ends at its
+    /// ends and past the kerb.
     pub bounds: Option<([f64; 2], [f64; 2])>,
 }
 
@@ -205,6 +207,9 @@ impl Layout {
             );
         }
         let _ = write!(s, "\n[floor_plan_route]\nwaypoints = {}\n", points(&self.route));
+        if let Some((min, max)) = self.bounds {
+            let _ = write!(s, "\n[plan_extent]\nmin = {}\nmax = {}\n", point(min), point(max));
+        }
         if !self.way.is_empty() {
             let _ = write!(s, "\n[walker]\nwaypoints = {}\nat_end = \"stop\"\n", points(&self.way));
         }
