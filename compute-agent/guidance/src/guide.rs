@@ -32,6 +32,10 @@ use crate::where_am_i::where_am_i;
 
 /// How much of the heading's history is kept to tell a turning user, ms.
 const HEADINGS_KEPT_MS: u64 = 1000;
+/// Level with the route's end (within the arrival radius along it), a user this near
+/// the end has arrived, metres: issue 31's "within 1 m of the place". A user who passes
+/// the goal a stride to its side never comes within the arrival radius.
+pub const ARRIVAL_BESIDE_M: f64 = 1.0;
 
 /// The headings of the last second of poses (ms, radians).
 #[derive(Clone, Debug, Default)]
@@ -372,8 +376,12 @@ impl Guide {
         let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
         // both along the route and as the crow flies, so a goal behind a wall or a route that
         // loops back past its goal does not end guidance early
+        // ... or level with the end and beside it, within issue 31's metre: a user who
+        // walks past the goal a stride to its side has arrived too (else, never within
+        // the radius, they walk on until told they are off the route)
         let radius = self.profile.arrival_radius_m;
-        let at_end = pr.remaining_m <= radius && dist([pose.x_m, pose.y_m], end) <= radius;
+        let away = dist([pose.x_m, pose.y_m], end);
+        let at_end = pr.remaining_m <= radius && away <= radius.max(ARRIVAL_BESIDE_M);
         let leg_end = self.legs[self.leg].end.clone();
         match (&leg_end, at_end) {
             (LegEnd::Goal, true) if self.leg + 1 >= self.legs.len() => {

