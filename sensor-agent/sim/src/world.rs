@@ -6,8 +6,8 @@ use std::path::Path;
 
 use super::generate;
 use super::scene::{
-    self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, PlanExtentSpec, RoomSpec, SceneError,
-    SceneFile, StairsSpec, WalkerSpec, LEG_INSET_M,
+    self, floor_indexes, parse_scene, path_length_m, CornerSpec, DoorSpec, ElevatorSpec, PlanExtentSpec, RoomSpec,
+    SceneError, SceneFile, StairsSpec, WalkerSpec, LEG_INSET_M,
 };
 use super::shape::{DropOff, OrientedBox, Shape, VerticalCylinder};
 
