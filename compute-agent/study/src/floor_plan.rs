@@ -34,9 +34,10 @@
 //! thickness and angle is a 4-connected band along its whole length, never with a gap.
 //! Everything else in the grid is free, but for what lies beyond the scene's
 //! `[plan_extent]` (a generated street's: the pavement's ends, past the kerb): the
-//! building's plan does not cover it, so it is unknown, and no route is laid there. The grid covers everything on the floor (walls,
-//! openings, rooms, doors, corners, gateway stops, start and goal) with [`MARGIN_M`]
-//! around it, its cells aligned on multiples of the resolution.
+//! building's plan does not cover it, so it is unknown, and no route is laid there.
+//! The grid covers everything on the floor (walls, openings, rooms, doors, corners,
+//! gateway stops, start and goal) with [`MARGIN_M`] around it, its cells aligned on
+//! multiples of the resolution.
 
 use std::path::Path;
 
