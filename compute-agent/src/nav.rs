@@ -219,7 +219,8 @@ impl Nav {
         })
     }
 
-    /// The pose as guidance reads it: confident only while the filter tracks.
+    /// The pose as guidance reads it: confident while the filter tracks or follows the
+    /// place from a known one ([`localization::Estimate::guides`]).
     fn user_pose(&self) -> UserPose {
         let e = self.tracker.estimate();
         UserPose {
@@ -227,7 +228,7 @@ impl Nav {
             y_m: e.pose.y_m,
             heading_rad: e.pose.heading_rad,
             floor: e.level,
-            confident: e.status == localization::Status::Tracking,
+            confident: e.guides(),
         }
     }
 
@@ -241,7 +242,7 @@ impl Nav {
     /// route is being followed.
     pub fn way(&mut self) -> Option<Way<'_>> {
         let pose = self.user_pose();
-        if !pose.confident {
+        if self.tracker.estimate().status != localization::Status::Tracking {
             return None;
         }
         let state = self.navigator.state(&pose);

@@ -308,6 +308,17 @@ pub struct Estimate {
     pub cluster_weight: f64,
     /// see [`Status`]
     pub status: Status,
+    /// Route guidance may take this place ([`Estimate::guides`]): `Tracking`, or, not
+    /// `Lost`, followed by the motion from a known place (a told start, a gateway's
+    /// stop, a `Tracking` estimate) with every correction since meeting `Tracking`'s
+    /// conditions but the streak (the main cluster's weight and spread, the scans' fit,
+    /// the compass; the heading within [`FOLLOW_MAX_HEADING_STD_DEG`]) and none moving
+    /// the place more than [`FOLLOW_MAX_JUMP_M`] from where the motion took it. Where
+    /// the scans have too few beams to confirm the place (a cane camera facing open
+    /// pavement), it is still where the motion took it. The predictive cue takes
+    /// `Tracking` alone.
+    #[serde(default)]
+    pub followed: bool,
     /// short-term scan fit in (0, 1]: weighted mean over particles of the mean, over
     /// beams, of a beam's likelihood relative to a beam on a wall (how much of the scan
     /// the map explains); 1 when no scan was seen
@@ -317,6 +328,12 @@ pub struct Estimate {
 }
 
 impl Estimate {
+    /// Whether route guidance may take this place: `Tracking`, or followed from a known
+    /// place ([`Estimate::followed`]).
+    pub fn guides(&self) -> bool {
+        self.status == Status::Tracking || self.followed
+    }
+
     /// Standard deviation along the covariance's major axis, metres.
     pub fn position_std_m(&self) -> f64 {
         let [[a, b, _], [_, d, _], _] = self.covariance;
@@ -440,6 +457,9 @@ pub struct ParticleFilter {
     /// a told start or gateway stop stands in for the scan constraint until `Tracking`
     /// first ends
     start_vouches: bool,
+    /// the place descends from a known one by the motion, every correction since
+    /// meeting `Tracking`'s conditions but the streak ([`Estimate::followed`])
+    from_known: bool,
     /// where the user was last known to be, carried by the odometry; only with
     /// [`FilterConfig::recovery_anchor`]
     anchor: Option<Anchor>,
@@ -515,6 +535,7 @@ impl ParticleFilter {
             door_read: false,
             streak_constraint: 0.0,
             start_vouches: false,
+            from_known: false,
             anchor: None,
             scan_seen: false,
             estimate: Estimate {
@@ -523,6 +544,7 @@ impl ParticleFilter {
                 covariance: [[0.0; 3]; 3],
                 cluster_weight: 0.0,
                 status: Status::Lost,
+                followed: false,
                 fit: 1.0,
                 particles: 0,
             },
@@ -590,6 +612,8 @@ impl ParticleFilter {
         // the told place says where along a corridor the user is, until the first
         // `Tracking` ends; a streak after that must find it in the scans
         self.start_vouches = true;
+        self.from_known = true;
+        self.follow(None);
         self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: floor as u16, walked_m: 0.0 });
         Ok(())
     }
@@ -627,6 +651,8 @@ impl ParticleFilter {
         self.tracking_streak = 0;
         self.streak_constraint = 0.0;
         self.start_vouches = false;
+        self.from_known = false;
+        self.estimate.followed = false;
         if self.estimate.status == Status::Tracking {
             self.estimate.status = Status::Uncertain;
         }
@@ -762,6 +788,8 @@ impl ParticleFilter {
         self.streak_constraint = 0.0;
         // the gateway's stop is a told place, as a start is
         self.start_vouches = true;
+        self.from_known = true;
+        self.follow(None);
         if self.estimate.status == Status::Tracking {
             self.estimate.status = Status::Uncertain;
         }
@@ -836,6 +864,9 @@ impl ParticleFilter {
         if !(self.update_due() || has_landmark) {
             return Correction { landmarks_refused, ..Default::default() };
         }
+        // where the motion alone takes the place: a correction that moves it further is
+        // a jump
+        let predicted = self.estimate();
         self.apply_motion();
         self.fill_trig();
         self.force_update = false;
@@ -884,6 +915,7 @@ impl ParticleFilter {
         }
         self.compute_estimate();
         self.hold_to_anchor();
+        self.follow(Some(&predicted));
 
         let ess = 1.0 / self.particles.iter().map(|p| p.weight * p.weight).sum::<f64>();
         let inject_fraction = self.recovery_fraction();
@@ -1402,6 +1434,28 @@ impl ParticleFilter {
         }
     }
 
+    /// Whether the place is still followed from a known one ([`Estimate::followed`]),
+    /// `predicted` being the last estimate moved by the motion alone (`None`: a place
+    /// just told).
+    fn follow(&mut self, predicted: Option<&Estimate>) {
+        let c = &self.config;
+        let e = &self.estimate;
+        let jumped = predicted.is_some_and(|p| {
+            p.level != e.level || (p.pose.x_m - e.pose.x_m).hypot(p.pose.y_m - e.pose.y_m) > FOLLOW_MAX_JUMP_M
+        });
+        let compass_agrees =
+            self.compass_now.is_none_or(|h| wrap_angle(e.pose.heading_rad - h).abs() <= c.landmarks.compass_gate_rad);
+        // `Tracking`'s conditions on this correction, the heading's looser, without the
+        // streak of corrections on enough beams that would confirm the place
+        let holds = e.cluster_weight >= c.tracking_min_cluster_weight
+            && e.position_std_m() <= c.tracking_max_std_m
+            && e.heading_std_rad() <= FOLLOW_MAX_HEADING_STD_DEG.to_radians()
+            && (!self.scan_seen || e.fit.min(self.last_w_avg) >= c.tracking_min_fit)
+            && compass_agrees;
+        self.from_known = e.status == Status::Tracking || (self.from_known && holds && !jumped);
+        self.estimate.followed = self.from_known && self.estimate.status != Status::Lost;
+    }
+
     /// The current estimate: the last correction's, moved by the motion since.
     pub fn estimate(&self) -> Estimate {
         let mut e = self.estimate.clone();
@@ -1435,6 +1489,16 @@ impl ParticleFilter {
         (self.w_fast, self.w_slow, self.last_w_avg)
     }
 }
+
+/// A correction that moves the place further than this from where the motion alone
+/// took it ends [`Estimate::followed`], metres: a person does not jump, and the scans
+/// that moved it so far may have found a look-alike (the anchor's reach starts at 1 m).
+pub const FOLLOW_MAX_JUMP_M: f64 = 1.0;
+
+/// [`Estimate::followed`] needs the heading's standard deviation below this, degrees:
+/// twice `Tracking`'s, so that a told start (10 degrees) is followed; a turn's words
+/// span 40 degrees or more ("slightly": 20-60, `guidance::GuidanceProfile`).
+pub const FOLLOW_MAX_HEADING_STD_DEG: f64 = 20.0;
 
 /// Draws per particle of a start spread before one in a wall is kept.
 const START_DRAWS: usize = 20;
@@ -1542,6 +1606,24 @@ mod tests {
         for _ in 0..(metres / 0.5).round() as usize {
             pf.predict(&step, Some(0.0)).expect("plausible");
         }
+    }
+
+    #[test]
+    fn a_place_that_moves_further_than_the_motion_took_it_is_no_longer_followed() {
+        let mut pf = hall(None);
+        assert!(pf.estimate.followed && pf.estimate.status == Status::Uncertain, "{:?}", pf.estimate);
+        let mut predicted = pf.estimate.clone();
+        // a correction that kept the place within a stride of the motion's
+        predicted.pose.x_m -= 0.5;
+        pf.follow(Some(&predicted));
+        assert!(pf.estimate.followed);
+        // one that moved it 1.5 m: a look-alike taken over, whatever the spread says
+        predicted.pose.x_m -= 1.0;
+        pf.follow(Some(&predicted));
+        assert!(!pf.estimate.followed);
+        // and once ended, only `Tracking` or a told place follows again
+        pf.follow(Some(&pf.estimate.clone()));
+        assert!(!pf.estimate.followed);
     }
 
     #[test]

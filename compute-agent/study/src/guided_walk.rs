@@ -28,8 +28,9 @@ pub struct GuidedFrame {
     pub truth: [f64; 4],
     /// the filter's estimate: x, y, heading (degrees), floor
     pub estimate: [f64; 4],
-    /// the filter's status
-    pub tracking: bool,
+    /// guidance took the filter's place ([`localization::Estimate::guides`]: tracking,
+    /// or followed from the told start)
+    pub guided: bool,
     /// the sweep the scan was read with, degrees
     pub sweep_deg: f64,
     /// the simulator's sweep, degrees
@@ -128,7 +129,7 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
             y_m: e.pose.y_m,
             heading_rad: e.pose.heading_rad,
             floor: e.level,
-            confident: e.status == localization::Status::Tracking,
+            confident: e.guides(),
         };
         let now_ms = k * period / 1_000_000;
         let mut said = Vec::new();
@@ -179,7 +180,7 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
                 f64::from(truth.floor),
             ],
             estimate: [e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees(), f64::from(e.level)],
-            tracking: pose.confident,
+            guided: pose.confident,
             sweep_deg: tracker.sweep_rad().to_degrees(),
             true_sweep_deg: f64::from(truth.sweep_deg),
             status: state.status,

@@ -771,13 +771,13 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
     writeln!(
         f,
         "seed,t_s,x_m,y_m,yaw_deg,sweep_deg,speed_m_s,rumble,felt,nearest_m,bearing_deg,ttc_s,forward_cost,clearance_m,turn_ahead,\
-         estimate_x_m,estimate_y_m,estimate_heading_deg,estimate_status"
+         estimate_x_m,estimate_y_m,estimate_heading_deg,estimate_status,estimate_guides"
     )?;
     for w in walks {
         for r in &w.trace {
             writeln!(
                 f,
-                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3},{},{}",
+                "{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.2},{},{:?},{:.3},{:.1},{},{:.3},{:.3},{},{},{}",
                 w.seed,
                 r.t_s,
                 r.x_m,
@@ -793,7 +793,8 @@ fn write_trace(path: &std::path::Path, walks: &[walk::WalkOutcome]) -> anyhow::R
                 r.forward_cost,
                 r.clearance_m,
                 u8::from(r.turn_ahead),
-                r.estimate.map_or(",,,".to_string(), |([x, y, h], s)| format!("{x:.3},{y:.3},{h:.1},{s:?}"))
+                r.estimate.map_or(",,,".to_string(), |([x, y, h], s)| format!("{x:.3},{y:.3},{h:.1},{s:?}")),
+                u8::from(r.estimate_guides)
             )?;
         }
     }

@@ -238,6 +238,8 @@ pub struct TraceRow {
     /// The particle filter's estimate after this frame (x, y in map metres, heading in
     /// degrees, status), when the walk runs one.
     pub estimate: Option<([f64; 3], localization::Status)>,
+    /// Route guidance may take that estimate ([`localization::Estimate::guides`]).
+    pub estimate_guides: bool,
 }
 
 /// The Asus Xtion in its 320x240 mode: with a perception stride of 1 these are the
@@ -692,7 +694,8 @@ pub fn predictive_for(config: &WalkConfig) -> PredictiveConfig {
 }
 
 /// Where the device's guide takes the user to be: the simulator's place (`Truth`), or
-/// the filter's estimate, confident while it tracks (with no filter, nowhere).
+/// the filter's estimate, confident while it tracks or follows the place from a known
+/// one ([`localization::Estimate::guides`]; with no filter, nowhere).
 fn guided_pose(tracker: Option<&Tracker>, source: PoseSource, pose: &UserPose) -> guidance::UserPose {
     match (tracker, source) {
         (_, PoseSource::Truth) => guidance::UserPose {
@@ -709,7 +712,7 @@ fn guided_pose(tracker: Option<&Tracker>, source: PoseSource, pose: &UserPose) -
                 y_m: e.pose.y_m,
                 heading_rad: e.pose.heading_rad,
                 floor: e.level,
-                confident: e.status == localization::Status::Tracking,
+                confident: e.guides(),
             }
         }
         (None, PoseSource::Filter) => guidance::UserPose {
@@ -1297,6 +1300,7 @@ impl<'w> Walk<'w> {
                     let e = tr.estimate();
                     ([e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()], e.status)
                 }),
+                estimate_guides: self.tracker.as_ref().is_some_and(|tr| tr.estimate().guides()),
             });
         }
     }

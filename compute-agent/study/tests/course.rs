@@ -745,18 +745,18 @@ fn on_the_mapped_map_the_filter_places_the_spoken_guides_user_in_the_open_lobby(
 #[test]
 fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner() {
     // `--guide spoken`: no route handed to the user; the compute agent's navigator on
-    // the floor plan, from the filter's place, speaks through the feedback step; the user
-    // turns on the spot until the position is found, then walks by the words
+    // the floor plan, from the filter's place (followed from the told start until the
+    // scans confirm it), speaks through the feedback step; the user walks by the words
     let (w, base) = builtin_by_route("corridor-narrow", 70.0);
     let config = WalkConfig { guide: GuideKind::Spoken, ..base };
     let out = walk(&w, &config, 1);
     assert!(out.completed && out.time_s < 60.0, "{} in {:.1} s", out.verdict(), out.time_s);
     assert_eq!(out.count(Part::Body, None), 0, "{:?}", out.contacts);
     assert!(out.count(Part::Cane, None) <= 2, "{:?}", out.contacts);
-    // asked where to, told to turn until found, found, the route, the corner ahead and
-    // now; at most one prompt back to the route
+    // the route, the position found, the corner ahead and now; at most one prompt back
+    // to the route
     let (heard, prompts) = out.heard.expect("the spoken guide counts what was heard");
-    assert!(heard >= 5, "heard {heard} utterances");
+    assert!(heard >= 4, "heard {heard} utterances");
     assert!(prompts <= 1, "{prompts} off-route prompts");
     let e = out.localization.expect("the guide speaks from the filter's place");
     let (rmse_m, tracked) = (e.position_rmse_m, e.frames);
@@ -770,7 +770,7 @@ fn the_spoken_guide_walks_the_user_down_the_narrow_corridor_and_round_its_corner
 fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_an_offices_turned_copy() {
     // `gen:office:7`, walk seed 3 (docs/localization.md, "A compass"): on the floor plan
     // alone the filter steps, one `Tracking` estimate at a time, into a copy of the
-    // office turned round and guides from there (1,078 frames more than 45° off); the
+    // office turned round and guides from there (606 frames more than 45° off); the
     // compass, averaged over the walking and read within 45°, rules that copy out. (The
     // walk first measured, `gen:lobby:10` seed 6, now ends at the goal before the filter
     // turns: the guide says "you have arrived" to a user passing the goal a stride to its
@@ -786,11 +786,13 @@ fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_an_offices_turned_copy(
     let flags = "--guide spoken --body-gyro --timeout-s 200";
     let with = walk(&w, &parsed(&format!("{flags} --compass")), 3);
     let e = with.localization.expect("the guide speaks from the filter's place");
-    assert_eq!(e.frames_turned, 0, "frames tracked more than 45 degrees off with the compass: {e:?}");
-    // measured: 96 of 2,237 frames tracked more than 1 m off, RMSE 0.83 m
+    // measured: 6 of 2,181 frames tracked more than 45 degrees off, 111 more than 1 m
+    // off, RMSE 0.49 m (with `Tracking` alone guiding: 0, 96 of 2,237, 0.83 m)
+    assert!(e.frames_turned <= 20, "frames tracked more than 45 degrees off with the compass: {e:?}");
     assert!(e.frames_over_1m <= 200 && e.position_rmse_m < 1.2, "with the compass: {e:?}");
     let without = walk(&w, &parsed(flags), 3);
     let e = without.localization.expect("the guide speaks from the filter's place");
-    // measured: 1,078 of 1,312 frames, RMSE 4.8 m, heading 81°
+    // measured: 606 of 1,190 frames, RMSE 3.7 m, heading 61° (with `Tracking` alone
+    // guiding: 1,078 of 1,312, 4.8 m, 81°)
     assert!(e.frames_turned >= 500 && e.frames_over_1m >= e.frames_turned, "without the compass: {e:?}");
 }
