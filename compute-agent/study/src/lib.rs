@@ -282,8 +282,8 @@ pub struct CourseArgs {
     pub contacts: bool,
     /// Write one CSV row per camera frame of every walk to this file (pose, sweep,
     /// rumble decided, rumble felt, nearest obstacle, time to collision, clearance, and
-    /// the particle filter's estimate and status when the walk runs one);
-    /// with `--versus`, of the walks without its flags.
+    /// the particle filter's estimate, status and whether route guidance takes it when
+    /// the walk runs one); with `--versus`, of the walks without its flags.
     #[arg(long, value_name = "FILE")]
     pub trace: Option<std::path::PathBuf>,
     /// Walk the same seeds again with these flags added (for example
