@@ -241,10 +241,10 @@ impl Nav {
     /// pose. `None` (the cost functions decide) while the filter does not track or no
     /// route is being followed.
     pub fn way(&mut self) -> Option<Way<'_>> {
-        let pose = self.user_pose();
         if self.tracker.estimate().status != localization::Status::Tracking {
             return None;
         }
+        let pose = self.user_pose();
         let state = self.navigator.state(&pose);
         if state.status != RouteStatus::Guiding {
             return None;

@@ -1281,6 +1281,7 @@ impl<'w> Walk<'w> {
                 schemas::CostFunction::Ficf => h.ficf.forward,
                 schemas::CostFunction::Cacf => h.cacf.forward,
             });
+            let estimate = self.tracker.as_ref().map(Tracker::estimate);
             self.out.trace.push(TraceRow {
                 t_s: t,
                 x_m: pose.x_m,
@@ -1296,11 +1297,10 @@ impl<'w> Walk<'w> {
                 forward_cost,
                 clearance_m: self.body_now.iter().copied().fold(f64::INFINITY, f64::min),
                 turn_ahead,
-                estimate: self.tracker.as_ref().map(|tr| {
-                    let e = tr.estimate();
-                    ([e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()], e.status)
-                }),
-                estimate_guides: self.tracker.as_ref().is_some_and(|tr| tr.estimate().guides()),
+                estimate: estimate
+                    .as_ref()
+                    .map(|e| ([e.pose.x_m, e.pose.y_m, e.pose.heading_rad.to_degrees()], e.status)),
+                estimate_guides: estimate.as_ref().is_some_and(localization::Estimate::guides),
             });
         }
     }
