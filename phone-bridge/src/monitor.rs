@@ -288,6 +288,9 @@ pub enum ToMonitor {
         major_angle_rad: Option<f32>,
         /// Standard deviation of the heading, degrees.
         sigma_yaw_deg: Option<f32>,
+        /// Route guidance takes this place (`tracking`, or `converging` and followed from
+        /// a known place).
+        guides: bool,
     },
     /// Where the simulated user really is (simulator only).
     Truth {
@@ -498,6 +501,7 @@ pub fn pose(p: &Pose, capture_ns: u64) -> ToMonitor {
         sigma_minor_m: e.map(|e| e.1),
         major_angle_rad: e.map(|e| e.2),
         sigma_yaw_deg: finite(p.covariance[8]).filter(|v| *v >= 0.0).map(|v| v.sqrt().to_degrees()),
+        guides: p.guides,
     }
 }
 

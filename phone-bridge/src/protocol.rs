@@ -54,7 +54,8 @@ pub enum ToPage {
     },
     /// How far the position is known.
     Position {
-        /// `tracking`, `converging`, `lost`.
+        /// `tracking`, `followed` (converging, and route guidance takes the place: it is
+        /// followed from a known one), `converging`, `lost`.
         status: &'static str,
         /// Floor.
         floor: i32,
@@ -346,6 +347,7 @@ pub fn route(r: &RouteState) -> Option<ToPage> {
 pub fn position(p: &Pose) -> ToPage {
     let status = match p.status {
         LocalizationStatus::Tracking => "tracking",
+        LocalizationStatus::Converging if p.guides => "followed",
         LocalizationStatus::Converging => "converging",
         LocalizationStatus::Lost => "lost",
     };
@@ -506,5 +508,21 @@ mod tests {
         r.status = RouteStatus::Idle;
         r.destination.clear();
         assert!(to_text(&route(&r).unwrap()).contains(r#""status":"idle","destination":null,"distance_m":null"#));
+        // the position: as the filter has it, and "followed" while it converges but route
+        // guidance takes its place
+        let mut p = Pose {
+            x_m: 1.0,
+            y_m: 2.0,
+            yaw_rad: 0.0,
+            floor: 2,
+            covariance: [0.0; 9],
+            status: LocalizationStatus::Converging,
+            guides: true,
+        };
+        assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"followed","floor":2}"#);
+        p.guides = false;
+        assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"converging","floor":2}"#);
+        (p.status, p.guides) = (LocalizationStatus::Tracking, true);
+        assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"tracking","floor":2}"#);
     }
 }

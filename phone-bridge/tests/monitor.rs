@@ -234,14 +234,16 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
         floor: 0,
         // 0.2 m by 0.1 m, the long axis 45 degrees from +x; heading 2 degrees
         covariance: [0.025, 0.015, 0.0, 0.015, 0.025, 0.0, 0.0, 0.0, 2f32.to_radians().powi(2)],
-        status: LocalizationStatus::Tracking,
+        // followed from a known place: guidance takes it before the filter tracks
+        status: LocalizationStatus::Converging,
+        guides: true,
     };
     poses.put(t_ns, &pose).await.unwrap();
     let p = next_of(&mut monitor, "pose", WAIT).await;
     let close = |v: &Value, want: f64| (v.as_f64().unwrap() - want).abs() < 1e-4;
     assert!(close(&p["sigma_major_m"], 0.2) && close(&p["sigma_minor_m"], 0.1), "{p}");
     assert!(close(&p["major_angle_rad"], std::f64::consts::FRAC_PI_4) && close(&p["sigma_yaw_deg"], 2.0), "{p}");
-    assert_eq!((&p["x_m"], &p["status"]), (&json!(3.0), &json!("tracking")));
+    assert_eq!((&p["x_m"], &p["status"], &p["guides"]), (&json!(3.0), &json!("converging"), &json!(true)));
 
     let mut truths =
         Publisher::<GroundTruth>::declare(&session, keys.truth("sim"), "test", Lane::Telemetry, None).await.unwrap();

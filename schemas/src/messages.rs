@@ -302,9 +302,15 @@ pub struct Pose {
     pub covariance: [f32; 9],
     /// How far the estimate can be trusted.
     pub status: LocalizationStatus,
+    /// Route guidance takes this place: while `Tracking`, or while `Converging` when the
+    /// estimate is followed from a known place (a told start, a gateway's stop, a
+    /// `Tracking` estimate) and every correction since met `Tracking`'s conditions but
+    /// the streak of them. Never while `Lost`.
+    pub guides: bool,
 }
 
-/// How far a [`Pose`] can be trusted: guidance acts on `Tracking` only.
+/// How far a [`Pose`] can be trusted; route guidance acts on it where [`Pose::guides`]
+/// says so.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum LocalizationStatus {
     /// The estimate is one tight cluster: position known to a few decimetres.

@@ -150,14 +150,14 @@ impl SchemaId {
     /// reject any other. Bumped when a schema's layout changes: `hazard` v2 added
     /// `turn_ahead` and `body_turn_deg_s`, v4 `predictive` and v5 `gravity`; every schema went up one
     /// when the envelope gained the sender's `session` and the checksum trailer; `pose`
-    /// v3 added `status`,
+    /// v3 added `status` and v4 `guides`,
     /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`
     /// and v4 `Door`, `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
             SchemaId::Hazard => 5,
-            SchemaId::Command => 4,
-            SchemaId::Pose | SchemaId::RouteState | SchemaId::SpeechIntent => 3,
+            SchemaId::Command | SchemaId::Pose => 4,
+            SchemaId::RouteState | SchemaId::SpeechIntent => 3,
             _ => 2,
         }
     }

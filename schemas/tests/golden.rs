@@ -305,6 +305,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 floor: 2,
                 covariance: [0.04, 0.001, 0.0, 0.001, 0.04, 0.0, 0.0, 0.0, 0.01],
                 status: LocalizationStatus::Tracking,
+                guides: true,
             },
         ),
         vector(
@@ -343,6 +344,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 floor: 0,
                 covariance: [25.0, 0.0, 0.0, 0.0, 25.0, 0.0, 0.0, 0.0, 3.0],
                 status: LocalizationStatus::Lost,
+                guides: false,
             },
         ),
         vector(
@@ -355,6 +357,7 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
                 floor: 1,
                 covariance: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.5],
                 status: LocalizationStatus::Converging,
+                guides: true,
             },
         ),
         route_with_status("route_state_waiting_for_position", 40, RouteStatus::WaitingForPosition),

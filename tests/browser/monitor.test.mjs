@@ -178,7 +178,7 @@ step('map', ['speech'], 'the floor map shows the pose, and the route to the dest
     `the pose drawn (${x}, ${y}) is one the localization published`);
   await waitFor(`the route facts to name ${DESTINATION}`, async () =>
     /^Route (guiding|waiting-for-position) to room 204/.test(await page.locator('#route-facts').textContent()), 5000);
-  assert.match(await page.locator('#pose-facts').textContent(), /^Pose (tracking|converging): \(.+\) m, heading .+, 95 % within/);
+  assert.match(await page.locator('#pose-facts').textContent(), /^Pose (tracking|converging|converging \(followed: guidance takes it\)): \(.+\) m, heading .+, 95 % within/);
   assert.match(await page.locator('#map-note').textContent(), /publishes its covariance, not its particles/);
 });
 

@@ -423,6 +423,7 @@ impl Tracker {
             floor: e.level,
             covariance,
             status: wire_status(e.status),
+            guides: e.guides(),
         }
     }
 

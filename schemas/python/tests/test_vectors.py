@@ -171,6 +171,9 @@ def test_package_decodes_depth_frames_without_numpy_or_zstandard():
         ("depth_frame_raw", "4x3 Raw 24 B"),
         ("command_mute", "Mute on"),
         ("scan", "5 bins, nearest 0.75 m at 0 deg"),
+        ("pose", "Tracking x 12.50 y 3.25 yaw -29 deg floor 2"),
+        ("pose_converging", "Converging (followed: guidance takes it) x 3.00 y 4.00 yaw 86 deg floor 1"),
+        ("pose_lost", "Lost x 0.00 y 0.00 yaw 0 deg floor 0"),
     ],
 )
 def test_summary_says_what_matters(name, line):

@@ -107,6 +107,7 @@ POSE = Struct(
     floor=I32,
     covariance=Array(F32, 9),
     status=LOCALIZATION_STATUS,
+    guides=BOOL,
 )
 
 MAP_POINT = Struct("MapPoint", x_m=F32, y_m=F32, floor=I32)
@@ -270,7 +271,7 @@ SCHEMAS = (
     # v2 added turn_ahead and body_turn_deg_s, v4 predictive, v5 gravity
     Schema(6, "hazard", HAZARD, version=5),
     # v3 added status
-    Schema(7, "pose", POSE, version=3),
+    Schema(7, "pose", POSE, version=4),
     # v3 added floor, status and route
     Schema(8, "route_state", ROUTE_STATE, version=3),
     Schema(9, "haptic_intent", HAPTIC_INTENT, 256),

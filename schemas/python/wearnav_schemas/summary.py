@@ -72,6 +72,8 @@ def _hazard(b):
 def _pose(b):
     yaw = math.degrees(b["yaw_rad"])
     status, _ = _variant(b["status"])
+    if b["guides"] and status != "Tracking":
+        status += " (followed: guidance takes it)"
     return f"{status} x {b['x_m']:.2f} y {b['y_m']:.2f} yaw {yaw:.0f} deg floor {b['floor']}"
 
 

@@ -13,7 +13,7 @@
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
-use schemas::{LocalizationStatus, MapPoint, Pose, RouteStatus};
+use schemas::{MapPoint, Pose, RouteStatus};
 
 use super::scene::ElevatorSpec;
 use super::walker::{wrap_pi, Trajectory};
@@ -132,14 +132,15 @@ impl GuidedWalker {
         };
         if directions != self.heard {
             // new words: where they point from here, kept until the next ones; while the
-            // device is unsure, the user goes on carefully the way they were told last
-            let tracking = directions.estimate.is_some_and(|e| e.status == LocalizationStatus::Tracking);
-            self.unsure = !tracking;
+            // device's guidance does not take its place, the user goes on carefully the
+            // way they were told last
+            let guided = directions.estimate.is_some_and(|e| e.guides);
+            self.unsure = !guided;
             if self.doing == Doing::Arrived {
                 self.doing = Doing::Walking;
                 self.aim = None;
             }
-            if let (Some(next), Some(est), true) = (directions.next, directions.estimate, tracking) {
+            if let (Some(next), Some(est), true) = (directions.next, directions.estimate, guided) {
                 self.aim = Some(aim(&self.last().pose, &est, &next));
             }
             self.heard = directions.clone();
@@ -309,6 +310,7 @@ impl Trajectory for GuidedWalker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use schemas::LocalizationStatus;
 
     fn walker(at: [f64; 2]) -> (GuidedWalker, DirectionsHandle) {
         let d: DirectionsHandle = Arc::new(Mutex::new(Directions::default()));
@@ -329,6 +331,7 @@ mod tests {
             floor: 0,
             covariance: [0.0; 9],
             status: LocalizationStatus::Tracking,
+            guides: true,
         });
     }
 
@@ -351,6 +354,28 @@ mod tests {
         let peak = speeds.iter().copied().fold(0.0, f64::max);
         assert!((0.95..=1.0 + 1e-9).contains(&peak), "{peak}");
         assert!(speeds.windows(2).all(|s| (s[1] - s[0]).abs() <= WALK_ACCEL_M_S2 * 0.1 + 1e-9), "{speeds:?}");
+    }
+
+    #[test]
+    fn it_walks_by_a_place_guidance_takes_and_goes_on_carefully_by_one_it_does_not() {
+        // the filter converges, and guidance takes its place (followed from a known one):
+        // walked to as when tracking
+        let (mut w, d) = walker([0.0, 0.0]);
+        tell(&d, RouteStatus::Guiding, [0.0, 5.0, 0.0], [0.0, 0.0, 0.0], None);
+        d.lock().unwrap().estimate.as_mut().unwrap().status = LocalizationStatus::Converging;
+        w.advance_to(8.0);
+        let p = w.pose_at(8.0);
+        assert!(p.x_m.abs() < 0.2 && (p.y_m - 5.0).abs() < 0.2, "{p:?}");
+        // the same words from a place guidance does not take: not turned to, the user
+        // goes on the way they faced, at the unsure pace
+        let (mut w, d) = walker([0.0, 0.0]);
+        tell(&d, RouteStatus::Guiding, [0.0, 5.0, 0.0], [0.0, 0.0, 0.0], None);
+        let mut estimate = d.lock().unwrap().estimate.unwrap();
+        (estimate.status, estimate.guides) = (LocalizationStatus::Converging, false);
+        d.lock().unwrap().estimate = Some(estimate);
+        w.advance_to(8.0);
+        let p = w.pose_at(8.0);
+        assert!(p.y_m.abs() < 0.05, "{p:?}");
     }
 
     #[test]

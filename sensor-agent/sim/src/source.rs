@@ -531,6 +531,7 @@ mod tests {
                 floor: 0,
                 covariance: [0.0; 9],
                 status: LocalizationStatus::Tracking,
+                guides: true,
             }),
             said_floor: None,
         }));
