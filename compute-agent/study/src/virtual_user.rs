@@ -492,8 +492,9 @@ impl VirtualUser {
             }
         }
         let (felt, fast) = self.perceived(t_s);
-        // near (fast pulses): stop while turning away, as for both sides
-        let side_speed = if fast { 0.0 } else { p.turn_walk_speed_m_s };
+        // near (fast pulses): stop while turning away, as for both sides; told to turn on
+        // the spot: stay on it
+        let side_speed = if fast || self.spin_rad_s.is_some() { 0.0 } else { p.turn_walk_speed_m_s };
         if felt != self.acting {
             let in_place = |f: Felt| f == Felt::Both || f == Felt::Offline;
             if in_place(felt) && !in_place(self.acting) && t_s >= self.bump_until_s + p.commit_s {
@@ -520,8 +521,10 @@ impl VirtualUser {
                 // not seeing (a wall filling the view hides the floor): no step forward,
                 // but turn slowly so the camera can find the floor again
                 Felt::Offline => (0.0, if self.in_place_left { 0.5 * turn } else { -0.5 * turn }),
-                Felt::None if t_s < self.commit_until_s => (p.walk_speed_m_s, 0.0),
+                // told to turn on the spot, the user stays on it: no walking on after
+                // turning away from what was felt
                 Felt::None if self.spin_rad_s.is_some() => (0.0, self.spin_rad_s.map_or(0.0, |r| r.clamp(-turn, turn))),
+                Felt::None if t_s < self.commit_until_s => (p.walk_speed_m_s, 0.0),
                 Felt::None => match target_rad {
                     Some(h) => {
                         let err = wrap_pi(h - self.pose.yaw_rad);
@@ -612,6 +615,31 @@ mod tests {
         assert!(v == 0.0 && yaw > 0.5, "{v} {yaw}");
         let (v, _) = run(350.0, 600.0);
         assert!((v - 0.4).abs() < 1e-9, "{v}");
+    }
+
+    #[test]
+    fn a_user_turning_on_the_spot_stays_on_it_when_something_is_felt() {
+        let mut u = user(0.2);
+        u.spin(Some(0.5));
+        let dt = 0.01;
+        let mut t = 0.0;
+        // a wall comes into the turning view (both sides), then one side, then nothing:
+        // turned on, never walked off
+        for (until_s, felt) in [(2.0, Felt::None), (3.0, Felt::Both), (4.0, Felt::Left), (8.0, Felt::None)] {
+            while t < until_s {
+                u.feel(t, felt, None);
+                let (p, v) = u.propose(t, dt, None);
+                u.commit(p, v);
+                t += dt;
+            }
+        }
+        let moved = u.pose().x_m.hypot(u.pose().y_m);
+        assert!(moved < 1e-9, "walked {moved} m");
+        assert!(u.pose().yaw_rad.abs() > 0.5, "turned: {}", u.pose().yaw_rad);
+        // told to walk again: walks
+        u.spin(None);
+        walk(&mut u, t, t + 2.0, Felt::None);
+        assert!(u.pose().x_m.hypot(u.pose().y_m) > 0.5);
     }
 
     #[test]
