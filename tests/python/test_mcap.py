@@ -34,15 +34,20 @@ def free_port():
         return s.getsockname()[1]
 
 
-def wait_listening(port, limit=20.0):
+def wait_listening(port, demo, log, limit=20.0):
+    """Until the demo listens on `port`; fails with the demo's log if it exits first or
+    does not listen within `limit` seconds."""
     deadline = time.monotonic() + limit
     while time.monotonic() < deadline:
+        if demo.poll() is not None:
+            pytest.fail(f"the demo exited ({demo.returncode}) before listening on port {port}; "
+                        f"its log:\n{log.read_text()[-3000:]}")
         try:
             socket.create_connection(("127.0.0.1", port), timeout=1).close()
             return
         except OSError:
             time.sleep(0.1)
-    pytest.fail(f"nothing listens on port {port} after {limit} s")
+    pytest.fail(f"nothing listens on port {port} after {limit} s; the demo's log:\n{log.read_text()[-3000:]}")
 
 
 @pytest.fixture
@@ -52,12 +57,14 @@ def recording(tmp_path):
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     env = {**os.environ, "RUST_LOG": "warn"}
-    demo = subprocess.Popen(
-        [str(WEARNAV), "demo", "--duration", "12s", "--user", USER, "--listen", endpoint],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
-    )
+    log = tmp_path / "demo.log"
+    with open(log, "wb") as sink:
+        demo = subprocess.Popen(
+            [str(WEARNAV), "demo", "--duration", "12s", "--user", USER, "--listen", endpoint],
+            stdout=sink, stderr=subprocess.STDOUT, env=env,
+        )
     try:
-        wait_listening(port)
+        wait_listening(port, demo, log)
         out = tmp_path / "walk.mcap"
         run = subprocess.run(
             [str(WEARNAV), "record", "--user", USER, "--connect", endpoint, "--no-multicast",
