@@ -296,7 +296,8 @@ impl Nav {
     pub async fn frame(&mut self, scan: &Scan, held: &[[f32; 2]], capture_ns: u64, body_yaw_rate: Option<f32>) {
         let cane = self.cane_rate.rate_at(capture_ns, bus::now_ns()).map(f64::from);
         self.tracker.frame(scan, capture_ns, cane, body_yaw_rate.map(f64::from));
-        if let Some(news) = self.tracker.news() {
+        let news = self.tracker.news();
+        if let Some(news) = news {
             tracing::info!("localization: {news}");
             let speech = self.speech(news, "localization");
             self.say(capture_ns, speech).await;
@@ -312,7 +313,12 @@ impl Nav {
                 tracing::info!("guidance: something stands on the route ahead: a way round ({cells} cells seen that the map lacks)");
             }
         }
-        if let Some(speech) = self.navigator.step(&pose, now_ms) {
+        // "Position found." once: the guide says it too when it had asked the user to
+        // stop and turn until then
+        let found = news == Some(guidance::POSITION_FOUND);
+        if let Some(speech) =
+            self.navigator.step(&pose, now_ms).filter(|s| !(found && s.text == guidance::POSITION_FOUND))
+        {
             tracing::info!("guidance: {}", speech.text);
             self.say(capture_ns, speech).await;
         }

@@ -6,6 +6,8 @@
 //! and the first that has something to say wins:
 //!
 //! 1. localization not confident: say so once, then nothing (no turns on a guess);
+//!    still not confident after `stop_when_uncertain_ms`: ask the user to stop and turn
+//!    slowly on the spot until the position is found;
 //! 2. the floor: the gateway's destination floor starts the next leg, any other floor
 //!    asks for a replan;
 //! 3. off the route (hysteresis `off_route_m` / `on_route_m`): where to rejoin
@@ -36,6 +38,16 @@ const HEADINGS_KEPT_MS: u64 = 1000;
 /// the end has arrived, metres: issue 31's "within 1 m of the place". A user who passes
 /// the goal a stride to its side never comes within the arrival radius.
 pub const ARRIVAL_BESIDE_M: f64 = 1.0;
+
+/// Said once when the pose stops being confident.
+const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know where you are again.";
+/// Said once when it has not been confident for the profile's `stop_when_uncertain_ms`.
+pub(crate) const STOP_UNCERTAIN: &str =
+    "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
+/// Said when the position is known again after the user was asked to stop and turn:
+/// the words of the localization's news for it, so a caller that says that news in the
+/// same step can drop the guide's copy.
+pub const POSITION_FOUND: &str = "Position found.";
 
 /// The headings of the last second of poses (ms, radians).
 #[derive(Clone, Debug, Default)]
@@ -134,6 +146,10 @@ pub struct Guide {
     back_on_route: bool,
     deviation_said_ms: Option<u64>,
     uncertain_said: bool,
+    /// since when the pose has not been confident, ms (none while it is)
+    uncertain_since_ms: Option<u64>,
+    /// the user was asked to stop and turn on the spot until the position is found
+    stop_said: bool,
     last_spontaneous_ms: Option<u64>,
     last: Option<Instruction>,
     serial: u64,
@@ -169,6 +185,8 @@ impl Guide {
             back_on_route: false,
             deviation_said_ms: None,
             uncertain_said: false,
+            uncertain_since_ms: None,
+            stop_said: false,
             last_spontaneous_ms: None,
             last: None,
             serial: 0,
@@ -261,7 +279,8 @@ impl Guide {
     /// warning). When it is the last instruction, it is given again, with the words of
     /// then, as soon as the step would give it: the route's start (or back on the
     /// route), an off-route prompt, a turn still ahead (a "now" only while the turn is
-    /// within reach), the arrival. True when it was.
+    /// within reach), the arrival, the request to stop and turn on the spot and the
+    /// position found after it. True when it was.
     pub fn not_heard(&mut self, text: &str) -> bool {
         let Some(last) = self.last.as_ref().filter(|i| i.text == text) else {
             return false;
@@ -277,6 +296,9 @@ impl Guide {
                 self.announced = None;
             }
             InstructionKind::Arrived => self.arrived = false,
+            InstructionKind::PositionUncertain if text == STOP_UNCERTAIN => self.stop_said = false,
+            // still turning on the spot: said again while the position is known
+            InstructionKind::PositionFound => self.stop_said = true,
             _ => return false,
         }
         // not heard: no spacing to keep after it
@@ -333,15 +355,33 @@ impl Guide {
         let finite = pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
         self.headings.push(now_ms, pose.heading_rad);
         if !(pose.confident && finite) {
-            if self.uncertain_said {
+            let since_ms = *self.uncertain_since_ms.get_or_insert(now_ms);
+            if !self.uncertain_said {
+                let i =
+                    self.issue(InstructionKind::PositionUncertain, UNCERTAIN.into(), "uncertain", now_ms, Pace::Spaced);
+                self.uncertain_said = i.is_some();
+                return i;
+            }
+            if self.stop_said || now_ms.saturating_sub(since_ms) < self.profile.stop_when_uncertain_ms {
                 return None;
             }
-            let text = "Position uncertain: no turn instructions until I know where you are again.";
-            let i = self.issue(InstructionKind::PositionUncertain, text.into(), "uncertain", now_ms, Pace::Spaced);
-            self.uncertain_said = i.is_some();
+            let i = self.issue(
+                InstructionKind::PositionUncertain,
+                STOP_UNCERTAIN.into(),
+                "uncertain/stop",
+                now_ms,
+                Pace::Spaced,
+            );
+            self.stop_said = i.is_some();
             return i;
         }
-        self.uncertain_said = false;
+        (self.uncertain_said, self.uncertain_since_ms) = (false, None);
+        if std::mem::take(&mut self.stop_said) {
+            // the user stands turning on the spot until told: said at once, and the way
+            // to face follows once they stand still
+            self.back_on_route = true;
+            return self.issue(InstructionKind::PositionFound, POSITION_FOUND.into(), "found", now_ms, Pace::Exempt);
+        }
         if pose.floor != self.legs[self.leg].route.floor {
             if let LegEnd::Gateway { to_floor, .. } = self.legs[self.leg].end {
                 if to_floor == pose.floor && self.leg + 1 < self.legs.len() {
@@ -454,7 +494,7 @@ impl Guide {
             last.kind
         {
             if !pose.confident {
-                let text = "Position uncertain: no turn instructions until I know where you are again.";
+                let text = if self.stop_said { STOP_UNCERTAIN } else { UNCERTAIN };
                 return self.answer(InstructionKind::PositionUncertain, text.into(), "repeat", now_ms, false);
             }
             if leg == self.leg && waypoint == self.target && pose.floor == self.legs[leg].route.floor {
@@ -476,7 +516,7 @@ impl Guide {
                 return self.answer(last.kind.clone(), text, "repeat", now_ms, false);
             }
             // the position is known again since: not a stale "uncertain", the way on
-            (InstructionKind::PositionUncertain, true) if !self.off_route => {
+            (InstructionKind::PositionUncertain | InstructionKind::PositionFound, true) if !self.off_route => {
                 let pr = self.progress(pose);
                 let text = self.face_words(pose, &pr);
                 return self.answer(InstructionKind::Continue, text, "repeat", now_ms, false);

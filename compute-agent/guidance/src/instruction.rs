@@ -55,6 +55,9 @@ pub enum InstructionKind {
     Replan,
     /// localization is not confident: no turn instructions until it is
     PositionUncertain,
+    /// the position is known again after the user was asked to stop and turn on the
+    /// spot: they stop turning, and the way to face follows
+    PositionFound,
     /// the answer to "where am I"
     WhereAmI,
     /// "go straight on for 8 metres": the answer to "repeat" once a repeated turn has

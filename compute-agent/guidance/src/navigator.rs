@@ -11,7 +11,7 @@ use map::{Building, Label, SemanticLayer};
 use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
-use crate::guide::{Guide, Headings, UserPose};
+use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, STOP_UNCERTAIN};
 use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
 use crate::utterance::distance_phrase;
@@ -88,6 +88,11 @@ pub struct Navigator {
     /// ways round laid, looked for without one found (or only a far longer one), and
     /// found but no farther from the route than a sidestep
     detours: (u64, u64, u64),
+    /// since when the pose has not been confident, ms (none while it is)
+    unplaced_since_ms: Option<u64>,
+    /// with no way found, the user was asked to stop and turn on the spot (a trip with a
+    /// route leaves that to its guide)
+    stop_said: bool,
 }
 
 impl Navigator {
@@ -115,6 +120,8 @@ impl Navigator {
             perceived: Perceived::default(),
             detour_tried_ms: None,
             detours: (0, 0, 0),
+            unplaced_since_ms: None,
+            stop_said: false,
         }
     }
 
@@ -256,8 +263,27 @@ impl Navigator {
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
         self.headings.push(now_ms, pose.heading_rad);
+        let placed = pose.confident && pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
+        if placed {
+            self.unplaced_since_ms = None;
+        } else {
+            self.unplaced_since_ms.get_or_insert(now_ms);
+        }
         let trip = self.trip.as_ref()?;
         if trip.guide.is_none() {
+            if placed && std::mem::take(&mut self.stop_said) {
+                // asked to stop and turn on the spot (below): found; "repeat" plans again
+                return Some(self.say(POSITION_FOUND.into(), "found"));
+            }
+            let long =
+                self.unplaced_since_ms.is_some_and(|t| now_ms.saturating_sub(t) >= self.profile.stop_when_uncertain_ms);
+            if trip.held == RouteStatus::Unreachable && long && !self.stop_said {
+                // no way from where the position was, and it is lost since: the user, told
+                // to walk on while it is looked for, is not left to walk on untold (a
+                // trip waiting for its first position already asked them to turn)
+                self.stop_said = true;
+                return Some(self.say(STOP_UNCERTAIN.into(), "uncertain/stop"));
+            }
             if trip.held == RouteStatus::WaitingForPosition && pose.confident {
                 return self.plan_trip(pose, now_ms);
             }
@@ -375,7 +401,20 @@ impl Navigator {
     /// cut off): the guide gives it again when it was its last instruction
     /// ([`Guide::not_heard`]). True when it will.
     pub fn not_heard(&mut self, text: &str) -> bool {
-        self.trip.as_mut().and_then(|t| t.guide.as_mut()).is_some_and(|g| g.not_heard(text))
+        let Some(trip) = self.trip.as_mut() else {
+            return false;
+        };
+        if let Some(guide) = trip.guide.as_mut() {
+            return guide.not_heard(text);
+        }
+        // the navigator's own request to stop, or the position found after it: again
+        let last = self.last_said.as_ref().is_some_and(|s| s.text == text);
+        match text {
+            STOP_UNCERTAIN if last && self.stop_said => self.stop_said = false,
+            POSITION_FOUND if last && !self.stop_said => self.stop_said = true,
+            _ => return false,
+        }
+        true
     }
 
     /// Where guidance stands, for `route/state`.

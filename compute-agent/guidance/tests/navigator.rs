@@ -259,6 +259,35 @@ fn with_no_way_the_route_is_planned_again_unasked_once_the_position_has_moved_on
 }
 
 #[test]
+fn with_no_way_and_the_position_lost_for_long_the_user_is_asked_to_stop_and_told_when_it_is_found() {
+    // the position (wrongly) inside the closed room: no way; then lost while the user,
+    // told to walk on while it is looked for, walks on
+    let mut nav = navigator();
+    let wrong = at(4.0, 4.0, 0.0, 0);
+    assert_eq!(texts(&nav.command(&go("room 204"), &wrong, 0).speech), ["I cannot find a way to room 204 from here."]);
+    let lost = UserPose { confident: false, ..wrong };
+    let stop = GuidanceProfile::default().stop_when_uncertain_ms;
+    assert_eq!(nav.step(&lost, 1000), None);
+    assert_eq!(nav.step(&lost, 1000 + stop - 100), None);
+    let s = nav.step(&lost, 1000 + stop).expect("asked to stop");
+    assert_eq!(
+        s.text,
+        "Position still uncertain: please stop, and turn slowly on the spot until I find your position."
+    );
+    assert_eq!(s.priority, Priority::Message);
+    assert_eq!(nav.step(&lost, 1000 + stop + 100), None, "once");
+    // cut off by a warning: said again
+    assert!(nav.not_heard(&s.text));
+    assert_eq!(nav.step(&lost, 1000 + stop + 200).map(|s| s.text), Some(s.text.clone()));
+    // found again where the user turned: said at once, then (far from where no way was
+    // found) the route from there
+    let here = at(1.5, 11.5, 0.0, 0);
+    assert_eq!(nav.step(&here, 1000 + stop + 5000).map(|s| s.text).as_deref(), Some("Position found."));
+    let route = nav.step(&here, 1000 + stop + 5100).map(|s| s.text);
+    assert_eq!(route.as_deref(), Some("Route to room 204: 40 metres. Go straight on."));
+}
+
+#[test]
 fn a_preview_plans_without_starting_guidance() {
     let mut nav = navigator();
     let here = at(1.5, 11.5, 0.0, 0);

@@ -626,3 +626,80 @@ fn a_walker_passing_the_goal_a_stride_to_its_side_hears_that_they_have_arrived_t
     // and not told to turn back once past it
     assert!(!texts(&said).iter().any(|t| t.starts_with("Off the route")), "{said:#?}");
 }
+
+#[test]
+fn a_position_uncertain_for_long_asks_the_user_to_stop_and_turn_and_its_return_says_so_then_the_way() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let from = route.waypoints[0];
+    let profile = GuidanceProfile::default();
+    let stop_ms = profile.stop_when_uncertain_ms;
+    assert_eq!(stop_ms, 60_000);
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), profile);
+    // 5 s at the start, facing east along the route, the position known
+    let standing: Vec<([f64; 2], f64)> = (0..50).map(|_| (from, 0.0)).collect();
+    let mut said = walk(&mut guide, &standing, 0, 0, Some(&p), |_| true);
+    // then 65 s of slow walking on along the corridor (0.2 m/s), the position not known
+    let on: Vec<([f64; 2], f64)> = (0..650).map(|k| ([from[0] + 0.02 * k as f64, from[1]], 0.0)).collect();
+    said.extend(walk(&mut guide, &on, 0, 5000, Some(&p), |_| false));
+    let stood = on.last().unwrap().0;
+    // "repeat" while it is not known: the last request, not a turn
+    let lost = UserPose { confident: false, ..pose(stood, 0.0) };
+    assert_eq!(
+        guide.repeat(&lost, 69_950).text,
+        "Position still uncertain: please stop, and turn slowly on the spot until I find your position."
+    );
+    // turning on the spot at 30 degrees a second for 3 s (east to north), the position
+    // known again from the first turning step, then still, facing north
+    let turning: Vec<([f64; 2], f64)> = (0..30).map(|k| (stood, (3.0 * k as f64).to_radians())).collect();
+    said.extend(walk(&mut guide, &turning, 0, 70_000, Some(&p), |_| true));
+    let still: Vec<([f64; 2], f64)> = (0..20).map(|_| (stood, 90f64.to_radians())).collect();
+    said.extend(walk(&mut guide, &still, 0, 73_000, Some(&p), |_| true));
+    let at: Vec<(u64, &str)> = said.iter().map(|s| (s.t_ms, s.instruction.text.as_str())).collect();
+    assert_eq!(
+        at[..4],
+        [
+            (0, "Route to the stairs: 25 metres. Go straight on."),
+            (5000, "Position uncertain: no turn instructions until I know where you are again."),
+            // 60 s after the position was last known, once
+            (
+                5000 + stop_ms,
+                "Position still uncertain: please stop, and turn slowly on the spot until I find your position."
+            ),
+            // at once, though the user still turns
+            (70_000, "Position found."),
+        ],
+        "{said:#?}"
+    );
+    assert_eq!(said[3].instruction.kind, InstructionKind::PositionFound);
+    // then which way to face, once the user stands still
+    assert_eq!(at.len(), 5, "{said:#?}");
+    assert_eq!(at[4].1, "Back on the route. Turn right, then go straight on.");
+    assert!((73_400..=73_600).contains(&at[4].0), "said at {} ms", at[4].0);
+}
+
+#[test]
+fn the_request_to_stop_and_the_position_found_again_are_said_again_when_not_heard() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let from = route.waypoints[0];
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), GuidanceProfile::default());
+    let (known, lost) = (pose(from, 0.0), UserPose { confident: false, ..pose(from, 0.0) });
+    guide.step(&known, 0, Some(p.graph())).unwrap();
+    assert_eq!(guide.step(&lost, 5000, Some(p.graph())).unwrap().kind, InstructionKind::PositionUncertain);
+    let t = 5000 + GuidanceProfile::default().stop_when_uncertain_ms;
+    assert_eq!(guide.step(&lost, t - 100, Some(p.graph())), None);
+    let stop = guide.step(&lost, t, Some(p.graph())).unwrap();
+    assert!(stop.text.starts_with("Position still uncertain: please stop"), "{stop:?}");
+    assert_eq!(guide.step(&lost, t + 100, Some(p.graph())), None);
+    // cut off by a warning: said again at the next step, with a key of its own
+    assert!(guide.not_heard(&stop.text));
+    let again = guide.step(&lost, t + 200, Some(p.graph())).unwrap();
+    assert_eq!(again.text, stop.text);
+    assert_ne!(again.dedup_key, stop.dedup_key);
+    let found = guide.step(&known, t + 5000, Some(p.graph())).unwrap();
+    assert_eq!(found.text, "Position found.");
+    assert!(guide.not_heard(&found.text));
+    let found_again = guide.step(&known, t + 5100, Some(p.graph())).unwrap();
+    assert_eq!((found_again.kind, found_again.text.as_str()), (InstructionKind::PositionFound, "Position found."));
+}

@@ -834,6 +834,12 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
             format!("; heard {heard} utterances, {prompts} off-route prompts in {:.0} m", w.path_m)
         }
     };
+    let heard = match w.unguided_m {
+        Some((total, longest)) if total >= 0.5 => {
+            format!("{heard}, {total:.0} m of them with no place for guidance (at most {longest:.0} m at a stretch)")
+        }
+        _ => heard,
+    };
     let round = match w.ways_round {
         None => String::new(),
         Some((laid, none, sidesteps)) => {

@@ -268,7 +268,10 @@ impl SpokenDevice {
             let asked = Command::Destination { label: self.destination.clone() };
             out.extend(self.navigator.command(&asked, pose, now_ms).speech);
         }
-        out.extend(self.navigator.step(pose, now_ms));
+        // "Position found." once: the guide says it too when it had asked the user to
+        // stop and turn until then
+        let found = news == Some(guidance::POSITION_FOUND);
+        out.extend(self.navigator.step(pose, now_ms).filter(|s| !(found && s.text == guidance::POSITION_FOUND)));
     }
 
     /// A command from the user (`cmd/*`) at the believed `pose`; the answer into `out`.
@@ -359,6 +362,8 @@ mod tests {
         assert_eq!(meaning("You have arrived at music.", &p), Meaning::Arrived);
         let search = "Going to music. Turn slowly on the spot until I find your position.";
         assert_eq!(meaning(search, &p), Meaning::Search);
+        let stop = "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
+        assert_eq!(meaning(stop, &p), Meaning::Search);
         assert_eq!(meaning("Position found.", &p), Meaning::Wait);
         assert_eq!(meaning("Back on the route. Turn left, then go straight on.", &p), Meaning::Turn(-90.0));
         assert_eq!(

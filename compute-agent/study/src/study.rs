@@ -296,6 +296,7 @@ mod tests {
             way_through: Some(true),
             localization: None,
             heard: None,
+            unguided_m: None,
             ways_round: None,
             trace: Vec::new(),
         }

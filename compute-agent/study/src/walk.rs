@@ -429,6 +429,10 @@ pub struct WalkOutcome {
     /// With the spoken guide: utterances heard to their end, and of them the prompts to
     /// come back to the route ("Off the route: ...").
     pub heard: Option<(u32, u32)>,
+    /// With the spoken guide: metres walked while guidance could not take the place the
+    /// device believed (told "position uncertain", or waiting for a first position), and
+    /// the longest such stretch walked, metres.
+    pub unguided_m: Option<(f64, f64)>,
     /// With the spoken guide: ways round what the camera found (`--ways-round`): laid,
     /// looked for without one found, and found but within a sidestep of the route.
     pub ways_round: Option<(u64, u64, u64)>,
@@ -865,6 +869,10 @@ pub struct Walk<'w> {
     /// With the spoken guide: the device's navigator, what it says this frame, and what
     /// the user heard and has not yet acted on.
     spoken: Option<SpokenDevice>,
+    /// guidance takes the place the device believes now, and metres walked since it last
+    /// did (spoken guide)
+    guided_now: bool,
+    unguided_run_m: f64,
     said: Vec<SpeechIntent>,
     ear: Ear,
     pending: VecDeque<InFlight>,
@@ -971,6 +979,7 @@ impl<'w> Walk<'w> {
             way_through: world.way_through(),
             localization: None,
             heard: (config.guide == GuideKind::Spoken).then_some((0, 0)),
+            unguided_m: (config.guide == GuideKind::Spoken).then_some((0.0, 0.0)),
             ways_round: None,
             trace: Vec::new(),
         };
@@ -1017,6 +1026,8 @@ impl<'w> Walk<'w> {
             last_camera_yaw: None,
             tracked_error: (0.0, 0.0, 0, 0, 0),
             spoken,
+            guided_now: false,
+            unguided_run_m: 0.0,
             said: Vec::new(),
             ear,
             pending: VecDeque::new(),
@@ -1161,6 +1172,10 @@ impl<'w> Walk<'w> {
         if let Some(device) = self.spoken.as_mut() {
             // the guide speaks from where the device believes the user is
             let g = guided_pose(self.tracker.as_ref(), config.pose, pose);
+            self.guided_now = g.confident;
+            if g.confident {
+                self.unguided_run_m = 0.0;
+            }
             let news = self.tracker.as_mut().and_then(Tracker::news);
             let now_ms = (t * 1000.0) as u64;
             for asked in std::mem::take(&mut self.ear.borrow_mut().asked) {
@@ -1462,7 +1477,13 @@ impl<'w> Walk<'w> {
             self.user.commit(UserPose { yaw_rad: proposed.yaw_rad, ..*pose }, 0.0);
             self.user.stopped_by(t_next, on_left(ObstacleId(i as u32)));
         } else {
-            self.out.path_m += (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
+            let step_m = (proposed.x_m - pose.x_m).hypot(proposed.y_m - pose.y_m);
+            self.out.path_m += step_m;
+            if let (Some((total, longest)), false) = (self.out.unguided_m.as_mut(), self.guided_now) {
+                self.unguided_run_m += step_m;
+                *total += step_m;
+                *longest = longest.max(self.unguided_run_m);
+            }
             self.user.commit(proposed, speed);
             self.body_now.copy_from_slice(&self.body.distance_m);
         }
