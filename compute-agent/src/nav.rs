@@ -313,12 +313,7 @@ impl Nav {
                 tracing::info!("guidance: something stands on the route ahead: a way round ({cells} cells seen that the map lacks)");
             }
         }
-        // "Position found." once: the guide says it too when it had asked the user to
-        // stop and turn until then
-        let found = news == Some(guidance::POSITION_FOUND);
-        if let Some(speech) =
-            self.navigator.step(&pose, now_ms).filter(|s| !(found && s.text == guidance::POSITION_FOUND))
-        {
+        if let Some(speech) = self.navigator.step_after_news(&pose, news, now_ms) {
             tracing::info!("guidance: {}", speech.text);
             self.say(capture_ns, speech).await;
         }

@@ -45,9 +45,9 @@ const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know w
 pub(crate) const STOP_UNCERTAIN: &str =
     "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
 /// Said when the position is known again after the user was asked to stop and turn:
-/// the words of the localization's news for it, so a caller that says that news in the
-/// same step can drop the guide's copy.
-pub const POSITION_FOUND: &str = "Position found.";
+/// the words of the localization's news for it, said once when both come in one step
+/// ([`crate::Navigator::step_after_news`]).
+pub(crate) const POSITION_FOUND: &str = "Position found.";
 
 /// The headings of the last second of poses (ms, radians).
 #[derive(Clone, Debug, Default)]

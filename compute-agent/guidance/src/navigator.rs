@@ -259,6 +259,14 @@ impl Navigator {
         out
     }
 
+    /// [`Navigator::step`] after the caller said the localization's `news` of this step:
+    /// "Position found." is said once when the guide (or the navigator) would say it
+    /// too, having asked the user to stop and turn until then.
+    pub fn step_after_news(&mut self, pose: &UserPose, news: Option<&str>, now_ms: u64) -> Option<SpeechIntent> {
+        let found = news == Some(POSITION_FOUND);
+        self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND))
+    }
+
     /// One step with the pose of now: plans a held destination once the position is
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {

@@ -279,9 +279,12 @@ fn with_no_way_and_the_position_lost_for_long_the_user_is_asked_to_stop_and_told
     // cut off by a warning: said again
     assert!(nav.not_heard(&s.text));
     assert_eq!(nav.step(&lost, 1000 + stop + 200).map(|s| s.text), Some(s.text.clone()));
-    // found again where the user turned: said at once, then (far from where no way was
-    // found) the route from there
+    // found again where the user turned: said at once (once, when the localization's
+    // news of the step said it already), then (far from where no way was found) the
+    // route from there
     let here = at(1.5, 11.5, 0.0, 0);
+    let mut told = nav.clone();
+    assert_eq!(told.step_after_news(&here, Some("Position found."), 1000 + stop + 5000), None);
     assert_eq!(nav.step(&here, 1000 + stop + 5000).map(|s| s.text).as_deref(), Some("Position found."));
     let route = nav.step(&here, 1000 + stop + 5100).map(|s| s.text);
     assert_eq!(route.as_deref(), Some("Route to room 204: 40 metres. Go straight on."));

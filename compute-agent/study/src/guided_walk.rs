@@ -133,7 +133,8 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
         };
         let now_ms = k * period / 1_000_000;
         let mut said = Vec::new();
-        said.extend(tracker.news().map(str::to_string));
+        let news = tracker.news();
+        said.extend(news.map(str::to_string));
         if !asked {
             said.extend(
                 nav.command(&Command::Destination { label: place.name.clone() }, &pose, now_ms)
@@ -143,7 +144,7 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
             );
             asked = true;
         }
-        said.extend(nav.step(&pose, now_ms).map(|s| s.text));
+        said.extend(nav.step_after_news(&pose, news, now_ms).map(|s| s.text));
         let floor_said = {
             let mut d = directions.lock().unwrap_or_else(|p| p.into_inner());
             d.said_floor.take()

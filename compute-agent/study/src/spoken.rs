@@ -268,10 +268,7 @@ impl SpokenDevice {
             let asked = Command::Destination { label: self.destination.clone() };
             out.extend(self.navigator.command(&asked, pose, now_ms).speech);
         }
-        // "Position found." once: the guide says it too when it had asked the user to
-        // stop and turn until then
-        let found = news == Some(guidance::POSITION_FOUND);
-        out.extend(self.navigator.step(pose, now_ms).filter(|s| !(found && s.text == guidance::POSITION_FOUND)));
+        out.extend(self.navigator.step_after_news(pose, news, now_ms));
     }
 
     /// A command from the user (`cmd/*`) at the believed `pose`; the answer into `out`.
