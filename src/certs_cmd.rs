@@ -278,13 +278,13 @@ mod tests {
 
     #[test]
     fn a_kept_authority_signs_a_client_added_later_and_nothing_is_overwritten_unasked() {
-        let dir = std::env::temp_dir().join(format!("wearnav-certs-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        let first = make(&args(&dir, &["compute", "monitor"])).unwrap();
+        let scratch = tempfile::Builder::new().prefix("wearnav-certs-").tempdir().unwrap();
+        let dir = scratch.path();
+        let first = make(&args(dir, &["compute", "monitor"])).unwrap();
         assert!(first.new_ca);
         let ca = fs::read_to_string(dir.join("ca.pem")).unwrap();
         let router_conf = fs::read_to_string(dir.join("router.json5")).unwrap();
-        let canonical = fs::canonicalize(&dir).unwrap();
+        let canonical = fs::canonicalize(dir).unwrap();
         assert!(router_conf.contains(&format!("\"{}/router.key\"", canonical.display())), "paths filled in");
         assert!(router_conf.contains("tls/0.0.0.0:7447") && !router_conf.contains("${"), "{router_conf}");
         let client = fs::read_to_string(dir.join("monitor.json5")).unwrap();
@@ -298,14 +298,13 @@ mod tests {
             assert_eq!(mode, 0o600, "keys are private");
         }
         // the same clients again: refused, nothing replaced
-        let again = make(&args(&dir, &["monitor"])).unwrap_err().to_string();
+        let again = make(&args(dir, &["monitor"])).unwrap_err().to_string();
         assert!(again.contains("monitor.pem exists") && again.contains("--force"), "{again}");
         // a laptop added: the authority and the router kept
-        let later = make(&args(&dir, &["laptop:monitor"])).unwrap();
+        let later = make(&args(dir, &["laptop:monitor"])).unwrap();
         assert!(!later.new_ca);
         let names: Vec<_> = later.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
         assert_eq!(names, ["laptop.key", "laptop.pem", "laptop.json5"]);
         assert_eq!(fs::read_to_string(dir.join("ca.pem")).unwrap(), ca);
-        let _ = fs::remove_dir_all(&dir);
     }
 }

@@ -273,10 +273,9 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
 
 #[test]
 fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() {
-    let dir = std::env::temp_dir().join(format!("wearnav-config-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tempfile::Builder::new().prefix("wearnav-config-").tempdir().unwrap();
     let run = |name: &str, text: &str| {
-        let path = dir.join(name);
+        let path = dir.path().join(name);
         std::fs::write(&path, text).unwrap();
         let out = Command::new(agent_bin("compute-agent"))
             .args(["--perception-config", path.to_str().unwrap(), "--no-multicast"])
@@ -296,7 +295,6 @@ fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() 
     let (code, err) = run("negative.toml", "[ttc]\nmin_closing_speed_m_s = -1.0\n");
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("ttc.min_closing_speed_m_s = -1: must be a positive finite number"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// What a phone worn at the chest, tilted 20 degrees down, reads while the body turns at
@@ -423,9 +421,8 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
     let hub = hub(user).await;
     let keys = hub.options.keys().unwrap();
     // the study's perception settings (the Xtion's QVGA rays at stride 1); no body IMU
-    let dir = std::env::temp_dir().join(format!("wearnav-frame-step-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let perception_toml = dir.join("perception.toml");
+    let dir = tempfile::Builder::new().prefix("wearnav-frame-step-").tempdir().unwrap();
+    let perception_toml = dir.path().join("perception.toml");
     assert_eq!(config.perception.stride_px, 1);
     std::fs::write(&perception_toml, "stride_px = 1\n").unwrap();
     let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
@@ -471,7 +468,6 @@ async fn the_compute_agent_gives_the_hazards_the_study_walk_gave_for_the_same_fr
         let got = schemas::Hazard { frame_seq: want.frame_seq, latency: Vec::new(), ..got.body };
         assert_eq!(got, want, "frame {i}: the agent and the study disagree");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

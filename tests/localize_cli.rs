@@ -96,7 +96,8 @@ fn the_unmapped_gate_leaves_out_the_beams_on_the_chairs_of_taylors_course_and_sa
 
 #[test]
 fn on_a_simulated_walk_the_scan_holds_the_user_on_the_floor_plan() {
-    let frames_csv = std::env::temp_dir().join(format!("wearnav-localize-frames-{}.csv", std::process::id()));
+    let dir = tempfile::Builder::new().prefix("wearnav-localize-").tempdir().unwrap();
+    let frames_csv = dir.path().join("frames.csv");
     let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
         .args(["localize", "--world", "building", "--seed", "1", "--json", "--frames"])
         .arg(&frames_csv)
@@ -107,7 +108,6 @@ fn on_a_simulated_walk_the_scan_holds_the_user_on_the_floor_plan() {
     let with_scan = report(&String::from_utf8_lossy(&out.stdout));
     // every frame in the CSV, with the summary's walk and door signs in it
     let csv = std::fs::read_to_string(&frames_csv).expect("the frames file");
-    let _ = std::fs::remove_file(&frames_csv);
     let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
     assert!(rows[0].starts_with(&["t_s", "walked_m", "truth_x_m"]) && rows[0].len() == 21, "{:?}", rows[0]);
     assert_eq!(rows[0][17..], ["wall_residual_deg", "wall_used", "corner_residuals_m", "corners_used"]);

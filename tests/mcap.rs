@@ -70,10 +70,11 @@ fn wait_listening(port: u16, limit: Duration) {
     }
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wearnav-mcap-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A folder for one test's recordings, removed when the test ends (failed too). Each
+/// test makes it first, so it is removed last: after every process writing into it is
+/// killed (locals drop in reverse order).
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("wearnav-mcap-").tempdir().unwrap()
 }
 
 /// (sequence, log_time, payload) of every message, per key, in file order.
@@ -113,12 +114,13 @@ fn sigterm(proc: &Proc) {
 /// (stopped by SIGTERM, as Ctrl-C would) and compares the two files message by message.
 #[test]
 fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_timing() {
+    let dir = scratch();
     let demo_port = free_port();
     let demo_endpoint = format!("tcp/127.0.0.1:{demo_port}");
     let demo = start(&["demo", "--duration", "10s", "--user", "rec", "--listen", &demo_endpoint]);
     wait_listening(demo_port, Duration::from_secs(20));
     std::thread::sleep(Duration::from_secs(1));
-    let first = scratch("first.mcap");
+    let first = dir.path().join("first.mcap");
     let recorder = start(&[
         "record",
         "--user",
@@ -157,7 +159,7 @@ fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_tim
     // replay into a second recorder listening on a fresh port
     let port = free_port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let second = scratch("second.mcap");
+    let second = dir.path().join("second.mcap");
     let recorder =
         start(&["record", "--user", "rec", "--listen", &endpoint, "--no-multicast", "--out", second.to_str().unwrap()]);
     wait_listening(port, Duration::from_secs(20));
@@ -197,7 +199,8 @@ fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_tim
 
 #[test]
 fn inspect_refuses_a_file_that_is_not_mcap() {
-    let path = scratch("not.mcap");
+    let dir = scratch();
+    let path = dir.path().join("not.mcap");
     std::fs::write(&path, b"this is not an MCAP file at all").unwrap();
     let out = wearnav(&["inspect", path.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -213,11 +216,12 @@ fn inspect_refuses_a_file_that_is_not_mcap() {
 /// leaves every file complete.
 #[test]
 fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_complete() {
+    let dir = scratch();
     let port = free_port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let demo = start(&["demo", "--duration", "16s", "--user", "cut", "--listen", &endpoint]);
     wait_listening(port, Duration::from_secs(20));
-    let path = scratch("whole.mcap");
+    let path = dir.path().join("whole.mcap");
     let out = wearnav(&[
         "record",
         "--user",
@@ -234,9 +238,9 @@ fn inspect_reports_damaged_recordings_a_full_disk_fails_and_rotated_files_are_co
     // a disk that fills: a 3 MB tmpfs in a mount namespace of its own (unshare maps us
     // to root in a user namespace, so no privilege is needed), about 1.5 s of the demo.
     // The recorder says so and exits non-zero; the chunks it wrote before read back.
-    let full = scratch("full");
+    let full = dir.path().join("full");
     std::fs::create_dir_all(&full).unwrap();
-    let kept = scratch("kept-from-full-disk.mcap");
+    let kept = dir.path().join("kept-from-full-disk.mcap");
     let script = r#"mount -t tmpfs -o size=3m tmpfs "$1" || exit 99
 "$2" record --user cut --connect "$3" --no-multicast --duration 8s --out "$1/walk.mcap"
 code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
@@ -265,7 +269,7 @@ code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
     assert!(count >= 200, "{count} messages read back from the full disk: {table}");
     assert!(table.contains("perception/hazard"), "{table}");
     // rotation by size: numbered files, each complete, nothing lost between them
-    let split = scratch("split.mcap");
+    let split = dir.path().join("split.mcap");
     let out = wearnav(&[
         "record",
         "--user",
@@ -288,7 +292,7 @@ code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
         .unwrap_or_else(|| panic!("no total in {err}"));
     let mut in_files = 0;
     for index in 0.. {
-        let file = scratch(&format!("split-{index:03}.mcap"));
+        let file = dir.path().join(format!("split-{index:03}.mcap"));
         if !file.exists() {
             assert!(index >= 3, "{index} files from 3 s at 2 MB/s split every 2 MB: {err}");
             break;
@@ -307,7 +311,7 @@ code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
     let whole = std::fs::read(&path).unwrap();
     assert!(whole.len() > 100_000, "{} bytes recorded", whole.len());
 
-    let truncated = scratch("truncated.mcap");
+    let truncated = dir.path().join("truncated.mcap");
     std::fs::write(&truncated, &whole[..whole.len() * 2 / 3]).unwrap();
     let out = wearnav(&["inspect", truncated.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -337,7 +341,7 @@ code=$?; cp "$1/walk.mcap" "$4"; exit $code"#;
     for b in &mut corrupted[whole.len() / 3..whole.len() / 3 + 64] {
         *b ^= 0xA5;
     }
-    let damaged = scratch("corrupted.mcap");
+    let damaged = dir.path().join("corrupted.mcap");
     std::fs::write(&damaged, &corrupted).unwrap();
     let out = wearnav(&["inspect", damaged.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&out.stderr);
@@ -387,9 +391,10 @@ fn compute_agent(user: &str) -> (Proc, String) {
 /// odometry messages too, so it perceives with the same intervals.
 #[test]
 fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_original_run() {
+    let dir = scratch();
     let user = "again";
     let (original_agent, endpoint) = compute_agent(user);
-    let original = scratch("original.mcap");
+    let original = dir.path().join("original.mcap");
     let recorder = start(&[
         "record",
         "--user",
@@ -418,7 +423,7 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     drop(original_agent);
 
     let (_agent, endpoint) = compute_agent(user);
-    let rerun = scratch("rerun.mcap");
+    let rerun = dir.path().join("rerun.mcap");
     let recorder = start(&[
         "record",
         "--user",

@@ -32,17 +32,16 @@ fn plan_runs_a_moving_ai_benchmark_and_every_length_is_optimal() {
 #[test]
 fn map_mapped_writes_the_furniture_a_mapping_run_would_record_and_the_plan_does_not() {
     let occupied_at = |mapped: bool, x: f64, y: f64| {
-        let dir = std::env::temp_dir().join(format!("wearnav-map-mapped-{}-{mapped}", std::process::id()));
-        let mut args = vec!["map", "--world", "taylor-course", "--out", dir.to_str().unwrap()];
+        let dir = tempfile::Builder::new().prefix(&format!("wearnav-map-mapped-{mapped}-")).tempdir().unwrap();
+        let mut args = vec!["map", "--world", "taylor-course", "--out", dir.path().to_str().unwrap()];
         if mapped {
             args.push("--mapped");
         }
         let (ok, _, err) = wearnav(&args);
         assert!(ok, "{err}");
-        let building = map::Building::load(&dir.join("building.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let building = map::Building::load(&dir.path().join("building.toml")).unwrap_or_else(|e| panic!("{e}"));
         let g = &building.floor(0).expect("floor 0").grid;
         let cell = g.world_to_cell(x, y).and_then(|(c, r)| g.get(c, r));
-        let _ = std::fs::remove_dir_all(&dir);
         cell == Some(map::Cell::Occupied)
     };
     // the head-high sign over the middle lane: on the mapped map only
@@ -55,7 +54,8 @@ fn map_mapped_writes_the_furniture_a_mapping_run_would_record_and_the_plan_does_
 
 #[test]
 fn a_world_exported_by_map_is_planned_on_by_label_and_unknown_places_are_named() {
-    let dir = std::env::temp_dir().join(format!("wearnav-plan-cli-{}", std::process::id()));
+    let scratch = tempfile::Builder::new().prefix("wearnav-plan-cli-").tempdir().unwrap();
+    let dir = scratch.path();
     let (ok, out, err) = wearnav(&["map", "--world", "building", "--out", dir.to_str().unwrap()]);
     assert!(ok, "{err}");
     assert!(out.contains("floor 0: 442x240 cells at 0.05 m"), "{out}");
@@ -99,5 +99,4 @@ fn a_world_exported_by_map_is_planned_on_by_label_and_unknown_places_are_named()
     let (ok, _, err) = plan("-3,5");
     assert!(!ok);
     assert!(err.contains("outside the floor map") || err.contains("not walkable"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -93,10 +93,10 @@ async fn senders<M: schemas::Message>(sub: &Subscriber<M>, window: Duration) -> 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_secure_profile_carries_the_agents_and_refuses_a_monitor_that_writes_and_a_stranger() {
     let user = "secure-test";
-    let dir = std::env::temp_dir().join(format!("wearnav-secure-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let scratch = tempfile::Builder::new().prefix("wearnav-secure-").tempdir().unwrap();
+    let dir = scratch.path();
     let endpoint = format!("tls/127.0.0.1:{}", free_port());
-    certs(&dir, &endpoint);
+    certs(dir, &endpoint);
     for f in ["ca.pem", "router.pem", "router.key", "router.json5", "monitor.pem", "monitor.json5"] {
         assert!(dir.join(f).is_file(), "wearnav certs wrote no {f}");
     }
@@ -174,5 +174,4 @@ async fn the_secure_profile_carries_the_agents_and_refuses_a_monitor_that_writes
     )
     .await;
     assert!(!matches!(stranger, Ok(Ok(_))), "a client of another authority connected to the router");
-    let _ = std::fs::remove_dir_all(&dir);
 }

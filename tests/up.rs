@@ -61,9 +61,8 @@ fn until(lines: &mpsc::Receiver<String>, limit: Duration, mut want: impl FnMut(&
 async fn up_starts_a_hosts_agents_restarts_a_killed_one_and_stops_them_all() {
     let user = "up-test";
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let dir = std::env::temp_dir().join(format!("wearnav-up-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let manifest = dir.join("site.toml");
+    let dir = tempfile::Builder::new().prefix("wearnav-up-").tempdir().unwrap();
+    let manifest = dir.path().join("site.toml");
     std::fs::write(
         &manifest,
         format!(
@@ -168,5 +167,4 @@ program = "phone-bridge"
     for (name, pid) in [("sensor", pids["sensor"]), ("compute", compute), ("feedback", pids["feedback"])] {
         assert!(!alive(pid), "{name} (pid {pid}) still running after up stopped");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,7 +4,7 @@
 
 mod host_tools;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -22,11 +22,9 @@ fn tools_present() -> bool {
     ok
 }
 
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wearnav-feedback-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir is writable");
-    dir
+/// A folder for one test's WAVs, removed when the test ends (failed too).
+fn scratch_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("wearnav-feedback-{name}-")).tempdir().expect("temp dir is writable")
 }
 
 /// (duration s, RMS amplitude) from `sox FILE -n stat`.
@@ -69,9 +67,9 @@ fn utterance_wav_is_speech_with_a_duration_that_fits_text_and_rate() {
     let mut seconds = Vec::new();
     for rate in [175u32, 350] {
         let dir = scratch_dir(&format!("rate{rate}"));
-        let mut e = engine(&dir, rate, Playback::WavOnly);
+        let mut e = engine(dir.path(), rate, Playback::WavOnly);
         speak_to_end(&mut e, GUIDANCE);
-        let (length_s, rms) = sox_stat(&EspeakEngine::wav_path(&dir, 0));
+        let (length_s, rms) = sox_stat(&EspeakEngine::wav_path(dir.path(), 0));
         let expected_s = words / rate as f64 * 60.0;
         eprintln!("rate {rate} wpm: {length_s:.2} s (words/rate = {expected_s:.2} s), RMS {rms:.3}");
         assert!(rms > 0.01, "audio is silence (RMS {rms})");
@@ -139,7 +137,7 @@ fn warning_interrupts_guidance_and_its_audio_starts_within_100ms() {
     let mut started = Vec::new();
     let mut audio = Vec::new();
     for round in 0..10 {
-        let (s, a) = interrupt_once(&dir, round);
+        let (s, a) = interrupt_once(dir.path(), round);
         started.push(s);
         audio.push(a);
     }
@@ -152,6 +150,6 @@ fn warning_interrupts_guidance_and_its_audio_starts_within_100ms() {
     assert!(started[5] < Duration::from_millis(100), "median {:?}", started[5]);
     assert!(audio[5] < Duration::from_millis(100), "median to first audio {:?}", audio[5]);
     // The cut-off guidance's audio ends short, the warning's is whole and not silent.
-    let (warning_s, rms) = sox_stat(&EspeakEngine::wav_path(&dir.join("round0"), 1));
+    let (warning_s, rms) = sox_stat(&EspeakEngine::wav_path(&dir.path().join("round0"), 1));
     assert!(rms > 0.01 && warning_s > 0.5 && warning_s < 3.0, "warning WAV {warning_s:.2} s RMS {rms:.3}");
 }

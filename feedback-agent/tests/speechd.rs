@@ -18,11 +18,9 @@ use schemas::Priority;
 
 const MS: u64 = 1_000_000;
 
-fn scratch_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wearnav-speechd-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir is writable");
-    dir
+/// A folder for one test's socket and files, removed when the test ends (failed too).
+fn scratch_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("wearnav-speechd-{name}-")).tempdir().expect("temp dir is writable")
 }
 
 /// What the fake server does besides answering `2xx` to everything.
@@ -46,11 +44,14 @@ struct Shared {
 struct FakeSpeechd {
     path: PathBuf,
     shared: Arc<Mutex<Shared>>,
+    /// The socket's folder, removed with the server.
+    _dir: tempfile::TempDir,
 }
 
 impl FakeSpeechd {
     fn start(name: &str, script: Script) -> Self {
-        let path = scratch_dir(name).join("speechd.sock");
+        let dir = scratch_dir(name);
+        let path = dir.path().join("speechd.sock");
         let listener = UnixListener::bind(&path).expect("bind the fake socket");
         let shared = Arc::new(Mutex::new(Shared::default()));
         let s = shared.clone();
@@ -60,7 +61,7 @@ impl FakeSpeechd {
                 serve(stream, &s, &script);
             }
         });
-        Self { path, shared }
+        Self { path, shared, _dir: dir }
     }
 
     fn config(&self) -> SpeechdConfig {
@@ -262,7 +263,7 @@ fn a_stale_connection_is_retried_once_on_a_new_one() {
 #[test]
 fn no_daemon_at_start_is_refused_with_what_to_do() {
     let dir = scratch_dir("absent");
-    let config = SpeechdConfig { socket: dir.join("speechd.sock"), ..SpeechdConfig::default() };
+    let config = SpeechdConfig { socket: dir.path().join("speechd.sock"), ..SpeechdConfig::default() };
     let err = SpeechdEngine::new(config).err().expect("nothing listens");
     assert!(err.to_string().contains("speech-dispatcher -d"), "{err}");
 }
@@ -275,7 +276,6 @@ fn no_daemon_at_start_is_refused_with_what_to_do() {
 struct RealDaemon {
     child: Child,
     socket: PathBuf,
-    dir: PathBuf,
 }
 
 /// speech-dispatcher is installed; if not, fails under CI or says the test is skipped.
@@ -303,6 +303,10 @@ impl RealDaemon {
         let home = dir.join("home");
         std::fs::create_dir_all(&home).unwrap();
         std::fs::write(home.join(".asoundrc"), "pcm.!default { type null }\n").unwrap();
+        // Without a runtime folder libpulse (loaded by the output module) makes one of its
+        // own in /tmp and leaves it there; this one goes with the test's folder.
+        let runtime = dir.join("run");
+        std::fs::create_dir_all(&runtime).unwrap();
         let socket = dir.join("speechd.sock");
         let _ = std::fs::remove_file(&socket);
         let child = Command::new("speech-dispatcher")
@@ -316,6 +320,7 @@ impl RealDaemon {
             .arg("-L")
             .arg(dir)
             .env("HOME", &home)
+            .env("XDG_RUNTIME_DIR", &runtime)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null())
@@ -326,7 +331,7 @@ impl RealDaemon {
             assert!(t.elapsed() < Duration::from_secs(10), "speech-dispatcher did not open {}", socket.display());
             std::thread::sleep(Duration::from_millis(20));
         }
-        Self { child, socket, dir: dir.to_path_buf() }
+        Self { child, socket }
     }
 
     fn stop(&mut self) {
@@ -352,7 +357,6 @@ fn terminate(pid: u32) {
 impl Drop for RealDaemon {
     fn drop(&mut self) {
         self.stop();
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
 
@@ -361,8 +365,9 @@ fn real_speech_dispatcher_speaks_cuts_and_comes_back() {
     if !speechd_installed() {
         return;
     }
+    // Made first, so it is removed last: after both daemons writing into it have stopped.
     let dir = scratch_dir("real");
-    let mut daemon = RealDaemon::start(&dir);
+    let mut daemon = RealDaemon::start(dir.path());
     let config = SpeechdConfig { socket: daemon.socket.clone(), user: "test".into(), ..SpeechdConfig::default() };
     let mut engine = SpeechdEngine::new(config).expect("the real daemon answers");
     let counters = engine.counters();
@@ -401,7 +406,7 @@ fn real_speech_dispatcher_speaks_cuts_and_comes_back() {
     let err = engine.start("stop", Priority::Important, 0).err().expect("no daemon");
     eprintln!("with the daemon gone: {err}");
     assert_eq!(counters.losses(), 1);
-    let _daemon = RealDaemon::start(&dir);
+    let _daemon = RealDaemon::start(dir.path());
     let mut h = engine.start("obstacle detection back", Priority::Important, 2_000 * MS).expect("reconnected");
     wait_finished(&mut h, Duration::from_secs(10));
     assert_eq!(counters.connects(), 2);

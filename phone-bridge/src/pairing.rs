@@ -170,10 +170,8 @@ mod tests {
 
     #[test]
     fn tokens_survive_a_restart_in_an_owner_only_file() {
-        let dir = std::env::temp_dir().join(format!("wearnav-pairing-{}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
-        let file = dir.join("paired-phones");
-        let _ = fs::remove_file(&file);
+        let dir = tempfile::Builder::new().prefix("wearnav-pairing-").tempdir().unwrap();
+        let file = dir.path().join("paired-phones");
         let mut p = Pairing::with_file("111111".into(), &file).unwrap();
         let Attempt::Paired(token) = p.attempt("111111", 0).unwrap() else { panic!() };
         let again = Pairing::with_file(new_code(), &file).unwrap();
@@ -183,7 +181,6 @@ mod tests {
             use std::os::unix::fs::PermissionsExt;
             assert_eq!(fs::metadata(&file).unwrap().permissions().mode() & 0o777, 0o600);
         }
-        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -166,9 +166,9 @@ mod tests {
 
     #[test]
     fn a_certificate_is_made_once_kept_and_loads() {
-        let dir = std::env::temp_dir().join(format!("wearnav-tls-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        let made = certificate(None, &dir, &[IpAddr::from([192, 168, 1, 20])]).unwrap();
+        let scratch = tempfile::Builder::new().prefix("wearnav-tls-").tempdir().unwrap();
+        let dir = scratch.path();
+        let made = certificate(None, dir, &[IpAddr::from([192, 168, 1, 20])]).unwrap();
         assert!(made.made);
         let pem = fs::read_to_string(&made.cert).unwrap();
         assert!(pem.starts_with("-----BEGIN CERTIFICATE-----"), "{pem}");
@@ -177,7 +177,7 @@ mod tests {
             use std::os::unix::fs::PermissionsExt;
             assert_eq!(fs::metadata(&made.key).unwrap().permissions().mode() & 0o777, 0o600);
         }
-        let kept = certificate(None, &dir, &[]).unwrap();
+        let kept = certificate(None, dir, &[]).unwrap();
         assert!(!kept.made);
         assert_eq!(fs::read_to_string(&kept.cert).unwrap(), pem, "the same certificate, not a new one");
         server_config(&kept).unwrap();
@@ -187,6 +187,5 @@ mod tests {
         let mixed = CertFiles { cert: kept.cert.clone(), key: wrong.key.clone(), made: false };
         let e = format!("{:#}", server_config(&mixed).unwrap_err());
         assert!(e.contains("do not go together"), "{e}");
-        fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -86,9 +86,8 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
     bus.no_multicast = true;
     let mut config = phone_bridge::PhoneConfig::new(bus);
     config.serve = phone_bridge::Serve::Http("127.0.0.1:0".parse().unwrap());
-    let dir = std::env::temp_dir().join(format!("wearnav-bridge-monitor-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    config.state_dir = dir.clone();
+    let dir = tempfile::Builder::new().prefix("wearnav-bridge-monitor-").tempdir().unwrap();
+    config.state_dir = dir.path().to_path_buf();
     config.announce = false;
     config.pairing_code = Some(CODE.into());
     config.map = Some(Arc::new(building()));
@@ -353,7 +352,6 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
 
     shutdown.trigger();
     tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

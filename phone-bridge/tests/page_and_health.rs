@@ -9,10 +9,9 @@ use common::get;
 use schemas::{CostFunction, GroundState, Hazard, Rumble, SideCosts};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
-fn state_dir(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("wearnav-bridge-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+/// The bridge's state folder for one test, removed when the test ends (failed too).
+fn state_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("wearnav-bridge-{name}-")).tempdir().unwrap()
 }
 
 fn hazard(rumble: Rumble) -> Hazard {
@@ -50,7 +49,8 @@ async fn page_is_served_and_health_shows_agents_and_the_last_hazard() {
     bridge_bus.no_multicast = true;
     let mut config = phone_bridge::PhoneConfig::new(bridge_bus);
     config.serve = phone_bridge::Serve::Http("127.0.0.1:0".parse().unwrap());
-    config.state_dir = state_dir("page");
+    let dir = state_dir("page");
+    config.state_dir = dir.path().to_path_buf();
     config.announce = false;
     let shutdown = Shutdown::new();
     let (tx, rx) = tokio::sync::oneshot::channel();
@@ -93,7 +93,7 @@ async fn https_serves_the_page_with_the_certificate_it_made_and_keeps() {
     let mut config = phone_bridge::PhoneConfig::new(bus);
     config.serve = phone_bridge::Serve::Https("127.0.0.1:0".parse().unwrap());
     let dir = state_dir("https");
-    config.state_dir = dir.clone();
+    config.state_dir = dir.path().to_path_buf();
     config.announce = false;
     let shutdown = Shutdown::new();
     let (tx, rx) = tokio::sync::oneshot::channel();
@@ -101,7 +101,8 @@ async fn https_serves_the_page_with_the_certificate_it_made_and_keeps() {
     let addr = tokio::time::timeout(Duration::from_secs(10), rx).await.unwrap().unwrap();
 
     // a client that trusts only the certificate the bridge made
-    let cert = CertificateDer::from_pem_file(dir.join("phone-bridge.crt")).expect("the bridge kept its certificate");
+    let cert =
+        CertificateDer::from_pem_file(dir.path().join("phone-bridge.crt")).expect("the bridge kept its certificate");
     let mut roots = rustls::RootCertStore::empty();
     roots.add(cert).unwrap();
     let provider = std::sync::Arc::new(rustls::crypto::ring::default_provider());
@@ -125,5 +126,4 @@ async fn https_serves_the_page_with_the_certificate_it_made_and_keeps() {
 
     shutdown.trigger();
     tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -37,9 +37,8 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
     bus.no_multicast = true;
     let mut config = phone_bridge::PhoneConfig::new(bus);
     config.serve = phone_bridge::Serve::Http("127.0.0.1:0".parse().unwrap());
-    let dir = std::env::temp_dir().join(format!("wearnav-bridge-socket-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    config.state_dir = dir.clone();
+    let dir = tempfile::Builder::new().prefix("wearnav-bridge-socket-").tempdir().unwrap();
+    config.state_dir = dir.path().to_path_buf();
     config.announce = false;
     config.pairing_code = Some(CODE.into());
     let shutdown = Shutdown::new();
@@ -155,5 +154,4 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
 
     shutdown.trigger();
     tokio::time::timeout(Duration::from_secs(5), bridge).await.unwrap().unwrap().unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -149,6 +149,9 @@ export function harness({ budgetMs, seen = async () => '', prefix = '' }) {
       assert.fail(`cannot load playwright-core (${e.message}): run npm ci --prefix tests/browser`);
     });
     const userDir = fs.mkdtempSync(path.join(os.tmpdir(), 'wearnav-chromium-'));
+    // Pushed before the launch, so a browser that fails to start leaves no profile behind;
+    // cleanups run in reverse, so it is removed after the browser closed.
+    cleanups.push(async () => fs.rmSync(userDir, { recursive: true, force: true }));
     const context = await chromium.launchPersistentContext(userDir, {
       executablePath: chromiumPath,
       headless: true,
@@ -156,10 +159,7 @@ export function harness({ budgetMs, seen = async () => '', prefix = '' }) {
         '--disable-background-networking', '--disable-component-update', '--disable-sync'],
       ...contextOptions,
     });
-    cleanups.push(async () => {
-      await context.close();
-      fs.rmSync(userDir, { recursive: true, force: true });
-    });
+    cleanups.push(() => context.close());
     const page = context.pages()[0] || (await context.newPage());
     return { context, page };
   }

@@ -79,21 +79,24 @@ async function main() {
   const { chromium } = await import('playwright-core');
   const port = await freePort();
   const stateDir = fs.mkdtempSync(path.join(os.tmpdir(), 'wearnav-phone-bench-'));
-  const bus = ['--user', USER, '--no-multicast'];
-  let url = null;
-  run(path.join(binDir, 'phone-bridge'), [...bus, '--listen', `tcp/127.0.0.1:${port}`, '--state-dir', stateDir,
-    '--http', '127.0.0.1:0'], (l) => { url ??= l.match(/^url: (http:\/\/\S+)/)?.[1] ?? null; },
-  { WEARNAV_PAIRING_CODE: CODE });
-  await until('the bridge to print its url', () => url, 30000);
-  run(path.join(binDir, 'feedback-agent'), [...bus, '--connect', `tcp/127.0.0.1:${port}`, '--haptic', 'phone']);
-
   const userDir = fs.mkdtempSync(path.join(os.tmpdir(), 'wearnav-chromium-'));
-  const context = await chromium.launchPersistentContext(userDir, {
-    executablePath: chromiumPath,
-    headless: true,
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
-  });
+  let context = null;
+  // The folders are removed however the run ends, a bridge or a browser that does not
+  // start included.
   try {
+    const bus = ['--user', USER, '--no-multicast'];
+    let url = null;
+    run(path.join(binDir, 'phone-bridge'), [...bus, '--listen', `tcp/127.0.0.1:${port}`, '--state-dir', stateDir,
+      '--http', '127.0.0.1:0'], (l) => { url ??= l.match(/^url: (http:\/\/\S+)/)?.[1] ?? null; },
+    { WEARNAV_PAIRING_CODE: CODE });
+    await until('the bridge to print its url', () => url, 30000);
+    run(path.join(binDir, 'feedback-agent'), [...bus, '--connect', `tcp/127.0.0.1:${port}`, '--haptic', 'phone']);
+
+    context = await chromium.launchPersistentContext(userDir, {
+      executablePath: chromiumPath,
+      headless: true,
+      args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+    });
     await context.addInitScript(() => {
       const made = [];
       window.__vibrations = made;
@@ -149,7 +152,7 @@ async function main() {
       process.exitCode = 1;
     }
   } finally {
-    await context.close();
+    await context?.close();
     for (const c of children) c.kill('SIGTERM');
     fs.rmSync(userDir, { recursive: true, force: true });
     fs.rmSync(stateDir, { recursive: true, force: true });

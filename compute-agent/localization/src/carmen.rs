@@ -265,18 +265,16 @@ mod tests {
         let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
         gz.write_all(b"ODOM 0 0 0 0 0 0 1 h 1\n".repeat(1000).as_slice()).expect("compress");
         let bytes = gz.finish().expect("compress");
-        let dir = std::env::temp_dir().join(format!("carmen-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        let whole = dir.join("whole.log.gz");
-        let cut = dir.join("cut.log.gz");
+        let dir = tempfile::Builder::new().prefix("carmen-test-").tempdir().expect("temp dir");
+        let whole = dir.path().join("whole.log.gz");
+        let cut = dir.path().join("cut.log.gz");
         std::fs::write(&whole, &bytes).expect("write");
         std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
         assert_eq!(read_log(&whole).expect("reads").records.len(), 1000);
         let e = read_log(&cut).unwrap_err().to_string();
         assert!(e.contains("cut.log.gz"), "{e}");
-        let e = read_log(&dir.join("missing.log")).unwrap_err().to_string();
+        let e = read_log(&dir.path().join("missing.log")).unwrap_err().to_string();
         assert!(e.contains("missing.log") && e.contains("cannot read"), "{e}");
-        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

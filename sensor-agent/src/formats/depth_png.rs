@@ -144,13 +144,11 @@ mod tests {
 
     #[test]
     fn read_names_the_file() {
-        let dir = std::env::temp_dir().join(format!("wearnav-png-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("broken.png");
+        let dir = tempfile::Builder::new().prefix("wearnav-png-").tempdir().unwrap();
+        let path = dir.path().join("broken.png");
         std::fs::write(&path, b"\x89PNG\r\n\x1a\nnope").unwrap();
         let err = read(&path).unwrap_err();
         assert_eq!(err.file, path);
         assert!(err.to_string().contains("broken.png: "), "{err}");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

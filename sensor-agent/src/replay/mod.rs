@@ -283,11 +283,9 @@ mod tests {
 
     use crate::test_data::real_capture;
 
-    fn temp_dir(tag: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("wearnav-replay-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+    /// A folder for one test's files, removed when the test ends (failed too).
+    fn temp_dir(tag: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("wearnav-replay-{tag}-")).tempdir().unwrap()
     }
 
     #[test]
@@ -306,7 +304,8 @@ mod tests {
     #[test]
     fn corrupt_file_in_a_folder_is_skipped_by_name_and_the_stream_goes_on() {
         let good = real_capture("tum_depth_640x480_u16_5000perm.png");
-        let dir = temp_dir("skip");
+        let scratch = temp_dir("skip");
+        let dir = scratch.path();
         std::fs::copy(&good, dir.join("001.png")).unwrap();
         std::fs::write(dir.join("002.png"), b"\x89PNG\r\n\x1a\ngarbage").unwrap();
         std::fs::copy(&good, dir.join("003.png")).unwrap();
@@ -327,21 +326,20 @@ mod tests {
         let third = src.next_frame(0).unwrap().unwrap();
         assert_eq!(third.depth_scale_m, 0.0002);
         assert!(src.next_frame(0).unwrap().is_none());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn png_folder_without_scale_or_intrinsics_is_refused_at_open() {
         let dir = temp_dir("opts");
-        let err = open_source(&format!("png:{}", dir.display()), &ReplayOptions::default()).err().unwrap();
+        let err = open_source(&format!("png:{}", dir.path().display()), &ReplayOptions::default()).err().unwrap();
         assert!(matches!(err, ReplayError::MissingOption(_)), "{err}");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn looped_recording_starts_again_and_time_moves_forward() {
         let good = real_capture("redwood_00000_depth_640x480_u16_mm.png");
-        let dir = temp_dir("loop");
+        let scratch = temp_dir("loop");
+        let dir = scratch.path();
         std::fs::copy(&good, dir.join("a.png")).unwrap();
         let opts = ReplayOptions {
             depth_scale_m: Some(0.001),
@@ -354,7 +352,6 @@ mod tests {
         assert_eq!(src.period_ns(), 50_000_000);
         let stamps: Vec<u64> = (0..3).map(|_| src.next_frame(0).unwrap().unwrap().stamp_ns).collect();
         assert_eq!(stamps, [0, 50_000_000, 100_000_000]);
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -103,17 +103,19 @@ mod tests {
     use crate::replay::{open_source, ReplayOptions};
     use crate::source::SourceError;
 
-    fn temp_dir() -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("wearnav-tum-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(dir.join("depth")).unwrap();
+    /// A TUM folder (its `depth/` made) of one test's own, removed when the test ends
+    /// (failed too): the tests run side by side.
+    fn temp_dir() -> tempfile::TempDir {
+        let dir = tempfile::Builder::new().prefix("wearnav-tum-").tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("depth")).unwrap();
         dir
     }
 
     #[test]
     fn tum_folder_plays_at_recorded_spacing_with_gravity_and_skips_a_missing_png() {
         let png = crate::test_data::real_capture("tum_depth_640x480_u16_5000perm.png");
-        let dir = temp_dir();
+        let scratch = temp_dir();
+        let dir = scratch.path();
         std::fs::copy(&png, dir.join("depth/1.000000.png")).unwrap();
         std::fs::copy(&png, dir.join("depth/1.100000.png")).unwrap();
         std::fs::write(
@@ -137,12 +139,12 @@ mod tests {
         let third = src.next_frame(0).unwrap().unwrap();
         assert_eq!(third.stamp_ns, 100_000_000, "recorded spacing 1.0 -> 1.1 s");
         assert_eq!(third.gravity_camera, None, "no accelerometer sample within 0.1 s");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn malformed_index_line_is_refused_with_its_number() {
-        let dir = temp_dir().join("bad");
+        let scratch = temp_dir();
+        let dir = scratch.path().join("bad");
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("depth.txt"), "# x\n1.0 a.png\nnot-a-time b.png\n").unwrap();
         match read_index(&dir) {
