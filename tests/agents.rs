@@ -297,6 +297,30 @@ fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() 
     assert!(err.contains("ttc.min_closing_speed_m_s = -1: must be a positive finite number"), "{err}");
 }
 
+#[test]
+fn compute_agent_refuses_a_guidance_profile_with_a_misspelt_or_out_of_range_field() {
+    let dir = tempfile::Builder::new().prefix("wearnav-guidance-").tempdir().unwrap();
+    let map = building_map();
+    let run = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let out = Command::new(agent_bin("compute-agent"))
+            .args(["--map", &map, "--guidance-profile", path.to_str().unwrap(), "--no-multicast"])
+            .env("RUST_LOG", "warn")
+            .stdin(Stdio::null())
+            .output()
+            .expect("cannot start compute-agent");
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    // refused before the session opens: exit 1 at once, the file and the field named
+    let (code, err) = run("typo.toml", "direction = \"clock\"\n");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("bad guidance profile") && err.contains("typo.toml") && err.contains("direction"), "{err}");
+    let (code, err) = run("late.toml", "announce_turn_m = 1.0\n");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("announce_turn_m = 1: must be above 1.5 and at most 50"), "{err}");
+}
+
 /// What a phone worn at the chest, tilted 20 degrees down, reads while the body turns at
 /// `rate_deg_s` (positive left): `n` samples at 100 Hz up to `now_ns`.
 fn body_imu(now_ns: u64, rate_deg_s: f32, n: u64) -> schemas::ImuBatch {
@@ -562,7 +586,12 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     // with the camera's finds on the planner (--ways-round): they must not cost the
     // preview or the route below (a user standing among what the camera holds was once
     // planned no way from)
-    let args = ["--map", &map, "--start", "1,5,0,0", "--predictive", "--ways-round"];
+    // the user's guidance profile: distances in steps of 0.7 m
+    let dir = tempfile::Builder::new().prefix("wearnav-guidance-").tempdir().unwrap();
+    let profile = dir.path().join("profile.toml");
+    std::fs::write(&profile, "units = \"steps\"\nstride_m = 0.7\n").unwrap();
+    let profile = profile.display().to_string();
+    let args = ["--map", &map, "--start", "1,5,0,0", "--predictive", "--ways-round", "--guidance-profile", &profile];
     let _compute = spawn("compute-agent", &hub.endpoint, user, &args);
 
     let tracked = wait_for(&poses, Duration::from_secs(30), |p| p.body.status == LocalizationStatus::Tracking).await;
@@ -616,7 +645,15 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     assert!(unguided.is_some_and(|h| !h.body.predictive), "the predictive cue with no route");
     destination.put(bus::now_ns(), &Command::Destination { label: "room 204".into() }).await.unwrap();
     let route = wait_for(&speech, Duration::from_secs(5), |s| s.body.text.starts_with("Route to room 204:")).await;
-    assert!(route.is_some_and(|s| s.body.priority == Priority::Message), "guidance did not start");
+    let route = route.expect("guidance did not start");
+    assert_eq!(route.body.priority, Priority::Message);
+    // "Route to room 204: 35 steps. ..." as the profile asks: the metres of the preview
+    // over the stride (rounded to 5 above 20; the scripted walker has walked on since)
+    let steps: f32 = route.body.text["Route to room 204: ".len()..]
+        .split_once(" steps. ")
+        .and_then(|(n, _)| n.parse().ok())
+        .unwrap_or_else(|| panic!("not said in steps: {:?}", route.body.text));
+    assert!((steps - preview.distance_left_m / 0.7).abs() <= 8.0, "{steps} steps for {preview:?}");
     let guiding = wait_for(&routes, Duration::from_secs(2), |r| r.body.status == RouteStatus::Guiding).await;
     let guiding = guiding.expect("route state never guiding");
     assert_eq!(guiding.body.destination, "room 204");

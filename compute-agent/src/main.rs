@@ -79,6 +79,14 @@ struct Cli {
     /// and guidance waits until it knows the position.
     #[arg(long, value_name = "X,Y,DEG[,FLOOR]", value_parser = parse_start, requires = "map")]
     start: Option<(i32, localization::Pose2)>,
+    /// How guidance speaks, as TOML (fields of `guidance::GuidanceProfile`; missing ones
+    /// keep their defaults): `directions = "clock"` for clock-face directions,
+    /// `units = "steps"` with `stride_m` for steps, `passing_doors = false` to leave out
+    /// "Passing door 214, on your left.", the spacing and distances (docs/guidance.md,
+    /// "Thresholds"). A field guidance does not have, or a value out of its range, is
+    /// refused with the field's name before the agent starts.
+    #[arg(long, value_name = "FILE", requires = "map")]
+    guidance_profile: Option<PathBuf>,
     /// Seed of the localization filter's random draws.
     #[arg(long, value_name = "N", default_value_t = 1, requires = "map")]
     localization_seed: u64,
@@ -150,6 +158,11 @@ async fn main() -> anyhow::Result<()> {
         nav.start = cli.start;
         nav.seed = cli.localization_seed;
         nav.ways_round = cli.ways_round;
+        if let Some(path) = &cli.guidance_profile {
+            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+            nav.guidance = guidance::GuidanceProfile::from_toml(&text)
+                .with_context(|| format!("bad guidance profile {}", path.display()))?;
+        }
         config.nav = Some(nav);
     }
     config.predictive = cli.predictive.then(perception::predictive::PredictiveConfig::default);

@@ -16,11 +16,13 @@
 //! 5. arrival (exempt from spacing) or "you are at the elevator";
 //! 6. the next turn: "turn right now" within `turn_now_m`, "in 6 metres, turn right" within
 //!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing);
-//! 7. a gateway ahead.
+//! 7. a gateway ahead;
+//! 8. a numbered door the user comes level with ("Passing door 214, on your left."),
+//!    where nothing of 5-7 is near enough ahead for it to be held back by the door.
 //!
 //! Everything spontaneous waits for `min_spacing_ms` after the previous one (arrival
 //! excepted); an instruction that has to wait is tried again next step, with the
-//! distances of then.
+//! distances of then. A door asks nothing of the user: nothing waits for it.
 
 use std::collections::VecDeque;
 
@@ -28,7 +30,7 @@ use map::SemanticLayer;
 use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
 
 use crate::instruction::{ttl_ms, Instruction, InstructionKind};
-use crate::profile::GuidanceProfile;
+use crate::profile::{DirectionStyle, GuidanceProfile};
 use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
 use crate::where_am_i::where_am_i;
 
@@ -48,6 +50,14 @@ pub(crate) const STOP_UNCERTAIN: &str =
 /// the words of the localization's news for it, said once when both come in one step
 /// ([`crate::Navigator::step_after_news`]).
 pub(crate) const POSITION_FOUND: &str = "Position found.";
+
+/// A door is passed from when it is this far ahead along the way to when it is this
+/// far behind, metres (the user's place moves 0.1 m a step at walking pace).
+const PASSING_AHEAD_M: f64 = 1.0;
+const PASSING_BEHIND_M: f64 = 0.5;
+/// A door nearer the way than this is on it (a door the route goes through), not beside
+/// it, metres.
+pub(crate) const PASSING_MIN_M: f64 = 0.4;
 
 /// The headings of the last second of poses (ms, radians).
 #[derive(Clone, Debug, Default)]
@@ -161,6 +171,10 @@ pub struct Guide {
     /// the route is a way round something the camera found on the last one: its start
     /// says so
     detour: bool,
+    /// the doors said passing on this trip (each once, whatever the route)
+    doors_said: Vec<String>,
+    /// where the user was when the last door was said
+    last_door_at: Option<[f64; 2]>,
 }
 
 impl Guide {
@@ -193,6 +207,8 @@ impl Guide {
             headings: Headings::default(),
             again: false,
             detour: false,
+            doors_said: Vec::new(),
+            last_door_at: None,
         };
         g.set_legs(legs);
         g
@@ -462,7 +478,7 @@ impl Guide {
                 return i;
             }
         }
-        None
+        self.passing_door(pose, &pr, now_ms)
     }
 
     /// The answer to "where am I": the areas around the pose and the nearest door.
@@ -656,6 +672,68 @@ impl Guide {
     /// `still_max_deg_s`.
     fn still(&self) -> bool {
         self.headings.still(self.profile.still_max_deg_s)
+    }
+
+    /// "Passing door 214, on your left.": the first numbered door beside the segment
+    /// being walked that the user, facing along it, comes level with, not said before on
+    /// this trip, at least `passing_door_every_m` from where the last was said; only
+    /// where the next turn, gateway or goal is further ahead than its announcement and
+    /// the spacing after it, so that a door never holds back what the route asks for.
+    /// It keeps the spacing after others, but does not count for it, is said without the
+    /// notice tap (it asks nothing) and is not what "repeat" says.
+    fn passing_door(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
+        let p = self.profile;
+        if !p.passing_doors || self.last_spontaneous_ms.is_some_and(|t| now_ms < t.saturating_add(p.min_spacing_ms)) {
+            return None;
+        }
+        let clear_m = p.announce_turn_m + p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
+        let here = [pose.x_m, pose.y_m];
+        if self.straight_on_m(pr) <= clear_m
+            || self.last_door_at.is_some_and(|at| dist(at, here) < p.passing_door_every_m)
+        {
+            return None;
+        }
+        let (a, b) = (self.waypoints()[pr.segment], self.waypoints()[pr.segment + 1]);
+        let len = dist(a, b);
+        if len <= 0.0 {
+            return None;
+        }
+        let way = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+        // the side is the way's: said only to a user who faces along it (within 45°)
+        if pose.heading_rad.cos() * way[0] + pose.heading_rad.sin() * way[1] < std::f64::consts::FRAC_1_SQRT_2 {
+            return None;
+        }
+        let floor = self.route().floor;
+        let (number, left) = self.semantic.doors.iter().filter(|d| d.floor == floor).find_map(|d| {
+            let (dx, dy) = (d.x - here[0], d.y - here[1]);
+            let along = dx * way[0] + dy * way[1];
+            // positive: to the left of the way
+            let left_m = way[0] * dy - way[1] * dx;
+            // in a wall along the way, not one across it (a door at a corridor's end)
+            let in_side_wall = (d.normal[0] * way[0] + d.normal[1] * way[1]).abs() < 0.5;
+            let beside = (PASSING_MIN_M..=p.passing_door_m).contains(&left_m.abs());
+            let level = (-PASSING_BEHIND_M..=PASSING_AHEAD_M).contains(&along);
+            (level && beside && in_side_wall && !self.doors_said.contains(&d.number))
+                .then(|| (d.number.clone(), left_m > 0.0))
+        })?;
+        let side = match (p.directions, left) {
+            (DirectionStyle::Clock, true) => "at 9 o'clock",
+            (DirectionStyle::Clock, false) => "at 3 o'clock",
+            (DirectionStyle::Words, true) => "on your left",
+            (DirectionStyle::Words, false) => "on your right",
+        };
+        let kind = InstructionKind::PassingDoor { number: number.clone() };
+        let i = Instruction {
+            ttl_ms: ttl_ms(&kind),
+            kind,
+            text: format!("Passing door {number}, {side}."),
+            dedup_key: format!("guidance/r{}/door/{number}", self.generation),
+            vibrate_first: false,
+            issued_ms: now_ms,
+        };
+        self.doors_said.push(number);
+        self.last_door_at = Some(here);
+        Some(i)
     }
 
     fn start(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {

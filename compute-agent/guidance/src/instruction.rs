@@ -58,6 +58,12 @@ pub enum InstructionKind {
     /// the position is known again after the user was asked to stop and turn on the
     /// spot: they stop turning, and the way to face follows
     PositionFound,
+    /// the user comes level with a numbered door beside the route: a landmark to
+    /// check, asking nothing
+    PassingDoor {
+        /// the number on its sign
+        number: String,
+    },
     /// the answer to "where am I"
     WhereAmI,
     /// "go straight on for 8 metres": the answer to "repeat" once a repeated turn has
@@ -108,11 +114,11 @@ impl Instruction {
 }
 
 /// How long each kind may wait for the speaker, ms (our choice: a "now" said later
-/// than 1.5 s is said past the corner at walking pace; an announcement is good for
-/// about half its 6 m; answers and arrival for 5 s).
+/// than 1.5 s is said past the corner at walking pace, a door past the door; an
+/// announcement is good for about half its 6 m; answers and arrival for 5 s).
 pub fn ttl_ms(kind: &InstructionKind) -> u32 {
     match kind {
-        InstructionKind::TurnNow { .. } => 1500,
+        InstructionKind::TurnNow { .. } | InstructionKind::PassingDoor { .. } => 1500,
         InstructionKind::TurnAhead { .. } | InstructionKind::OffRoute { .. } | InstructionKind::Continue => 3000,
         _ => 5000,
     }

@@ -28,6 +28,6 @@ pub mod where_am_i;
 pub use guide::{Ahead, Guide, UserPose};
 pub use instruction::{Instruction, InstructionKind};
 pub use navigator::{Navigator, Response};
-pub use profile::{DirectionStyle, DistanceUnits, GuidanceProfile};
+pub use profile::{DirectionStyle, DistanceUnits, GuidanceProfile, ProfileError};
 pub use utterance::{Side, Turn};
 pub use way::way_ahead;

@@ -24,9 +24,10 @@ pub enum DirectionStyle {
     Clock,
 }
 
-/// A user's guidance preferences.
+/// A user's guidance preferences. As a file (`compute-agent --guidance-profile`): TOML
+/// with any of these fields, the rest keeping their defaults ([`GuidanceProfile::from_toml`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct GuidanceProfile {
     /// metres or steps (default metres)
     pub units: DistanceUnits,
@@ -92,6 +93,110 @@ pub struct GuidanceProfile {
     /// 60000: at 30000 walkers were stopped a few metres before walking on found their
     /// place again; docs/guidance.md, "Walking on untold")
     pub stop_when_uncertain_ms: u64,
+    /// "Passing door 214, on your left." as the user comes level with a numbered door
+    /// beside the route (Zhang et al.: door numbers are the landmarks a user can check
+    /// with a hand on the sign; a sign that says otherwise is told to the device with
+    /// the door command). Never said where it could hold back a turn, a gateway or the
+    /// goal, and never holds back anything itself (default true)
+    pub passing_doors: bool,
+    /// a door counts as beside the route when it is this far from it at most, metres
+    /// (default 2.5: our choice, the widest generated corridor's doors seen from its
+    /// far side)
+    pub passing_door_m: f64,
+    /// at most one door said per this many metres walked (default 10: our choice; the
+    /// doors of a corridor are 3-6 m apart)
+    pub passing_door_every_m: f64,
+}
+
+/// A guidance profile that cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProfileError {
+    /// Not TOML, a field the profile does not have (a misspelt one would be ignored
+    /// otherwise), or a value of the wrong type.
+    #[error("{0}")]
+    Syntax(String),
+    /// A value outside what guidance works with.
+    #[error("{field} = {value}: {rule}")]
+    OutOfRange {
+        /// the field's name
+        field: &'static str,
+        /// the value given
+        value: String,
+        /// what it must be
+        rule: String,
+    },
+}
+
+impl GuidanceProfile {
+    /// A profile from TOML: the fields given, the defaults for the rest; an unknown
+    /// field or a value out of range is refused with the field's name.
+    ///
+    /// ```
+    /// use guidance::{DirectionStyle, GuidanceProfile};
+    /// let p = GuidanceProfile::from_toml("directions = \"clock\"\npassing_doors = false\n").unwrap();
+    /// assert_eq!(p.directions, DirectionStyle::Clock);
+    /// assert!(GuidanceProfile::from_toml("direction = \"clock\"\n").is_err());
+    /// ```
+    pub fn from_toml(text: &str) -> Result<Self, ProfileError> {
+        let p: Self = toml::from_str(text).map_err(|e| ProfileError::Syntax(e.to_string().trim().to_string()))?;
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Checks every value against what guidance works with: lengths and times finite
+    /// and positive, the hysteresis and the announcement ordered (a user never back on
+    /// the route, a turn announced after its "now"), the turn categories ascending.
+    pub fn validate(&self) -> Result<(), ProfileError> {
+        let within = |field: &'static str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && lo < v && v <= hi {
+                Ok(())
+            } else {
+                Err(ProfileError::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    rule: format!("must be above {lo} and at most {hi}"),
+                })
+            }
+        };
+        let ms = |field: &'static str, v: u64, lo: u64, hi: u64| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(ProfileError::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    rule: format!("must be from {lo} to {hi}"),
+                })
+            }
+        };
+        within("stride_m", self.stride_m, 0.1, 2.0)?;
+        ms("min_spacing_ms", self.min_spacing_ms, 0, 30_000)?;
+        within("turn_now_m", self.turn_now_m, 0.0, 10.0)?;
+        within("announce_turn_m", self.announce_turn_m, self.turn_now_m, 50.0)?;
+        within("walking_speed_mps", self.walking_speed_mps, 0.0, 3.0)?;
+        within("arrival_radius_m", self.arrival_radius_m, 0.0, 5.0)?;
+        within("on_route_m", self.on_route_m, 0.0, 20.0)?;
+        within("off_route_m", self.off_route_m, self.on_route_m, 20.0)?;
+        within("rejoin_radius_m", self.rejoin_radius_m, 0.0, 50.0)?;
+        ms("deviation_repeat_ms", self.deviation_repeat_ms, 1000, 600_000)?;
+        within("near_door_m", self.near_door_m, 0.0, 20.0)?;
+        // "straight on" may be nothing (every bend a turn), the categories above it not
+        if !(self.straight_max_deg.is_finite() && (0.0..180.0).contains(&self.straight_max_deg)) {
+            return Err(ProfileError::OutOfRange {
+                field: "straight_max_deg",
+                value: self.straight_max_deg.to_string(),
+                rule: "must be from 0 to below 180".into(),
+            });
+        }
+        within("slight_max_deg", self.slight_max_deg, self.straight_max_deg, 180.0)?;
+        within("normal_max_deg", self.normal_max_deg, self.slight_max_deg, 180.0)?;
+        within("sharp_max_deg", self.sharp_max_deg, self.normal_max_deg, 180.0)?;
+        within("still_max_deg_s", self.still_max_deg_s, 0.0, 360.0)?;
+        ms("stop_when_uncertain_ms", self.stop_when_uncertain_ms, 1000, 3_600_000)?;
+        within("passing_door_m", self.passing_door_m, crate::guide::PASSING_MIN_M, 10.0)?;
+        within("passing_door_every_m", self.passing_door_every_m, 0.0, 1000.0)?;
+        Ok(())
+    }
 }
 
 impl Default for GuidanceProfile {
@@ -117,6 +222,59 @@ impl Default for GuidanceProfile {
             sharp_max_deg: 170.0,
             still_max_deg_s: 15.0,
             stop_when_uncertain_ms: 60_000,
+            passing_doors: true,
+            passing_door_m: 2.5,
+            passing_door_every_m: 10.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(text: &str) -> String {
+        match GuidanceProfile::from_toml(text) {
+            Ok(p) => panic!("{text:?} was taken: {p:?}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn a_file_sets_what_it_names_and_leaves_the_defaults_for_the_rest() {
+        let p = GuidanceProfile::from_toml(
+            "directions = \"clock\"\nunits = \"steps\"\nstride_m = 0.65\npassing_doors = false\n",
+        )
+        .unwrap();
+        let expect = GuidanceProfile {
+            directions: DirectionStyle::Clock,
+            units: DistanceUnits::Steps,
+            stride_m: 0.65,
+            passing_doors: false,
+            ..GuidanceProfile::default()
+        };
+        assert_eq!(p, expect);
+        assert_eq!(GuidanceProfile::from_toml("").unwrap(), GuidanceProfile::default());
+        assert!(GuidanceProfile::default().validate().is_ok());
+    }
+
+    #[test]
+    fn a_misspelt_field_a_wrong_type_or_a_value_out_of_range_is_refused_with_its_name() {
+        let e = refused("directons = \"clock\"\n");
+        assert!(e.contains("directons"), "{e}");
+        let e = refused("directions = \"compass\"\n");
+        assert!(e.contains("compass"), "{e}");
+        let e = refused("min_spacing_ms = \"3 s\"\n");
+        assert!(e.contains("min_spacing_ms"), "{e}");
+        assert_eq!(refused("stride_m = 0.0\n"), "stride_m = 0: must be above 0.1 and at most 2");
+        assert_eq!(refused("arrival_radius_m = nan\n"), "arrival_radius_m = NaN: must be above 0 and at most 5");
+        // a turn announced after its "now"; a user never back on the route
+        assert_eq!(refused("announce_turn_m = 1.0\n"), "announce_turn_m = 1: must be above 1.5 and at most 50");
+        assert_eq!(refused("on_route_m = 2.0\n"), "off_route_m = 1.5: must be above 2 and at most 20");
+        // the turn categories ascend
+        assert_eq!(refused("slight_max_deg = 130\n"), "normal_max_deg = 120: must be above 130 and at most 180");
+        assert_eq!(refused("straight_max_deg = -5\n"), "straight_max_deg = -5: must be from 0 to below 180");
+        assert_eq!(refused("deviation_repeat_ms = 0\n"), "deviation_repeat_ms = 0: must be from 1000 to 600000");
+        assert_eq!(refused("passing_door_m = 0.3\n"), "passing_door_m = 0.3: must be above 0.4 and at most 10");
     }
 }

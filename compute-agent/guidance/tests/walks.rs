@@ -179,6 +179,7 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
         texts(&said),
         [
             "Route to the stairs: 25 metres. Go straight on.",
+            "Passing door 214, on your left.",
             "In 6 metres, turn right.",
             "Turn right now.",
             "You have arrived at the stairs."
@@ -186,6 +187,17 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
         "{said:#?}"
     );
     assert_eq!(said[0].t_ms, 0);
+    // the door (x 10, in the corridor's north wall) as the user comes level with it: a
+    // metre before it, the first pose of its window
+    assert!((said[1].at[0] - 9.0).abs() < STEP_M, "{said:#?}");
+    assert_eq!(said[1].instruction.kind, InstructionKind::PassingDoor { number: "214".into() });
+    assert!(!said[1].instruction.vibrate_first, "it asks nothing: no notice tap");
+    // the door keeps the spacing after the route's start, and the turn's words come
+    // where they come without it
+    assert_spaced(&said, 3000);
+    assert_message_priority(&said);
+    let said: Vec<Said> =
+        said.into_iter().filter(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })).collect();
     // announced at the first pose within 6 m of the corner, "now" at the first within 1.5 m
     let d_ahead = dist(said[1].at, corner);
     assert!(d_ahead <= 6.0 && d_ahead > 6.0 - STEP_M - 1e-9, "{d_ahead}");
@@ -213,6 +225,91 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
     assert_eq!(said[2].instruction.speech().ttl_ms, 1500);
 }
 
+/// The corridors of [`corridor_floor`] with a numbered door every 3 m in each wall:
+/// the east-west corridor's north wall (y 12.5) and south wall (y 10.5), the corridor
+/// down's west wall (x 18.5) and east wall (x 20.5).
+fn doors_every_3_m() -> SemanticLayer {
+    let mut toml = String::new();
+    let mut door = |number: String, x: f64, y: f64, normal: [f64; 2]| {
+        toml.push_str(&format!(
+            "[[door]]\nnumber = \"{number}\"\nx = {x}\ny = {y}\nfloor = 0\nnormal = [{:.1}, {:.1}]\n\n",
+            normal[0], normal[1]
+        ));
+    };
+    for k in 0..8 {
+        let x = 2.0 + 3.0 * k as f64;
+        door(format!("N{k}"), x, 12.5, [0.0, -1.0]);
+        door(format!("S{k}"), x + 1.5, 10.5, [0.0, 1.0]);
+    }
+    for k in 0..3 {
+        let y = 8.0 - 3.0 * k as f64;
+        door(format!("W{k}"), 18.5, y, [1.0, 0.0]);
+        door(format!("E{k}"), 20.5, y - 1.5, [-1.0, 0.0]);
+    }
+    SemanticLayer::parse(&toml, Path::new("doors.toml")).unwrap()
+}
+
+#[test]
+fn doors_passed_are_said_on_their_side_ten_metres_apart_and_never_hold_back_a_turn() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let corner = route.waypoints[1];
+    let goal = route.goal();
+    let poses = poses_along(&route.waypoints);
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", doors_every_3_m(), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |_| true);
+    let doors: Vec<&Said> =
+        said.iter().filter(|s| matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })).collect();
+    // 17.5 m east to the corner, 10 m down to the goal: doors where nothing else is
+    // coming within 9 m (the turn's announcement at 6 m and the spacing after it)
+    assert_eq!(
+        doors.iter().map(|s| s.instruction.text.as_str()).collect::<Vec<_>>(),
+        ["Passing door N1, on your left."],
+        "{said:#?}"
+    );
+    for d in &doors {
+        assert!(dist(d.at, corner) > 9.0 || d.at[1] < corner[1] - 1.0, "{d:?}");
+        assert!(dist(d.at, goal) > 9.0, "{d:?}");
+        assert_eq!(d.instruction.speech().ttl_ms, 1500);
+    }
+    assert_spaced(&said, 3000);
+    assert_message_priority(&said);
+    // the route's words, where and when they were said without the doors
+    let quiet = GuidanceProfile { passing_doors: false, ..GuidanceProfile::default() };
+    let mut without = Guide::single_floor(route.clone(), "the stairs", doors_every_3_m(), quiet);
+    let plain = walk(&mut without, &poses, 0, 0, Some(&p), |_| true);
+    let route_words = |s: &[Said]| -> Vec<(u64, String)> {
+        s.iter()
+            .filter(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. }))
+            .map(|s| (s.t_ms, s.instruction.text.clone()))
+            .collect()
+    };
+    assert_eq!(route_words(&said), route_words(&plain));
+    assert_eq!(plain.len(), 4, "{plain:#?}");
+
+    // a long corridor: the route east along all of it, a door every 10 m or more (the
+    // first, N0, comes level within the spacing after the route's start: S0 is the first)
+    let route = p.plan([1.0, 11.5], [26.0, 11.5]).unwrap();
+    let mut guide = Guide::single_floor(route.clone(), "the end", doors_every_3_m(), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    let doors: Vec<&Said> =
+        said.iter().filter(|s| matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })).collect();
+    assert_eq!(
+        doors.iter().map(|s| s.instruction.text.as_str()).collect::<Vec<_>>(),
+        ["Passing door S0, on your right.", "Passing door N4, on your left."],
+        "{said:#?}"
+    );
+    assert!(dist(doors[0].at, doors[1].at) >= 10.0, "{doors:?}");
+    assert!(doors.iter().all(|d| dist(d.at, route.goal()) > 9.0), "{doors:?}");
+
+    // the side is the way's: a user facing back along it (stepping backwards) is told none
+    let backwards: Vec<([f64; 2], f64)> =
+        poses_along(&route.waypoints).into_iter().map(|(at, h)| (at, h + std::f64::consts::PI)).collect();
+    let mut guide = Guide::single_floor(route.clone(), "the end", doors_every_3_m(), GuidanceProfile::default());
+    let said = walk(&mut guide, &backwards, 0, 0, Some(&p), |_| true);
+    assert!(said.iter().all(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })), "{said:#?}");
+}
+
 #[test]
 fn clock_directions_say_the_hour() {
     let mut p = planner();
@@ -224,6 +321,7 @@ fn clock_directions_say_the_hour() {
         texts(&said),
         [
             "Route to the stairs: 25 metres. Go straight on.",
+            "Passing door 214, at 9 o'clock.",
             "In 6 metres, turn to 3 o'clock.",
             "Turn to 3 o'clock now.",
             "You have arrived at the stairs."
@@ -243,6 +341,7 @@ fn steps_use_the_stride_length() {
         texts(&said),
         [
             "Route to the stairs: 35 steps. Go straight on.",
+            "Passing door 214, on your left.",
             "In 8 steps, turn right.",
             "Turn right now.",
             "You have arrived at the stairs."
@@ -288,6 +387,7 @@ fn overshooting_the_corner_prompts_to_turn_back_then_says_which_way_to_face() {
         t,
         [
             "Route to the stairs: 25 metres. Go straight on.",
+            "Passing door 214, on your left.",
             "In 6 metres, turn right.",
             "Turn right now.",
             "Off the route: turn back; the route is 1 metre away, behind you to the right.",
@@ -296,12 +396,12 @@ fn overshooting_the_corner_prompts_to_turn_back_then_says_which_way_to_face() {
         ],
         "{said:#?}"
     );
-    match &said[3].instruction.kind {
+    match &said[4].instruction.kind {
         InstructionKind::OffRoute { rejoin } => assert!(rejoin.distance_m <= 4.0, "{rejoin:?}"),
         k => panic!("{k:?}"),
     }
     // off the route once farther than 1.5 m from it
-    let off = dist(said[3].at, corner);
+    let off = dist(said[4].at, corner);
     assert!(off > 1.5 && off < 1.5 + 2.0 * STEP_M, "{off}");
     assert_spaced(&said, 3000);
 }

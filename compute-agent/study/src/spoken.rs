@@ -353,6 +353,8 @@ mod tests {
             "Off the route: finding a new route.",
             "Elevator ahead; take it to floor 2; tell me when you are there.",
             "You are at the elevator. Take it to floor 1, then tell me when you are there.",
+            "Passing door 214, on your left.",
+            "Passing door 3, at 3 o'clock.",
         ] {
             assert_eq!(meaning(text, &p), Meaning::Nothing, "{text:?}");
         }
