@@ -190,6 +190,14 @@ impl Drop for EspeakUtterance {
     }
 }
 
+/// The scratch WAV (no audio output, no WAV directory: the last utterance, the status
+/// line names it) goes with the engine: a run leaves nothing in the temporary folder.
+impl Drop for EspeakEngine {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.scratch_wav);
+    }
+}
+
 impl SpeechEngine for EspeakEngine {
     fn name(&self) -> &str {
         "espeak"

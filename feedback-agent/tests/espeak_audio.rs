@@ -55,6 +55,21 @@ fn speak_to_end(engine: &mut EspeakEngine, text: &str) {
     }
 }
 
+#[test]
+fn with_no_audio_output_and_no_wav_folder_the_last_utterance_is_a_scratch_wav_removed_with_the_engine() {
+    if !tools_present() {
+        return;
+    }
+    let mut e = EspeakEngine::new(EspeakConfig::default(), Playback::WavOnly).expect("espeak-ng available");
+    let scratch = std::env::temp_dir().join(format!("wearnav-espeak-{}.wav", std::process::id()));
+    assert!(e.describe().contains(&scratch.display().to_string()), "{}", e.describe());
+    speak_to_end(&mut e, "Passing door two hundred and fourteen, on your left.");
+    let (length_s, rms) = sox_stat(&scratch);
+    assert!(length_s > 1.0 && rms > 0.01, "{length_s} s, RMS {rms}");
+    drop(e);
+    assert!(!scratch.exists(), "{} left behind", scratch.display());
+}
+
 const GUIDANCE: &str =
     "In twelve metres, turn left at the lift, then walk straight along the corridor to room one hundred and four.";
 
