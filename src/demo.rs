@@ -65,6 +65,13 @@ pub struct DemoArgs {
     /// too), so what overhangs at head height is warned of.
     #[arg(long)]
     pub chest: bool,
+    /// On a simulated world: how guidance speaks, as TOML (fields of
+    /// `guidance::GuidanceProfile`, the compute agent's `--guidance-profile`):
+    /// `directions = "clock"`, `units = "steps"`, `passing_doors = false`, ...
+    /// (docs/guidance.md, "Thresholds"). Refused with the field named before any agent
+    /// starts.
+    #[arg(long, value_name = "FILE")]
+    pub guidance_profile: Option<std::path::PathBuf>,
 }
 
 /// Device name of the demo's simulated chest camera (`--chest`).
@@ -198,7 +205,13 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     peer_bus.no_multicast = !args.multicast;
 
     // on a simulated world the compute agent localizes and guides on its floor plan
-    let navigation = crate::guided::sim_navigation(&args.source)?;
+    let mut navigation = crate::guided::sim_navigation(&args.source)?;
+    if let Some(path) = &args.guidance_profile {
+        let Some((_, nav)) = navigation.as_mut() else {
+            bail!("--guidance-profile needs a simulated world (--world W or --source sim:W), not {:?}", args.source)
+        };
+        nav.guidance = compute_agent::nav::load_guidance_profile(path)?;
+    }
     let (source, guided) = match (&args.destination, &navigation) {
         (Some(label), Some((world, nav))) => {
             let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label, args.chest)?;
@@ -401,6 +414,20 @@ mod tests {
         let Demo { args } = Demo::parse_from(["demo", "--haptic", "phone,phone", "--source", "sim:no-such-world"]);
         let error = format!("{:#}", run(args).await.unwrap_err());
         assert!(error.starts_with("--haptic names phone twice"), "{error}");
+    }
+
+    #[tokio::test]
+    async fn a_bad_guidance_profile_is_refused_before_any_agent_starts() {
+        let dir = tempfile::Builder::new().prefix("wearnav-demo-").tempdir().unwrap();
+        let path = dir.path().join("profile.toml");
+        std::fs::write(&path, "directions = \"compass\"\n").unwrap();
+        let file = path.to_str().unwrap();
+        let Demo { args } = Demo::parse_from(["demo", "--world", "corridor", "--guidance-profile", file]);
+        let error = format!("{:#}", run(args).await.unwrap_err());
+        assert!(error.starts_with("bad guidance profile") && error.contains("compass"), "{error}");
+        let Demo { args } = Demo::parse_from(["demo", "--source", "pcd:nowhere", "--guidance-profile", file]);
+        let error = format!("{:#}", run(args).await.unwrap_err());
+        assert!(error.starts_with("--guidance-profile needs a simulated world"), "{error}");
     }
 
     #[tokio::test]

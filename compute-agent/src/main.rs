@@ -159,9 +159,7 @@ async fn main() -> anyhow::Result<()> {
         nav.seed = cli.localization_seed;
         nav.ways_round = cli.ways_round;
         if let Some(path) = &cli.guidance_profile {
-            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-            nav.guidance = guidance::GuidanceProfile::from_toml(&text)
-                .with_context(|| format!("bad guidance profile {}", path.display()))?;
+            nav.guidance = compute_agent::nav::load_guidance_profile(path)?;
         }
         config.nav = Some(nav);
     }

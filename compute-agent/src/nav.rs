@@ -122,6 +122,13 @@ pub fn load_building(path: &Path) -> anyhow::Result<Building> {
     Building::load(&manifest).with_context(|| format!("cannot load the floor map {}", manifest.display()))
 }
 
+/// Loads the user's guidance profile (TOML, fields of [`GuidanceProfile`]) at `path`;
+/// refused with the file and the field named.
+pub fn load_guidance_profile(path: &Path) -> anyhow::Result<GuidanceProfile> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    GuidanceProfile::from_toml(&text).with_context(|| format!("bad guidance profile {}", path.display()))
+}
+
 /// The navigation half of the agent.
 pub struct Nav {
     tracker: Tracker,
