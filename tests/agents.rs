@@ -3,7 +3,7 @@
 //! watches the bus like a monitor would.
 
 use std::net::{Ipv4Addr, TcpListener};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -271,20 +271,25 @@ async fn unusable_frames_make_the_compute_agent_report_degraded_not_clear() {
     assert!(matches!(cue.body.pattern, HapticPattern::Pulses { .. }), "{:?}", cue.body);
 }
 
+/// Starts the compute agent with `flag` naming a file holding `text` (in `dir`, as
+/// `name`) and `args` before it, and waits for it to end: (exit code, stderr).
+fn compute_agent_with_file(dir: &Path, args: &[&str], flag: &str, name: &str, text: &str) -> (Option<i32>, String) {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    let out = Command::new(agent_bin("compute-agent"))
+        .args(args)
+        .args([flag, path.to_str().unwrap(), "--no-multicast"])
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .output()
+        .expect("cannot start compute-agent");
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
 #[test]
 fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() {
     let dir = tempfile::Builder::new().prefix("wearnav-config-").tempdir().unwrap();
-    let run = |name: &str, text: &str| {
-        let path = dir.path().join(name);
-        std::fs::write(&path, text).unwrap();
-        let out = Command::new(agent_bin("compute-agent"))
-            .args(["--perception-config", path.to_str().unwrap(), "--no-multicast"])
-            .env("RUST_LOG", "warn")
-            .stdin(Stdio::null())
-            .output()
-            .expect("cannot start compute-agent");
-        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
-    };
+    let run = |name: &str, text: &str| compute_agent_with_file(dir.path(), &[], "--perception-config", name, text);
     // refused before the session opens: exit 1 at once, the file and the field named
     let (code, err) = run("typo.toml", "[ttc]\nwarn_seconds = 3.0\n");
     assert_eq!(code, Some(1), "{err}");
@@ -302,15 +307,7 @@ fn compute_agent_refuses_a_guidance_profile_with_a_misspelt_or_out_of_range_fiel
     let dir = tempfile::Builder::new().prefix("wearnav-guidance-").tempdir().unwrap();
     let map = building_map();
     let run = |name: &str, text: &str| {
-        let path = dir.path().join(name);
-        std::fs::write(&path, text).unwrap();
-        let out = Command::new(agent_bin("compute-agent"))
-            .args(["--map", &map, "--guidance-profile", path.to_str().unwrap(), "--no-multicast"])
-            .env("RUST_LOG", "warn")
-            .stdin(Stdio::null())
-            .output()
-            .expect("cannot start compute-agent");
-        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+        compute_agent_with_file(dir.path(), &["--map", &map], "--guidance-profile", name, text)
     };
     // refused before the session opens: exit 1 at once, the file and the field named
     let (code, err) = run("typo.toml", "direction = \"clock\"\n");
