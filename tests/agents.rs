@@ -286,6 +286,61 @@ fn compute_agent_with_file(dir: &Path, args: &[&str], flag: &str, name: &str, te
     (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// A user standing with the cane camera a hand's breadth from a wall: every pixel
+/// nearer than the camera ranges.
+const FACING_A_WALL: &str = r#"
+name = "facing-a-wall"
+start = { x_m = 0.5, y_m = 2.0, yaw_deg = 180.0 }
+goal = { x_m = 3.0, y_m = 2.0 }
+
+[[walls]]
+from = [0.0, 0.0]
+to = [0.0, 4.0]
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_camera_too_near_a_wall_to_range_keeps_its_frame_rate_and_is_not_taken_for_a_slow_link() {
+    let user = "wall-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let depth = hub.subscribe::<schemas::DepthFrame>(keys.depth("cane")).await;
+    let hazards = hub.subscribe::<Hazard>(keys.hazard()).await;
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let dir = tempfile::Builder::new().prefix("wearnav-wall-").tempdir().unwrap();
+    let world = dir.path().join("facing-a-wall.toml");
+    std::fs::write(&world, FACING_A_WALL).unwrap();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &[]);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    let source = format!("sim:{}", world.display());
+    let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", &source]);
+    let blind = wait_for(&hazards, Duration::from_secs(10), |_| true).await.expect("no hazard");
+    assert_eq!((blind.body.ground, blind.body.rumble), (schemas::GroundState::Degraded, Rumble::Both));
+
+    // four seconds on: every frame the camera makes goes, and every one is answered;
+    // unanswered, the sensor agent took the refusals for a slow link and sent a frame
+    // in six, coarser, for seconds after the wall
+    let (mut frames, mut answers, mut slow) = (0, 0, Vec::new());
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(4);
+    loop {
+        tokio::select! {
+            _ = tokio::time::sleep_until(deadline) => break,
+            Some(_) = depth.recv() => frames += 1,
+            Some(h) = hazards.recv() => {
+                assert_eq!((h.body.ground, h.body.rumble), (schemas::GroundState::Degraded, Rumble::Both));
+                answers += 1;
+            }
+            Some(h) = health.recv() => {
+                if h.body.agent == "sensor-agent" && h.body.status.contains("slow link") {
+                    slow.push(h.body.status.clone());
+                }
+            }
+        }
+    }
+    assert!(frames >= 100, "{frames} frames in 4 s from a 30 Hz camera");
+    assert!(answers + 5 >= frames, "{answers} answers to {frames} frames");
+    assert!(slow.is_empty(), "the wall was taken for a slow link: {slow:?}");
+}
+
 #[test]
 fn compute_agent_refuses_a_perception_config_with_a_misspelt_or_harmful_field() {
     let dir = tempfile::Builder::new().prefix("wearnav-config-").tempdir().unwrap();

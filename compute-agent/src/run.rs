@@ -231,7 +231,7 @@ impl Chest {
             StepOutput::Perceived { hazard, .. } => {
                 step.second_view_heard(ViewState::of(&hazard, capture_ns), self.step.obstacle_points())
             }
-            StepOutput::Refused { error, blind } => {
+            StepOutput::Refused { error, blind, .. } => {
                 health.reject(&frame.key, error.kind(), &error);
                 if let Some(blind) = blind {
                     step.second_view_heard(ViewState::of(&blind.hazard, capture_ns), &[]);
@@ -499,10 +499,15 @@ async fn process(
             }
             (perception, hazard, intent)
         }
-        StepOutput::Refused { error, blind } => {
+        StepOutput::Refused { error, blind, answer } => {
             health.reject(&frame.key, error.kind(), &error);
             if let Some(blind) = blind {
                 publish_blind(capture_ns, blind, health, out).await;
+            } else if let Some(hazard) = answer {
+                // still blind: the frame answered, for the sensor agent's link pacing
+                if let Err(e) = out.hazard.put(capture_ns, &hazard).await {
+                    tracing::warn!("{e:#}");
+                }
             }
             return None;
         }

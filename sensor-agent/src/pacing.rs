@@ -4,8 +4,10 @@
 //! Sent at the camera's rate over a slow link (a crowded Wi-Fi, 2 Mbit/s), frames queue
 //! in the socket and in Zenoh's queue and reach the compute agent too old to perceive:
 //! the user gets no hazard at all. The compute agent answers every frame it perceives
-//! with a hazard that carries that frame's capture stamp, so the sensor agent sees, on
-//! its own clock (no clock skew in it), which frames got through. Two things follow:
+//! with a hazard that carries that frame's capture stamp (and every frame it refuses,
+//! from the third in a row, with the blind hazard: a refused frame got through), so
+//! the sensor agent sees, on its own clock (no clock skew in it), which frames got
+//! through. Two things follow:
 //!
 //! - At most `window` frames go unanswered on the way (six: 200 ms of frames at 30 Hz,
 //!   room for a link's delay both ways and its jitter; a frame that waits behind more

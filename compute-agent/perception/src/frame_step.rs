@@ -106,6 +106,12 @@ pub enum StepOutput {
         /// Set when the refusals in a row mean the user must be told perception is
         /// blind now.
         blind: Option<Blind>,
+        /// While the refusals in a row mean perception is blind, the blind hazard for
+        /// this frame, on every refused frame (with `blind` too): the answer by which the
+        /// sensor agent's link pacing knows the frame arrived. Unanswered, a camera facing
+        /// a wall at arm's length was taken for a slow link and its frames made coarser
+        /// and fewer for seconds after.
+        answer: Option<Hazard>,
     },
 }
 
@@ -284,14 +290,15 @@ impl ComputeStep {
                 StepOutput::Perceived { perception, hazard, intent }
             }
             Err(error) => {
-                let blind = self.rejections.record(false).then(|| Blind {
-                    hazard: rejections::blind().hazard(input.seq, active, Vec::new()),
-                    intent: cue_unavailable(&self.cue),
-                });
+                let tell = self.rejections.record(false);
+                let answer = (self.rejections.in_a_row() >= rejections::REJECTIONS_BEFORE_BLIND)
+                    .then(|| rejections::blind().hazard(input.seq, active, Vec::new()));
+                let blind =
+                    answer.clone().filter(|_| tell).map(|hazard| Blind { hazard, intent: cue_unavailable(&self.cue) });
                 if let (Some(p), Some(_)) = (self.predictive.as_mut(), &blind) {
                     p.sent(input.capture_ns as f64 * 1e-9, Rumble::Both);
                 }
-                StepOutput::Refused { error, blind }
+                StepOutput::Refused { error, blind, answer }
             }
         }
     }
@@ -556,25 +563,42 @@ mod tests {
         let mut broken = wall_frame(DepthEncoding::Lossless);
         broken.data.truncate(broken.data.len() / 2);
         let mut step = ComputeStep::new(PerceptionConfig::default(), CueConfig::default());
-        let mut blinds = Vec::new();
-        for seq in 1..=3 {
+        let (mut blinds, mut answers) = (Vec::new(), Vec::new());
+        for seq in 1..=64 {
             match step.process(input(&broken, seq), &mut NoTimer) {
-                StepOutput::Refused { error, blind } => {
+                StepOutput::Refused { error, blind, answer } => {
                     assert_eq!(error.kind(), "depth_decode", "{error}");
                     blinds.push(blind);
+                    answers.push(answer);
                 }
                 StepOutput::Perceived { .. } => panic!("a truncated frame was perceived"),
             }
         }
         assert!(blinds[0].is_none() && blinds[1].is_none(), "one or two bad frames keep the last cue");
+        assert!(answers[0].is_none() && answers[1].is_none(), "one or two bad frames keep the last hazard");
         let blind = blinds[2].clone().expect("the third refusal in a row says blind");
         assert_eq!((blind.hazard.rumble, blind.hazard.ground), (Rumble::Both, GroundState::Degraded));
         assert_eq!(blind.hazard.frame_seq, 3);
         assert_eq!(blind.intent, cue_unavailable(&CueConfig::default()));
+        // the user is told again every 30th frame; every frame from the third on is
+        // answered with the blind hazard (the sensor agent paces its link by the answers)
+        let told: Vec<usize> = blinds.iter().enumerate().filter(|(_, b)| b.is_some()).map(|(i, _)| i + 1).collect();
+        assert_eq!(told, [3, 30, 60]);
+        for (i, answer) in answers.iter().enumerate().skip(2) {
+            let hazard = answer.as_ref().unwrap_or_else(|| panic!("frame {} unanswered", i + 1));
+            assert_eq!(
+                (hazard.rumble, hazard.ground, hazard.frame_seq),
+                (Rumble::Both, GroundState::Degraded, i as u64 + 1)
+            );
+            if let Some(b) = &blinds[i] {
+                assert_eq!(&b.hazard, hazard);
+            }
+        }
         // a good frame ends the run of refusals
         let good = wall_frame(DepthEncoding::Raw);
-        assert!(matches!(step.process(input(&good, 4), &mut NoTimer), StepOutput::Perceived { .. }));
-        assert!(matches!(step.process(input(&broken, 5), &mut NoTimer), StepOutput::Refused { blind: None, .. }));
+        assert!(matches!(step.process(input(&good, 65), &mut NoTimer), StepOutput::Perceived { .. }));
+        let after = step.process(input(&broken, 66), &mut NoTimer);
+        assert!(matches!(after, StepOutput::Refused { blind: None, answer: None, .. }), "{after:?}");
     }
 
     #[test]
