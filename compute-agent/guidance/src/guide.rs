@@ -295,7 +295,8 @@ impl Guide {
     /// warning). When it is the last instruction, it is given again, with the words of
     /// then, as soon as the step would give it: the route's start (or back on the
     /// route), an off-route prompt, a turn still ahead (a "now" only while the turn is
-    /// within reach), the arrival, the request to stop and turn on the spot and the
+    /// within reach), a gateway ahead (while it is) and "you are at the elevator" (while
+    /// the user is), the arrival, the request to stop and turn on the spot and the
     /// position found after it. True when it was.
     pub fn not_heard(&mut self, text: &str) -> bool {
         let Some(last) = self.last.as_ref().filter(|i| i.text == text) else {
@@ -311,6 +312,11 @@ impl Guide {
                 self.said_now = None;
                 self.announced = None;
             }
+            InstructionKind::GatewayAhead { leg } if self.gateway_ahead_said == Some(leg) => {
+                self.gateway_ahead_said = None;
+            }
+            // a user at the lift who did not hear which floor waits there for nothing
+            InstructionKind::AtGateway { leg } if self.at_gateway_said == Some(leg) => self.at_gateway_said = None,
             InstructionKind::Arrived => self.arrived = false,
             InstructionKind::PositionUncertain if text == STOP_UNCERTAIN => self.stop_said = false,
             // still turning on the spot: said again while the position is known

@@ -562,6 +562,13 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
     // waiting at the elevator: nothing more on floor 0
     let end0 = legs[0].goal();
     assert_eq!(guide.step(&pose(end0, -1.57), 60_000, Some(p0.graph())), None);
+    // ... unless a warning cut it off: a user who did not hear which floor is told again
+    assert!(guide.not_heard("You are at the elevator. Take it to floor 1, then tell me when you are there."));
+    let again = guide.step(&pose(end0, -1.57), 61_000, Some(p0.graph())).expect("said again");
+    assert_eq!(again.text, "You are at the elevator. Take it to floor 1, then tell me when you are there.");
+    assert_eq!(again.kind, InstructionKind::AtGateway { leg: 0 });
+    assert_ne!(again.dedup_key, said[4].instruction.dedup_key, "a key of its own: the feedback agent saw the first");
+    assert_eq!(guide.step(&pose(end0, -1.57), 65_000, Some(p0.graph())), None);
     // a wrong floor is not confirmation
     assert!(!guide.floor_confirmed(2));
     assert!(guide.floor_confirmed(1));
@@ -585,6 +592,32 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
     let all: Vec<Said> = said.into_iter().chain(said1).collect();
     assert_message_priority(&all);
     assert_spaced(&all, 3000);
+}
+
+#[test]
+fn an_elevator_ahead_the_user_did_not_hear_is_said_again_while_it_is_ahead() {
+    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
+    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
+    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let leg0 = route.legs[0].route.clone();
+    let guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let p0 = bp.floor(0).unwrap();
+    let poses = poses_along(&leg0.waypoints);
+    let said = walk(&mut guide.clone(), &poses, 0, 0, Some(p0), |_| true);
+    let ahead = said.iter().find(|s| s.instruction.kind == InstructionKind::GatewayAhead { leg: 0 }).unwrap();
+    // the same walk to where it was said, and the announcement cut off: said again at the
+    // next step, the elevator still ahead
+    let k = poses.iter().position(|(at, _)| *at == ahead.at).unwrap();
+    let mut cut = guide.clone();
+    let first = walk(&mut cut, &poses[..=k], 0, 0, Some(p0), |_| true);
+    assert_eq!(first.last().map(|s| &s.instruction.kind), Some(&InstructionKind::GatewayAhead { leg: 0 }));
+    assert!(cut.not_heard("Elevator ahead; take it to floor 1; tell me when you are there."));
+    let (at, heading) = poses[k + 1];
+    let again = cut.step(&pose(at, heading), (k as u64 + 1) * TICK_MS, Some(p0.graph())).expect("said again");
+    assert_eq!(again.text, "Elevator ahead; take it to floor 1; tell me when you are there.");
+    assert_ne!(again.dedup_key, ahead.instruction.dedup_key, "a key of its own: the feedback agent saw the first");
 }
 
 #[test]
