@@ -529,11 +529,18 @@ type = "elevator"
 stops = [ { floor = 0, x = 19.5, y = 1.5 }, { floor = 1, x = 19.5, y = 1.5 } ]
 "#;
 
-#[test]
-fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor() {
+/// The corridors of [`corridor_floor`] on floors 0 and 1, joined by the elevator of
+/// [`ELEVATOR`], and that semantic layer.
+fn two_floors() -> (SemanticLayer, Building) {
     let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
     let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
     let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    (layer, building)
+}
+
+#[test]
+fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor() {
+    let (layer, building) = two_floors();
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());
     let from = FloorPoint { floor: 0, x: 1.5, y: 11.5 };
     let to = FloorPoint { floor: 1, x: 1.5, y: 11.5 };
@@ -596,9 +603,7 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
 
 #[test]
 fn an_elevator_ahead_the_user_did_not_hear_is_said_again_while_it_is_ahead() {
-    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
-    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
-    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    let (layer, building) = two_floors();
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());
     let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
     let leg0 = route.legs[0].route.clone();
@@ -622,9 +627,7 @@ fn an_elevator_ahead_the_user_did_not_hear_is_said_again_while_it_is_ahead() {
 
 #[test]
 fn reaching_the_next_floor_without_saying_so_starts_its_leg_too() {
-    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
-    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
-    let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
+    let (layer, building) = two_floors();
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());
     let route = bp.plan(FloorPoint { floor: 0, x: 19.5, y: 5.0 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
     let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
