@@ -109,6 +109,14 @@ pub struct UserPose {
     pub confident: bool,
 }
 
+impl UserPose {
+    /// Guidance may take this place: localization trusts it and every number of it is
+    /// finite.
+    pub fn placed(&self) -> bool {
+        self.confident && self.x_m.is_finite() && self.y_m.is_finite() && self.heading_rad.is_finite()
+    }
+}
+
 /// Where the user is along the current leg.
 #[derive(Clone, Copy, Debug)]
 struct Progress {
@@ -373,10 +381,9 @@ impl Guide {
         if self.arrived || self.legs.is_empty() {
             return None;
         }
-        // a pose with a non-finite number is no pose: treated as not confident
-        let finite = pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
         self.headings.push(now_ms, pose.heading_rad);
-        if !(pose.confident && finite) {
+        // a pose with a non-finite number is no pose: treated as not confident
+        if !pose.placed() {
             let since_ms = *self.uncertain_since_ms.get_or_insert(now_ms);
             if !self.uncertain_said {
                 let i =

@@ -271,7 +271,7 @@ impl Navigator {
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
         self.headings.push(now_ms, pose.heading_rad);
-        let placed = pose.confident && pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite();
+        let placed = pose.placed();
         if placed {
             self.unplaced_since_ms = None;
         } else {
