@@ -291,8 +291,7 @@ impl ComputeStep {
             }
             Err(error) => {
                 let tell = self.rejections.record(false);
-                let answer = (self.rejections.in_a_row() >= rejections::REJECTIONS_BEFORE_BLIND)
-                    .then(|| rejections::blind().hazard(input.seq, active, Vec::new()));
+                let answer = self.rejections.blind().then(|| rejections::blind().hazard(input.seq, active, Vec::new()));
                 let blind =
                     answer.clone().filter(|_| tell).map(|hazard| Blind { hazard, intent: cue_unavailable(&self.cue) });
                 if let (Some(p), Some(_)) = (self.predictive.as_mut(), &blind) {

@@ -31,6 +31,12 @@ impl Rejections {
             || (self.in_a_row > REJECTIONS_BEFORE_BLIND && self.in_a_row.is_multiple_of(BLIND_REPEAT_FRAMES))
     }
 
+    /// The refusals in a row mean perception is blind (from the
+    /// [`REJECTIONS_BEFORE_BLIND`]th on).
+    pub fn blind(&self) -> bool {
+        self.in_a_row >= REJECTIONS_BEFORE_BLIND
+    }
+
     /// Frames rejected in a row so far.
     pub fn in_a_row(&self) -> u32 {
         self.in_a_row
@@ -59,8 +65,10 @@ mod tests {
             }
         }
         assert_eq!(again, [30, 60]);
+        assert!(r.blind());
         assert!(!r.record(true));
         assert_eq!(r.in_a_row(), 0);
+        assert!(!r.blind());
     }
 
     #[test]
