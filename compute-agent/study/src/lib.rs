@@ -840,6 +840,12 @@ pub(crate) fn walk_done(w: &walk::WalkOutcome) -> String {
         }
         _ => heard,
     };
+    let heard = match w.missed {
+        Some((missed, turns_now)) if missed > 0 => {
+            format!("{heard}; {missed} not heard to their end ({turns_now} turns \"now\")")
+        }
+        _ => heard,
+    };
     let round = match w.ways_round {
         None => String::new(),
         Some((laid, none, sidesteps)) => {

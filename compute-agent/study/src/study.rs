@@ -296,6 +296,7 @@ mod tests {
             way_through: Some(true),
             localization: None,
             heard: None,
+            missed: None,
             unguided_m: None,
             ways_round: None,
             trace: Vec::new(),
@@ -337,5 +338,24 @@ mod tests {
             localization_line(walks.iter()).as_deref(),
             Some("the filter: 2 of 4 walks tracked more than 1 m off (47 of 2700 frames tracked), 1 turned more than 45° (12 frames)\n")
         );
+    }
+
+    #[test]
+    fn a_spoken_walks_line_says_what_the_user_did_not_hear_to_its_end() {
+        let spoken = |missed| WalkOutcome {
+            heard: Some((16, 2)),
+            missed: Some(missed),
+            unguided_m: Some((6.0, 3.0)),
+            ..walk_with(0.5, &[])
+        };
+        let line = crate::walk_done(&spoken((6, 2)));
+        assert!(
+            line.ends_with(
+                "heard 16 utterances, 2 off-route prompts in 8 m, 6 m of them with no place for guidance \
+                 (at most 3 m at a stretch); 6 not heard to their end (2 turns \"now\")"
+            ),
+            "{line}"
+        );
+        assert!(crate::walk_done(&spoken((0, 0))).ends_with("(at most 3 m at a stretch)"), "all heard: nothing said");
     }
 }

@@ -429,6 +429,10 @@ pub struct WalkOutcome {
     /// With the spoken guide: utterances heard to their end, and of them the prompts to
     /// come back to the route ("Off the route: ...").
     pub heard: Option<(u32, u32)>,
+    /// With the spoken guide: utterances the user never heard to their end (dropped
+    /// unspoken by the feedback agent's speech queue, or cut off; not a duplicate of
+    /// one said), and of them the turns to make "now".
+    pub missed: Option<(u32, u32)>,
     /// With the spoken guide: metres walked while guidance could not take the place the
     /// device believed (told "position uncertain", or waiting for a first position), and
     /// the longest such stretch walked, metres.
@@ -442,6 +446,16 @@ pub struct WalkOutcome {
 }
 
 impl WalkOutcome {
+    /// One utterance the user did not hear to its end (`missed`).
+    fn count_missed(&mut self, text: &str) {
+        if let Some((missed, turns_now)) = self.missed.as_mut() {
+            *missed += 1;
+            if text.ends_with(" now.") {
+                *turns_now += 1;
+            }
+        }
+    }
+
     /// Contacts of one part, optionally only those in (`Some(true)`) or out of view.
     pub fn count(&self, part: Part, in_fov: Option<bool>) -> usize {
         self.contacts.iter().filter(|c| c.part == part && in_fov.is_none_or(|v| c.in_fov == v)).count()
@@ -979,6 +993,7 @@ impl<'w> Walk<'w> {
             way_through: world.way_through(),
             localization: None,
             heard: (config.guide == GuideKind::Spoken).then_some((0, 0)),
+            missed: (config.guide == GuideKind::Spoken).then_some((0, 0)),
             unguided_m: (config.guide == GuideKind::Spoken).then_some((0.0, 0.0)),
             ways_round: None,
             trace: Vec::new(),
@@ -1386,13 +1401,17 @@ impl<'w> Walk<'w> {
                 AppliedAction::SpeechFinished { .. } => self.ear.borrow_mut().speaking = false,
                 AppliedAction::SpeechInterrupted { text } => {
                     self.ear.borrow_mut().speaking = false;
+                    self.out.count_missed(text);
                     // the device hears back what the voice did not finish, as the
                     // compute agent would on `feedback/applied`
                     if let Some(device) = self.spoken.as_mut() {
                         device.not_heard(text);
                     }
                 }
-                AppliedAction::SpeechDropped { text, .. } => {
+                AppliedAction::SpeechDropped { text, reason } => {
+                    if reason != "duplicate" {
+                        self.out.count_missed(text);
+                    }
                     if let Some(device) = self.spoken.as_mut() {
                         device.not_heard(text);
                     }
