@@ -306,7 +306,8 @@ impl Nav {
         let news = self.tracker.news();
         if let Some(news) = news {
             tracing::info!("localization: {news}");
-            let speech = self.speech(news, "localization");
+            self.serial += 1;
+            let speech = guidance::instruction::localization_news(news, self.serial);
             self.say(capture_ns, speech).await;
         }
         let pose = self.user_pose();

@@ -1,10 +1,12 @@
-//! One thing the guide says, and how it goes to the feedback agent: always a
-//! [`SpeechIntent`] at [`Priority::Message`], never `Important` (obstacle warnings
-//! pre-empt guidance; guidance never talks over a warning, ARCHITECTURE.md safety rule 3).
+//! One thing the guide says, and how it goes to the feedback agent: a [`SpeechIntent`]
+//! at [`Priority::Message`], or [`Priority::Text`] for what only tells where things
+//! stand ([`priority`]); never `Important` (obstacle warnings pre-empt guidance;
+//! guidance never talks over a warning, ARCHITECTURE.md safety rule 3).
 
 use planning::Rejoin;
 use schemas::{Priority, SpeechIntent};
 
+use crate::guide::{POSITION_FOUND, STOP_UNCERTAIN};
 use crate::utterance::Turn;
 
 /// What an instruction is about.
@@ -94,12 +96,13 @@ pub struct Instruction {
 }
 
 impl Instruction {
-    /// The speech intent for the feedback agent: `Message` priority, no interrupt, a
-    /// notice tap first when the profile asks for one ([`Instruction::vibrate_first`]).
+    /// The speech intent for the feedback agent: the kind's [`priority`], no
+    /// interrupt, a notice tap first when the profile asks for one
+    /// ([`Instruction::vibrate_first`]).
     pub fn speech(&self) -> SpeechIntent {
         SpeechIntent {
             text: self.text.clone(),
-            priority: Priority::Message,
+            priority: priority(&self.kind, &self.text),
             interrupt: false,
             ttl_ms: self.ttl_ms,
             dedup_key: self.dedup_key.clone(),
@@ -110,6 +113,35 @@ impl Instruction {
     /// True when the caller should plan a new route from the user's position.
     pub fn needs_replan(&self) -> bool {
         self.kind == InstructionKind::Replan
+    }
+}
+
+/// The speech priority of an instruction: `Text` for what asks nothing of the user
+/// and only tells where things stand (a door in passing, "position uncertain"), so a
+/// turn, a prompt or an answer (`Message`) cuts it off and goes first, and a newer one
+/// replaces one still waiting; `Message` for everything else, the request to stop and
+/// turn on the spot included. Measured in docs/guidance.md ("What only tells where
+/// things stand gives way"): the turns "now" the speech queue had dropped behind it.
+pub fn priority(kind: &InstructionKind, text: &str) -> Priority {
+    match kind {
+        InstructionKind::PassingDoor { .. } => Priority::Text,
+        InstructionKind::PositionUncertain if text != STOP_UNCERTAIN => Priority::Text,
+        _ => Priority::Message,
+    }
+}
+
+/// The localization's news (`localization::Tracker::news`) as the user hears it:
+/// "Position found." at `Message` priority (a user turning on the spot waits for it),
+/// "Position lost: ..." at `Text`, as "position uncertain" ([`priority`]); said within
+/// 5 s or not at all, each with a dedup key of its own (`serial`).
+pub fn localization_news(news: &str, serial: u64) -> SpeechIntent {
+    SpeechIntent {
+        text: news.to_string(),
+        priority: if news == POSITION_FOUND { Priority::Message } else { Priority::Text },
+        interrupt: false,
+        ttl_ms: 5000,
+        dedup_key: format!("localization/{serial}"),
+        notice: false,
     }
 }
 

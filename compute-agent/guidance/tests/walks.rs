@@ -127,11 +127,15 @@ fn pose(at: [f64; 2], heading_rad: f64) -> UserPose {
     UserPose { x_m: at[0], y_m: at[1], heading_rad, floor: 0, confident: true }
 }
 
-/// Every instruction goes out at Message priority, never interrupting, with a key.
-fn assert_message_priority(said: &[Said]) {
+/// Every instruction goes out at Message priority, never interrupting, with a key; a
+/// door in passing and "position uncertain" at Text, which a turn cuts off.
+fn assert_priorities(said: &[Said]) {
     for s in said {
         let speech = s.instruction.speech();
-        assert_eq!(speech.priority, Priority::Message, "{s:?}");
+        let tells_only = matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })
+            || s.instruction.text.starts_with("Position uncertain:");
+        let expected = if tells_only { Priority::Text } else { Priority::Message };
+        assert_eq!(speech.priority, expected, "{s:?}");
         assert!(!speech.interrupt, "{s:?}");
         assert!(!speech.dedup_key.is_empty() && speech.ttl_ms > 0, "{s:?}");
     }
@@ -195,7 +199,7 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
     // the door keeps the spacing after the route's start, and the turn's words come
     // where they come without it
     assert_spaced(&said, 3000);
-    assert_message_priority(&said);
+    assert_priorities(&said);
     let said: Vec<Said> =
         said.into_iter().filter(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })).collect();
     // announced at the first pose within 6 m of the corner, "now" at the first within 1.5 m
@@ -218,7 +222,7 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
         InstructionKind::TurnAhead { leg: 0, waypoint: 1, .. } => {}
         ref k => panic!("{k:?}"),
     }
-    assert_message_priority(&said);
+    assert_priorities(&said);
     assert_spaced(&said, 3000);
     assert!(said.iter().all(|s| s.instruction.vibrate_first));
     // a "now" is dropped if it cannot be said within 1.5 s
@@ -273,7 +277,7 @@ fn doors_passed_are_said_on_their_side_ten_metres_apart_and_never_hold_back_a_tu
         assert_eq!(d.instruction.speech().ttl_ms, 1500);
     }
     assert_spaced(&said, 3000);
-    assert_message_priority(&said);
+    assert_priorities(&said);
     // the route's words, where and when they were said without the doors
     let quiet = GuidanceProfile { passing_doors: false, ..GuidanceProfile::default() };
     let mut without = Guide::single_floor(route.clone(), "the stairs", doors_every_3_m(), quiet);
@@ -459,7 +463,7 @@ fn unconfident_pose_is_said_once_and_silences_turns() {
     assert!(said
         .iter()
         .all(|s| !matches!(s.instruction.kind, InstructionKind::TurnAhead { .. } | InstructionKind::TurnNow { .. })));
-    assert_message_priority(&said);
+    assert_priorities(&said);
 }
 
 #[test]
@@ -518,6 +522,7 @@ fn repeat_says_a_turn_with_the_distance_of_now_and_never_a_passed_turn() {
     let lost = UserPose { confident: false, ..pose(below, -std::f64::consts::FRAC_PI_2) };
     let uncertain = guide.step(&lost, 19_000, Some(p.graph())).unwrap();
     assert_eq!(uncertain.kind, InstructionKind::PositionUncertain);
+    assert_eq!(uncertain.speech().priority, Priority::Text, "what tells where things stand gives way to a turn");
     let found = guide.repeat(&pose(below, -std::f64::consts::FRAC_PI_2), 20_000);
     assert_eq!(found.text, format!("Go straight on for {} metres.", left.round()));
 }
@@ -597,7 +602,7 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
         "{said1:#?}"
     );
     let all: Vec<Said> = said.into_iter().chain(said1).collect();
-    assert_message_priority(&all);
+    assert_priorities(&all);
     assert_spaced(&all, 3000);
 }
 

@@ -2,8 +2,10 @@
 //! scan correction (likelihood field), weights, estimate, low-variance resampling — on
 //! the Intel lab log (180-beam scans subsampled to 30, and to 61 for the issue's
 //! figure), at fixed particle counts (min = max, resampling every update, so every
-//! timed update does all the work); and with free space weighed too (each laser beam
-//! seen free up to its hit: 15 rays tested at 0.1 m steps). Prints a table; no harness.
+//! timed update does all the work); with free space weighed too (each laser beam
+//! seen free up to its hit: 15 rays tested at 0.1 m steps); and with each particle's
+//! motion checked against the walls, as a person's filter does
+//! (`FilterConfig::wall_crossing_log_p`). Prints a table; no harness.
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -11,11 +13,11 @@ mod support;
 use std::hint::black_box;
 use std::time::Instant;
 
-use localization::{FilterConfig, FreeSpaceConfig, Observations, Scan};
+use localization::{FilterConfig, FreeSpaceConfig, Observations, Scan, WALL_CROSSING_LOG_P};
 use support::{filter, intel, noisy_increments};
 
 /// Median and 90th percentile microseconds of one update over the whole log, `runs` times.
-fn time_updates(particles: usize, beams: usize, free_space: bool, runs: usize) -> (f64, f64) {
+fn time_updates(particles: usize, beams: usize, free_space: bool, walls: bool, runs: usize) -> (f64, f64) {
     let i = intel();
     let inc = noisy_increments(0.1, 7);
     let config = FilterConfig {
@@ -24,6 +26,7 @@ fn time_updates(particles: usize, beams: usize, free_space: bool, runs: usize) -
         max_beams: beams,
         resample_ess_fraction: 2.0, // always resample: the worst case
         free_space: free_space.then(FreeSpaceConfig::default),
+        wall_crossing_log_p: walls.then_some(WALL_CROSSING_LOG_P),
         ..Default::default()
     };
     let scans: Vec<Scan> = i
@@ -70,11 +73,18 @@ fn main() {
     );
     println!("| particles | beams used | update median | update p90 |");
     println!("| ---: | ---: | ---: | ---: |");
-    for (n, beams, free) in
-        [(500, 30, false), (2000, 30, false), (2000, 61, false), (5000, 30, false), (500, 30, true), (2000, 30, true)]
-    {
-        let (median, p90) = time_updates(n, beams, free, 3);
+    for (n, beams, free, walls) in [
+        (500, 30, false, false),
+        (2000, 30, false, false),
+        (2000, 61, false, false),
+        (2000, 61, false, true),
+        (5000, 30, false, false),
+        (500, 30, true, false),
+        (2000, 30, true, false),
+    ] {
+        let (median, p90) = time_updates(n, beams, free, walls, 3);
         let free = if free { " + free space" } else { "" };
-        println!("| {n} | {beams} of 180{free} | {:.3} ms | {:.3} ms |", median / 1e3, p90 / 1e3);
+        let walls = if walls { " + walls crossed" } else { "" };
+        println!("| {n} | {beams} of 180{free}{walls} | {:.3} ms | {:.3} ms |", median / 1e3, p90 / 1e3);
     }
 }

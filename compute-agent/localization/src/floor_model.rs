@@ -21,6 +21,8 @@ pub struct FloorModel {
     pub(crate) free_cells: Vec<[f64; 2]>,
     /// the grid, for "is this place free"
     grid: OccupancyGrid,
+    /// map metres to grid cells: origin, cos and sin of its yaw, cells per metre
+    to_grid: [f64; 5],
     pub(crate) cell_m: f64,
     /// (number as [`door_key`] has it, place)
     pub(crate) doors: Vec<(String, [f64; 2])>,
@@ -59,6 +61,10 @@ impl FloorModel {
             field: LikelihoodField::new(grid, config),
             free_cells,
             grid: grid.clone(),
+            to_grid: {
+                let o = grid.origin();
+                [o.x_m, o.y_m, o.yaw_rad.cos(), o.yaw_rad.sin(), 1.0 / grid.resolution_m()]
+            },
             cell_m: grid.resolution_m(),
             doors: on_floor.doors.iter().map(|d| (door_key(&d.number), [d.x, d.y])).collect(),
             corners: OnceLock::new(),
@@ -99,6 +105,50 @@ impl FloorModel {
     /// somewhere a person can stand.
     pub fn is_free(&self, x_m: f64, y_m: f64) -> bool {
         self.grid.world_to_cell(x_m, y_m).and_then(|(c, r)| self.grid.get(c, r)) == Some(Cell::Free)
+    }
+
+    /// Whether the straight way from `from` to `to` (map metres) passes through a wall
+    /// of the grid (an occupied cell; unknown cells and the map's outside are no wall):
+    /// looked at every half cell along it, both ends included. Called for every
+    /// particle at every correction of a person's filter: the way is skipped along by
+    /// the likelihood field's distance to the nearest wall (less one cell) while that
+    /// is more than a cell and a half, and looked along every half cell from there.
+    pub fn crosses_wall(&self, from: [f64; 2], to: [f64; 2]) -> bool {
+        let [ox, oy, c, s, per_m] = self.to_grid;
+        let grid = |p: [f64; 2]| {
+            let (dx, dy) = (p[0] - ox, p[1] - oy);
+            ((c * dx + s * dy) * per_m, (-s * dx + c * dy) * per_m)
+        };
+        let ((x0, y0), (x1, y1)) = (grid(from), grid(to));
+        let (dx, dy) = (x1 - x0, y1 - y0);
+        let len = dx.hypot(dy);
+        if !len.is_finite() {
+            return false;
+        }
+        let (w, h) = (self.grid.width(), self.grid.height());
+        let cells = self.grid.cells();
+        let wall_at = |f: f64| {
+            let (gx, gy) = (x0 + f * dx, y0 + f * dy);
+            let inside = gx >= 0.0 && gy >= 0.0 && (gx as usize) < w && (gy as usize) < h;
+            (inside, inside && cells[gy as usize * w + gx as usize] == Cell::Occupied)
+        };
+        // half a cell at a time near a wall, skipping by the distance to the nearest
+        // (no occupied cell's centre within d cells) away from them; the end itself last
+        let mut t = 0.0;
+        while t < len {
+            let f = t / len;
+            let (inside, wall) = wall_at(f);
+            if wall {
+                return true;
+            }
+            let d = if inside {
+                self.field.distance_m(from[0] + f * (to[0] - from[0]), from[1] + f * (to[1] - from[1])) * per_m
+            } else {
+                0.0
+            };
+            t += if d > 1.5 { d - 1.0 } else { 0.5 };
+        }
+        wall_at(1.0).1
     }
 
     /// The likelihood field of the floor's grid.

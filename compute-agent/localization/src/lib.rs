@@ -50,7 +50,7 @@ pub use likelihood_field::{FreeSpaceConfig, GridPose, GridPoses, LikelihoodField
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
     Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, RecoveryAnchor, Rejected,
-    Status,
+    Status, WALL_CROSSING_LOG_P,
 };
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;

@@ -19,6 +19,7 @@ use crate::likelihood_field::LikelihoodFieldConfig;
 use crate::motion::{MotionNoise, OdometryIncrement};
 use crate::particle_filter::{
     Correction, Estimate, FilterConfig, Observations, ParticleFilter, RecoveryAnchor, Rejected, Status,
+    WALL_CROSSING_LOG_P,
 };
 use crate::pose::Pose2;
 use crate::scan::{Beam, Scan};
@@ -60,8 +61,9 @@ pub const VO_MOTION_NOISE: MotionNoise = MotionNoise {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrackerConfig {
-    /// the particle filter: AMCL's defaults but the motion noise ([`VO_MOTION_NOISE`])
-    /// and a person's anchor (a person does not jump: `FilterConfig::recovery_anchor`)
+    /// the particle filter: AMCL's defaults but the motion noise ([`VO_MOTION_NOISE`]),
+    /// a person's anchor (a person does not jump: `FilterConfig::recovery_anchor`) and
+    /// walls (nor walk through one: `FilterConfig::wall_crossing_log_p`)
     pub filter: FilterConfig,
     /// the likelihood field of each floor
     pub field: LikelihoodFieldConfig,
@@ -82,6 +84,7 @@ impl Default for TrackerConfig {
             filter: FilterConfig {
                 motion: VO_MOTION_NOISE,
                 recovery_anchor: Some(RecoveryAnchor::default()),
+                wall_crossing_log_p: Some(WALL_CROSSING_LOG_P),
                 ..FilterConfig::default()
             },
             field: LikelihoodFieldConfig::default(),

@@ -24,7 +24,7 @@ use localization::log_run::{quantile, rmse};
 use localization::{
     corners_of_walls, wall_segments, wrap_angle, Beam, CornerConfig, FilterConfig, FloorModel, Landmark,
     LikelihoodFieldConfig, LocalizationError, Observations, OdometryIncrement, ParticleFilter, Pose2, RecoveryAnchor,
-    Scan, Status, WallAngle, WallFitConfig,
+    Scan, Status, WallAngle, WallFitConfig, WALL_CROSSING_LOG_P,
 };
 use perception::{ComputeStep, FrameData, FrameIn, NoTimer, Perception, StepOutput};
 use sim::{CaneMount, DoorSignReader, SignReaderConfig, SimRng, UserPose, World};
@@ -81,13 +81,17 @@ pub struct LocalizeWalkConfig {
 impl Default for LocalizeWalkConfig {
     /// The study's default walk kept on the world's route, 120 s at most; AMCL's filter
     /// with a person's recovery (near where the user can be:
-    /// [`FilterConfig::recovery_anchor`]); a 0.1 m / 2° known start; the gyro on; the
+    /// [`FilterConfig::recovery_anchor`]) and walls ([`FilterConfig::wall_crossing_log_p`]); a 0.1 m / 2° known start; the gyro on; the
     /// door-sign reader's defaults; no wall-angle correction (docs/localization.md, "The
     /// wall angle").
     fn default() -> Self {
         Self {
             walk: WalkConfig { guide: GuideKind::Route, timeout_s: 120.0, ..WalkConfig::default() },
-            filter: FilterConfig { recovery_anchor: Some(RecoveryAnchor::default()), ..FilterConfig::default() },
+            filter: FilterConfig {
+                recovery_anchor: Some(RecoveryAnchor::default()),
+                wall_crossing_log_p: Some(WALL_CROSSING_LOG_P),
+                ..FilterConfig::default()
+            },
             field: LikelihoodFieldConfig::default(),
             resolution_m: floor_plan::DEFAULT_RESOLUTION_M,
             start_sigma_m: 0.1,
@@ -261,6 +265,9 @@ pub struct LocalizeSummary {
     /// `Tracking` estimates out of the reach of where the user can be, refused as
     /// look-alikes (`FilterConfig::recovery_anchor`).
     pub look_alikes: u64,
+    /// Particles whose motion passed through a wall of the map, weighed out
+    /// (`FilterConfig::wall_crossing_log_p`).
+    pub wall_crossings: u64,
     /// Beams left out as something the map does not have
     /// (`FilterConfig::unmapped_gate_m`; 0 with the gate off).
     pub beams_unmapped: u64,
@@ -302,7 +309,7 @@ impl WalkLocalization {
         format!(
             "world {} seed {}: {} frames, {:.1} s, {:.1} m walked, {} updates\n\
              position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
-             tracking {:.1} % of frames ({} while > 1 m off); {} particles drawn by the recovery, {} look-alikes refused; update median {:.3} ms\n\
+             tracking {:.1} % of frames ({} while > 1 m off); {} particles drawn by the recovery, {} look-alikes refused, {} particles through a wall weighed out; update median {:.3} ms\n\
              door signs: {} read, {} misread, {} refused by the filter{}\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n\
              walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n\
@@ -325,6 +332,7 @@ impl WalkLocalization {
             s.tracking_over_1m,
             s.particles_injected,
             s.look_alikes,
+            s.wall_crossings,
             s.update_ms_median,
             s.doors_read,
             s.doors_misread,
@@ -800,6 +808,7 @@ fn summarize(
         odometry_rejected: counters.odometry_rejected,
         particles_injected: counters.particles_injected,
         look_alikes: counters.look_alikes,
+        wall_crossings: counters.wall_crossings,
         beams_unmapped: counters.beams_unmapped,
         doors_read: frames.iter().map(|f| f.doors_read.len()).sum(),
         doors_misread: frames.iter().filter(|f| f.misread).count(),

@@ -20,7 +20,7 @@ use std::rc::Rc;
 use guidance::{GuidanceProfile, Navigator, UserPose};
 use map::Building;
 use planning::UserProfile;
-use schemas::{Command, Priority, RouteState, SpeechIntent};
+use schemas::{Command, RouteState, SpeechIntent};
 
 use crate::virtual_user::{GoalSound, Guide};
 
@@ -254,14 +254,7 @@ impl SpokenDevice {
     pub fn step(&mut self, pose: &UserPose, news: Option<&str>, now_ms: u64, out: &mut Vec<SpeechIntent>) {
         if let Some(news) = news {
             self.serial += 1;
-            out.push(SpeechIntent {
-                text: news.to_string(),
-                priority: Priority::Message,
-                interrupt: false,
-                ttl_ms: 5000,
-                dedup_key: format!("localization/{}", self.serial),
-                notice: false,
-            });
+            out.push(guidance::instruction::localization_news(news, self.serial));
         }
         if !self.asked {
             self.asked = true;
@@ -408,5 +401,64 @@ mod tests {
         let to_place =
             guide.heading_target_rad(&sim::UserPose { x_m: 10.0, y_m: -1.0, yaw_rad: 0.0, floor: 0 }, 6.0).unwrap();
         assert!((to_place - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "then to the place's sound: {to_place}");
+    }
+
+    /// The speech queue the user hears through, with the guide's and the localization's
+    /// own intents: a turn "now" is not left waiting behind talk of the place.
+    #[test]
+    fn a_turn_now_cuts_off_what_only_tells_where_things_stand_and_not_the_request_to_stop() {
+        use feedback_agent::speech_queue::{QueueConfig, SpeechAction, SpeechQueue};
+        use guidance::instruction::{localization_news, ttl_ms, Instruction, InstructionKind};
+        const MS: u64 = 1_000_000;
+        let say = |kind: InstructionKind, text: &str| {
+            Instruction {
+                ttl_ms: ttl_ms(&kind),
+                kind,
+                text: text.into(),
+                dedup_key: text.into(),
+                vibrate_first: false,
+                issued_ms: 0,
+            }
+            .speech()
+        };
+        let now = say(
+            InstructionKind::TurnNow { leg: 0, waypoint: 1, turn: Turn::Normal(guidance::utterance::Side::Left) },
+            "Turn left now.",
+        );
+        let uncertain = "Position uncertain: no turn instructions until I know where you are again.";
+        let lost = "Position lost: walk on slowly while I look for it, or tell me the number of a door you are at.";
+        let stop = "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
+        for (first, cut) in [
+            (say(InstructionKind::PositionUncertain, uncertain), true),
+            (localization_news(lost, 1), true),
+            (say(InstructionKind::PassingDoor { number: "214".into() }, "Passing door 214, on your left."), true),
+            (say(InstructionKind::PositionUncertain, stop), false),
+            (localization_news("Position found.", 2), false),
+        ] {
+            let mut queue = SpeechQueue::new(QueueConfig::default());
+            let mut out = Vec::new();
+            queue.offer(&first, 0, 0, &mut out).unwrap();
+            assert!(matches!(&out[..], [SpeechAction::Start(u)] if u.text == first.text), "{out:?}");
+            // a second into it, about 3 s of it left: the turn is due at the corner
+            out.clear();
+            queue.offer(&now, 1000 * MS, 1000 * MS, &mut out).unwrap();
+            if cut {
+                assert!(
+                    matches!(&out[..], [SpeechAction::Cut(c), SpeechAction::Start(s)]
+                        if c.text == first.text && s.text == now.text),
+                    "{:?}: {out:?}",
+                    first.text
+                );
+            } else {
+                // waits, and is dropped when its 1.5 s pass before the request ends
+                assert!(out.is_empty(), "{:?}: {out:?}", first.text);
+                queue.expire(2600 * MS, &mut out);
+                assert!(
+                    matches!(&out[..], [SpeechAction::Drop { utterance, reason: "stale" }] if utterance.text == now.text),
+                    "{:?}: {out:?}",
+                    first.text
+                );
+            }
+        }
     }
 }

@@ -788,32 +788,33 @@ fn a_user_the_device_cannot_place_for_a_minute_is_asked_to_stop_and_is_not_left_
 }
 
 #[test]
-fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_an_offices_turned_copy() {
-    // `gen:office:7`, walk seed 3 (docs/localization.md, "A compass"): on the floor plan
+fn the_worn_phones_compass_keeps_the_spoken_guide_out_of_a_lobbys_turned_copy() {
+    // `gen:lobby:3`, walk seed 1 (docs/localization.md, "A compass"): on the floor plan
     // alone the filter steps, one `Tracking` estimate at a time, into a copy of the
-    // office turned round and guides from there (606 frames more than 45° off); the
-    // compass, averaged over the walking and read within 45°, rules that copy out. (The
-    // walk first measured, `gen:lobby:10` seed 6, now ends at the goal before the filter
-    // turns: the guide says "you have arrived" to a user passing the goal a stride to its
-    // side.) Neither walk reaches the desk in 200 s: the compass is not what holds it.
+    // lobby turned round and guides from there; the compass, averaged over the walking
+    // and read within 45°, rules that copy out. Walks change with what the user hears
+    // and where the filter's particles may go: the walks this test first measured
+    // (`gen:lobby:10` seed 6, then `gen:office:7` seed 3) no longer go into a turned
+    // copy without the compass, and since particles may not walk through walls few
+    // walks do (docs/localization.md, "A person does not walk through walls"); the
+    // compass's own test is the tracker's square room.
     let parsed = |line: &str| {
         let cli = Cli::parse_from(std::iter::once("course").chain(line.split_whitespace()));
         cli.args.walk_config().unwrap_or_else(|e| panic!("{e:#}"))
     };
-    let w = match World::load("gen:office:7") {
+    let w = match World::load("gen:lobby:3") {
         Ok(w) => w,
         Err(e) => panic!("{e}"),
     };
-    let flags = "--guide spoken --body-gyro --timeout-s 200";
-    let with = walk(&w, &parsed(&format!("{flags} --compass")), 3);
+    let flags = "--guide spoken --body-gyro";
+    let with = walk(&w, &parsed(&format!("{flags} --compass")), 1);
     let e = with.localization.expect("the guide speaks from the filter's place");
-    // measured: 6 of 2,181 frames tracked more than 45 degrees off, 111 more than 1 m
-    // off, RMSE 0.49 m (with `Tracking` alone guiding: 0, 96 of 2,237, 0.83 m)
+    // measured: none of 1,619 frames tracked more than 45 degrees off (RMSE 2.3 m: a
+    // place shifted along the lobby, which no heading rules out)
     assert!(e.frames_turned <= 20, "frames tracked more than 45 degrees off with the compass: {e:?}");
-    assert!(e.frames_over_1m <= 200 && e.position_rmse_m < 1.2, "with the compass: {e:?}");
-    let without = walk(&w, &parsed(flags), 3);
+    assert!(e.position_rmse_m < 3.5, "with the compass: {e:?}");
+    let without = walk(&w, &parsed(flags), 1);
     let e = without.localization.expect("the guide speaks from the filter's place");
-    // measured: 606 of 1,190 frames, RMSE 3.7 m, heading 61° (with `Tracking` alone
-    // guiding: 1,078 of 1,312, 4.8 m, 81°)
-    assert!(e.frames_turned >= 500 && e.frames_over_1m >= e.frames_turned, "without the compass: {e:?}");
+    // measured: 618 of 955 frames more than 45 degrees off, RMSE 7.4 m
+    assert!(e.frames_turned >= 300 && e.position_rmse_m > 4.0, "without the compass: {e:?}");
 }
