@@ -21,8 +21,6 @@ pub struct FloorModel {
     pub(crate) free_cells: Vec<[f64; 2]>,
     /// the grid, for "is this place free"
     grid: OccupancyGrid,
-    /// map metres to grid cells: origin, cos and sin of its yaw, cells per metre
-    to_grid: [f64; 5],
     pub(crate) cell_m: f64,
     /// (number as [`door_key`] has it, place)
     pub(crate) doors: Vec<(String, [f64; 2])>,
@@ -61,10 +59,6 @@ impl FloorModel {
             field: LikelihoodField::new(grid, config),
             free_cells,
             grid: grid.clone(),
-            to_grid: {
-                let o = grid.origin();
-                [o.x_m, o.y_m, o.yaw_rad.cos(), o.yaw_rad.sin(), 1.0 / grid.resolution_m()]
-            },
             cell_m: grid.resolution_m(),
             doors: on_floor.doors.iter().map(|d| (door_key(&d.number), [d.x, d.y])).collect(),
             corners: OnceLock::new(),
@@ -114,12 +108,8 @@ impl FloorModel {
     /// the likelihood field's distance to the nearest wall (less one cell) while that
     /// is more than a cell and a half, and looked along every half cell from there.
     pub fn crosses_wall(&self, from: [f64; 2], to: [f64; 2]) -> bool {
-        let [ox, oy, c, s, per_m] = self.to_grid;
-        let grid = |p: [f64; 2]| {
-            let (dx, dy) = (p[0] - ox, p[1] - oy);
-            ((c * dx + s * dy) * per_m, (-s * dx + c * dy) * per_m)
-        };
-        let ((x0, y0), (x1, y1)) = (grid(from), grid(to));
+        let (x0, y0) = self.grid.world_to_grid(from[0], from[1]);
+        let (x1, y1) = self.grid.world_to_grid(to[0], to[1]);
         let (dx, dy) = (x1 - x0, y1 - y0);
         let len = dx.hypot(dy);
         if !len.is_finite() {
@@ -142,7 +132,7 @@ impl FloorModel {
                 return true;
             }
             let d = if inside {
-                self.field.distance_m(from[0] + f * (to[0] - from[0]), from[1] + f * (to[1] - from[1])) * per_m
+                self.field.distance_m(from[0] + f * (to[0] - from[0]), from[1] + f * (to[1] - from[1])) / self.cell_m
             } else {
                 0.0
             };

@@ -81,9 +81,10 @@ pub struct LocalizeWalkConfig {
 impl Default for LocalizeWalkConfig {
     /// The study's default walk kept on the world's route, 120 s at most; AMCL's filter
     /// with a person's recovery (near where the user can be:
-    /// [`FilterConfig::recovery_anchor`]) and walls ([`FilterConfig::wall_crossing_log_p`]); a 0.1 m / 2° known start; the gyro on; the
-    /// door-sign reader's defaults; no wall-angle correction (docs/localization.md, "The
-    /// wall angle").
+    /// [`FilterConfig::recovery_anchor`]) and walls
+    /// ([`FilterConfig::wall_crossing_log_p`]); a 0.1 m / 2° known start; the gyro on;
+    /// the door-sign reader's defaults; no wall-angle correction (docs/localization.md,
+    /// "The wall angle").
     fn default() -> Self {
         Self {
             walk: WalkConfig { guide: GuideKind::Route, timeout_s: 120.0, ..WalkConfig::default() },
