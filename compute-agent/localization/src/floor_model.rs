@@ -106,39 +106,48 @@ impl FloorModel {
     /// looked at every half cell along it, both ends included. Called for every
     /// particle at every correction of a person's filter: the way is skipped along by
     /// the likelihood field's distance to the nearest wall (less one cell) while that
-    /// is more than a cell and a half, and looked along every half cell from there.
+    /// is more than a cell and a half, and looked along every half cell from there; a
+    /// way shorter than its first skip (most of them) costs two cell lookups and no
+    /// square root.
     pub fn crosses_wall(&self, from: [f64; 2], to: [f64; 2]) -> bool {
         let (x0, y0) = self.grid.world_to_grid(from[0], from[1]);
         let (x1, y1) = self.grid.world_to_grid(to[0], to[1]);
-        let (dx, dy) = (x1 - x0, y1 - y0);
-        let len = dx.hypot(dy);
+        let (w, h) = (self.grid.width(), self.grid.height());
+        let cells = self.grid.cells();
+        let index = |gx: f64, gy: f64| {
+            (gx >= 0.0 && gy >= 0.0 && (gx as usize) < w && (gy as usize) < h).then(|| gy as usize * w + gx as usize)
+        };
+        // the distance in cells to step on from (gx, gy); None in a wall
+        let step_from = |gx: f64, gy: f64| match index(gx, gy) {
+            Some(i) if cells[i] == Cell::Occupied => None,
+            Some(i) => {
+                let d = self.field.distance_cells_at_index(i);
+                Some(if d > 1.5 { d - 1.0 } else { 0.5 })
+            }
+            None => Some(0.5),
+        };
+        let end_in_wall = || index(x1, y1).is_some_and(|i| cells[i] == Cell::Occupied);
+        let len2 = (x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0);
+        // most ways end within the first step: no square root, no division
+        let Some(first) = step_from(x0, y0) else { return true };
+        if len2 <= first * first {
+            return end_in_wall();
+        }
+        let len = len2.sqrt();
         if !len.is_finite() {
             return false;
         }
-        let (w, h) = (self.grid.width(), self.grid.height());
-        let cells = self.grid.cells();
-        let wall_at = |f: f64| {
-            let (gx, gy) = (x0 + f * dx, y0 + f * dy);
-            let inside = gx >= 0.0 && gy >= 0.0 && (gx as usize) < w && (gy as usize) < h;
-            (inside, inside && cells[gy as usize * w + gx as usize] == Cell::Occupied)
-        };
+        let (ux, uy) = ((x1 - x0) / len, (y1 - y0) / len);
         // half a cell at a time near a wall, skipping by the distance to the nearest
         // (no occupied cell's centre within d cells) away from them; the end itself last
-        let mut t = 0.0;
+        let mut t = first;
         while t < len {
-            let f = t / len;
-            let (inside, wall) = wall_at(f);
-            if wall {
-                return true;
+            match step_from(x0 + t * ux, y0 + t * uy) {
+                Some(step) => t += step,
+                None => return true,
             }
-            let d = if inside {
-                self.field.distance_m(from[0] + f * (to[0] - from[0]), from[1] + f * (to[1] - from[1])) / self.cell_m
-            } else {
-                0.0
-            };
-            t += if d > 1.5 { d - 1.0 } else { 0.5 };
         }
-        wall_at(1.0).1
+        end_in_wall()
     }
 
     /// The likelihood field of the floor's grid.

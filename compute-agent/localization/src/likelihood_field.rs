@@ -140,6 +140,8 @@ pub struct LikelihoodField {
     log_p_max: f64,
     /// metres per distance code
     step_m: f64,
+    /// cells per distance code
+    step_cells: f64,
     /// both sides under 2^22 cells, so [`cell_floor`] holds (any real floor: 209 km
     /// at 5 cm); a longer grid takes Rust's saturating casts, which do not vectorise
     narrow: bool,
@@ -191,6 +193,7 @@ impl LikelihoodField {
             table,
             log_p_max: p_max,
             step_m: step,
+            step_cells: step / grid.resolution_m(),
             narrow: grid.width() < 1 << 22 && grid.height() < 1 << 22,
         }
     }
@@ -199,6 +202,13 @@ impl LikelihoodField {
     /// field's `max_distance_m` (and that cap outside the grid).
     pub fn distance_m(&self, x_m: f64, y_m: f64) -> f64 {
         self.code_at(x_m, y_m).min(254) as f64 * self.step_m
+    }
+
+    /// [`Self::distance_m`] of the cell at `index` (row-major, as the grid it was made
+    /// from numbers its cells), in cells.
+    #[inline]
+    pub(crate) fn distance_cells_at_index(&self, index: usize) -> f64 {
+        self.codes[index].min(254) as f64 * self.step_cells
     }
 
     /// Whether the straight segment from map point `a` to `b` stays off every occupied

@@ -46,6 +46,9 @@ pub struct OccupancyGrid {
     height: usize,
     resolution_m: f64,
     origin: Origin,
+    /// sin and cos of the origin's yaw, taken once: every map point a filter or a
+    /// planner turns into cells needs them
+    yaw_sin_cos: (f64, f64),
     cells: Vec<Cell>,
 }
 
@@ -79,7 +82,7 @@ impl OccupancyGrid {
                 found: cells.len() as u64,
             });
         }
-        Ok(Self { width, height, resolution_m, origin, cells })
+        Ok(Self { width, height, resolution_m, origin, yaw_sin_cos: origin.yaw_rad.sin_cos(), cells })
     }
 
     /// A grid of one value everywhere.
@@ -143,7 +146,7 @@ impl OccupancyGrid {
     pub fn cell_center(&self, col: usize, row: usize) -> (f64, f64) {
         let gx = (col as f64 + 0.5) * self.resolution_m;
         let gy = (row as f64 + 0.5) * self.resolution_m;
-        let (s, c) = self.origin.yaw_rad.sin_cos();
+        let (s, c) = self.yaw_sin_cos;
         (self.origin.x_m + c * gx - s * gy, self.origin.y_m + s * gx + c * gy)
     }
 
@@ -160,7 +163,7 @@ impl OccupancyGrid {
     /// Map point (x, y) in continuous cell units (cell (c, r) spans [c, c+1) x [r, r+1)).
     pub fn world_to_grid(&self, x_m: f64, y_m: f64) -> (f64, f64) {
         let (dx, dy) = (x_m - self.origin.x_m, y_m - self.origin.y_m);
-        let (s, c) = self.origin.yaw_rad.sin_cos();
+        let (s, c) = self.yaw_sin_cos;
         ((c * dx + s * dy) / self.resolution_m, (-s * dx + c * dy) / self.resolution_m)
     }
 
