@@ -42,7 +42,7 @@ const HEADINGS_KEPT_MS: u64 = 1000;
 pub const ARRIVAL_BESIDE_M: f64 = 1.0;
 
 /// Said once when the pose stops being confident.
-const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know where you are again.";
+pub(crate) const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know where you are again.";
 /// Said once when it has not been confident for the profile's `stop_when_uncertain_ms`.
 pub(crate) const STOP_UNCERTAIN: &str =
     "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";

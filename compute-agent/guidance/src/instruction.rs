@@ -130,6 +130,9 @@ pub fn priority(kind: &InstructionKind, text: &str) -> Priority {
     }
 }
 
+/// How long the localization's news may wait for the speaker, ms.
+pub const NEWS_TTL_MS: u32 = 5000;
+
 /// The localization's news (`localization::Tracker::news`) as the user hears it:
 /// "Position found." at `Message` priority (a user turning on the spot waits for it),
 /// "Position lost: ..." at `Text`, as "position uncertain" ([`priority`]); said within
@@ -139,7 +142,7 @@ pub fn localization_news(news: &str, serial: u64) -> SpeechIntent {
         text: news.to_string(),
         priority: if news == POSITION_FOUND { Priority::Message } else { Priority::Text },
         interrupt: false,
-        ttl_ms: 5000,
+        ttl_ms: NEWS_TTL_MS,
         dedup_key: format!("localization/{serial}"),
         notice: false,
     }

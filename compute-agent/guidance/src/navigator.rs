@@ -11,7 +11,8 @@ use map::{Building, Label, SemanticLayer};
 use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
-use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, STOP_UNCERTAIN};
+use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, STOP_UNCERTAIN, UNCERTAIN};
+use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
 use crate::utterance::distance_phrase;
@@ -93,6 +94,8 @@ pub struct Navigator {
     /// with no way found, the user was asked to stop and turn on the spot (a trip with a
     /// route leaves that to its guide)
     stop_said: bool,
+    /// when the localization's news last said the position was lost, ms
+    lost_news_ms: Option<u64>,
 }
 
 impl Navigator {
@@ -122,6 +125,7 @@ impl Navigator {
             detours: (0, 0, 0),
             unplaced_since_ms: None,
             stop_said: false,
+            lost_news_ms: None,
         }
     }
 
@@ -262,9 +266,19 @@ impl Navigator {
     /// [`Navigator::step`] after the caller said the localization's `news` of this step:
     /// "Position found." is said once when the guide (or the navigator) would say it
     /// too, having asked the user to stop and turn until then.
+    ///
+    /// The guide's "Position uncertain: no turn instructions ..." is not said while news
+    /// that the position is lost may still be waiting for the speaker
+    /// ([`NEWS_TTL_MS`]): the news says as much, and asks for a door number, and at
+    /// `Text` priority the newer would replace it unsaid. The request to stop and turn
+    /// on the spot is said all the same.
     pub fn step_after_news(&mut self, pose: &UserPose, news: Option<&str>, now_ms: u64) -> Option<SpeechIntent> {
         let found = news == Some(POSITION_FOUND);
-        self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND))
+        if news.is_some_and(|n| n != POSITION_FOUND) {
+            self.lost_news_ms = Some(now_ms);
+        }
+        let lost_told = self.lost_news_ms.is_some_and(|t| now_ms.saturating_sub(t) < u64::from(NEWS_TTL_MS));
+        self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND || lost_told && s.text == UNCERTAIN))
     }
 
     /// One step with the pose of now: plans a held destination once the position is

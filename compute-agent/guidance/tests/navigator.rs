@@ -439,3 +439,43 @@ fn segment_distance(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
     let t = if len2 > 0.0 { (((p[0] - a[0]) * vx + (p[1] - a[1]) * vy) / len2).clamp(0.0, 1.0) } else { 0.0 };
     (a[0] + t * vx - p[0]).hypot(a[1] + t * vy - p[1])
 }
+
+#[test]
+fn news_that_the_position_is_lost_is_not_followed_by_position_uncertain_and_the_request_to_stop_still_is() {
+    const LOST: &str = "Position lost: walk on slowly while I look for it, or tell me the number of a door you are at.";
+    const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know where you are again.";
+    let here = at(1.5, 11.5, 0.0, 0);
+    let mut nav = navigator();
+    assert_eq!(
+        texts(&nav.command(&go("room 204"), &here, 0).speech),
+        ["Route to room 204: 40 metres. Go straight on."]
+    );
+    let lost = UserPose { confident: false, ..here };
+    // lost at t (past the guide's spacing after the route's announcement)
+    let t = 10_000;
+    // without the news the guide says it has no place (how `step` is called alone)
+    let mut untold = nav.clone();
+    assert_eq!(untold.step(&lost, t).map(|s| s.text).as_deref(), Some(UNCERTAIN));
+    // with it, the news said so (and asked for a door number): not said in the same
+    // step, nor while the news may still wait for the speaker
+    let mut told = nav.clone();
+    assert_eq!(told.step_after_news(&lost, Some(LOST), t), None);
+    let mut later = nav.clone();
+    assert_eq!(later.step_after_news(&lost, Some(LOST), t), None);
+    let found = here;
+    assert_eq!(later.step_after_news(&found, Some("Position found."), t + 1000), None, "found: the news said it");
+    assert_eq!(later.step_after_news(&lost, None, t + 4900), None, "within the news's 5 s");
+    // past the news's life (and the guide's spacing), lost again: said
+    let mut after = nav.clone();
+    assert_eq!(after.step_after_news(&lost, Some(LOST), t), None);
+    assert_eq!(after.step_after_news(&found, Some("Position found."), t + 1000), None);
+    let past = t + GuidanceProfile::default().min_spacing_ms.max(5000);
+    assert_eq!(after.step_after_news(&lost, None, past).map(|s| s.text).as_deref(), Some(UNCERTAIN));
+    // the request to stop and turn on the spot comes all the same
+    let stop = GuidanceProfile::default().stop_when_uncertain_ms;
+    let s = told.step_after_news(&lost, None, t + stop).expect("asked to stop");
+    assert_eq!(
+        s.text,
+        "Position still uncertain: please stop, and turn slowly on the spot until I find your position."
+    );
+}
