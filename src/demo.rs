@@ -347,7 +347,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
             }
         }
     }
-    shutdown.trigger();
+    shutdown.trigger_exit();
     let mut failures = Vec::new();
     for (name, task) in
         [("sensor-agent", sensor), ("compute-agent", compute), ("feedback-agent", feedback), ("phone-bridge", phone)]

@@ -27,6 +27,13 @@ impl Shutdown {
         self.tx.send_replace(true);
     }
 
+    /// [`Self::trigger`] as the process ends (a signal, the demo's end): its sessions
+    /// are closing from here ([`crate::logging::closing`]).
+    pub fn trigger_exit(&self) {
+        crate::logging::closing();
+        self.trigger();
+    }
+
     /// True once triggered.
     pub fn is_triggered(&self) -> bool {
         *self.rx.borrow()
@@ -39,7 +46,7 @@ impl Shutdown {
         let _ = rx.wait_for(|v| *v).await;
     }
 
-    /// Trigger on Ctrl-C or SIGTERM (spawned task; returns at once).
+    /// [`Self::trigger_exit`] on Ctrl-C or SIGTERM (spawned task; returns at once).
     pub fn trigger_on_signals(&self) {
         let this = self.clone();
         tokio::spawn(async move {
@@ -51,7 +58,7 @@ impl Shutdown {
                     Err(e) => {
                         tracing::warn!("cannot listen for SIGTERM: {e}");
                         let _ = ctrl_c.await;
-                        this.trigger();
+                        this.trigger_exit();
                         return;
                     }
                 };
@@ -63,7 +70,7 @@ impl Shutdown {
             #[cfg(not(unix))]
             let _ = ctrl_c.await;
             tracing::info!("shutdown requested");
-            this.trigger();
+            this.trigger_exit();
         });
     }
 }
