@@ -46,6 +46,9 @@ pub(crate) const UNCERTAIN: &str = "Position uncertain: no turn instructions unt
 /// Said once when it has not been confident for the profile's `stop_when_uncertain_ms`.
 pub(crate) const STOP_UNCERTAIN: &str =
     "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
+/// Said when the user has turned on the spot for the profile's `search_for_ms` and the
+/// position is still not known: turning will not find it here.
+pub(crate) const SEARCH_FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
 /// Said when the position is known again after the user was asked to stop and turn:
 /// the words of the localization's news for it, said once when both come in one step
 /// ([`crate::Navigator::step_after_news`]).
@@ -168,6 +171,11 @@ pub struct Guide {
     uncertain_since_ms: Option<u64>,
     /// the user was asked to stop and turn on the spot until the position is found
     stop_said: bool,
+    /// when they were asked (while `stop_said`), ms
+    stop_said_ms: u64,
+    /// and, still not found after the profile's `search_for_ms`, asked to stop turning
+    /// and tell a door number or ask someone ([`SEARCH_FAILED`])
+    search_failed_said: bool,
     last_spontaneous_ms: Option<u64>,
     last: Option<Instruction>,
     serial: u64,
@@ -209,6 +217,8 @@ impl Guide {
             uncertain_said: false,
             uncertain_since_ms: None,
             stop_said: false,
+            stop_said_ms: 0,
+            search_failed_said: false,
             last_spontaneous_ms: None,
             last: None,
             serial: 0,
@@ -327,6 +337,8 @@ impl Guide {
             InstructionKind::AtGateway { leg } if self.at_gateway_said == Some(leg) => self.at_gateway_said = None,
             InstructionKind::Arrived => self.arrived = false,
             InstructionKind::PositionUncertain if text == STOP_UNCERTAIN => self.stop_said = false,
+            // still turning on the spot, the search's time up: said again
+            InstructionKind::PositionUncertain if text == SEARCH_FAILED => self.search_failed_said = false,
             // still turning on the spot: said again while the position is known
             InstructionKind::PositionFound => self.stop_said = true,
             _ => return false,
@@ -391,7 +403,22 @@ impl Guide {
                 self.uncertain_said = i.is_some();
                 return i;
             }
-            if self.stop_said || now_ms.saturating_sub(since_ms) < self.profile.stop_when_uncertain_ms {
+            if self.stop_said {
+                if self.search_failed_said || now_ms.saturating_sub(self.stop_said_ms) < self.profile.search_for_ms {
+                    return None;
+                }
+                // turned long enough and not found: turning will not find it here
+                let i = self.issue(
+                    InstructionKind::PositionUncertain,
+                    SEARCH_FAILED.into(),
+                    "uncertain/search-failed",
+                    now_ms,
+                    Pace::Spaced,
+                );
+                self.search_failed_said = i.is_some();
+                return i;
+            }
+            if now_ms.saturating_sub(since_ms) < self.profile.stop_when_uncertain_ms {
                 return None;
             }
             let i = self.issue(
@@ -402,9 +429,10 @@ impl Guide {
                 Pace::Spaced,
             );
             self.stop_said = i.is_some();
+            self.stop_said_ms = now_ms;
             return i;
         }
-        (self.uncertain_said, self.uncertain_since_ms) = (false, None);
+        (self.uncertain_said, self.uncertain_since_ms, self.search_failed_said) = (false, None, false);
         if std::mem::take(&mut self.stop_said) {
             // the user stands turning on the spot until told: said at once, and the way
             // to face follows once they stand still
@@ -523,7 +551,11 @@ impl Guide {
             last.kind
         {
             if !pose.confident {
-                let text = if self.stop_said { STOP_UNCERTAIN } else { UNCERTAIN };
+                let text = match (self.search_failed_said, self.stop_said) {
+                    (true, _) => SEARCH_FAILED,
+                    (false, true) => STOP_UNCERTAIN,
+                    (false, false) => UNCERTAIN,
+                };
                 return self.answer(InstructionKind::PositionUncertain, text.into(), "repeat", now_ms, false);
             }
             if leg == self.leg && waypoint == self.target && pose.floor == self.legs[leg].route.floor {

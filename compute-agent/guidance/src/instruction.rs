@@ -6,7 +6,7 @@
 use planning::Rejoin;
 use schemas::{Priority, SpeechIntent};
 
-use crate::guide::{POSITION_FOUND, STOP_UNCERTAIN};
+use crate::guide::{POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN};
 use crate::utterance::Turn;
 
 /// What an instruction is about.
@@ -120,12 +120,12 @@ impl Instruction {
 /// and only tells where things stand (a door in passing, "position uncertain"), so a
 /// turn, a prompt or an answer (`Message`) cuts it off and goes first, and a newer one
 /// replaces one still waiting; `Message` for everything else, the request to stop and
-/// turn on the spot included. Measured in docs/guidance.md ("What only tells where
+/// turn on the spot (and to stop turning when that did not find the place) included. Measured in docs/guidance.md ("What only tells where
 /// things stand gives way"): the turns "now" the speech queue had dropped behind it.
 pub fn priority(kind: &InstructionKind, text: &str) -> Priority {
     match kind {
         InstructionKind::PassingDoor { .. } => Priority::Text,
-        InstructionKind::PositionUncertain if text != STOP_UNCERTAIN => Priority::Text,
+        InstructionKind::PositionUncertain if text != STOP_UNCERTAIN && text != SEARCH_FAILED => Priority::Text,
         _ => Priority::Message,
     }
 }

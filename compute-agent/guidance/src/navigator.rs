@@ -11,7 +11,7 @@ use map::{Building, Label, SemanticLayer};
 use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
-use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, STOP_UNCERTAIN, UNCERTAIN};
+use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN};
 use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
@@ -96,6 +96,12 @@ pub struct Navigator {
     stop_said: bool,
     /// when the localization's news last said the position was lost, ms
     lost_news_ms: Option<u64>,
+    /// when the navigator itself asked the user to turn on the spot (a trip waiting for
+    /// its first position, or the request to stop), ms; none once the place is known
+    turn_asked_ms: Option<u64>,
+    /// and, turning for the profile's `search_for_ms` without the place found, asked to
+    /// stop turning and tell a door number or ask someone
+    search_failed_said: bool,
 }
 
 impl Navigator {
@@ -126,6 +132,8 @@ impl Navigator {
             unplaced_since_ms: None,
             stop_said: false,
             lost_news_ms: None,
+            turn_asked_ms: None,
+            search_failed_said: false,
         }
     }
 
@@ -206,6 +214,7 @@ impl Navigator {
                     } else {
                         let text = format!("Going to {name}. Turn slowly on the spot until I find your position.");
                         out.speech.push(self.say(text, "destination/waiting"));
+                        (self.turn_asked_ms, self.search_failed_said) = (Some(now_ms), false);
                     }
                 }
             },
@@ -287,7 +296,7 @@ impl Navigator {
         self.headings.push(now_ms, pose.heading_rad);
         let placed = pose.placed();
         if placed {
-            self.unplaced_since_ms = None;
+            (self.unplaced_since_ms, self.turn_asked_ms, self.search_failed_said) = (None, None, false);
         } else {
             self.unplaced_since_ms.get_or_insert(now_ms);
         }
@@ -297,13 +306,19 @@ impl Navigator {
                 // asked to stop and turn on the spot (below): found; "repeat" plans again
                 return Some(self.say(POSITION_FOUND.into(), "found"));
             }
+            let searched = self.turn_asked_ms.is_some_and(|t| now_ms.saturating_sub(t) >= self.profile.search_for_ms);
+            if searched && !placed && !self.search_failed_said {
+                // asked to turn on the spot, and turning did not find the place
+                self.search_failed_said = true;
+                return Some(self.say(SEARCH_FAILED.into(), "uncertain/search-failed"));
+            }
             let long =
                 self.unplaced_since_ms.is_some_and(|t| now_ms.saturating_sub(t) >= self.profile.stop_when_uncertain_ms);
             if trip.held == RouteStatus::Unreachable && long && !self.stop_said {
                 // no way from where the position was, and it is lost since: the user, told
                 // to walk on while it is looked for, is not left to walk on untold (a
                 // trip waiting for its first position already asked them to turn)
-                self.stop_said = true;
+                (self.stop_said, self.turn_asked_ms) = (true, Some(now_ms));
                 return Some(self.say(STOP_UNCERTAIN.into(), "uncertain/stop"));
             }
             if trip.held == RouteStatus::WaitingForPosition && pose.confident {
@@ -434,6 +449,7 @@ impl Navigator {
         match text {
             STOP_UNCERTAIN if last && self.stop_said => self.stop_said = false,
             POSITION_FOUND if last && !self.stop_said => self.stop_said = true,
+            SEARCH_FAILED if last && self.search_failed_said => self.search_failed_said = false,
             _ => return false,
         }
         true

@@ -93,6 +93,13 @@ pub struct GuidanceProfile {
     /// 60000: at 30000 walkers were stopped a few metres before walking on found their
     /// place again; docs/guidance.md, "Walking on untold")
     pub stop_when_uncertain_ms: u64,
+    /// asked to stop and turn on the spot, and the position still not found this long
+    /// after, ms: the user is asked to stop turning, and to tell a door number or ask
+    /// someone nearby (in the spoken guide's 120 generated walks no turning on the spot
+    /// that found the place lasted more than 10 s, and users in 11 walks, on streets and
+    /// in a lobby, turned until the walk ended; default 25000, two full turns at a slow
+    /// pace: our choice; docs/guidance.md, "When turning does not find the place")
+    pub search_for_ms: u64,
     /// "Passing door 214, on your left." as the user comes level with a numbered door
     /// beside the route (Zhang et al.: door numbers are the landmarks a user can check
     /// with a hand on the sign; a sign that says otherwise is told to the device with
@@ -193,6 +200,7 @@ impl GuidanceProfile {
         within("sharp_max_deg", self.sharp_max_deg, self.normal_max_deg, 180.0)?;
         within("still_max_deg_s", self.still_max_deg_s, 0.0, 360.0)?;
         ms("stop_when_uncertain_ms", self.stop_when_uncertain_ms, 1000, 3_600_000)?;
+        ms("search_for_ms", self.search_for_ms, 1000, 3_600_000)?;
         within("passing_door_m", self.passing_door_m, crate::guide::PASSING_MIN_M, 10.0)?;
         within("passing_door_every_m", self.passing_door_every_m, 0.0, 1000.0)?;
         Ok(())
@@ -222,6 +230,7 @@ impl Default for GuidanceProfile {
             sharp_max_deg: 170.0,
             still_max_deg_s: 15.0,
             stop_when_uncertain_ms: 60_000,
+            search_for_ms: 25_000,
             passing_doors: true,
             passing_door_m: 2.5,
             passing_door_every_m: 10.0,

@@ -479,3 +479,30 @@ fn news_that_the_position_is_lost_is_not_followed_by_position_uncertain_and_the_
         "Position still uncertain: please stop, and turn slowly on the spot until I find your position."
     );
 }
+
+#[test]
+fn a_user_waiting_for_a_first_position_whom_turning_does_not_place_is_asked_for_a_door_number() {
+    const FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+    let here = at(1.5, 11.5, 0.0, 0);
+    let lost = UserPose { confident: false, ..here };
+    let search = GuidanceProfile::default().search_for_ms;
+    let mut nav = navigator();
+    let r = nav.command(&go("room 204"), &lost, 1000);
+    assert_eq!(texts(&r.speech), ["Going to room 204. Turn slowly on the spot until I find your position."]);
+    for t in (1100..1000 + search).step_by(100) {
+        assert_eq!(nav.step(&lost, t), None, "at {t} ms");
+    }
+    let failed = nav.step(&lost, 1000 + search).expect("turning did not place the user");
+    assert_eq!(failed.text, FAILED);
+    assert_eq!(failed.priority, Priority::Message);
+    // once; cut off by a warning: said again
+    assert_eq!(nav.step(&lost, 1100 + search), None);
+    assert!(nav.not_heard(FAILED));
+    assert_eq!(nav.step(&lost, 1200 + search).map(|s| s.text).as_deref(), Some(FAILED));
+    for t in (1300 + search..1000 + 4 * search).step_by(500) {
+        assert_eq!(nav.step(&lost, t), None, "at {t} ms");
+    }
+    // a door number told, the place known: the route
+    let route = nav.step(&here, 1000 + 4 * search).map(|s| s.text);
+    assert_eq!(route.as_deref(), Some("Route to room 204: 40 metres. Go straight on."));
+}

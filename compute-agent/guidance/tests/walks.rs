@@ -820,6 +820,56 @@ fn a_position_uncertain_for_long_asks_the_user_to_stop_and_turn_and_its_return_s
 }
 
 #[test]
+fn a_user_who_turned_on_the_spot_without_the_position_found_is_asked_to_stop_turning_and_for_a_door_number() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let from = route.waypoints[0];
+    let profile = GuidanceProfile::default();
+    let (stop_ms, search_ms) = (profile.stop_when_uncertain_ms, profile.search_for_ms);
+    assert_eq!(search_ms, 25_000);
+    let mut guide = Guide::single_floor(route, "the stairs", layer(), profile);
+    let (known, lost) = (pose(from, 0.0), UserPose { confident: false, ..pose(from, 0.0) });
+    guide.step(&known, 0, Some(p.graph())).unwrap();
+    assert_eq!(guide.step(&lost, 5000, Some(p.graph())).unwrap().kind, InstructionKind::PositionUncertain);
+    let stop_at = 5000 + stop_ms;
+    let stop = guide.step(&lost, stop_at, Some(p.graph())).unwrap();
+    assert!(stop.text.starts_with("Position still uncertain: please stop"), "{stop:?}");
+    // turning on the spot, not found: nothing until the search's time is up
+    for t in (stop_at + 100..stop_at + search_ms).step_by(100) {
+        assert_eq!(guide.step(&lost, t, Some(p.graph())), None, "at {t} ms");
+    }
+    let failed = guide.step(&lost, stop_at + search_ms, Some(p.graph())).unwrap();
+    let words = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+    assert_eq!(failed.text, words);
+    assert_eq!(failed.kind, InstructionKind::PositionUncertain);
+    // asks something of the user: a turn's "now" does not cut it off, nor replace it waiting
+    assert_eq!(failed.speech().priority, schemas::Priority::Message);
+    // cut off by a warning: said again at the next step (the user still turns)
+    assert!(guide.not_heard(&failed.text));
+    let again = guide.step(&lost, stop_at + search_ms + 100, Some(p.graph())).unwrap();
+    assert_eq!(again.text, words);
+    assert_ne!(again.dedup_key, failed.dedup_key);
+    // then nothing more while the place is not known (no new request to turn), and
+    // "repeat" says it again
+    for t in (stop_at + search_ms + 200..stop_at + search_ms + 3 * stop_ms).step_by(500) {
+        assert_eq!(guide.step(&lost, t, Some(p.graph())), None, "at {t} ms");
+    }
+    let t = stop_at + search_ms + 3 * stop_ms;
+    assert_eq!(guide.repeat(&lost, t).text, words);
+    // a door number told (or the place found): said at once, as after the request to turn
+    let found = guide.step(&known, t + 100, Some(p.graph())).unwrap();
+    assert_eq!((found.kind, found.text.as_str()), (InstructionKind::PositionFound, "Position found."));
+    // lost again later: a new episode, asked to turn again after the profile's minute
+    let lost_again = t + 10_000;
+    assert_eq!(
+        guide.step(&lost, lost_again, Some(p.graph())).map(|i| i.kind),
+        Some(InstructionKind::PositionUncertain)
+    );
+    let stop_again = guide.step(&lost, lost_again + stop_ms, Some(p.graph())).unwrap();
+    assert_eq!(stop_again.text, stop.text);
+}
+
+#[test]
 fn the_request_to_stop_and_the_position_found_again_are_said_again_when_not_heard() {
     let mut p = planner();
     let route = l_route(&mut p);

@@ -73,7 +73,8 @@ pub enum Meaning {
     /// turn slowly on the spot until told the position is found (the filter earns its
     /// tracking from motion)
     Search,
-    /// "Position found.": a user turning on the spot stops and waits for the way
+    /// "Position found." (or "I cannot find your position by turning. Please stop
+    /// turning, ..."): a user turning on the spot stops and waits
     Wait,
     /// nothing to do now (an announcement, the position's news, a replan)
     Nothing,
@@ -123,7 +124,7 @@ pub fn meaning(text: &str, p: &GuidanceProfile) -> Meaning {
     if t.contains("turn slowly on the spot") {
         return Meaning::Search;
     }
-    if t.starts_with("position found") {
+    if t.starts_with("position found") || t.contains("please stop turning") {
         return Meaning::Wait;
     }
     // "Off the route: turn back; the route is 3 metres away, behind you to the left."
@@ -376,6 +377,28 @@ mod tests {
         assert_eq!(guide.spin_rad_s(), Some(SEARCH_TURN_RAD_S), "30 degrees a second, heading nowhere");
         assert_eq!(guide.heading_target_rad(&at, 5.0), None);
         assert_eq!(guide.spin_rad_s(), None, "found: the user stands and waits for the way");
+    }
+
+    #[test]
+    fn told_that_turning_did_not_find_the_position_the_user_stops_turning_and_stands() {
+        let ear: Ear = Rc::default();
+        let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
+        let at = sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
+        let failed = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+        assert_eq!(meaning(failed, &profile()), Meaning::Wait);
+        let said = [
+            (1.0, "Turn left now."),
+            (3.0, "Position still uncertain: please stop, and turn slowly on the spot until I find your position."),
+            (30.0, failed),
+        ];
+        for (at_s, text) in said {
+            ear.borrow_mut().heard.push_back(Heard { at_s, text: text.into() });
+        }
+        assert!(guide.heading_target_rad(&at, 1.0).is_some());
+        assert_eq!(guide.heading_target_rad(&at, 3.0), None);
+        assert_eq!(guide.spin_rad_s(), Some(SEARCH_TURN_RAD_S));
+        assert_eq!(guide.heading_target_rad(&at, 30.0), None, "stands");
+        assert_eq!(guide.spin_rad_s(), None, "no longer turning");
     }
 
     #[test]
