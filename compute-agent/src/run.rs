@@ -12,7 +12,7 @@ use schemas::{DepthFrame, HapticIntent, Hazard, ImuBatch, OdomIncrement, Scan, S
 use perception::body_rate::{BodyRate, MAX_AGE_NS};
 use perception::predictive::{PredictiveConfig, Way};
 use perception::rejections::REJECTIONS_BEFORE_BLIND;
-use perception::second_view::{Joined, SecondView, ViewState};
+use perception::second_view::{SecondView, ViewState};
 use perception::{Blind, ComputeStep, CueConfig, FrameData, FrameIn, InstantTimer, PerceptionConfig, StepOutput};
 
 use crate::nav::{Nav, NavConfig, STATE_PERIOD};
@@ -203,8 +203,19 @@ struct Chest {
     step: ComputeStep,
     /// Whether cane frames are joined to a fresh chest state, as last logged, and a
     /// change not yet held for [`CHEST_CHANGE_FRAMES`] frames (a blink is not logged).
-    joined: Option<Joined>,
-    changing: (Option<Joined>, u32),
+    joined: Option<ChestState>,
+    changing: (Option<ChestState>, u32),
+}
+
+/// Whether cane frames are joined to the chest camera's state, and if not why.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ChestState {
+    /// fresh and seeing: the cue is both cameras'
+    Joined,
+    /// no state within the age a join allows
+    Silent,
+    /// fresh, but the camera cannot see its floor (its ground degraded)
+    Blind,
 }
 
 /// Cane frames a change of the chest camera's state must hold before it is logged.
@@ -243,8 +254,11 @@ impl Chest {
     /// Before a cane frame captured at `capture_ns`: whether it will be joined to the
     /// chest's state, said in the log when that changes and for the health status.
     fn report(&mut self, step: &ComputeStep, capture_ns: u64) -> Option<&'static str> {
-        let fresh = step.second_view().map(|(v, _)| v.fresh(capture_ns).is_some());
-        let joined = fresh.map(|f| if f { Joined::Joined } else { Joined::Stale });
+        let joined = step.second_view().map(|(v, _)| match v.fresh(capture_ns) {
+            Some(_) => ChestState::Joined,
+            None if v.blind(capture_ns) => ChestState::Blind,
+            None => ChestState::Silent,
+        });
         self.changing = match self.changing {
             (c, n) if c == joined => (c, n + 1),
             _ => (joined, 1),
@@ -253,19 +267,24 @@ impl Chest {
         if joined != self.joined && held {
             self.joined = joined;
             match joined {
-                Some(Joined::Stale) => tracing::warn!(
-                    "chest camera on {} silent or blind: head-high obstacles are not warned of, the cane camera's cue alone",
+                Some(ChestState::Silent) => tracing::warn!(
+                    "chest camera on {} silent: head-high obstacles are not warned of, the cane camera's cue alone",
                     self.depth_key
                 ),
-                Some(Joined::Joined) => {
+                Some(ChestState::Blind) => tracing::warn!(
+                    "chest camera on {} cannot see its floor (ground degraded): head-high obstacles are not warned of, the cane camera's cue alone",
+                    self.depth_key
+                ),
+                Some(ChestState::Joined) => {
                     tracing::info!("chest camera on {} joined: head-high obstacles are warned of", self.depth_key)
                 }
                 None => {}
             }
         }
         match joined {
-            Some(Joined::Joined) => Some("chest camera joined"),
-            Some(Joined::Stale) => Some("chest camera silent or blind"),
+            Some(ChestState::Joined) => Some("chest camera joined"),
+            Some(ChestState::Silent) => Some("chest camera silent"),
+            Some(ChestState::Blind) => Some("chest camera cannot see its floor"),
             None => None,
         }
     }

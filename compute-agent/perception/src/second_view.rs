@@ -120,6 +120,12 @@ impl SecondView {
         }
     }
 
+    /// Whether the chest's last state is recent enough for a cane frame captured at
+    /// `capture_ns` but its camera cannot see (its ground degraded): not silent, blind.
+    pub fn blind(&self, capture_ns: u64) -> bool {
+        self.last.is_some_and(|l| l.blind && capture_ns.saturating_sub(l.capture_ns) <= self.max_age_ns)
+    }
+
     /// The chest's state, when fresh for a cane frame captured at `capture_ns` and seeing.
     pub fn fresh(&self, capture_ns: u64) -> Option<ViewState> {
         self.last.filter(|l| !l.blind && capture_ns.saturating_sub(l.capture_ns) <= self.max_age_ns)
@@ -236,6 +242,13 @@ mod tests {
         assert_eq!(view.join(1_400_000_000, &mut p), Joined::Stale);
         assert_eq!((p.rumble, p.nearest_m), (Rumble::Left, 2.0));
         assert_eq!(view.counts(), (1, 3));
+        // and says why: blind while that state is recent, silent once it has aged
+        assert!(view.blind(1_400_000_000) && view.blind(1_700_000_000));
+        let mut seeing = SecondView::new(300_000_000);
+        assert!(!seeing.blind(1_000_000_000), "nothing heard: silent");
+        seeing.heard(state(1_000_000_000, Rumble::None, f32::INFINITY), &[]);
+        assert!(!seeing.blind(1_000_000_000) && seeing.fresh(1_000_000_000).is_some());
+        assert!(!view.blind(1_700_000_001), "aged: silent");
     }
 
     #[test]
