@@ -120,8 +120,9 @@ impl Instruction {
 /// and only tells where things stand (a door in passing, "position uncertain"), so a
 /// turn, a prompt or an answer (`Message`) cuts it off and goes first, and a newer one
 /// replaces one still waiting; `Message` for everything else, the request to stop and
-/// turn on the spot (and to stop turning when that did not find the place) included. Measured in docs/guidance.md ("What only tells where
-/// things stand gives way"): the turns "now" the speech queue had dropped behind it.
+/// turn on the spot (and to stop turning when that did not find the place) included.
+/// Measured in docs/guidance.md ("What only tells where things stand gives way"): the
+/// turns "now" the speech queue had dropped behind it.
 pub fn priority(kind: &InstructionKind, text: &str) -> Priority {
     match kind {
         InstructionKind::PassingDoor { .. } => Priority::Text,
