@@ -336,9 +336,9 @@ impl Guide {
             // a user at the lift who did not hear which floor waits there for nothing
             InstructionKind::AtGateway { leg } if self.at_gateway_said == Some(leg) => self.at_gateway_said = None,
             InstructionKind::Arrived => self.arrived = false,
-            InstructionKind::PositionUncertain if text == STOP_UNCERTAIN => self.stop_said = false,
+            InstructionKind::StopAndTurn => self.stop_said = false,
             // still turning on the spot, the search's time up: said again
-            InstructionKind::PositionUncertain if text == SEARCH_FAILED => self.search_failed_said = false,
+            InstructionKind::SearchFailed => self.search_failed_said = false,
             // still turning on the spot: said again while the position is known
             InstructionKind::PositionFound => self.stop_said = true,
             _ => return false,
@@ -409,7 +409,7 @@ impl Guide {
                 }
                 // turned long enough and not found: turning will not find it here
                 let i = self.issue(
-                    InstructionKind::PositionUncertain,
+                    InstructionKind::SearchFailed,
                     SEARCH_FAILED.into(),
                     "uncertain/search-failed",
                     now_ms,
@@ -421,13 +421,8 @@ impl Guide {
             if now_ms.saturating_sub(since_ms) < self.profile.stop_when_uncertain_ms {
                 return None;
             }
-            let i = self.issue(
-                InstructionKind::PositionUncertain,
-                STOP_UNCERTAIN.into(),
-                "uncertain/stop",
-                now_ms,
-                Pace::Spaced,
-            );
+            let i =
+                self.issue(InstructionKind::StopAndTurn, STOP_UNCERTAIN.into(), "uncertain/stop", now_ms, Pace::Spaced);
             self.stop_said = i.is_some();
             self.stop_said_ms = now_ms;
             return i;
@@ -551,12 +546,12 @@ impl Guide {
             last.kind
         {
             if !pose.confident {
-                let text = match (self.search_failed_said, self.stop_said) {
-                    (true, _) => SEARCH_FAILED,
-                    (false, true) => STOP_UNCERTAIN,
-                    (false, false) => UNCERTAIN,
+                let (kind, text) = match (self.search_failed_said, self.stop_said) {
+                    (true, _) => (InstructionKind::SearchFailed, SEARCH_FAILED),
+                    (false, true) => (InstructionKind::StopAndTurn, STOP_UNCERTAIN),
+                    (false, false) => (InstructionKind::PositionUncertain, UNCERTAIN),
                 };
-                return self.answer(InstructionKind::PositionUncertain, text.into(), "repeat", now_ms, false);
+                return self.answer(kind, text.into(), "repeat", now_ms, false);
             }
             if leg == self.leg && waypoint == self.target && pose.floor == self.legs[leg].route.floor {
                 let pr = self.progress(pose);
@@ -577,7 +572,13 @@ impl Guide {
                 return self.answer(last.kind.clone(), text, "repeat", now_ms, false);
             }
             // the position is known again since: not a stale "uncertain", the way on
-            (InstructionKind::PositionUncertain | InstructionKind::PositionFound, true) if !self.off_route => {
+            (
+                InstructionKind::PositionUncertain
+                | InstructionKind::StopAndTurn
+                | InstructionKind::SearchFailed
+                | InstructionKind::PositionFound,
+                true,
+            ) if !self.off_route => {
                 let pr = self.progress(pose);
                 let text = self.face_words(pose, &pr);
                 return self.answer(InstructionKind::Continue, text, "repeat", now_ms, false);

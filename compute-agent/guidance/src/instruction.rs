@@ -6,7 +6,7 @@
 use planning::Rejoin;
 use schemas::{Priority, SpeechIntent};
 
-use crate::guide::{POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN};
+use crate::guide::POSITION_FOUND;
 use crate::utterance::Turn;
 
 /// What an instruction is about.
@@ -57,6 +57,12 @@ pub enum InstructionKind {
     Replan,
     /// localization is not confident: no turn instructions until it is
     PositionUncertain,
+    /// still not confident after the profile's `stop_when_uncertain_ms`: the user is
+    /// asked to stop and turn slowly on the spot
+    StopAndTurn,
+    /// turned on the spot for the profile's `search_for_ms` and still not confident:
+    /// the user is asked to stop turning and to tell a door number or ask someone
+    SearchFailed,
     /// the position is known again after the user was asked to stop and turn on the
     /// spot: they stop turning, and the way to face follows
     PositionFound,
@@ -102,7 +108,7 @@ impl Instruction {
     pub fn speech(&self) -> SpeechIntent {
         SpeechIntent {
             text: self.text.clone(),
-            priority: priority(&self.kind, &self.text),
+            priority: priority(&self.kind),
             interrupt: false,
             ttl_ms: self.ttl_ms,
             dedup_key: self.dedup_key.clone(),
@@ -123,10 +129,9 @@ impl Instruction {
 /// turn on the spot (and to stop turning when that did not find the place) included.
 /// Measured in docs/guidance.md ("What only tells where things stand gives way"): the
 /// turns "now" the speech queue had dropped behind it.
-pub fn priority(kind: &InstructionKind, text: &str) -> Priority {
+pub fn priority(kind: &InstructionKind) -> Priority {
     match kind {
-        InstructionKind::PassingDoor { .. } => Priority::Text,
-        InstructionKind::PositionUncertain if text != STOP_UNCERTAIN && text != SEARCH_FAILED => Priority::Text,
+        InstructionKind::PassingDoor { .. } | InstructionKind::PositionUncertain => Priority::Text,
         _ => Priority::Message,
     }
 }

@@ -834,6 +834,7 @@ fn a_user_who_turned_on_the_spot_without_the_position_found_is_asked_to_stop_tur
     let stop_at = 5000 + stop_ms;
     let stop = guide.step(&lost, stop_at, Some(p.graph())).unwrap();
     assert!(stop.text.starts_with("Position still uncertain: please stop"), "{stop:?}");
+    assert_eq!(stop.kind, InstructionKind::StopAndTurn);
     // turning on the spot, not found: nothing until the search's time is up
     for t in (stop_at + 100..stop_at + search_ms).step_by(100) {
         assert_eq!(guide.step(&lost, t, Some(p.graph())), None, "at {t} ms");
@@ -841,7 +842,7 @@ fn a_user_who_turned_on_the_spot_without_the_position_found_is_asked_to_stop_tur
     let failed = guide.step(&lost, stop_at + search_ms, Some(p.graph())).unwrap();
     let words = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
     assert_eq!(failed.text, words);
-    assert_eq!(failed.kind, InstructionKind::PositionUncertain);
+    assert_eq!(failed.kind, InstructionKind::SearchFailed);
     // asks something of the user: a turn's "now" does not cut it off, nor replace it waiting
     assert_eq!(failed.speech().priority, schemas::Priority::Message);
     // cut off by a warning: said again at the next step (the user still turns)

@@ -455,7 +455,7 @@ mod tests {
             (say(InstructionKind::PositionUncertain, uncertain), true),
             (localization_news(lost, 1), true),
             (say(InstructionKind::PassingDoor { number: "214".into() }, "Passing door 214, on your left."), true),
-            (say(InstructionKind::PositionUncertain, stop), false),
+            (say(InstructionKind::StopAndTurn, stop), false),
             (localization_news("Position found.", 2), false),
         ] {
             let mut queue = SpeechQueue::new(QueueConfig::default());
