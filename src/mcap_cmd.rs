@@ -12,9 +12,10 @@
 //! recorder, `publish_time` the header's capture time (the arrival time when the header
 //! does not decode), `sequence` the header's sequence number (its low 32 bits).
 //! Hazards, haptic and speech intents also get a decoded JSON twin on `<key>/json`
-//! for tools that read JSON but not the wire, and the scan, the pose and the route a
-//! Foxglove twin on `<key>/foxglove` (`foxglove.LaserScan`, `foxglove.PoseInFrame`,
-//! `foxglove.PosesInFrame`, JSON) that Foxglove draws; replay leaves the twins out.
+//! for tools that read JSON but not the wire, and the scan, the pose, the route and the
+//! hazard a Foxglove twin on `<key>/foxglove` (`foxglove.LaserScan`,
+//! `foxglove.PoseInFrame`, `foxglove.PosesInFrame`, `foxglove.FrameTransform`, JSON) that
+//! Foxglove draws; replay leaves the twins out.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -293,7 +294,9 @@ fn foxglove_pose(x: f64, y: f64, yaw: f64) -> serde_json::Value {
 /// so Foxglove draws them: `foxglove.LaserScan` in the user frame (`wearnav_user`: x
 /// forward, y left; a bin that saw nothing has range 0, which Foxglove draws at the
 /// origin), `foxglove.PoseInFrame` and `foxglove.PosesInFrame` (the route ahead, each
-/// point facing the next) in the map frame (`map`, the floor's plane; z = 0).
+/// point facing the next) in the map frame (`map`, the floor's plane; z = 0); and each
+/// hazard's floor plane as the `foxglove.FrameTransform` from the user frame to the
+/// camera's (`wearnav_camera`, the point clouds' frame).
 fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static str, Vec<u8>)> {
     let (stamp, pose) = (foxglove_time, foxglove_pose);
     let value = match schema {
@@ -358,9 +361,62 @@ fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static st
                 }),
             )
         }
+        schemas::SchemaId::Hazard => {
+            // the frame the scan is in, from the floor the frame's perception used
+            let (header, h) = schemas::decode::<schemas::Hazard>(payload).ok()?;
+            let (translation, rotation) = camera_in_user_frame(h.plane_camera)?;
+            (
+                "foxglove.FrameTransform",
+                serde_json::json!({
+                    "timestamp": stamp(header.capture_ns),
+                    "parent_frame_id": "wearnav_user",
+                    "child_frame_id": "wearnav_camera",
+                    "translation": { "x": translation[0], "y": translation[1], "z": translation[2] },
+                    "rotation": { "x": rotation[0], "y": rotation[1], "z": rotation[2], "w": rotation[3] },
+                }),
+            )
+        }
         _ => return None,
     };
     Some((value.0, serde_json::to_vec(&value.1).ok()?))
+}
+
+/// Where the camera is in the user frame the scan is in (x forward, y left, z up, on the
+/// floor below the camera: [`perception::nearest_scan::UserFrame`]), from the floor
+/// plane `[a, b, c, d]` in the camera's optical frame: its place (`[0, 0, d]`) and its
+/// orientation as a quaternion `[x, y, z, w]`. None for a plane that is none (not a unit
+/// normal, the camera not above it, or looking straight along it).
+fn camera_in_user_frame(plane_camera: [f32; 4]) -> Option<([f64; 3], [f64; 4])> {
+    let [a, b, c, d] = plane_camera;
+    let unit = (a * a + b * b + c * c).sqrt();
+    if !(d.is_finite() && d > 0.0 && (unit - 1.0).abs() < 1e-3) {
+        return None;
+    }
+    let plane = perception::ground_plane::Plane { normal: [a, b, c], offset_m: d };
+    let frame = perception::nearest_scan::UserFrame::from_plane(&plane)?;
+    // rows: the user's axes in camera coordinates, so columns: the camera's in the user's
+    let m = [frame.forward, frame.left, plane.normal].map(|row| row.map(f64::from));
+    Some(([0.0, 0.0, f64::from(d)], quaternion(&m)))
+}
+
+/// The unit quaternion `[x, y, z, w]` of the rotation matrix `m` (rows).
+fn quaternion(m: &[[f64; 3]; 3]) -> [f64; 4] {
+    let trace = m[0][0] + m[1][1] + m[2][2];
+    let q = if trace > 0.0 {
+        let s = 2.0 * (trace + 1.0).sqrt();
+        [(m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s, s / 4.0]
+    } else if m[0][0] > m[1][1] && m[0][0] > m[2][2] {
+        let s = 2.0 * (1.0 + m[0][0] - m[1][1] - m[2][2]).sqrt();
+        [s / 4.0, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s, (m[2][1] - m[1][2]) / s]
+    } else if m[1][1] > m[2][2] {
+        let s = 2.0 * (1.0 + m[1][1] - m[0][0] - m[2][2]).sqrt();
+        [(m[0][1] + m[1][0]) / s, s / 4.0, (m[1][2] + m[2][1]) / s, (m[0][2] - m[2][0]) / s]
+    } else {
+        let s = 2.0 * (1.0 + m[2][2] - m[0][0] - m[1][1]).sqrt();
+        [(m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, s / 4.0, (m[1][0] - m[0][1]) / s]
+    };
+    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    q.map(|v| v / norm)
 }
 
 /// A depth frame as a `foxglove.PointCloud` in the camera's optical frame
@@ -461,6 +517,11 @@ fn foxglove_schema(name: &str) -> String {
         "foxglove.PosesInFrame" => format!(r#""poses":{{"type":"array","items":{pose}}}"#),
         _ => format!(r#""pose":{pose}"#),
     };
+    if name == "foxglove.FrameTransform" {
+        return format!(
+            r#"{{"title":"{name}","type":"object","properties":{{"timestamp":{time},"parent_frame_id":{{"type":"string"}},"child_frame_id":{{"type":"string"}},"translation":{xyz},"rotation":{quat}}}}}"#
+        );
+    }
     format!(
         r#"{{"title":"{name}","type":"object","properties":{{"timestamp":{time},"frame_id":{{"type":"string"}},{fields}}}}}"#
     )
@@ -1116,6 +1177,54 @@ mod tests {
         let schema: serde_json::Value = serde_json::from_str(&foxglove_schema(name)).unwrap();
         assert_eq!(schema["title"], "foxglove.PosesInFrame");
         assert!(schema["properties"]["poses"]["items"]["properties"]["orientation"].is_object());
+    }
+
+    #[test]
+    fn a_hazards_floor_plane_places_the_camera_in_the_user_frame_above_the_floor_looking_down_the_way() {
+        // a camera 1.0 m up, pitched 30 degrees down: the floor's upward normal in its
+        // optical frame (x right, y down, z forward)
+        let (s, c) = 30f32.to_radians().sin_cos();
+        let hazard = schemas::Hazard {
+            plane_camera: [0.0, -c, -s, 1.0],
+            ..schemas::Hazard::nothing_ahead(7, schemas::GroundState::Found)
+        };
+        let payload = schemas::encode(&schemas::Origin { sender: "test", session: 1 }, 3, 2_500_000_001, &hazard);
+        let (name, json) = as_foxglove(schemas::SchemaId::Hazard, &payload).expect("a transform twin");
+        assert_eq!(name, "foxglove.FrameTransform");
+        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
+        assert_eq!(
+            (v["parent_frame_id"].as_str(), v["child_frame_id"].as_str()),
+            (Some("wearnav_user"), Some("wearnav_camera"))
+        );
+        assert_eq!((v["timestamp"]["sec"].as_u64(), v["timestamp"]["nsec"].as_u64()), (Some(2), Some(500_000_001)));
+        let t = &v["translation"];
+        assert!(t["x"].as_f64() == Some(0.0) && t["y"].as_f64() == Some(0.0), "{t}");
+        assert!((t["z"].as_f64().unwrap() - 1.0).abs() < 1e-6, "{t}");
+        let r = &v["rotation"];
+        let q = ["x", "y", "z", "w"].map(|k| r[k].as_f64().unwrap());
+        // a camera vector in the user frame: v' = v + 2w (q x v) + 2 q x (q x v)
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        };
+        let rotate = |v: [f64; 3]| {
+            let u = [q[0], q[1], q[2]];
+            let t = cross(u, v).map(|x| 2.0 * x);
+            let ut = cross(u, t);
+            [0, 1, 2].map(|i| v[i] + q[3] * t[i] + ut[i])
+        };
+        let near = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-6);
+        let (s, c) = (f64::from(s), f64::from(c));
+        // the optical axis forward and down by 30 degrees, image right to the user's right,
+        // image down forward-and-down
+        assert!(near(rotate([0.0, 0.0, 1.0]), [c, 0.0, -s]), "{:?}", rotate([0.0, 0.0, 1.0]));
+        assert!(near(rotate([1.0, 0.0, 0.0]), [0.0, -1.0, 0.0]), "{:?}", rotate([1.0, 0.0, 0.0]));
+        assert!(near(rotate([0.0, 1.0, 0.0]), [-s, 0.0, -c]), "{:?}", rotate([0.0, 1.0, 0.0]));
+        // a plane that is none (before the first frame: zeros) places nothing
+        let none = schemas::Hazard { plane_camera: [0.0; 4], ..hazard };
+        let payload = schemas::encode(&schemas::Origin { sender: "test", session: 1 }, 4, 1, &none);
+        assert_eq!(as_foxglove(schemas::SchemaId::Hazard, &payload), None);
+        let schema: serde_json::Value = serde_json::from_str(&foxglove_schema(name)).unwrap();
+        assert!(schema["properties"]["rotation"]["properties"]["w"].is_object(), "{schema}");
     }
 
     #[test]

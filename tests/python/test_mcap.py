@@ -138,7 +138,8 @@ def foxglove_json_schemas():
     scripts/test: npm ci --prefix tests/browser)."""
     script = ('const j = require("@foxglove/schemas/dist/jsonschema");'
               'console.log(JSON.stringify({LaserScan: j.LaserScan, PoseInFrame: j.PoseInFrame,'
-              ' PosesInFrame: j.PosesInFrame, PointCloud: j.PointCloud, Grid: j.Grid}));')
+              ' PosesInFrame: j.PosesInFrame, PointCloud: j.PointCloud, Grid: j.Grid,'
+              ' FrameTransform: j.FrameTransform}));')
     run = subprocess.run(["node", "-e", script], cwd=ROOT / "tests" / "browser",
                          capture_output=True, text=True, timeout=60)
     if run.returncode != 0:
@@ -161,7 +162,7 @@ def test_scan_pose_and_route_are_recorded_as_foxglove_types_that_validate_agains
                     wire[channel.topic] = decode(message.data)
                 continue
             assert channel.message_encoding == "json"
-            if schema.name in ("foxglove.PointCloud", "foxglove.Grid"):  # the next tests
+            if schema.name in ("foxglove.PointCloud", "foxglove.Grid", "foxglove.FrameTransform"):  # the next tests
                 continue
             assert schema.encoding == "jsonschema" and schema.name in checked, schema.name
             assert json.loads(schema.data)["title"] == schema.name
@@ -237,6 +238,53 @@ def test_every_fifteenth_depth_frame_is_a_foxglove_point_cloud_on_the_pixel_grid
         for c, size in ((u, width), (v, height)):
             assert np.abs(c - 4 * np.round(c / 4)).max() < 1e-2
             assert c.min() > -0.01 and c.max() < size
+
+
+def rotate(q, v):
+    """The vectors `v` (n x 3) turned by the unit quaternion `q` (x, y, z, w)."""
+    u, w = np.array(q[:3]), q[3]
+    t = 2 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def test_each_hazards_floor_places_the_camera_in_the_scans_frame_and_its_point_cloud_on_that_floor(recording):
+    transforms = foxglove_messages(recording, "foxglove.FrameTransform")
+    hazards = [h for _, h, _ in transforms]
+    assert len(transforms) >= 90, f"{len(transforms)} transforms in 5 s of 30 Hz hazards"
+    by_stamp = {}
+    for fox, hazard, topic in transforms:
+        assert topic == f"wearnav/{USER}/perception/hazard/foxglove", topic
+        assert (fox["parent_frame_id"], fox["child_frame_id"]) == ("wearnav_user", "wearnav_camera")
+        stamp = hazard.header["capture_ns"]
+        assert (fox["timestamp"]["sec"], fox["timestamp"]["nsec"]) == divmod(stamp, 10**9)
+        a, b, c, d = hazard.body["plane_camera"]
+        t, r = fox["translation"], fox["rotation"]
+        assert (t["x"], t["y"], t["z"]) == pytest.approx((0, 0, d), abs=1e-6)
+        q = [r["x"], r["y"], r["z"], r["w"]]
+        assert np.linalg.norm(q) == pytest.approx(1, abs=1e-9)
+        # the floor's normal, seen from the camera, is the user frame's up; the optical
+        # axis points forward (bearing 0 of the scan is where the camera looks)
+        assert rotate(q, np.array([[a, b, c]]))[0] == pytest.approx([0, 0, 1], abs=1e-5)
+        axis = rotate(q, np.array([[0.0, 0.0, 1.0]]))[0]
+        assert abs(axis[1]) < 1e-5 and axis[0] > 0, axis
+        by_stamp[stamp] = (q, np.array([t["x"], t["y"], t["z"]]))
+    assert len(by_stamp) == len(hazards)
+    # each point cloud, put in the user frame by the transform of its own frame: its floor
+    # lies at z = 0 and nothing below it (Foxglove draws it under the scan)
+    clouds = foxglove_messages(recording, "foxglove.PointCloud")
+    placed = 0
+    for fox, depth, _ in clouds:
+        place = by_stamp.get(depth.header["capture_ns"])
+        if place is None:  # a frame the recorder heard no hazard for
+            continue
+        xyz = np.frombuffer(base64.b64decode(fox["data"]), dtype="<f4").reshape(-1, 3).astype(float)
+        z = (rotate(place[0], xyz) + place[1])[:, 2]
+        # measured: nothing below 2 cm under the floor; a fifth to four fifths of the
+        # points within 2 cm of it (fewer as the walker nears a wall)
+        assert z.min() > -0.1, f"a point {-z.min():.2f} m below the floor"
+        assert abs(np.percentile(z, 5)) < 0.03, f"the lowest points at {np.percentile(z, 5):.2f} m, not on the floor"
+        placed += 1
+    assert placed >= len(clouds) - 2, f"{placed} of {len(clouds)} clouds had their frame's transform"
 
 
 def read_pgm(path):
