@@ -26,7 +26,7 @@
 
 use std::collections::VecDeque;
 
-use map::SemanticLayer;
+use map::{GatewayKind, SemanticLayer};
 use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
 
 use crate::instruction::{ttl_ms, Instruction, InstructionKind};
@@ -40,6 +40,9 @@ const HEADINGS_KEPT_MS: u64 = 1000;
 /// the end has arrived, metres: issue 31's "within 1 m of the place". A user who passes
 /// the goal a stride to its side never comes within the arrival radius.
 pub const ARRIVAL_BESIDE_M: f64 = 1.0;
+/// A user told they are at the elevator who walks this far from it is told where it is,
+/// metres (our choice: out of the lift and its doorway, well past the arrival radius).
+pub const GATEWAY_LEFT_M: f64 = 3.0;
 
 /// Said once when the pose stops being confident.
 pub(crate) const UNCERTAIN: &str = "Position uncertain: no turn instructions until I know where you are again.";
@@ -161,6 +164,8 @@ pub struct Guide {
     said_now: Option<(usize, usize)>,
     gateway_ahead_said: Option<usize>,
     at_gateway_said: Option<usize>,
+    /// after that, the user walked away from the elevator and was told where it is
+    gateway_left_said: bool,
     arrived: bool,
     off_route: bool,
     /// came back to the route after a deviation: say which way to face
@@ -210,6 +215,7 @@ impl Guide {
             said_now: None,
             gateway_ahead_said: None,
             at_gateway_said: None,
+            gateway_left_said: false,
             arrived: false,
             off_route: false,
             back_on_route: false,
@@ -277,6 +283,7 @@ impl Guide {
         self.said_now = None;
         self.gateway_ahead_said = None;
         self.at_gateway_said = None;
+        self.gateway_left_said = false;
         self.arrived = false;
         self.off_route = false;
         self.back_on_route = false;
@@ -314,8 +321,9 @@ impl Guide {
     /// then, as soon as the step would give it: the route's start (or back on the
     /// route), an off-route prompt, a turn still ahead (a "now" only while the turn is
     /// within reach), a gateway ahead (while it is) and "you are at the elevator" (while
-    /// the user is), the arrival, the request to stop and turn on the spot and the
-    /// position found after it. True when it was.
+    /// the user is), where the elevator is (while the user is still away from it), the
+    /// arrival, the request to stop and turn on the spot, the search that failed and the
+    /// position found after them. True when it was.
     pub fn not_heard(&mut self, text: &str) -> bool {
         let Some(last) = self.last.as_ref().filter(|i| i.text == text) else {
             return false;
@@ -335,6 +343,10 @@ impl Guide {
             }
             // a user at the lift who did not hear which floor waits there for nothing
             InstructionKind::AtGateway { leg } if self.at_gateway_said == Some(leg) => self.at_gateway_said = None,
+            // still away from the elevator: where it is, said again
+            InstructionKind::AwayFromGateway { leg } if leg == self.leg && self.gateway_left_said => {
+                self.gateway_left_said = false;
+            }
             InstructionKind::Arrived => self.arrived = false,
             InstructionKind::StopAndTurn => self.stop_said = false,
             // still turning on the spot, the search's time up: said again
@@ -445,8 +457,12 @@ impl Guide {
             }
         }
         if self.at_gateway_said == Some(self.leg) {
-            // waiting at the gateway for the floor to change
-            return None;
+            // waiting at the gateway for the floor to change; a user who walked away from
+            // the elevator and came back is told again what to do there
+            if !(self.gateway_left_said && self.at_leg_end(pose)) {
+                return self.left_gateway(pose, now_ms);
+            }
+            (self.at_gateway_said, self.gateway_left_said) = (None, false);
         }
         let pr = self.progress(pose);
         if self.off_route {
@@ -596,9 +612,43 @@ impl Guide {
 
     fn enter_leg(&mut self, leg: usize) {
         self.leg = leg;
+        self.gateway_left_said = false;
         self.target = self.first_target();
         self.off_route = false;
         self.deviation_said_ms = None;
+    }
+
+    /// Within the arrival radius of the current leg's end (or, beside it, within
+    /// [`ARRIVAL_BESIDE_M`]), as the crow flies.
+    fn at_leg_end(&self, pose: &UserPose) -> bool {
+        let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
+        dist([pose.x_m, pose.y_m], end) <= self.profile.arrival_radius_m.max(ARRIVAL_BESIDE_M)
+    }
+
+    /// Told they are at the elevator, the user walked [`GATEWAY_LEFT_M`] or more from it:
+    /// where it is, once until they come back (said while they stand or walk, not while
+    /// they turn). Nothing for stairs or a ramp: a user who takes them walks away from
+    /// their foot.
+    fn left_gateway(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {
+        let LegEnd::Gateway { kind: GatewayKind::Elevator, .. } = self.legs[self.leg].end else {
+            return None;
+        };
+        let end = *self.waypoints().last()?;
+        let away_m = dist([pose.x_m, pose.y_m], end);
+        if self.gateway_left_said || away_m < GATEWAY_LEFT_M || !self.still() {
+            return None;
+        }
+        let (name, _) = gateway_words(GatewayKind::Elevator);
+        let text = format!(
+            "The {name} is {} away, {}.",
+            distance_phrase(away_m, &self.profile),
+            bearing_phrase(relative_right_deg(pose, end), &self.profile)
+        );
+        self.serial += 1;
+        let key = format!("leg{}/left-gateway/{}", self.leg, self.serial);
+        let i = self.issue(InstructionKind::AwayFromGateway { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
+        self.gateway_left_said = i.is_some();
+        i
     }
 
     fn first_target(&self) -> usize {

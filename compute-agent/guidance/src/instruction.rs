@@ -45,6 +45,11 @@ pub enum InstructionKind {
         /// leg index
         leg: usize,
     },
+    /// told they are at the elevator, the user walked away from it: where it is
+    AwayFromGateway {
+        /// leg index
+        leg: usize,
+    },
     /// within the arrival radius of the goal; guidance ends
     Arrived,
     /// off the route, and the route is near: where to rejoin it

@@ -607,6 +607,53 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
 }
 
 #[test]
+fn a_user_who_walks_away_from_the_elevator_is_told_where_it_is_and_back_at_it_what_to_do_there() {
+    use std::f64::consts::FRAC_PI_2;
+    let (layer, building) = two_floors();
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
+    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let p0 = bp.floor(0).unwrap();
+    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(p0), |_| true);
+    let at_lift = "You are at the elevator. Take it to floor 1, then tell me when you are there.";
+    assert_eq!(texts(&said).last(), Some(&at_lift), "{said:#?}");
+    // the lift is at the south end of the corridor: the user walks back north, away from it
+    let end = legs[0].goal();
+    let north = |m: f64| pose([end[0], end[1] + m], FRAC_PI_2);
+    for k in 0..6u32 {
+        let m = 0.5 * f64::from(k);
+        assert_eq!(guide.step(&north(m), 60_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m away");
+    }
+    let away = guide.step(&north(3.0), 63_000, Some(p0.graph())).expect("where the lift is");
+    assert_eq!(away.text, "The elevator is 3 metres away, behind you.");
+    assert_eq!(away.kind, InstructionKind::AwayFromGateway { leg: 0 });
+    assert_eq!(away.speech().priority, Priority::Message);
+    // once, while they stay away; again if a warning cut it off
+    assert_eq!(guide.step(&north(4.0), 66_000, Some(p0.graph())), None);
+    assert!(guide.not_heard(&away.text));
+    let again = guide.step(&north(5.0), 67_000, Some(p0.graph())).expect("said again");
+    assert_eq!(again.text, "The elevator is 5 metres away, behind you.");
+    assert_eq!(guide.step(&north(5.0), 70_000, Some(p0.graph())), None);
+    // back at the lift: what to do there, again; then the floor is confirmed as before
+    let mut back = None;
+    for k in 0..60u32 {
+        let at = north(5.0 - 0.1 * f64::from(k));
+        let heading_south = UserPose { heading_rad: -FRAC_PI_2, ..at };
+        if let Some(i) = guide.step(&heading_south, 72_000 + u64::from(k) * 100, Some(p0.graph())) {
+            back = Some((i, 5.0 - 0.1 * f64::from(k)));
+            break;
+        }
+    }
+    let (back, m) = back.expect("told at the lift");
+    assert_eq!(back.text, at_lift);
+    assert!(m <= 1.5 + 1e-9, "said {m:.1} m from the lift");
+    assert_eq!(guide.step(&north(0.0), 80_000, Some(p0.graph())), None);
+    assert!(guide.floor_confirmed(1));
+    assert_eq!(guide.floor(), Some(1));
+}
+
+#[test]
 fn an_elevator_ahead_the_user_did_not_hear_is_said_again_while_it_is_ahead() {
     let (layer, building) = two_floors();
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());
