@@ -481,15 +481,12 @@ impl Guide {
         if self.started_leg != Some(self.leg) || self.back_on_route {
             return self.start(pose, &pr, now_ms);
         }
-        let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
         // both along the route and as the crow flies, so a goal behind a wall or a route that
         // loops back past its goal does not end guidance early
         // ... or level with the end and beside it, within issue 31's metre: a user who
         // walks past the goal a stride to its side has arrived too (else, never within
         // the radius, they walk on until told they are off the route)
-        let radius = self.profile.arrival_radius_m;
-        let away = dist([pose.x_m, pose.y_m], end);
-        let at_end = pr.remaining_m <= radius && away <= radius.max(ARRIVAL_BESIDE_M);
+        let at_end = pr.remaining_m <= self.profile.arrival_radius_m && self.at_leg_end(pose);
         let leg_end = self.legs[self.leg].end.clone();
         match (&leg_end, at_end) {
             (LegEnd::Goal, true) if self.leg + 1 >= self.legs.len() => {
