@@ -395,28 +395,11 @@ fn camera_in_user_frame(plane_camera: [f32; 4]) -> Option<([f64; 3], [f64; 4])> 
     let plane = perception::ground_plane::Plane { normal: [a, b, c], offset_m: d };
     let frame = perception::nearest_scan::UserFrame::from_plane(&plane)?;
     // rows: the user's axes in camera coordinates, so columns: the camera's in the user's
-    let m = [frame.forward, frame.left, plane.normal].map(|row| row.map(f64::from));
-    Some(([0.0, 0.0, f64::from(d)], quaternion(&m)))
-}
-
-/// The unit quaternion `[x, y, z, w]` of the rotation matrix `m` (rows).
-fn quaternion(m: &[[f64; 3]; 3]) -> [f64; 4] {
-    let trace = m[0][0] + m[1][1] + m[2][2];
-    let q = if trace > 0.0 {
-        let s = 2.0 * (trace + 1.0).sqrt();
-        [(m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s, s / 4.0]
-    } else if m[0][0] > m[1][1] && m[0][0] > m[2][2] {
-        let s = 2.0 * (1.0 + m[0][0] - m[1][1] - m[2][2]).sqrt();
-        [s / 4.0, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s, (m[2][1] - m[1][2]) / s]
-    } else if m[1][1] > m[2][2] {
-        let s = 2.0 * (1.0 + m[1][1] - m[0][0] - m[2][2]).sqrt();
-        [(m[0][1] + m[1][0]) / s, s / 4.0, (m[1][2] + m[2][1]) / s, (m[0][2] - m[2][0]) / s]
-    } else {
-        let s = 2.0 * (1.0 + m[2][2] - m[0][0] - m[1][1]).sqrt();
-        [(m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, s / 4.0, (m[1][0] - m[0][1]) / s]
-    };
-    let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-    q.map(|v| v / norm)
+    let [f, l, n] = [frame.forward, frame.left, plane.normal].map(|row| row.map(f64::from));
+    let m = nalgebra::Matrix3::new(f[0], f[1], f[2], l[0], l[1], l[2], n[0], n[1], n[2]);
+    // the nearest rotation (the f32 axes are orthonormal to about 1e-7)
+    let q = nalgebra::UnitQuaternion::from_matrix(&m);
+    Some(([0.0, 0.0, f64::from(d)], [q.i, q.j, q.k, q.w]))
 }
 
 /// A depth frame as a `foxglove.PointCloud` in the camera's optical frame
