@@ -15,7 +15,9 @@
 //! 4. the start of a leg, or coming back to the route: length and which way to face;
 //! 5. arrival (exempt from spacing) or "you are at the elevator";
 //! 6. the next turn: "turn right now" within `turn_now_m`, "in 6 metres, turn right" within
-//!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing);
+//!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing); a turn
+//!    whose own announcement would be skipped after the "now" of the one before is
+//!    announced with that one ("In 6 metres, turn right, then turn left.");
 //! 7. a gateway ahead;
 //! 8. a numbered door the user comes level with ("Passing door 214, on your left."),
 //!    where nothing of 5-7 is near enough ahead for it to be held back by the door.
@@ -162,6 +164,9 @@ pub struct Guide {
     started_leg: Option<usize>,
     announced: Option<(usize, usize)>,
     said_now: Option<(usize, usize)>,
+    /// the turn announced with the one before it ("…, then turn left."):
+    /// not announced again
+    then_said: Option<(usize, usize)>,
     gateway_ahead_said: Option<usize>,
     at_gateway_said: Option<usize>,
     /// after that, the user walked away from the elevator and was told where it is
@@ -213,6 +218,7 @@ impl Guide {
             started_leg: None,
             announced: None,
             said_now: None,
+            then_said: None,
             gateway_ahead_said: None,
             at_gateway_said: None,
             gateway_left_said: false,
@@ -281,6 +287,7 @@ impl Guide {
         self.started_leg = None;
         self.announced = None;
         self.said_now = None;
+        self.then_said = None;
         self.gateway_ahead_said = None;
         self.at_gateway_said = None;
         self.gateway_left_said = false;
@@ -333,6 +340,7 @@ impl Guide {
             InstructionKind::OffRoute { .. } | InstructionKind::Replan => self.deviation_said_ms = None,
             InstructionKind::TurnAhead { leg, waypoint, .. } if self.announced == Some((leg, waypoint)) => {
                 self.announced = None;
+                self.then_said = None;
             }
             InstructionKind::TurnNow { leg, waypoint, .. } if self.said_now == Some((leg, waypoint)) => {
                 self.said_now = None;
@@ -712,6 +720,8 @@ impl Guide {
     }
 
     /// "Turn right now." within `turn_now_m` of the turn, else "In 6 metres, turn right."
+    /// (with the turn after it, when [`Guide::turn_after`] says so: "In 6 metres, turn
+    /// right, then turn left.").
     fn turn_words(&self, to_turn_m: f64, w: usize) -> (InstructionKind, String) {
         let right = self.bend_right_deg(w);
         let turn = Turn::of(right, &self.profile);
@@ -719,9 +729,41 @@ impl Guide {
         if to_turn_m <= self.profile.turn_now_m {
             (InstructionKind::TurnNow { leg: self.leg, waypoint: w, turn }, format!("{} now.", capitalised(&phrase)))
         } else {
-            let text = format!("In {}, {phrase}.", distance_phrase(to_turn_m, &self.profile));
+            let then = self.turn_after(w).map(|(_, words)| words).unwrap_or_default();
+            let text = format!("In {}, {phrase}{then}.", distance_phrase(to_turn_m, &self.profile));
             (InstructionKind::TurnAhead { leg: self.leg, waypoint: w, turn }, text)
         }
+    }
+
+    /// The next turn after waypoint `w` (straight-on waypoints passed over, none past
+    /// the leg's end) and its words (", then turn left"), when its own announcement would
+    /// be left out: a user told "now" `turn_now_m` before `w` is, once the spacing after
+    /// it has passed at walking pace, within the announcement's floor (`turn_now_m` plus
+    /// the spacing's walk) of it; that is, the two are at most twice the spacing's walk
+    /// apart (6 m by default). Said with the announcement of `w`, it is heard in time;
+    /// its own "now" says when. The words are few (no distance): the announcement must
+    /// end before the "now" that follows it, as soon as the spacing allows, is due, and
+    /// the "now"s stay short, so that nothing holds back the turn they ask for.
+    fn turn_after(&self, w: usize) -> Option<(usize, String)> {
+        let (p, wp) = (&self.profile, self.waypoints());
+        let mut gap_m = 0.0;
+        let mut v = w;
+        loop {
+            if v + 2 >= wp.len() {
+                return None;
+            }
+            gap_m += dist(wp[v], wp[v + 1]);
+            v += 1;
+            if Turn::of(self.bend_right_deg(v), p) != Turn::Straight {
+                break;
+            }
+        }
+        let spacing_m = p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
+        if gap_m > 2.0 * spacing_m {
+            return None;
+        }
+        let right = self.bend_right_deg(v);
+        Some((v, format!(", then {}", turn_phrase(Turn::of(right, p), right, p))))
     }
 
     fn turn(&mut self, pr: &Progress, now_ms: u64) -> Option<Instruction> {
@@ -747,13 +789,18 @@ impl Guide {
             }
             return i;
         }
-        // an announcement that "now" would follow within the spacing is left out
+        // an announcement that "now" would follow within the spacing is left out, as is
+        // one of a turn said with the announcement before it
         let floor_m = p.turn_now_m + p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
-        if d <= p.announce_turn_m && d > floor_m && self.announced != Some((self.leg, w)) {
+        let told = [self.announced, self.then_said].contains(&Some((self.leg, w)));
+        if d <= p.announce_turn_m && d > floor_m && !told {
             let (kind, text) = self.turn_words(d, w);
             let i = self.issue(kind, text, &key_of("ahead"), now_ms, Pace::Spaced);
             if i.is_some() {
                 self.announced = Some((self.leg, w));
+                if let Some((then, _)) = self.turn_after(w) {
+                    self.then_said = Some((self.leg, then));
+                }
             }
             return i;
         }
@@ -930,6 +977,7 @@ impl Guide {
         };
         forget(&mut self.announced);
         forget(&mut self.said_now);
+        forget(&mut self.then_said);
     }
 
     fn replan(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {

@@ -229,6 +229,88 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
     assert_eq!(said[2].instruction.speech().ttl_ms, 1500);
 }
 
+/// A corridor east along y 10.5..12.5 from x 0.5 to 12.5, one down from it at x
+/// 10.5..12.5 to y 5.5, and one east again along y 5.5..7.5 to x 26.5: walked from the
+/// west end, a right turn and 5 m on a left one.
+fn jog_floor() -> OccupancyGrid {
+    let (w, h) = ((27.0 / RES_M) as usize, (13.0 / RES_M) as usize);
+    let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
+    let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
+    for r in 0..h {
+        for c in 0..w {
+            let (x, y) = g.cell_center(c, r);
+            let first = (0.5..=12.5).contains(&x) && (10.5..=12.5).contains(&y);
+            let down = (10.5..=12.5).contains(&x) && (5.5..=12.5).contains(&y);
+            let then = (10.5..=26.5).contains(&x) && (5.5..=7.5).contains(&y);
+            if first || down || then {
+                g.set(c, r, Cell::Free);
+            }
+        }
+    }
+    g
+}
+
+#[test]
+fn a_turn_too_near_the_one_before_for_its_own_announcement_is_announced_with_that_one() {
+    let mut p = Planner::new(0, &jog_floor(), &NavGraphConfig::default());
+    let route = p.plan([1.5, 11.5], [25.5, 6.5]).unwrap();
+    let w = &route.waypoints;
+    assert_eq!(w.len(), 4, "a right turn and a left one: {w:?}");
+    let gap = dist(w[1], w[2]);
+    assert!((3.5..=5.5).contains(&gap), "{w:?}");
+    let new_guide = |profile| Guide::single_floor(route.clone(), "the stairs", SemanticLayer::default(), profile);
+    let mut guide = new_guide(GuidanceProfile::default());
+    let poses = poses_along(w);
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |_| true);
+    let both = |d: f64| format!("In {} metres, turn right, then turn left.", d.round());
+    assert!(texts(&said)[0].starts_with("Route to the stairs: "), "{said:#?}");
+    assert_eq!(
+        texts(&said)[1..],
+        [both(6.0).as_str(), "Turn right now.", "Turn left now.", "You have arrived at the stairs."],
+        "{said:#?}"
+    );
+    // each "now" where it is due (the first pose within 1.5 m of its turn), alone: the
+    // words after it would hold back the turn it asks for
+    let d_now = |s: &Said, corner: [f64; 2]| dist(s.at, corner);
+    assert!(d_now(&said[2], w[1]) <= 1.5 && d_now(&said[2], w[1]) > 1.5 - STEP_M - 1e-9, "{said:#?}");
+    assert!(d_now(&said[3], w[2]) <= 1.5 && d_now(&said[3], w[2]) > 1.5 - STEP_M - 1e-9, "{said:#?}");
+    assert_spaced(&said, 3000);
+    assert_priorities(&said);
+    match said[1].instruction.kind {
+        InstructionKind::TurnAhead { leg: 0, waypoint: 1, .. } => {}
+        ref k => panic!("{k:?}"),
+    }
+
+    // "repeat" says both with the distance of now; the announcement not heard is said
+    // again, both turns in it, and the left turn is not announced on its own after
+    let mut guide = new_guide(GuidanceProfile::default());
+    let k_ahead = poses.iter().position(|&(at, _)| dist(at, w[1]) <= 6.0).unwrap();
+    let said = walk(&mut guide, &poses[..=k_ahead + 5], 0, 0, Some(&p), |_| true);
+    let ahead = said.last().unwrap();
+    assert_eq!(ahead.instruction.text, both(6.0));
+    let here = poses[k_ahead + 5];
+    assert_eq!(guide.repeat(&pose(here.0, here.1), 20_000).text, both(dist(here.0, w[1])));
+    assert!(guide.not_heard(&both(6.0)));
+    let t0 = (k_ahead as u64 + 6) * TICK_MS;
+    let rest = walk(&mut guide, &poses[k_ahead + 6..], 0, t0, Some(&p), |_| true);
+    let again = both(dist(poses[k_ahead + 6].0, w[1]));
+    assert_eq!(
+        texts(&rest),
+        [again.as_str(), "Turn right now.", "Turn left now.", "You have arrived at the stairs."],
+        "{rest:#?}"
+    );
+    assert_eq!(rest[0].t_ms, t0, "not heard: no spacing to keep after it");
+
+    // with a spacing of 1 s the left turn's own announcement has its time after the
+    // right turn's "now": each is announced on its own
+    let mut guide = new_guide(GuidanceProfile { min_spacing_ms: 1000, ..GuidanceProfile::default() });
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |_| true);
+    let texts = texts(&said);
+    assert_eq!(texts[1..3], ["In 6 metres, turn right.", "Turn right now."], "{said:#?}");
+    assert!(texts[3].starts_with("In ") && texts[3].ends_with(" metres, turn left."), "{said:#?}");
+    assert_eq!(texts[4], "Turn left now.");
+}
+
 /// The corridors of [`corridor_floor`] with a numbered door every 3 m in each wall:
 /// the east-west corridor's north wall (y 12.5) and south wall (y 10.5), the corridor
 /// down's west wall (x 18.5) and east wall (x 20.5).

@@ -9,7 +9,8 @@
 //! utterance when its last word is spoken, acts on it [`UNDERSTAND_S`] later, and knows
 //! only its words ([`meaning`]): "turn left" turns by about 90 degrees from where the
 //! user faces, "go straight on" holds the heading, "off the route: the route is 3 metres
-//! away, to your left" turns towards it; "in 6 metres, turn right" waits for the "now".
+//! away, to your left" turns towards it; "in 6 metres, turn right" (and "in 6 metres,
+//! turn right, then turn left") waits for the "now".
 //! Once told "you have arrived", the user finds the place by its sound (the goal's,
 //! as in every other guide: Taylor's music, a door one can touch).
 
@@ -340,6 +341,7 @@ mod tests {
         let p = profile();
         for text in [
             "In 6 metres, turn right.",
+            "In 6 metres, turn right, then turn left.",
             "Going to music. Finding your position first: I will tell you when I have it.",
             "In 12 metres, turn sharply left.",
             "Position uncertain: no turn instructions until I know where you are again.",
