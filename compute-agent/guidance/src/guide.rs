@@ -758,8 +758,7 @@ impl Guide {
                 break;
             }
         }
-        let spacing_m = p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
-        if gap_m > 2.0 * spacing_m {
+        if gap_m > 2.0 * p.spacing_walk_m() {
             return None;
         }
         let right = self.bend_right_deg(v);
@@ -791,7 +790,7 @@ impl Guide {
         }
         // an announcement that "now" would follow within the spacing is left out, as is
         // one of a turn said with the announcement before it
-        let floor_m = p.turn_now_m + p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
+        let floor_m = p.turn_now_m + p.spacing_walk_m();
         let told = [self.announced, self.then_said].contains(&Some((self.leg, w)));
         if d <= p.announce_turn_m && d > floor_m && !told {
             let (kind, text) = self.turn_words(d, w);
@@ -826,7 +825,7 @@ impl Guide {
         if !p.passing_doors || self.last_spontaneous_ms.is_some_and(|t| now_ms < t.saturating_add(p.min_spacing_ms)) {
             return None;
         }
-        let clear_m = p.announce_turn_m + p.walking_speed_mps * p.min_spacing_ms as f64 / 1000.0;
+        let clear_m = p.announce_turn_m + p.spacing_walk_m();
         let here = [pose.x_m, pose.y_m];
         if self.straight_on_m(pr) <= clear_m
             || self.last_door_at.is_some_and(|at| dist(at, here) < p.passing_door_every_m)

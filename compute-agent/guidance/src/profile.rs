@@ -135,6 +135,12 @@ pub enum ProfileError {
 }
 
 impl GuidanceProfile {
+    /// How far the user walks during the spacing between spontaneous instructions, at
+    /// the assumed walking speed, metres (3 m by default).
+    pub fn spacing_walk_m(&self) -> f64 {
+        self.walking_speed_mps * self.min_spacing_ms as f64 / 1000.0
+    }
+
     /// A profile from TOML: the fields given, the defaults for the rest; an unknown
     /// field or a value out of range is refused with the field's name.
     ///
