@@ -71,13 +71,22 @@ pub enum ConfigError {
 /// handle, sees and the cane touches what is lower.
 pub const CHEST_OVERHANGS_FROM_M: f32 = 1.0;
 
+/// How long after its floor was last seen a chest camera's floor predicted from gravity
+/// stands in, ns ([`PerceptionConfig::for_chest`]; the cane camera's is 3 s): worn on
+/// the body, it stays at one height over the floor the user stands on, where a hand's
+/// drifts (our choice: longer than a stop at a wall to read a sign or find a door).
+pub const CHEST_GROUND_HELD_NS: u64 = 10_000_000_000;
+
 impl PerceptionConfig {
     /// These settings for a second camera worn at the chest, whose cue is joined to
     /// the cane camera's ([`crate::second_view`]): it warns only of what overhangs
     /// from [`CHEST_OVERHANGS_FROM_M`] up (`scan.overhangs_from_m`: a lamp, a sign, a
     /// cabinet standing out from a wall, not the wall, a bin or a bench the cane camera
     /// already warns of), and leaves drop-offs to the cane camera (it sees the floor
-    /// only from about 2 m on), so it takes a lower floor at once.
+    /// only from about 2 m on), so it takes a lower floor at once. Its floor is out of
+    /// view whenever something stands within 2 m ahead of the user: there the floor
+    /// predicted from gravity stands in for [`CHEST_GROUND_HELD_NS`], also while it
+    /// warns of nothing (`ground_prediction.while_clear`).
     pub fn for_chest(&self) -> Self {
         let mut c = self.clone();
         c.scan.overhangs_from_m = Some(CHEST_OVERHANGS_FROM_M);
@@ -89,6 +98,13 @@ impl PerceptionConfig {
         // Waiting 5 s for it left the chest blind exactly while the user walked on.
         c.ground.max_offset_drop_m = c.ground.max_offset_jump_m;
         c.ground.reseed_lower_after_frames = c.ground.reseed_after_frames;
+        // A user who stood at a wall, the floor out of the chest camera's view, had the
+        // cane camera's cue alone: the wall is no overhang, so the chest warned of
+        // nothing, and a predicted floor was trusted only while it warned. Its "clear"
+        // is never the user's (joined, it takes nothing from the cane camera's cue),
+        // and what overhangs in front of the wall is still warned of.
+        c.ground_prediction.while_clear = true;
+        c.ground_prediction.max_age_ns = CHEST_GROUND_HELD_NS;
         c
     }
 
@@ -386,11 +402,23 @@ pub struct GroundPredictionConfig {
     /// count as a blocked view. A near wall gives ~1; a frame that shows nothing
     /// classifiable must never pass for a clear path, so it degrades as before.
     pub min_obstacle_fraction: f32,
+    /// The predicted floor stands in also while the frame warns of nothing. Off: only
+    /// while it warns (a floor the camera cannot see, black or shiny, ahead of a far
+    /// wall must not be the basis of a "clear" lasting seconds). On only for a camera
+    /// whose cue is joined to another's and never stands alone (the chest camera's,
+    /// [`PerceptionConfig::for_chest`]): its "clear" takes nothing from the other's cue.
+    pub while_clear: bool,
 }
 
 impl Default for GroundPredictionConfig {
     fn default() -> Self {
-        Self { enabled: true, max_tilt_deg: 5.0, max_age_ns: 3_000_000_000, min_obstacle_fraction: 0.25 }
+        Self {
+            enabled: true,
+            max_tilt_deg: 5.0,
+            max_age_ns: 3_000_000_000,
+            min_obstacle_fraction: 0.25,
+            while_clear: false,
+        }
     }
 }
 

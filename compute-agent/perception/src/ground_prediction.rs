@@ -10,7 +10,10 @@
 //! module decides whether that plane is trusted past the frame limit: gravity agrees with
 //! the last ground found (the cane was not lifted or tilted), that ground is recent (the
 //! hand's height has not drifted), and the frame shows obstacles (a blocked view, not an
-//! empty one that could pass for a clear path).
+//! empty one that could pass for a clear path). The caller trusts it only while the frame
+//! warns, except for a camera whose "clear" is never the user's (the chest camera's,
+//! `GroundPredictionConfig::while_clear`), which keeps seeing what overhangs before a
+//! wall that hides its floor.
 
 use super::config::GroundPredictionConfig;
 use super::ground_plane::{dot, normalized};

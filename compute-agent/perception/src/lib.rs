@@ -596,9 +596,10 @@ impl Pipeline {
         // stand-in while lost) stays trusted within the bounds of `ground_prediction`.
         // Only while it warns: a predicted floor must never be the basis of a "clear"
         // lasting seconds (a floor the camera cannot see, e.g. black or shiny, ahead of
-        // a far wall would otherwise be silent).
+        // a far wall would otherwise be silent), unless this camera's clear is never
+        // the user's (`while_clear`: the chest camera's).
         out.ground = if decision.state == GroundState::Degraded
-            && out.rumble != Rumble::None
+            && (out.rumble != Rumble::None || cfg.ground_prediction.while_clear)
             && self.prediction.trusted(gravity, ctx.stamp_ns, &cfg.ground_prediction)
             && blocked_view(self.scan.obstacle_points, self.cloud.valid.len(), &cfg.ground_prediction)
         {

@@ -2,6 +2,7 @@
 
 use schemas::{GroundState, HapticPattern, Rumble};
 
+use super::config::{GroundPredictionConfig, CHEST_GROUND_HELD_NS};
 use super::synthetic_scene::{Block, Scene};
 use super::*;
 
@@ -781,6 +782,72 @@ fn a_chest_camera_warns_of_what_overhangs_not_of_walls_bins_or_benches() {
     let ctx = FrameContext { gravity_camera: gravity(&scene), mount_height_m: Some(1.3), ..Default::default() };
     let all = run(&mut p, &scene, &ctx).unwrap();
     assert!((all.scan.ranges_m[all.scan.ranges_m.len() / 2] - 3.0).abs() < 0.05);
+}
+
+/// A chest camera (1.3 m up, 10 degrees down) that saw its floor for a second (a wall
+/// 4 m ahead), then stands 12 s with a wall 1.8 m ahead (it sees the floor only from
+/// 1.9 m on), with a sign hanging 0.3 m before that wall, 1.6-1.95 m up, or not: each
+/// frame's seconds since the floor was last seen, ground state and rumble.
+fn chest_standing_at_a_wall(cfg: PerceptionConfig, sign: bool) -> Vec<(f32, GroundState, Rumble)> {
+    let frame_ns = 33_333_333u64;
+    let mut p = Pipeline::new(cfg);
+    let mut out = Vec::new();
+    let mut last_found_ns = 0;
+    for k in 0..(30 + 12 * 30) {
+        let mut scene = Scene::kinect(1.3, 10.0);
+        if k < 30 {
+            scene.walls_x_m.push(4.0);
+        } else {
+            scene.walls_x_m.push(1.8);
+            if sign {
+                scene.blocks.push(Block { min: [1.4, -0.4, 1.6], max: [1.5, 0.4, 1.95] });
+            }
+        }
+        let ctx = FrameContext {
+            stamp_ns: (k + 1) * frame_ns,
+            gravity_camera: gravity(&scene),
+            mount_height_m: Some(1.3),
+            ..Default::default()
+        };
+        let o = run(&mut p, &scene, &ctx).unwrap();
+        if o.ground == GroundState::Found {
+            last_found_ns = ctx.stamp_ns;
+        }
+        out.push(((ctx.stamp_ns - last_found_ns) as f32 / 1e9, o.ground, o.rumble));
+    }
+    out
+}
+
+#[test]
+fn a_chest_camera_whose_floor_a_near_wall_hides_keeps_seeing_what_overhangs_for_ten_seconds() {
+    let chest = PerceptionConfig::default().for_chest();
+    let held_s = CHEST_GROUND_HELD_NS as f32 / 1e9;
+    for sign in [false, true] {
+        let frames = chest_standing_at_a_wall(chest.clone(), sign);
+        // the floor is out of view the whole stand (the first frame at the wall aside)
+        assert!(frames[31..].iter().all(|f| f.1 != GroundState::Found), "sign {sign}");
+        for (k, &(since_s, ground, rumble)) in frames.iter().enumerate() {
+            if since_s < held_s - 0.05 {
+                // the floor predicted from gravity stands in: the chest sees, and warns
+                // of the sign (the wall is no overhang) once the debounce lets it
+                assert_ne!(ground, GroundState::Degraded, "frame {k}, {since_s} s, sign {sign}");
+                if k >= 40 {
+                    assert_eq!(rumble != Rumble::None, sign, "frame {k}, {since_s} s");
+                }
+            } else if since_s > held_s + 0.05 {
+                assert_eq!(ground, GroundState::Degraded, "frame {k}, {since_s} s, sign {sign}");
+            }
+        }
+    }
+    // before: trusted only while warning, for the cane camera's 3 s; at a bare wall the
+    // chest camera went blind within five frames
+    let mut before = chest.clone();
+    before.ground_prediction = GroundPredictionConfig::default();
+    let frames = chest_standing_at_a_wall(before, false);
+    let blind_from = frames.iter().position(|f| f.1 == GroundState::Degraded).unwrap();
+    assert!(blind_from <= 30 + 1 + PerceptionConfig::default().ground.max_lost_frames as usize, "{blind_from}");
+    // the cane camera keeps its rule: a predicted floor never stands in for a clear
+    assert!(!PerceptionConfig::default().ground_prediction.while_clear);
 }
 
 #[test]
