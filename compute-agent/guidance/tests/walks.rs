@@ -17,21 +17,28 @@ const RES_M: f64 = 0.05;
 const TICK_MS: u64 = 100;
 const STEP_M: f64 = 0.1;
 
-fn corridor_floor() -> OccupancyGrid {
+/// A 27 x 13 m floor, free where `free(x, y)` says, walls elsewhere.
+fn floor_where(free: impl Fn(f64, f64) -> bool) -> OccupancyGrid {
     let (w, h) = ((27.0 / RES_M) as usize, (13.0 / RES_M) as usize);
     let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
     let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
     for r in 0..h {
         for c in 0..w {
             let (x, y) = g.cell_center(c, r);
-            let across = (0.5..=26.5).contains(&x) && (10.5..=12.5).contains(&y);
-            let down = (18.5..=20.5).contains(&x) && (0.5..=12.5).contains(&y);
-            if across || down {
+            if free(x, y) {
                 g.set(c, r, Cell::Free);
             }
         }
     }
     g
+}
+
+fn corridor_floor() -> OccupancyGrid {
+    floor_where(|x, y| {
+        let across = (0.5..=26.5).contains(&x) && (10.5..=12.5).contains(&y);
+        let down = (18.5..=20.5).contains(&x) && (0.5..=12.5).contains(&y);
+        across || down
+    })
 }
 
 fn planner() -> Planner {
@@ -233,21 +240,12 @@ fn straight_corridor_then_right_turn_is_announced_once_at_the_distance_then_now(
 /// 10.5..12.5 to y 5.5, and one east again along y 5.5..7.5 to x 26.5: walked from the
 /// west end, a right turn and 5 m on a left one.
 fn jog_floor() -> OccupancyGrid {
-    let (w, h) = ((27.0 / RES_M) as usize, (13.0 / RES_M) as usize);
-    let o = Origin { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 };
-    let mut g = OccupancyGrid::filled(w, h, RES_M, o, Cell::Occupied).unwrap();
-    for r in 0..h {
-        for c in 0..w {
-            let (x, y) = g.cell_center(c, r);
-            let first = (0.5..=12.5).contains(&x) && (10.5..=12.5).contains(&y);
-            let down = (10.5..=12.5).contains(&x) && (5.5..=12.5).contains(&y);
-            let then = (10.5..=26.5).contains(&x) && (5.5..=7.5).contains(&y);
-            if first || down || then {
-                g.set(c, r, Cell::Free);
-            }
-        }
-    }
-    g
+    floor_where(|x, y| {
+        let first = (0.5..=12.5).contains(&x) && (10.5..=12.5).contains(&y);
+        let down = (10.5..=12.5).contains(&x) && (5.5..=12.5).contains(&y);
+        let then = (10.5..=26.5).contains(&x) && (5.5..=7.5).contains(&y);
+        first || down || then
+    })
 }
 
 #[test]
