@@ -74,9 +74,13 @@ pub enum Meaning {
     /// turn slowly on the spot until told the position is found (the filter earns its
     /// tracking from motion)
     Search,
-    /// "Position found." (or "I cannot find your position by turning. Please stop
-    /// turning, ..."): a user turning on the spot stops and waits
+    /// "Position found.": a user turning on the spot stops and waits
     Wait,
+    /// "I cannot find your position by turning. Please stop turning, and tell me the
+    /// number of a door you are at, or ask someone nearby where you are.": the user
+    /// stops turning and stands; neither a door sign within reach nor a passer-by is
+    /// simulated, so they stand and wait for the device to speak, asking nothing
+    NoPlace,
     /// nothing to do now (an announcement, the position's news, a replan)
     Nothing,
 }
@@ -125,8 +129,11 @@ pub fn meaning(text: &str, p: &GuidanceProfile) -> Meaning {
     if t.contains("turn slowly on the spot") {
         return Meaning::Search;
     }
-    if t.starts_with("position found") || t.contains("please stop turning") {
+    if t.starts_with("position found") {
         return Meaning::Wait;
+    }
+    if t.contains("please stop turning") {
+        return Meaning::NoPlace;
     }
     // "Off the route: turn back; the route is 3 metres away, behind you to the left."
     if let Some(rest) = t.strip_prefix("off the route:") {
@@ -160,12 +167,24 @@ pub struct SpokenGuide {
     place: GoalSound,
     /// when the user last heard (or asked) something, seconds
     last_words_s: f64,
+    /// told that turning did not find the place ([`Meaning::NoPlace`]), and nothing
+    /// asked of them since
+    no_place: bool,
 }
 
 impl SpokenGuide {
     /// A user who hears what `ear` collects and, told they arrived, finds `place`.
     pub fn new(ear: Ear, profile: GuidanceProfile, place: GoalSound) -> Self {
-        Self { ear, profile, heading_rad: None, searching: false, arrived: false, place, last_words_s: 0.0 }
+        Self {
+            ear,
+            profile,
+            heading_rad: None,
+            searching: false,
+            arrived: false,
+            place,
+            last_words_s: 0.0,
+            no_place: false,
+        }
     }
 }
 
@@ -182,7 +201,8 @@ impl Guide for SpokenGuide {
             };
             let Some(heard) = next else { break };
             self.last_words_s = heard.at_s;
-            match meaning(&heard.text, &self.profile) {
+            let said = meaning(&heard.text, &self.profile);
+            match said {
                 Meaning::Turn(right_deg) => {
                     self.heading_rad = Some(pose.yaw_rad - right_deg.to_radians());
                     self.searching = false;
@@ -193,8 +213,16 @@ impl Guide for SpokenGuide {
                 // again while walking: walk on as before)
                 Meaning::Wait if self.searching => (self.heading_rad, self.searching) = (None, false),
                 Meaning::Wait => {}
+                Meaning::NoPlace => (self.heading_rad, self.searching) = (None, false),
                 Meaning::Nothing => {}
             }
+            // told what to do without the place, the user asks nothing until the device
+            // has something else to say that asks something of them
+            self.no_place = match said {
+                Meaning::NoPlace => true,
+                Meaning::Nothing => self.no_place,
+                _ => false,
+            };
         }
         if self.arrived {
             return self.place.heading_target_rad(pose, t_s);
@@ -203,8 +231,9 @@ impl Guide for SpokenGuide {
             // turning on the spot ([`Guide::spin_rad_s`]), heading nowhere
             return None;
         }
-        if self.heading_rad.is_none() && t_s - self.last_words_s >= ASK_AFTER_S {
-            // standing with no way to go, and nothing said for a while: "repeat"
+        if self.heading_rad.is_none() && !self.no_place && t_s - self.last_words_s >= ASK_AFTER_S {
+            // standing with no way to go, and nothing said for a while: "repeat" (not
+            // after being told what to do without the place: it would say that again)
             let mut ear = self.ear.borrow_mut();
             if ear.heard.is_empty() && !ear.speaking {
                 ear.asked.push(Command::Repeat);
@@ -387,7 +416,7 @@ mod tests {
         let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
         let at = sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
         let failed = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
-        assert_eq!(meaning(failed, &profile()), Meaning::Wait);
+        assert_eq!(meaning(failed, &profile()), Meaning::NoPlace);
         let said = [
             (1.0, "Turn left now."),
             (3.0, "Position still uncertain: please stop, and turn slowly on the spot until I find your position."),
@@ -401,6 +430,14 @@ mod tests {
         assert_eq!(guide.spin_rad_s(), Some(SEARCH_TURN_RAD_S));
         assert_eq!(guide.heading_target_rad(&at, 30.0), None, "stands");
         assert_eq!(guide.spin_rad_s(), None, "no longer turning");
+        // and asks nothing: "repeat" would say the same again
+        assert_eq!(guide.heading_target_rad(&at, 30.0 + 3.0 * ASK_AFTER_S), None);
+        assert!(ear.borrow().asked.is_empty(), "{:?}", ear.borrow().asked);
+        // the position found: standing with no way yet, the user asks again
+        ear.borrow_mut().heard.push_back(Heard { at_s: 50.0, text: "Position found.".into() });
+        assert_eq!(guide.heading_target_rad(&at, 50.0), None);
+        assert_eq!(guide.heading_target_rad(&at, 50.0 + ASK_AFTER_S), None);
+        assert_eq!(ear.borrow().asked, [Command::Repeat]);
     }
 
     #[test]
