@@ -576,7 +576,7 @@ impl Guide {
             }
             if leg == self.leg && waypoint == self.target && pose.floor == self.legs[leg].route.floor {
                 let pr = self.progress(pose);
-                let (kind, text) = self.turn_words(pr.to_next_m, waypoint);
+                let (kind, text, _) = self.turn_words(pr.to_next_m, waypoint);
                 return self.answer(kind, text, "repeat", now_ms, false);
             }
             let pr = self.progress(pose);
@@ -623,11 +623,17 @@ impl Guide {
         self.deviation_said_ms = None;
     }
 
+    /// Metres from `pose` to the current leg's end as the crow flies (0 on a leg
+    /// without waypoints).
+    fn to_leg_end_m(&self, pose: &UserPose) -> f64 {
+        let here = [pose.x_m, pose.y_m];
+        dist(here, self.waypoints().last().copied().unwrap_or(here))
+    }
+
     /// Within the arrival radius of the current leg's end (or, beside it, within
     /// [`ARRIVAL_BESIDE_M`]), as the crow flies.
     fn at_leg_end(&self, pose: &UserPose) -> bool {
-        let end = self.waypoints().last().copied().unwrap_or([pose.x_m, pose.y_m]);
-        dist([pose.x_m, pose.y_m], end) <= self.profile.arrival_radius_m.max(ARRIVAL_BESIDE_M)
+        self.to_leg_end_m(pose) <= self.profile.arrival_radius_m.max(ARRIVAL_BESIDE_M)
     }
 
     /// Told they are at the elevator, the user walked [`GATEWAY_LEFT_M`] or more from it:
@@ -638,11 +644,11 @@ impl Guide {
         let LegEnd::Gateway { kind: GatewayKind::Elevator, .. } = self.legs[self.leg].end else {
             return None;
         };
-        let end = *self.waypoints().last()?;
-        let away_m = dist([pose.x_m, pose.y_m], end);
+        let away_m = self.to_leg_end_m(pose);
         if self.gateway_left_said || away_m < GATEWAY_LEFT_M || !self.still() {
             return None;
         }
+        let end = *self.waypoints().last()?;
         let (name, _) = gateway_words(GatewayKind::Elevator);
         let text = format!(
             "The {name} is {} away, {}.",
@@ -721,17 +727,19 @@ impl Guide {
 
     /// "Turn right now." within `turn_now_m` of the turn, else "In 6 metres, turn right."
     /// (with the turn after it, when [`Guide::turn_after`] says so: "In 6 metres, turn
-    /// right, then turn left.").
-    fn turn_words(&self, to_turn_m: f64, w: usize) -> (InstructionKind, String) {
+    /// right, then turn left.", and that turn's waypoint).
+    fn turn_words(&self, to_turn_m: f64, w: usize) -> (InstructionKind, String, Option<usize>) {
         let right = self.bend_right_deg(w);
         let turn = Turn::of(right, &self.profile);
         let phrase = turn_phrase(turn, right, &self.profile);
         if to_turn_m <= self.profile.turn_now_m {
-            (InstructionKind::TurnNow { leg: self.leg, waypoint: w, turn }, format!("{} now.", capitalised(&phrase)))
+            let text = format!("{} now.", capitalised(&phrase));
+            (InstructionKind::TurnNow { leg: self.leg, waypoint: w, turn }, text, None)
         } else {
-            let then = self.turn_after(w).map(|(_, words)| words).unwrap_or_default();
-            let text = format!("In {}, {phrase}{then}.", distance_phrase(to_turn_m, &self.profile));
-            (InstructionKind::TurnAhead { leg: self.leg, waypoint: w, turn }, text)
+            let (then, words) = self.turn_after(w).unzip();
+            let text =
+                format!("In {}, {phrase}{}.", distance_phrase(to_turn_m, &self.profile), words.unwrap_or_default());
+            (InstructionKind::TurnAhead { leg: self.leg, waypoint: w, turn }, text, then)
         }
     }
 
@@ -780,7 +788,7 @@ impl Guide {
             if self.said_now == Some((self.leg, w)) {
                 return None;
             }
-            let (kind, text) = self.turn_words(d, w);
+            let (kind, text, _) = self.turn_words(d, w);
             let i = self.issue(kind, text, &key_of("now"), now_ms, Pace::Spaced);
             if i.is_some() {
                 self.said_now = Some((self.leg, w));
@@ -793,11 +801,11 @@ impl Guide {
         let floor_m = p.turn_now_m + p.spacing_walk_m();
         let told = [self.announced, self.then_said].contains(&Some((self.leg, w)));
         if d <= p.announce_turn_m && d > floor_m && !told {
-            let (kind, text) = self.turn_words(d, w);
+            let (kind, text, then) = self.turn_words(d, w);
             let i = self.issue(kind, text, &key_of("ahead"), now_ms, Pace::Spaced);
             if i.is_some() {
                 self.announced = Some((self.leg, w));
-                if let Some((then, _)) = self.turn_after(w) {
+                if let Some(then) = then {
                     self.then_said = Some((self.leg, then));
                 }
             }
