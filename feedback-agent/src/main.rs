@@ -2,7 +2,6 @@
 
 use clap::Parser;
 use feedback_agent::FeedbackConfig;
-use tracing_subscriber::EnvFilter;
 
 /// wearnav feedback agent: turns device-neutral haptic and speech intents into Wii
 /// remote rumble, espeak-ng speech and console lines, publishes what it did on
@@ -16,10 +15,7 @@ struct Cli {
 
 #[tokio::main]
 async fn main() -> anyhow::Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info")))
-        .with_writer(std::io::stderr)
-        .init();
+    bus::logging::init();
     let cli = Cli::parse();
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
