@@ -188,12 +188,16 @@ fn a_recorded_demo_is_summarised_and_replays_the_same_messages_with_the_same_tim
     // Both files stamp arrival, so the error holds the jitter of two recordings and the
     // replay's sleeps. On an idle machine every gap was within 5 ms (p99 2.1, max 3.2);
     // with the other suites running on the same 2 cores, p99 reached 7 ms and one gap
-    // 17 ms: the bound is on p95, the maximum only catches a broken schedule.
+    // 17 ms. The VM's own jitter varies too: alone on it, minutes apart, p95 was 4.45 ms
+    // once and 1.3-1.6 ms (p50 0.44-0.46) three times, and in two CI runs 5.9 and 6.5 ms.
+    // The median says whether the schedule is kept, p95 and the maximum how far the
+    // machine let it slip: a replay 10 % fast (`--rate 1.1`) gave p50 3.77 ms, p95 19.3.
     errors_ms.sort_by(f64::total_cmp);
     let quantile = |q: usize| errors_ms[(errors_ms.len() * q) / 100];
-    let (p95, p99, max) = (quantile(95), quantile(99), errors_ms[errors_ms.len() - 1]);
-    eprintln!("replay timing error over {} gaps: p95 {p95:.2} ms, p99 {p99:.2} ms, max {max:.2} ms", errors_ms.len());
-    assert!(p95 <= 5.0, "inter-message gaps changed by up to {p95:.2} ms at p95 (p99 {p99:.2}, max {max:.2} ms)");
+    let (p50, p95, p99, max) = (quantile(50), quantile(95), quantile(99), errors_ms[errors_ms.len() - 1]);
+    let report = format!("p50 {p50:.2} ms, p95 {p95:.2} ms, p99 {p99:.2} ms, max {max:.2} ms");
+    eprintln!("replay timing error over {} gaps: {report}", errors_ms.len());
+    assert!(p50 <= 2.0 && p95 <= 10.0, "inter-message gaps changed: {report}");
     assert!(max <= 100.0, "an inter-message gap changed by {max:.2} ms");
 }
 
