@@ -731,6 +731,67 @@ async fn with_a_floor_map_the_compute_agent_localizes_answers_queries_and_guides
     assert!(costs.is_some_and(|h| !h.body.predictive), "the predictive cue went on after cancel");
 }
 
+/// 1.5 m forward in 30 odometry steps of 33 ms, each published `late_ms` after its end.
+async fn walk_east(odom: &mut Publisher<schemas::OdomIncrement>, late_ms: u64) {
+    for _ in 0..30 {
+        let to_ns = bus::now_ns() - late_ms * 1_000_000;
+        let inc =
+            schemas::OdomIncrement { from_ns: to_ns - 33_000_000, to_ns, forward_m: 0.05, left_m: 0.0, yaw_rad: 0.0 };
+        odom.put(to_ns, &inc).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(33)).await;
+    }
+}
+
+/// Odometry a stalled link delivers late is still how the user moved: steps 400 ms old
+/// move the localization as fresh ones would (a loaded machine once refused 12 such
+/// steps as stale, and the position went from tracking to converging); steps older than
+/// `--max-odometry-age-ms` (2 s; a replay) are refused as stale and move nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn odometry_that_arrives_late_still_moves_the_localization_and_a_replay_does_not() {
+    use schemas::{OdomIncrement, Pose};
+    let user = "late-odom-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let poses = Subscriber::<Pose>::declare(&hub.session, keys.pose(), true, &hub.health).await.unwrap();
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let map = building_map();
+    let args = ["--map", &map, "--start", "1,5,0,0", "--no-body-imu", "--no-compass"];
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &args);
+    wait_for(&health, Duration::from_secs(10), |h| h.body.agent == "compute-agent").await.expect("compute health");
+    let start = wait_for(&poses, Duration::from_secs(10), |_| true).await.expect("no pose").body;
+    assert!((start.x_m - 1.0).abs() < 0.05 && (start.y_m - 5.0).abs() < 0.05, "{start:?}");
+    let mut odom =
+        Publisher::<OdomIncrement>::declare(&hub.session, keys.odom("cane"), "test", Lane::Events, None).await.unwrap();
+    let stale = |h: &HealthStats| h.rejects.iter().find(|r| r.kind == "stale").map_or(0, |r| r.count);
+    let odom_key = keys.odom_any();
+    let odom_stream =
+        |h: &HealthStats| h.streams.iter().find(|s| s.inbound && s.key == odom_key).map(|s| (s.count, s.rejects));
+
+    walk_east(&mut odom, 400).await;
+    let moved = wait_for(&poses, Duration::from_secs(3), |p| p.body.x_m > 2.3).await;
+    let moved = moved.unwrap_or_else(|| panic!("steps 400 ms late did not move the pose from {start:?}")).body;
+    assert!((moved.x_m - 2.5).abs() < 0.2 && (moved.y_m - 5.0).abs() < 0.2, "1.5 m east of (1, 5): {moved:?}");
+    let taken = wait_for(&health, Duration::from_secs(3), |h| {
+        h.body.agent == "compute-agent" && odom_stream(&h.body).is_some_and(|(n, _)| n >= 30)
+    })
+    .await
+    .expect("the compute agent did not count the late steps");
+    assert_eq!(odom_stream(&taken.body).map(|(_, r)| r), Some(0), "late steps refused: {:?}", taken.body);
+    assert_eq!(stale(&taken.body), 0, "{:?}", taken.body);
+
+    // steps 3 s old (beyond the default --max-odometry-age-ms, 2 s): refused as stale,
+    // nothing moves
+    walk_east(&mut odom, 3000).await;
+    let refused =
+        wait_for(&health, Duration::from_secs(3), |h| h.body.agent == "compute-agent" && stale(&h.body) >= 30)
+            .await
+            .expect("steps 3 s old were not refused as stale");
+    assert_eq!(odom_stream(&refused.body).map(|(_, r)| r), Some(30), "{:?}", refused.body);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let still = poses.try_recv().expect("poses go on").body;
+    assert!((still.x_m - moved.x_m).abs() < 0.1, "a replay moved the pose from {moved:?} to {still:?}");
+}
+
 /// A cane camera (0.99 m up, 30° down) and a chest camera (1.3 m, 10° down) before a
 /// sign hanging 1.6-1.95 m up, 1.2 m ahead: only the chest camera sees it.
 fn cane_and_chest_frames() -> (schemas::DepthFrame, schemas::DepthFrame) {

@@ -60,13 +60,20 @@ struct Cli {
     /// refused and counted as `other_camera` (one ground and one memory per camera).
     #[arg(long, value_name = "DEVICE")]
     cane_device: Option<String>,
-    /// Oldest depth frame or odometry step acted on, in milliseconds from its capture
-    /// (the sender's clock offset, estimated from its health messages, taken out). An
-    /// older one (a stalled link, a replay) is refused and counted as `stale`; when
-    /// every frame is, the feedback agent warns that detection is offline.
+    /// Oldest depth frame acted on, in milliseconds from its capture (the sender's
+    /// clock offset, estimated from its health messages, taken out). An older one (a
+    /// stalled link, a replay) is refused and counted as `stale`; when every frame is,
+    /// the feedback agent warns that detection is offline.
     #[arg(long, value_name = "MS", default_value_t = compute_agent::run::DEFAULT_MAX_INPUT_AGE.as_millis() as u64,
           value_parser = clap::value_parser!(u64).range(1..=10_000))]
     max_input_age_ms: u64,
+    /// Oldest odometry step taken, in milliseconds from its capture. A late step is
+    /// still the user's motion and is applied in order (the obstacle memory and the
+    /// localization would be left where the user was without it); an older one (a
+    /// replay, a link down for longer) is refused and counted as `stale`.
+    #[arg(long, value_name = "MS", default_value_t = compute_agent::run::DEFAULT_MAX_ODOMETRY_AGE.as_millis() as u64,
+          value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    max_odometry_age_ms: u64,
     /// Floor map to localize on and plan routes with: a building manifest
     /// (`building.toml`, as `wearnav map` writes it) or its directory. With it the agent
     /// publishes `localization/pose` and `route/state`, answers `query/destinations` and
@@ -151,6 +158,7 @@ async fn main() -> anyhow::Result<()> {
     config.body_imu_device = (!cli.no_body_imu).then_some(cli.body_imu_device);
     config.compass_device = (!cli.no_compass).then_some(cli.compass_device);
     config.max_input_age = std::time::Duration::from_millis(cli.max_input_age_ms);
+    config.max_odometry_age = std::time::Duration::from_millis(cli.max_odometry_age_ms);
     config.chest_device = cli.chest_device;
     config.cane_device = cli.cane_device;
     if let Some(map) = cli.map {

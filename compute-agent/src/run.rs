@@ -38,11 +38,16 @@ pub struct ComputeConfig {
     /// Device whose compass the localization reads (`sensor/<device>/motion`), with a
     /// floor map that says where north is. `None`: no compass.
     pub compass_device: Option<String>,
-    /// Oldest depth frame or odometry step acted on, from capture to arrival and again
-    /// when the loop takes it up: an older one (a stalled link, a replay) is refused as
-    /// `stale`, so a rumble never reports a world that was, and it counts as no input
-    /// (the feedback agent's watchdog then warns that detection is offline).
+    /// Oldest depth frame acted on, from capture to arrival and again when the loop
+    /// takes it up: an older one (a stalled link, a replay) is refused as `stale`, so a
+    /// rumble never reports a world that was, and it counts as no input (the feedback
+    /// agent's watchdog then warns that detection is offline).
     pub max_input_age: Duration,
+    /// Oldest odometry step taken, from capture to arrival. A late step is still how
+    /// the user moved, placed by its stamps before the frame it leads up to: refusing
+    /// it would leave the obstacle memory and the localization where the user was. An
+    /// older one (a replay, a link down for longer) is refused as `stale`.
+    pub max_odometry_age: Duration,
     /// Localization, route planning and guidance on a floor map; `None`: obstacle
     /// perception only.
     pub nav: Option<NavConfig>,
@@ -65,6 +70,12 @@ pub struct ComputeConfig {
 /// intent 5-6 ms at p99 in the demo, so this allows a few frames of delay, not more.
 pub const DEFAULT_MAX_INPUT_AGE: Duration = Duration::from_millis(150);
 
+/// Default [`ComputeConfig::max_odometry_age`]: a stall of the cane's link or of this
+/// machine (one of 200 ms on a loaded machine once refused 12 steps in a row as stale:
+/// 0.4 s of walking lost, and the localization went from tracking to converging) is
+/// ridden out; a replayed recording is not taken.
+pub const DEFAULT_MAX_ODOMETRY_AGE: Duration = Duration::from_secs(2);
+
 /// Default body-worn IMU device: the simulator's (`sensor-agent --source sim:...`
 /// publishes one); a phone or belt IMU publishing under this name is used the same way.
 pub const DEFAULT_BODY_IMU_DEVICE: &str = "body";
@@ -80,6 +91,7 @@ impl ComputeConfig {
             body_imu_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
             compass_device: Some(DEFAULT_BODY_IMU_DEVICE.to_string()),
             max_input_age: DEFAULT_MAX_INPUT_AGE,
+            max_odometry_age: DEFAULT_MAX_ODOMETRY_AGE,
             nav: None,
             predictive: None,
             chest_device: None,
@@ -299,7 +311,8 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
 
     let max_age = config.max_input_age;
     let frames = Subscriber::<DepthFrame>::declare_fresh(&session, keys.depth_any(), true, max_age, &health).await?;
-    let odom = Subscriber::<OdomIncrement>::declare_fresh(&session, keys.odom_any(), false, max_age, &health).await?;
+    let odom_age = config.max_odometry_age;
+    let odom = Subscriber::<OdomIncrement>::declare_fresh(&session, keys.odom_any(), false, odom_age, &health).await?;
     let mut body = Body {
         imu: match &config.body_imu_device {
             Some(device) => {
