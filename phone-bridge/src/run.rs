@@ -17,8 +17,8 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
 use schemas::{
-    Command, Destinations, GroundTruth, HapticIntent, Hazard, HealthStats, PhoneAck, PhoneHaptic, PhoneMotion,
-    PhoneSpeech, Pose, Priority, RouteState, Scan, SpeechIntent,
+    Command, Destinations, GroundTruth, HapticIntent, Hazard, HealthStats, PhoneAck, PhoneEvent, PhoneHaptic,
+    PhoneMotion, PhoneSpeech, Pose, Priority, RouteState, Scan, SpeechIntent,
 };
 use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
@@ -42,6 +42,8 @@ pub const CLOCK_PERIOD: Duration = Duration::from_secs(1);
 /// Monitor messages queued for the slowest monitor page before it loses some (about
 /// 4 s of the scan, hazard, intent, truth and pose at 30 Hz).
 const MONITOR_QUEUE: usize = 512;
+/// Why the bridge answers a speech request `Failed` itself.
+pub const NO_PAGE: &str = "no phone page is connected";
 
 /// How the page is served.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -727,7 +729,18 @@ pub async fn run(
                 bridge.publish_monitor(monitor::health(&a.body, alive, keys.prefix(), a.age_ms()));
             }
             Some(h) = haptic.recv() => bridge.publish(protocol::vibrate(&h.body)),
-            Some(s) = speech.recv() => bridge.publish(protocol::speech(&s.body)),
+            Some(s) = speech.recv() => match &s.body {
+                // no phone page to say it: answered at once, so the feedback agent's
+                // queue goes on rather than wait for a start that cannot come (what
+                // waited behind such words was once said seconds late, or not at all)
+                PhoneSpeech::Say { id, .. } if lock(&bridge.view).phones_connected == 0 => {
+                    let failed = PhoneAck { id: *id, event: PhoneEvent::Failed { reason: NO_PAGE.into() }, at_ns: bus::now_ns() };
+                    if let Err(e) = acks.put(bus::now_ns(), &failed).await {
+                        tracing::warn!("cannot say that no phone page is connected: {e:#}");
+                    }
+                }
+                said => bridge.publish(protocol::speech(said)),
+            },
             Some(event) = page_events.recv() => match event {
                 PageEvent::Command(c) => {
                     let verb = c.verb();

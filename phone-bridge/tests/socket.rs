@@ -11,7 +11,7 @@ use std::time::Duration;
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
 use common::{connect, next_of, pair};
 use futures_util::{SinkExt, StreamExt};
-use schemas::{Command, PhoneAck, PhoneEvent, PhoneHaptic};
+use schemas::{Command, PhoneAck, PhoneEvent, PhoneHaptic, PhoneSpeech, Priority};
 use serde_json::Value;
 use tokio_tungstenite::tungstenite::Message;
 
@@ -31,6 +31,10 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
     let acks = Subscriber::<PhoneAck>::declare(&session, keys.phone_ack(), false, &health).await.unwrap();
     let mut vibrate =
         Publisher::<PhoneHaptic>::declare(&session, keys.phone_haptic(), "test", Lane::RealTime, None).await.unwrap();
+    let mut speech =
+        Publisher::<PhoneSpeech>::declare(&session, keys.phone_speech(), "test", Lane::Events, None).await.unwrap();
+    let say =
+        |id: u64| PhoneSpeech::Say { id, text: "Turn left.".into(), priority: Priority::Message, interrupt: true };
 
     let mut bus = BusOptions::for_user("socket-test");
     bus.connect = vec![endpoint];
@@ -45,6 +49,22 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
     let (tx, rx) = tokio::sync::oneshot::channel();
     let bridge = tokio::spawn(phone_bridge::run(config, shutdown.clone(), Some(tx)));
     let addr = tokio::time::timeout(Duration::from_secs(10), rx).await.unwrap().unwrap();
+
+    // words for the phone with no page to say them: answered `Failed` at once, so the
+    // feedback agent's queue does not wait for a start that cannot come
+    let mut answer = None;
+    for id in 1..=20 {
+        let asked_ns = bus::now_ns();
+        speech.put(asked_ns, &say(id)).await.unwrap();
+        if let Ok(Some(a)) = tokio::time::timeout(Duration::from_millis(250), acks.recv()).await {
+            answer = Some((a.body, asked_ns));
+            break;
+        }
+    }
+    let (failed, asked_ns) = answer.expect("a say with no page connected was not answered");
+    assert_eq!(failed.event, PhoneEvent::Failed { reason: phone_bridge::run::NO_PAGE.into() }, "{failed:?}");
+    let answered_ms = (failed.at_ns as f64 - asked_ns as f64) / 1e6;
+    assert!((0.0..100.0).contains(&answered_ms), "answered {answered_ms:.1} ms after it was asked");
 
     // no token, a made-up token: refused before any socket opens
     for token in ["", "0123456789abcdef0123456789abcdef"] {
@@ -69,6 +89,13 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
     let mut socket = connect(addr, &token).await.expect("a paired token opens the socket");
     let hello = next_of(&mut socket, "hello", Duration::from_secs(5)).await;
     assert_eq!(hello["user"], "socket-test");
+    // with a page connected the words go to it, unanswered by the bridge
+    speech.put(bus::now_ns(), &say(100)).await.unwrap();
+    let said = next_of(&mut socket, "say", Duration::from_secs(5)).await;
+    assert_eq!((said["id"].as_u64(), said["text"].as_str()), (Some(100), Some("Turn left.")), "{said}");
+    while let Ok(Some(a)) = tokio::time::timeout(Duration::from_millis(300), acks.recv()).await {
+        assert!(a.body.id < 100, "the bridge answered words a page was there to say: {:?}", a.body);
+    }
 
     // bad messages: an error each, nothing forwarded, the socket stays open
     for (bad, says) in [
