@@ -12,7 +12,18 @@ pub struct DeviceOutput {
     /// Actions performed (published on `feedback/applied`).
     pub applied: Vec<Applied>,
     /// Device news for the user ("left controller disconnected"), spoken as messages.
-    pub say: Vec<String>,
+    pub say: Vec<DeviceNews>,
+}
+
+/// A device's news for the user.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceNews {
+    /// The device it is about (its backend name): not said by its own voice, if it has
+    /// one ("Phone not connected" on the phone is heard by nobody, or heard wrongly
+    /// once it is back).
+    pub device: String,
+    /// The words.
+    pub text: String,
 }
 
 impl DeviceOutput {
@@ -29,7 +40,12 @@ impl DeviceOutput {
     /// Record a status change and have it spoken.
     pub fn status(&mut self, device: &str, text: String, now_ns: u64) {
         self.applied(device, AppliedAction::DeviceStatus { text: text.clone() }, now_ns, 0);
-        self.say.push(text);
+        self.say.push(DeviceNews { device: device.to_string(), text });
+    }
+
+    /// The words of the news waiting to be said, oldest first.
+    pub fn said(&self) -> Vec<&str> {
+        self.say.iter().map(|n| n.text.as_str()).collect()
     }
 }
 

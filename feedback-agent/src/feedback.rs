@@ -351,8 +351,8 @@ impl Feedback {
             return;
         }
         let mut actions = std::mem::take(&mut self.actions);
-        for text in self.out.say.drain(..) {
-            self.queue.offer_own(&text, Priority::Message, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
+        for news in self.out.say.drain(..) {
+            self.queue.offer_news(&news.device, &news.text, OWN_UTTERANCE_TTL_MS, now_ns, &mut actions);
         }
         self.actions = actions;
         self.perform_speech(now_ns);
@@ -453,7 +453,12 @@ impl Feedback {
             self.notice = Some(HapticCue::notice(now_ns));
             self.drive_haptics(now_ns, false);
         }
+        let mut voices = 0;
         for (k, engine) in self.engines.iter_mut().enumerate() {
+            if u.about.as_deref() == Some(engine.name()) {
+                continue; // news of this device: its own voice does not say it
+            }
+            voices += 1;
             match engine.start(&u.text, u.priority, now_ns) {
                 Ok(handle) => {
                     if self.engine_errors[k].take().is_some() {
@@ -475,6 +480,11 @@ impl Feedback {
                     self.engine_errors[k] = Some(text);
                 }
             }
+        }
+        if let (0, Some(device)) = (voices, &u.about) {
+            let reason = format!("news of the {device}: no other voice to say it");
+            let action = AppliedAction::SpeechDropped { text: u.text.clone(), reason };
+            self.out.applied("speech-queue", action, now_ns, u.capture_ns);
         }
     }
 }
@@ -526,6 +536,57 @@ mod tests {
     /// Keep detection online with a fresh hazard at `now`.
     fn fresh(f: &mut Feedback, now: u64) {
         f.on_hazard(&hazard(GroundState::Found), now, now);
+    }
+
+    /// A phone that never answers is news for the user, said by every voice but the
+    /// phone's own; with the phone the only voice, it is dropped, and said why.
+    #[test]
+    fn news_of_the_phone_is_not_said_by_the_phone() {
+        use crate::phone::{Outgoing, PhoneHaptic, PhoneLink, PhoneSpeech as Phone, LOST_AFTER_MS};
+        const NEWS: &str = "Phone not connected: no vibration on the phone.";
+        let said_on_phone = |link: &PhoneLink| {
+            link.take_outgoing()
+                .into_iter()
+                .filter_map(|o| match o {
+                    Outgoing::Speech(schemas::PhoneSpeech::Say { text, .. }) => Some(text),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        for with_console in [true, false] {
+            let link = PhoneLink::new();
+            let mut voices: Vec<Box<dyn SpeechEngine>> = vec![Box::new(Phone::new(link.clone()))];
+            if with_console {
+                voices.push(Box::new(ConsoleSpeech::new(Box::new(std::io::sink()), 175)));
+            }
+            let haptics: Vec<Box<dyn HapticDevice>> = vec![Box::new(PhoneHaptic::new(link.clone()))];
+            let mut f = Feedback::new(StepSettings::default(), haptics, voices, T0);
+            let mut phone_said = Vec::new();
+            let mut t = T0;
+            while t <= T0 + (LOST_AFTER_MS + 200) * MS {
+                fresh(&mut f, t);
+                f.tick(t);
+                phone_said.extend(said_on_phone(&link));
+                t += 50 * MS;
+            }
+            let applied: Vec<Applied> = f.drain_applied().collect();
+            let started_on = |device: &str| {
+                applied.iter().any(|a| {
+                    a.device == device && matches!(&a.action, AppliedAction::SpeechStarted { text, .. } if text == NEWS)
+                })
+            };
+            assert!(
+                applied.iter().any(|a| a.action == AppliedAction::DeviceStatus { text: NEWS.into() }),
+                "the phone was never found missing: {applied:?}"
+            );
+            assert!(!phone_said.iter().any(|t| t == NEWS), "the phone was asked to say its own news: {phone_said:?}");
+            assert_eq!(started_on("console"), with_console, "{applied:?}");
+            let dropped = applied.iter().any(|a| {
+                matches!(&a.action, AppliedAction::SpeechDropped { text, reason }
+                    if text == NEWS && reason == "news of the phone: no other voice to say it")
+            });
+            assert_eq!(dropped, !with_console, "{applied:?}");
+        }
     }
 
     #[test]

@@ -632,13 +632,13 @@ mod tests {
             t += 50 * MS;
             phone.poll(t, &mut out);
         }
-        assert_eq!(out.say, ["Phone not answering: no vibration on the phone."]);
-        assert!(out.applied.iter().any(|a| a.action == AppliedAction::DeviceStatus { text: out.say[0].clone() }));
+        assert_eq!(out.said(), ["Phone not answering: no vibration on the phone."]);
+        assert!(out.applied.iter().any(|a| a.action == AppliedAction::DeviceStatus { text: out.say[0].text.clone() }));
         // it comes back
         let last = haptics(sent(&link)).pop().expect("keep-alives went on");
         link.acknowledge(ack(last.id, PhoneEvent::Vibrated, t));
         phone.poll(t + 10 * MS, &mut out);
-        assert_eq!(out.say.last().map(String::as_str), Some("Phone connected."));
+        assert_eq!(out.said().last().copied(), Some("Phone connected."));
     }
 
     #[test]
@@ -649,7 +649,7 @@ mod tests {
         for k in 0..=60 {
             phone.poll(T0 + k * 50 * MS, &mut out);
         }
-        assert_eq!(out.say, ["Phone not connected: no vibration on the phone."]);
+        assert_eq!(out.said(), ["Phone not connected: no vibration on the phone."]);
     }
 
     #[test]

@@ -81,6 +81,8 @@ pub struct Utterance {
     pub status: bool,
     /// Announce it with a notice tap where a device can (the intent's `notice`).
     pub notice: bool,
+    /// News of this device (its backend name): not said by the device's own voice.
+    pub about: Option<String>,
 }
 
 /// What the driver must do, in order.
@@ -164,6 +166,7 @@ impl SpeechQueue {
             dedup_key: intent.dedup_key.clone(),
             status: false,
             notice: intent.notice,
+            about: None,
         };
         self.next_id += 1;
         if self.muted && utterance.priority != Priority::Important {
@@ -178,6 +181,14 @@ impl SpeechQueue {
     /// deduplicated, reported with cause stamp 0, dropped if not started within `ttl_ms`.
     pub fn offer_own(&mut self, text: &str, priority: Priority, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
         let utterance = self.own(text, priority, ttl_ms, now_ns, false);
+        self.enqueue(utterance, false, now_ns, out);
+    }
+
+    /// Offer a device's news as a `Message` of the agent's own ([`Self::offer_own`]),
+    /// marked as about `device` (not said by that device's voice).
+    pub fn offer_news(&mut self, device: &str, text: &str, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
+        let mut utterance = self.own(text, Priority::Message, ttl_ms, now_ns, false);
+        utterance.about = Some(device.to_string());
         self.enqueue(utterance, false, now_ns, out);
     }
 
@@ -203,6 +214,7 @@ impl SpeechQueue {
             dedup_key: String::new(),
             status,
             notice: false,
+            about: None,
         }
     }
 

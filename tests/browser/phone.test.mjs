@@ -199,8 +199,8 @@ step('pairing', ['agents'], 'the page pairs: a wrong code is refused and said, t
 step('guidance', ['pairing'], `Start guides to ${DESTINATION}: the route is shown and its first words said`, 95000, async () => {
   // What the feedback agent says before the page is on the bridge's socket is lost (the
   // route's first words among it): Start only once the agent's keep-alive vibration
-  // (once a second to an idle phone) has come back from the page, the whole way. The
-  // agent says "Phone connected." only when the page took longer than 2.5 s to pair.
+  // (once a second to an idle phone) has come back from the page, the whole way. News
+  // of the phone ("Phone connected.") is said by the agent's other voices, not the phone's.
   await waitFor('a vibration the feedback agent asked for, acknowledged by the page', () => acks('vibrated').length > 0, 20000);
   const select = page.getByLabel('Destination');
   await waitFor(`an option "${DESTINATION}" in the Destination list`, () =>

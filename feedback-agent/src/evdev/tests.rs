@@ -176,15 +176,15 @@ fn a_node_lost_mid_write_is_said_and_reopened() {
     ff.unplug(LEFT);
     b.set_levels(Levels::OFF, HapticPattern::Steady, 0, T0 + MS, false, &mut out);
     assert!(!b.is_open(true));
-    assert_eq!(out.say, ["left controller disconnected"]);
+    assert_eq!(out.said(), ["left controller disconnected"]);
     assert_eq!(b.next_poll_ns(), Some(T0 + MS + 2_000 * MS));
     b.poll(T0 + 2_001 * MS, &mut out);
-    assert_eq!(out.say.len(), 1, "still gone: not said again");
+    assert_eq!(out.said().len(), 1, "still gone: not said again");
     ff.plug(LEFT);
     ff.clear_calls();
     b.poll(T0 + 4_001 * MS, &mut out);
     assert!(b.is_open(true));
-    assert_eq!(out.say.last().map(String::as_str), Some("left controller connected"));
+    assert_eq!(out.said().last().copied(), Some("left controller connected"));
     b.set_levels(levels(1.0, 0.0), HapticPattern::Steady, 0, T0 + 4_002 * MS, false, &mut out);
     assert_eq!(ff.calls_to(LEFT), [upload(-1, 0xffff), ev_ff(2, 1)], "a new effect on the new file");
 }
@@ -197,7 +197,7 @@ fn a_missing_node_is_said_once_and_only_configured_sides_are_looked_for() {
     let mut out = DeviceOutput::default();
     b.poll(T0, &mut out);
     b.poll(T0 + 2_000 * MS, &mut out);
-    assert_eq!(out.say, ["left controller not found"]);
+    assert_eq!(out.said(), ["left controller not found"]);
     ff.plug(LEFT);
     b.poll(T0 + 4_000 * MS, &mut out);
     assert!(b.is_open(true));
@@ -215,7 +215,7 @@ fn a_node_without_force_feedback_is_said_once_and_left_alone() {
     b.set_levels(levels(1.0, 1.0), HapticPattern::Steady, 0, T0, false, &mut out);
     b.set_levels(levels(1.0, 1.0), HapticPattern::Steady, 0, T0 + MS, true, &mut out);
     b.poll(T0 + 10_000 * MS, &mut out);
-    assert_eq!(out.say, ["left controller cannot rumble"]);
+    assert_eq!(out.said(), ["left controller cannot rumble"]);
     assert_eq!(b.next_poll_ns(), None, "not reopened");
     assert_eq!(ff.calls_to(RIGHT).last(), Some(&ev_ff(0, 1)), "the other hand still rumbles");
 }

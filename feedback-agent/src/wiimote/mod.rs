@@ -380,7 +380,7 @@ mod tests {
         assert!(b.is_connected(Hand::Left) && b.is_connected(Hand::Right));
         assert_eq!(hid.written_to(LEFT), vec![vec![0x11, 0x10], vec![0x12, 0x00, 0x30], vec![0x15, 0x00]]);
         assert_eq!(hid.written_to(RIGHT), vec![vec![0x11, 0x20], vec![0x12, 0x00, 0x30], vec![0x15, 0x00]]);
-        assert!(out.say.is_empty(), "a normal start is silent: {:?}", out.say);
+        assert!(out.say.is_empty(), "a normal start is silent: {:?}", out.said());
         assert_eq!(out.applied.len(), 2);
     }
 
@@ -429,7 +429,7 @@ mod tests {
         b.poll(T0 + 100 * MS, &mut out);
         hid.push_input(RIGHT, &low);
         b.poll(T0 + 200 * MS, &mut out);
-        assert_eq!(out.say, ["right controller battery low"]);
+        assert_eq!(out.said(), ["right controller battery low"]);
         assert!(out.applied.iter().any(|a| a.action == AppliedAction::DeviceStatus { text: "battery 12 %".into() }));
     }
 
@@ -440,15 +440,15 @@ mod tests {
         hid.detach(LEFT);
         b.set_levels(left_on(), HapticPattern::Steady, T0, T0 + MS, true, &mut out);
         assert!(!b.is_connected(Hand::Left));
-        assert_eq!(out.say, ["left controller disconnected"]);
+        assert_eq!(out.said(), ["left controller disconnected"]);
         // Still gone at the next scan: not said again.
         b.poll(T0 + 2_001 * MS, &mut out);
-        assert_eq!(out.say.len(), 1);
+        assert_eq!(out.said().len(), 1);
         hid.attach(LEFT, "00:19:1d:00:00:01");
         hid.clear_written();
         b.poll(T0 + 4_002 * MS, &mut out);
         assert!(b.is_connected(Hand::Left));
-        assert_eq!(out.say.last().unwrap(), "left controller connected");
+        assert_eq!(*out.said().last().unwrap(), "left controller connected");
         assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x10], "LED 1 lit again on the left");
     }
 
@@ -466,12 +466,12 @@ mod tests {
         b.poll(T0 + 4_000 * MS, &mut out);
         assert!(b.is_connected(Hand::Right) && !b.is_connected(Hand::Left));
         assert_eq!(hid.written_to(LEFT)[0], [0x11, 0x20], "LED 2: it is the right hand's remote");
-        assert_eq!(out.say, ["right controller connected"]);
+        assert_eq!(out.said(), ["right controller connected"]);
         hid.attach(RIGHT, "00:19:1d:00:00:01");
         b.poll(T0 + 8_000 * MS, &mut out);
         assert!(b.is_connected(Hand::Left));
         assert_eq!(hid.written_to(RIGHT)[0], [0x11, 0x10]);
-        assert_eq!(out.say, ["right controller connected", "left controller connected"]);
+        assert_eq!(out.said(), ["right controller connected", "left controller connected"]);
     }
 
     #[test]
@@ -507,7 +507,7 @@ mod tests {
         let mut out = DeviceOutput::default();
         b.poll(T0, &mut out);
         b.poll(T0 + 2_000 * MS, &mut out);
-        assert_eq!(out.say, ["left controller not found", "right controller not found"]);
+        assert_eq!(out.said(), ["left controller not found", "right controller not found"]);
         assert_eq!(b.next_poll_ns(), Some(T0 + 2_000 * MS + 50 * MS));
         hid.attach(LEFT, "a");
         b.poll(T0 + 4_000 * MS, &mut out);
