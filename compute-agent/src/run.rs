@@ -71,9 +71,9 @@ pub struct ComputeConfig {
 pub const DEFAULT_MAX_INPUT_AGE: Duration = Duration::from_millis(150);
 
 /// Default [`ComputeConfig::max_odometry_age`]: a stall of the cane's link or of this
-/// machine (one of 200 ms on a loaded machine once refused 12 steps in a row as stale:
-/// 0.4 s of walking lost, and the localization went from tracking to converging) is
-/// ridden out; a replayed recording is not taken.
+/// machine is ridden out (on a loaded machine, with the depth frames' 150 ms bound, a
+/// stall once had 12 steps refused as stale, 0.4 s of walking lost, and the
+/// localization went from tracking to converging); a replayed recording is not taken.
 pub const DEFAULT_MAX_ODOMETRY_AGE: Duration = Duration::from_secs(2);
 
 /// Default body-worn IMU device: the simulator's (`sensor-agent --source sim:...`
