@@ -52,12 +52,14 @@ async fn the_socket_needs_pairing_refuses_bad_input_and_carries_requests_and_ack
 
     // words for the phone with no page to say them: answered `Failed` at once, so the
     // feedback agent's queue does not wait for a start that cannot come
+    // (said again until the bridge has subscribed; an answer is matched to its own say)
+    let mut asked = std::collections::HashMap::new();
     let mut answer = None;
     for id in 1..=20 {
-        let asked_ns = bus::now_ns();
-        speech.put(asked_ns, &say(id)).await.unwrap();
+        asked.insert(id, bus::now_ns());
+        speech.put(asked[&id], &say(id)).await.unwrap();
         if let Ok(Some(a)) = tokio::time::timeout(Duration::from_millis(250), acks.recv()).await {
-            answer = Some((a.body, asked_ns));
+            answer = Some((a.body.clone(), asked[&a.body.id]));
             break;
         }
     }
