@@ -44,6 +44,7 @@ impl DeviceOutput {
     }
 
     /// The words of the news waiting to be said, oldest first.
+    #[cfg(test)]
     pub fn said(&self) -> Vec<&str> {
         self.say.iter().map(|n| n.text.as_str()).collect()
     }

@@ -734,8 +734,9 @@ pub async fn run(
                 // queue goes on rather than wait for a start that cannot come (what
                 // waited behind such words was once said seconds late, or not at all)
                 PhoneSpeech::Say { id, .. } if lock(&bridge.view).phones_connected == 0 => {
-                    let failed = PhoneAck { id: *id, event: PhoneEvent::Failed { reason: NO_PAGE.into() }, at_ns: bus::now_ns() };
-                    if let Err(e) = acks.put(bus::now_ns(), &failed).await {
+                    let now = bus::now_ns();
+                    let failed = PhoneAck { id: *id, event: PhoneEvent::Failed { reason: NO_PAGE.into() }, at_ns: now };
+                    if let Err(e) = acks.put(now, &failed).await {
                         tracing::warn!("cannot say that no phone page is connected: {e:#}");
                     }
                 }
