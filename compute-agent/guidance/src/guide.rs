@@ -17,7 +17,9 @@
 //! 6. the next turn: "turn right now" within `turn_now_m`, "in 6 metres, turn right" within
 //!    `announce_turn_m` (skipped when "now" would follow sooner than the spacing); a turn
 //!    whose own announcement would be skipped after the "now" of the one before is
-//!    announced with that one ("In 6 metres, turn right, then turn left.");
+//!    announced with that one ("In 6 metres, turn right, then turn left."); where that
+//!    one's announcement was left out, its "now" is followed at once by the next
+//!    ("Turn right now." "Then turn left.": the "now" stays short);
 //! 7. a gateway ahead;
 //! 8. a numbered door the user comes level with ("Passing door 214, on your left."),
 //!    where nothing of 5-7 is near enough ahead for it to be held back by the door.
@@ -35,6 +37,9 @@ use crate::instruction::{ttl_ms, Instruction, InstructionKind};
 use crate::profile::{DirectionStyle, GuidanceProfile};
 use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
 use crate::where_am_i::where_am_i;
+
+/// "Then turn left." follows the "now" before it within this, or is not said, ms.
+const THEN_WITHIN_MS: u64 = 1000;
 
 /// How much of the heading's history is kept to tell a turning user, ms.
 const HEADINGS_KEPT_MS: u64 = 1000;
@@ -164,9 +169,12 @@ pub struct Guide {
     started_leg: Option<usize>,
     announced: Option<(usize, usize)>,
     said_now: Option<(usize, usize)>,
-    /// the turn announced with the one before it ("…, then turn left."):
-    /// not announced again
+    /// the turn announced with the one before it ("…, then turn left.", or "Then turn
+    /// left." after its "now"): not announced again
     then_said: Option<(usize, usize)>,
+    /// the turn to say right after the "now" just said (leg, waypoint, when the "now"
+    /// was issued, ms), because nothing announced it
+    then_due: Option<(usize, usize, u64)>,
     gateway_ahead_said: Option<usize>,
     at_gateway_said: Option<usize>,
     /// after that, the user walked away from the elevator and was told where it is
@@ -219,6 +227,7 @@ impl Guide {
             announced: None,
             said_now: None,
             then_said: None,
+            then_due: None,
             gateway_ahead_said: None,
             at_gateway_said: None,
             gateway_left_said: false,
@@ -288,6 +297,7 @@ impl Guide {
         self.announced = None;
         self.said_now = None;
         self.then_said = None;
+        self.then_due = None;
         self.gateway_ahead_said = None;
         self.at_gateway_said = None;
         self.gateway_left_said = false;
@@ -342,9 +352,11 @@ impl Guide {
                 self.announced = None;
                 self.then_said = None;
             }
+            // said again, and the turn after it (if due) after that
             InstructionKind::TurnNow { leg, waypoint, .. } if self.said_now == Some((leg, waypoint)) => {
                 self.said_now = None;
                 self.announced = None;
+                self.then_due = None;
             }
             InstructionKind::GatewayAhead { leg } if self.gateway_ahead_said == Some(leg) => {
                 self.gateway_ahead_said = None;
@@ -518,6 +530,9 @@ impl Guide {
                 return i;
             }
             _ => {}
+        }
+        if let Some(i) = self.then_after_now(now_ms) {
+            return Some(i);
         }
         if let Some(i) = self.turn(&pr, now_ms) {
             return Some(i);
@@ -793,14 +808,16 @@ impl Guide {
             if i.is_some() {
                 self.said_now = Some((self.leg, w));
                 self.announced = Some((self.leg, w));
+                // the turn close after it, when this one's announcement (which would
+                // have taken it in) was left out
+                self.then_due = self.turn_after(w).filter(|&(v, _)| !self.told(v)).map(|(v, _)| (self.leg, v, now_ms));
             }
             return i;
         }
         // an announcement that "now" would follow within the spacing is left out, as is
         // one of a turn said with the announcement before it
         let floor_m = p.turn_now_m + p.spacing_walk_m();
-        let told = [self.announced, self.then_said].contains(&Some((self.leg, w)));
-        if d <= p.announce_turn_m && d > floor_m && !told {
+        if d <= p.announce_turn_m && d > floor_m && !self.told(w) {
             let (kind, text, then) = self.turn_words(d, w);
             let i = self.issue(kind, text, &key_of("ahead"), now_ms, Pace::Spaced);
             if i.is_some() {
@@ -812,6 +829,40 @@ impl Guide {
             return i;
         }
         None
+    }
+
+    /// Whether the turn at waypoint `w` of this leg has been announced, alone or with
+    /// the turn before it.
+    fn told(&self, w: usize) -> bool {
+        [self.announced, self.then_said].contains(&Some((self.leg, w)))
+    }
+
+    /// "Then turn left.": the turn after a "now" whose announcement was left out
+    /// ([`Guide::turn_after`]: its own announcement would be left out too), in the
+    /// step after that "now", so that it follows it in the voice. The "now" itself
+    /// stays short: what is cut off or dropped of this loses nothing the user must act
+    /// on now (its own "now" follows at the turn). Not kept to the spacing, nor does it
+    /// count for it (the next "now" keeps its place), no notice tap (the voice is
+    /// already speaking), and not what "repeat" says; within a second of the "now" or
+    /// not at all.
+    fn then_after_now(&mut self, now_ms: u64) -> Option<Instruction> {
+        let (leg, v, said_ms) = self.then_due.take()?;
+        if leg != self.leg || now_ms > said_ms + THEN_WITHIN_MS {
+            return None;
+        }
+        let right = self.bend_right_deg(v);
+        let turn = Turn::of(right, &self.profile);
+        let text = format!("Then {}.", turn_phrase(turn, right, &self.profile));
+        let kind = InstructionKind::TurnThen { leg, waypoint: v, turn };
+        self.then_said = Some((leg, v));
+        Some(Instruction {
+            ttl_ms: ttl_ms(&kind),
+            kind,
+            text,
+            dedup_key: format!("guidance/r{}/leg{leg}/turn{v}/then", self.generation),
+            vibrate_first: false,
+            issued_ms: now_ms,
+        })
     }
 
     /// A direction relative to where the user faces, said while they turn, is wrong by
@@ -985,6 +1036,7 @@ impl Guide {
         forget(&mut self.announced);
         forget(&mut self.said_now);
         forget(&mut self.then_said);
+        self.then_due = None;
     }
 
     fn replan(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {

@@ -35,6 +35,16 @@ pub enum InstructionKind {
         /// its category
         turn: Turn,
     },
+    /// the turn after a "now" whose announcement was left out, said right after it
+    /// ("Then turn left."): else it is heard only as its own "now"
+    TurnThen {
+        /// leg index
+        leg: usize,
+        /// waypoint index of the turn after, on that leg
+        waypoint: usize,
+        /// its category
+        turn: Turn,
+    },
     /// an elevator, stairs or ramp ahead, to be taken to another floor
     GatewayAhead {
         /// leg index
@@ -128,15 +138,17 @@ impl Instruction {
 }
 
 /// The speech priority of an instruction: `Text` for what asks nothing of the user
-/// and only tells where things stand (a door in passing, "position uncertain"), so a
-/// turn, a prompt or an answer (`Message`) cuts it off and goes first, and a newer one
-/// replaces one still waiting; `Message` for everything else, the request to stop and
-/// turn on the spot (and to stop turning when that did not find the place) included.
-/// Measured in docs/guidance.md ("What only tells where things stand gives way"): the
-/// turns "now" the speech queue had dropped behind it.
+/// now (a door in passing, "position uncertain", the "then" after a "now", whose own
+/// "now" follows), so a turn, a prompt or an answer (`Message`) cuts it off and goes
+/// first, and a newer one replaces one still waiting; `Message` for everything else,
+/// the request to stop and turn on the spot (and to stop turning when that did not
+/// find the place) included. Measured in docs/guidance.md ("What only tells where
+/// things stand gives way"): the turns "now" the speech queue had dropped behind it.
 pub fn priority(kind: &InstructionKind) -> Priority {
     match kind {
-        InstructionKind::PassingDoor { .. } | InstructionKind::PositionUncertain => Priority::Text,
+        InstructionKind::PassingDoor { .. } | InstructionKind::PositionUncertain | InstructionKind::TurnThen { .. } => {
+            Priority::Text
+        }
         _ => Priority::Message,
     }
 }
@@ -160,11 +172,14 @@ pub fn localization_news(news: &str, serial: u64) -> SpeechIntent {
 }
 
 /// How long each kind may wait for the speaker, ms (our choice: a "now" said later
-/// than 1.5 s is said past the corner at walking pace, a door past the door; an
-/// announcement is good for about half its 6 m; answers and arrival for 5 s).
+/// than 1.5 s is said past the corner at walking pace, a door past the door; the
+/// "then" after a "now" must end (1 s of words) before the next "now" can be due, the
+/// spacing after the first; an announcement is good for about half its 6 m; answers
+/// and arrival for 5 s).
 pub fn ttl_ms(kind: &InstructionKind) -> u32 {
     match kind {
         InstructionKind::TurnNow { .. } | InstructionKind::PassingDoor { .. } => 1500,
+        InstructionKind::TurnThen { .. } => 2000,
         InstructionKind::TurnAhead { .. } | InstructionKind::OffRoute { .. } | InstructionKind::Continue => 3000,
         _ => 5000,
     }

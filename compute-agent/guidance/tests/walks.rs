@@ -139,8 +139,9 @@ fn pose(at: [f64; 2], heading_rad: f64) -> UserPose {
 fn assert_priorities(said: &[Said]) {
     for s in said {
         let speech = s.instruction.speech();
-        let tells_only = matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })
-            || s.instruction.text.starts_with("Position uncertain:");
+        let tells_only =
+            matches!(s.instruction.kind, InstructionKind::PassingDoor { .. } | InstructionKind::TurnThen { .. })
+                || s.instruction.text.starts_with("Position uncertain:");
         let expected = if tells_only { Priority::Text } else { Priority::Message };
         assert_eq!(speech.priority, expected, "{s:?}");
         assert!(!speech.interrupt, "{s:?}");
@@ -148,8 +149,11 @@ fn assert_priorities(said: &[Said]) {
     }
 }
 
-/// No two instructions closer than the spacing, except arrival.
+/// No two instructions closer than the spacing, except arrival (and the "then" after a
+/// "now", which neither keeps the spacing nor counts for it).
 fn assert_spaced(said: &[Said], min_ms: u64) {
+    let said: Vec<&Said> =
+        said.iter().filter(|s| !matches!(s.instruction.kind, InstructionKind::TurnThen { .. })).collect();
     for w in said.windows(2) {
         if w[1].instruction.kind != InstructionKind::Arrived {
             assert!(w[1].t_ms - w[0].t_ms >= min_ms, "{:?} then {:?}", w[0], w[1]);
@@ -307,6 +311,74 @@ fn a_turn_too_near_the_one_before_for_its_own_announcement_is_announced_with_tha
     assert_eq!(texts[1..3], ["In 6 metres, turn right.", "Turn right now."], "{said:#?}");
     assert!(texts[3].starts_with("In ") && texts[3].ends_with(" metres, turn left."), "{said:#?}");
     assert_eq!(texts[4], "Turn left now.");
+}
+
+#[test]
+fn where_a_turns_announcement_is_left_out_the_turn_close_after_it_follows_its_now() {
+    // the route starts 5.5 m before the right turn: its announcement would fall within
+    // the spacing after the route's start, and the left turn's within the spacing after
+    // the right turn's "now"
+    let mut p = Planner::new(0, &jog_floor(), &NavGraphConfig::default());
+    let route = p.plan([5.5, 11.5], [25.5, 6.5]).unwrap();
+    let w = &route.waypoints;
+    assert_eq!(w.len(), 4, "a right turn and a left one: {w:?}");
+    assert!((5.0..=6.0).contains(&dist(w[0], w[1])), "{w:?}");
+    let new_guide =
+        || Guide::single_floor(route.clone(), "the stairs", SemanticLayer::default(), GuidanceProfile::default());
+    let mut guide = new_guide();
+    let poses = poses_along(w);
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |_| true);
+    assert!(texts(&said)[0].starts_with("Route to the stairs: "), "{said:#?}");
+    assert_eq!(
+        texts(&said)[1..],
+        ["Turn right now.", "Then turn left.", "Turn left now.", "You have arrived at the stairs."],
+        "{said:#?}"
+    );
+    // the "now" where it would be alone: the first pose within 1.5 m of the turn once
+    // the spacing after the start has passed; the "then" in the step after it, at the
+    // priority of what asks nothing now (a "now" said again after a cut goes first),
+    // no notice tap, and it does not hold back the left turn's "now"
+    let d_now = dist(said[1].at, w[1]);
+    assert!(d_now <= 1.5 && d_now > 1.5 - STEP_M - 1e-9, "{said:#?}");
+    assert_eq!(said[2].t_ms, said[1].t_ms + TICK_MS);
+    let then = &said[2].instruction;
+    assert!(matches!(then.kind, InstructionKind::TurnThen { leg: 0, waypoint: 2, .. }), "{then:?}");
+    assert!(!then.vibrate_first && then.speech().priority == Priority::Text && then.ttl_ms == 2000, "{then:?}");
+    let d_left = dist(said[3].at, w[2]);
+    assert!(d_left <= 1.5 && d_left > 1.5 - STEP_M - 1e-9, "{said:#?}");
+    assert_spaced(&said, 3000);
+    assert_priorities(&said);
+    // "repeat" after it says the turn ahead, not the "then"
+    let k_then = poses.iter().position(|&(at, _)| at == said[2].at).unwrap();
+    assert_eq!(guide.last().map(|i| i.text.as_str()), Some("You have arrived at the stairs."));
+    let mut guide = new_guide();
+    let first = walk(&mut guide, &poses[..=k_then], 0, 0, Some(&p), |_| true);
+    assert_eq!(first.last().unwrap().instruction.text, "Then turn left.");
+    let here = poses[k_then];
+    assert_eq!(guide.repeat(&pose(here.0, here.1), 20_000).text, "Turn right now.");
+
+    // the right turn's "now" not heard: said again, the "then" after it, and the left
+    // turn still not announced on its own
+    let mut guide = new_guide();
+    let k_now = k_then - 1;
+    walk(&mut guide, &poses[..=k_now], 0, 0, Some(&p), |_| true);
+    assert!(guide.not_heard("Turn right now."));
+    let t0 = (k_now as u64 + 1) * TICK_MS;
+    let rest = walk(&mut guide, &poses[k_now + 1..], 0, t0, Some(&p), |_| true);
+    assert_eq!(
+        texts(&rest),
+        ["Turn right now.", "Then turn left.", "Turn left now.", "You have arrived at the stairs."],
+        "{rest:#?}"
+    );
+    assert_eq!(rest[0].t_ms, t0, "not heard: no spacing to keep after it");
+
+    // announced, the right turn takes the left one in its announcement and no "then"
+    // follows its "now" (the walk from the route's usual start, 10 m before the turn)
+    let route = p.plan([1.5, 11.5], [25.5, 6.5]).unwrap();
+    let mut guide =
+        Guide::single_floor(route.clone(), "the stairs", SemanticLayer::default(), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&route.waypoints), 0, 0, Some(&p), |_| true);
+    assert!(!said.iter().any(|s| matches!(s.instruction.kind, InstructionKind::TurnThen { .. })), "{said:#?}");
 }
 
 /// The corridors of [`corridor_floor`] with a numbered door every 3 m in each wall:

@@ -371,6 +371,7 @@ mod tests {
         for text in [
             "In 6 metres, turn right.",
             "In 6 metres, turn right, then turn left.",
+            "Then turn left.",
             "Going to music. Finding your position first: I will tell you when I have it.",
             "In 12 metres, turn sharply left.",
             "Position uncertain: no turn instructions until I know where you are again.",
