@@ -855,14 +855,7 @@ impl Guide {
         let text = format!("Then {}.", turn_phrase(turn, right, &self.profile));
         let kind = InstructionKind::TurnThen { leg, waypoint: v, turn };
         self.then_said = Some((leg, v));
-        Some(Instruction {
-            ttl_ms: ttl_ms(&kind),
-            kind,
-            text,
-            dedup_key: format!("guidance/r{}/leg{leg}/turn{v}/then", self.generation),
-            vibrate_first: false,
-            issued_ms: now_ms,
-        })
+        Some(Instruction::untapped(kind, text, format!("guidance/r{}/leg{leg}/turn{v}/then", self.generation), now_ms))
     }
 
     /// A direction relative to where the user faces, said while they turn, is wrong by
@@ -921,14 +914,9 @@ impl Guide {
             (DirectionStyle::Words, false) => "on your right",
         };
         let kind = InstructionKind::PassingDoor { number: number.clone() };
-        let i = Instruction {
-            ttl_ms: ttl_ms(&kind),
-            kind,
-            text: format!("Passing door {number}, {side}."),
-            dedup_key: format!("guidance/r{}/door/{number}", self.generation),
-            vibrate_first: false,
-            issued_ms: now_ms,
-        };
+        let (text, key) =
+            (format!("Passing door {number}, {side}."), format!("guidance/r{}/door/{number}", self.generation));
+        let i = Instruction::untapped(kind, text, key, now_ms);
         self.doors_said.push(number);
         self.last_door_at = Some(here);
         Some(i)
@@ -1092,14 +1080,7 @@ impl Guide {
     /// delay the next spontaneous instruction; no vibration (the user is listening).
     fn answer(&mut self, kind: InstructionKind, text: String, key: &str, now_ms: u64, remember: bool) -> Instruction {
         self.serial += 1;
-        let i = Instruction {
-            ttl_ms: ttl_ms(&kind),
-            kind,
-            text,
-            dedup_key: format!("guidance/{key}/{}", self.serial),
-            vibrate_first: false,
-            issued_ms: now_ms,
-        };
+        let i = Instruction::untapped(kind, text, format!("guidance/{key}/{}", self.serial), now_ms);
         if remember {
             self.last = Some(i.clone());
         }

@@ -117,6 +117,12 @@ pub struct Instruction {
 }
 
 impl Instruction {
+    /// One without the notice tap (the user is already listening, or it asks nothing),
+    /// waiting for the speaker at most its kind's [`ttl_ms`].
+    pub(crate) fn untapped(kind: InstructionKind, text: String, dedup_key: String, issued_ms: u64) -> Self {
+        Self { ttl_ms: ttl_ms(&kind), kind, text, dedup_key, vibrate_first: false, issued_ms }
+    }
+
     /// The speech intent for the feedback agent: the kind's [`priority`], no
     /// interrupt, a notice tap first when the profile asks for one
     /// ([`Instruction::vibrate_first`]).
