@@ -172,9 +172,6 @@ pub struct Guide {
     /// the turn announced with the one before it ("…, then turn left.", or "Then turn
     /// left." after its "now"): not announced again
     then_said: Option<(usize, usize)>,
-    /// the turn to say right after the "now" just said (leg, waypoint, when the "now"
-    /// was issued, ms), because nothing announced it
-    then_due: Option<(usize, usize, u64)>,
     gateway_ahead_said: Option<usize>,
     at_gateway_said: Option<usize>,
     /// after that, the user walked away from the elevator and was told where it is
@@ -227,7 +224,6 @@ impl Guide {
             announced: None,
             said_now: None,
             then_said: None,
-            then_due: None,
             gateway_ahead_said: None,
             at_gateway_said: None,
             gateway_left_said: false,
@@ -297,7 +293,6 @@ impl Guide {
         self.announced = None;
         self.said_now = None;
         self.then_said = None;
-        self.then_due = None;
         self.gateway_ahead_said = None;
         self.at_gateway_said = None;
         self.gateway_left_said = false;
@@ -352,11 +347,9 @@ impl Guide {
                 self.announced = None;
                 self.then_said = None;
             }
-            // said again, and the turn after it (if due) after that
             InstructionKind::TurnNow { leg, waypoint, .. } if self.said_now == Some((leg, waypoint)) => {
                 self.said_now = None;
                 self.announced = None;
-                self.then_due = None;
             }
             InstructionKind::GatewayAhead { leg } if self.gateway_ahead_said == Some(leg) => {
                 self.gateway_ahead_said = None;
@@ -808,9 +801,6 @@ impl Guide {
             if i.is_some() {
                 self.said_now = Some((self.leg, w));
                 self.announced = Some((self.leg, w));
-                // the turn close after it, when this one's announcement (which would
-                // have taken it in) was left out
-                self.then_due = self.turn_after(w).filter(|&(v, _)| !self.told(v)).map(|(v, _)| (self.leg, v, now_ms));
             }
             return i;
         }
@@ -838,18 +828,24 @@ impl Guide {
     }
 
     /// "Then turn left.": the turn after a "now" whose announcement was left out
-    /// ([`Guide::turn_after`]: its own announcement would be left out too), in the
-    /// step after that "now", so that it follows it in the voice. The "now" itself
-    /// stays short: what is cut off or dropped of this loses nothing the user must act
-    /// on now (its own "now" follows at the turn). Not kept to the spacing, nor does it
-    /// count for it (the next "now" keeps its place), no notice tap (the voice is
-    /// already speaking), and not what "repeat" says; within a second of the "now" or
-    /// not at all.
+    /// ([`Guide::turn_after`]: its own announcement would be left out too, and nothing
+    /// told it), in the step after that "now", so that it follows it in the voice. The
+    /// "now" itself stays short: what is cut off or dropped of this loses nothing the
+    /// user must act on now (its own "now" follows at the turn). Not kept to the
+    /// spacing, nor does it count for it (the next "now" keeps its place), no notice tap
+    /// (the voice is already speaking), and not what "repeat" says; only while the last
+    /// instruction is that "now", said within a second, or not at all (a "now" not
+    /// heard is said again first).
     fn then_after_now(&mut self, now_ms: u64) -> Option<Instruction> {
-        let (leg, v, said_ms) = self.then_due.take()?;
-        if leg != self.leg || now_ms > said_ms + THEN_WITHIN_MS {
+        let Some(InstructionKind::TurnNow { leg, waypoint: w, .. }) = self.last.as_ref().map(|i| &i.kind) else {
+            return None;
+        };
+        let (leg, w) = (*leg, *w);
+        let recent = self.last_spontaneous_ms.is_some_and(|t| now_ms <= t + THEN_WITHIN_MS);
+        if leg != self.leg || self.said_now != Some((leg, w)) || !recent {
             return None;
         }
+        let (v, _) = self.turn_after(w).filter(|&(v, _)| !self.told(v))?;
         let right = self.bend_right_deg(v);
         let turn = Turn::of(right, &self.profile);
         let text = format!("Then {}.", turn_phrase(turn, right, &self.profile));
@@ -1024,7 +1020,6 @@ impl Guide {
         forget(&mut self.announced);
         forget(&mut self.said_now);
         forget(&mut self.then_said);
-        self.then_due = None;
     }
 
     fn replan(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {
