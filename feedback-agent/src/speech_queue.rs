@@ -177,8 +177,9 @@ impl SpeechQueue {
         Ok(())
     }
 
-    /// Offer the agent's own utterance (offline warnings, device news): never
-    /// deduplicated, reported with cause stamp 0, dropped if not started within `ttl_ms`.
+    /// Offer the agent's own utterance (the mute's confirmation, the tilt sensor's
+    /// news; device news goes by [`Self::offer_news`]): never deduplicated, reported
+    /// with cause stamp 0, dropped if not started within `ttl_ms`.
     pub fn offer_own(&mut self, text: &str, priority: Priority, ttl_ms: u32, now_ns: u64, out: &mut Vec<SpeechAction>) {
         let utterance = self.own(text, priority, ttl_ms, now_ns, false);
         self.enqueue(utterance, false, now_ns, out);
