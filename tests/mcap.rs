@@ -458,13 +458,37 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     assert!(status.success(), "record failed: {err}");
 
     let (before, after) = (hazards(&original), hazards(&rerun));
-    let frames = messages(&original).iter().filter(|(k, _)| k.ends_with("/depth")).map(|(_, v)| v.len()).sum::<usize>();
-    assert!(frames >= 150, "{frames} frames in 6 s of a 30 Hz camera");
-    assert_eq!(before.len(), frames, "the original agent's hazards against the frames recorded");
-    let differ: Vec<_> = before.iter().filter(|(f, h)| after.get(f) != Some(h)).map(|(f, _)| *f).collect();
-    eprintln!("{} hazards from {frames} frames; {} differ from the original's", after.len(), differ.len());
+    let recorded: std::collections::BTreeSet<u64> = messages(&original)
+        .iter()
+        .filter(|(k, _)| k.ends_with("/depth"))
+        .flat_map(|(_, v)| {
+            v.iter().map(|(_, _, bytes)| schemas::decode::<schemas::DepthFrame>(bytes).expect("a frame").0.seq)
+        })
+        .collect();
+    assert!(recorded.len() >= 150, "{} frames in 6 s of a 30 Hz camera", recorded.len());
+    let unheard: Vec<u64> = recorded.iter().filter(|f| !before.contains_key(f)).copied().collect();
+    assert!(unheard.is_empty(), "recorded frames without the original agent's hazard: {unheard:?}");
+    // The camera's lane drops a frame rather than queue it: the recorder, a subscriber
+    // on another link, can miss one the agent perceived (once in a CI run: 179 hazards,
+    // 178 frames recorded). From there the fresh agent, without it, may differ; what
+    // comes before must not. More than that is a recorder that loses frames.
+    let missed: Vec<u64> = before.keys().filter(|f| !recorded.contains(f)).copied().collect();
+    assert!(missed.len() <= 2, "{} of {} frames not recorded: {missed:?}", missed.len(), before.len());
+    let compared: Vec<u64> = before.keys().copied().take_while(|f| missed.first().is_none_or(|m| f < m)).collect();
+    assert!(compared.len() >= 30, "only {} frames before the first not recorded ({missed:?})", compared.len());
+    let differ: Vec<u64> = compared.iter().filter(|f| after.get(f) != before.get(f)).copied().collect();
+    eprintln!(
+        "{} hazards from {} frames recorded ({} not recorded); {} of the {} compared differ from the original's",
+        after.len(),
+        recorded.len(),
+        missed.len(),
+        differ.len(),
+        compared.len()
+    );
     if let Some(f) = differ.first() {
         panic!("frame {f}: originally {:?}, replayed {:?} ({} frames differ)", before[f], after.get(f), differ.len());
     }
-    assert_eq!(after.len(), before.len());
+    if missed.is_empty() {
+        assert_eq!(after.len(), before.len());
+    }
 }
