@@ -1,6 +1,7 @@
 //! `wearnav demo`: every agent in one process, each with its own Zenoh session, on the
 //! simulated world, with a live status line measured from the message stamps.
 
+use std::collections::BTreeMap;
 use std::net::{Ipv4Addr, SocketAddr, TcpListener};
 use std::time::{Duration, Instant};
 
@@ -96,7 +97,9 @@ struct Tally {
     sensor_fps: Option<f32>,
     applied: u64,
     offline_warnings: u64,
-    rejects: u64,
+    /// Per agent, from its latest health: rejected inputs and messages lost on the way
+    /// to it (gaps in their publishers' numbering).
+    losses: BTreeMap<String, (u64, u64)>,
 }
 
 impl Tally {
@@ -140,11 +143,19 @@ impl Tally {
     }
 
     fn on_health(&mut self, h: &HealthStats) {
+        let rejects = h.rejects.iter().map(|r| r.count).sum();
+        let missed = h.streams.iter().map(|s| s.missed).sum();
+        self.losses.insert(h.agent.clone(), (rejects, missed));
         if h.agent == sensor_agent::run::AGENT {
             if let Some(depth) = h.streams.iter().find(|s| s.key.ends_with("/depth") && !s.inbound) {
                 self.sensor_fps = Some(depth.rate_hz);
             }
         }
+    }
+
+    /// Rejected inputs and messages lost on the way, all agents.
+    fn losses(&self) -> (u64, u64) {
+        self.losses.values().fold((0, 0), |(r, m), (ar, am)| (r + ar, m + am))
     }
 
     fn status_line(&mut self, elapsed: Duration, period: Duration) -> String {
@@ -162,14 +173,15 @@ impl Tally {
             None => "no hazard yet".into(),
         };
         format!(
-            "[{:6.1}s] sensor {} fps | perceived {:.1}/s | {} | capture->applied p50 {} p99 {} ms | rejects {}",
+            "[{:6.1}s] sensor {} fps | perceived {:.1}/s | {} | capture->applied p50 {} p99 {} ms | rejects {} | lost {}",
             elapsed.as_secs_f32(),
             self.sensor_fps.map_or("-".into(), |f| format!("{f:.1}")),
             perceived,
             state,
             fmt_ms(p50),
             fmt_ms(p99),
-            self.rejects,
+            self.losses().0,
+            self.losses().1,
         )
     }
 }
@@ -319,10 +331,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
             Some(h) = hazards.recv() => tally.on_hazard(h.body),
             Some(a) = applied.recv() => tally.on_applied(&a.body),
             Some(i) = intents.recv() => tally.intent_ms.push(i.age_ms() as f32),
-            Some(h) = health.recv() => {
-                tally.rejects = h.body.rejects.iter().map(|r| r.count).sum::<u64>().max(tally.rejects);
-                tally.on_health(&h.body);
-            }
+            Some(h) = health.recv() => tally.on_health(&h.body),
             _ = tick.tick() => eprintln!("{}", tally.status_line(started.elapsed(), period)),
             Some(r) = bus::maybe(guide.as_ref().map(|g| g.route.recv())) => {
                 if let Some(g) = guide.as_mut() { g.on_route(r.body) }
@@ -373,7 +382,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
         tally.stage_breakdown()
     );
     eprintln!(
-        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes made on an intent's arrival (pulse edges are the agent's own timing), {} offline warnings, {} rejects",
+        "demo summary: {:.1} s, {} hazards ({:.1}/s), {} applied actions, capture->applied p50 {} ms p99 {} ms over {} rumble changes made on an intent's arrival (pulse edges are the agent's own timing), {} offline warnings, {} rejects, {} messages lost on the way",
         started.elapsed().as_secs_f32(),
         tally.hazards,
         tally.hazards as f32 / started.elapsed().as_secs_f32(),
@@ -382,7 +391,8 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
         fmt_ms(p99),
         tally.e2e_ms.len(),
         tally.offline_warnings,
-        tally.rejects
+        tally.losses().0,
+        tally.losses().1
     );
     if !failures.is_empty() {
         bail!("agents failed: {}", failures.join("; "));

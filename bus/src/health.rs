@@ -41,6 +41,7 @@ pub struct StreamCounter {
     count: AtomicU64,
     bytes: AtomicU64,
     rejects: AtomicU64,
+    missed: AtomicU64,
     window: Mutex<Window>,
 }
 
@@ -52,6 +53,7 @@ impl StreamCounter {
             count: AtomicU64::new(0),
             bytes: AtomicU64::new(0),
             rejects: AtomicU64::new(0),
+            missed: AtomicU64::new(0),
             window: Mutex::new(Window {
                 started: Instant::now(),
                 count_at_start: 0,
@@ -83,6 +85,17 @@ impl StreamCounter {
         self.rejects.load(Ordering::Relaxed)
     }
 
+    /// Count `n` messages numbered by their publisher that never arrived (gaps in its
+    /// sequence numbers).
+    pub fn miss(&self, n: u64) {
+        self.missed.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Messages lost on the way since start.
+    pub fn missed(&self) -> u64 {
+        self.missed.load(Ordering::Relaxed)
+    }
+
     /// Close the current period and report it.
     fn roll(&self) -> StreamStats {
         let count = self.count();
@@ -97,6 +110,7 @@ impl StreamCounter {
             rate_hz: (count - w.count_at_start) as f32 / secs,
             bytes_per_s: (bytes - w.bytes_at_start) as f32 / secs,
             rejects: self.rejects(),
+            missed: self.missed(),
             latency_p50_ms: p50,
             latency_p99_ms: p99,
         };
@@ -223,6 +237,14 @@ impl Health {
         }
         if lock(&self.logged).insert((source.to_string(), kind.to_string())) {
             tracing::warn!(agent = %self.agent, %source, kind, "rejected input: {reason} (further '{kind}' rejects on this source are only counted)");
+        }
+    }
+
+    /// Messages lost on the way to `source` (gaps in a publisher's sequence numbers,
+    /// counted in its stream): logged the first time on each source, then only counted.
+    pub fn note_missed(&self, source: &str, what: &dyn std::fmt::Display) {
+        if lock(&self.logged).insert((source.to_string(), "missed".to_string())) {
+            tracing::warn!(agent = %self.agent, %source, "messages lost on the way: {what} (further losses on this source are only counted)");
         }
     }
 

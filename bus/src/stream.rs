@@ -287,8 +287,16 @@ impl<M: Message> Check<M> {
         };
         let offset_ns = self.health.clock_offset_ns(&header.sender);
         let checked = self.guard.lock().unwrap_or_else(|e| e.into_inner()).check(key, &header, received_ns, offset_ns);
-        if let Err(e) = checked {
-            return self.health.reject(&self.key, e.kind(), &format_args!("{e} (on {key})"));
+        let missed = match checked {
+            Ok(missed) => missed,
+            Err(e) => return self.health.reject(&self.key, e.kind(), &format_args!("{e} (on {key})")),
+        };
+        if missed > 0 {
+            self.counter.miss(missed);
+            self.health.note_missed(
+                &self.key,
+                &format_args!("{missed} before seq {} from {} (on {key})", header.seq, header.sender),
+            );
         }
         // the latency as stamped: on one host that is the truth, across hosts the
         // offset estimate is too coarse to correct a few milliseconds with

@@ -170,6 +170,29 @@ async fn agent_follows_hazards_and_intents_over_loopback_and_survives_garbage() 
     .await;
     assert!(matches!(a.action, AppliedAction::Rumble { right, .. } if right == 1.0));
 
+    // A publisher whose numbers 2 and 3 never arrive: two lost on the way, counted in
+    // the haptic stream's health (nothing to refuse: 4 is newer than 1).
+    let lossy = schemas::Origin { sender: "lossy", session: 2 };
+    let still = HapticIntent { left: 0.0, right: 0.0, pattern: HapticPattern::Steady, ttl_ms: 300 };
+    for seq in [0, 1, 4] {
+        let bytes = schemas::encode(&lossy, seq, bus::now_ns(), &still);
+        session.put(keys.haptic(), bytes).congestion_control(zenoh::qos::CongestionControl::Block).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let missed = loop {
+        let m = tokio::time::timeout(deadline.saturating_duration_since(Instant::now()), stats.recv())
+            .await
+            .expect("the lost intents in the health stats within 5 s")
+            .expect("health stream");
+        let stream = m.body.streams.iter().find(|s| s.inbound && s.key == keys.haptic()).expect("the haptic stream");
+        // two intents before these three: all have come when it counts five
+        if stream.count >= 5 || stream.missed > 0 {
+            break stream.missed;
+        }
+    };
+    assert_eq!(missed, 2, "numbers 2 and 3 lost on the way");
+
     // Shutdown leaves both motors off.
     shutdown.trigger();
     agent.await.expect("agent task").expect("agent ran cleanly");

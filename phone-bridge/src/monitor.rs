@@ -171,6 +171,8 @@ pub struct StreamHealthView {
     pub p99_ms: Option<f32>,
     /// Rejected payloads since start.
     pub rejects: u64,
+    /// Messages lost on the way since start (gaps in their publishers' numbering).
+    pub missed: u64,
 }
 
 /// What the bridge sends a page that subscribed (JSON, `type` as for [`crate::protocol::ToPage`]).
@@ -554,6 +556,7 @@ pub fn health(h: &HealthStats, alive: bool, prefix: &str, age_ms: f64) -> ToMoni
             p50_ms: finite(s.latency_p50_ms),
             p99_ms: finite(s.latency_p99_ms),
             rejects: s.rejects,
+            missed: s.missed,
         })
         .collect();
     ToMonitor::Health {

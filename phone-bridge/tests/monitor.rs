@@ -290,6 +290,7 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
         rate_hz: 29.96,
         bytes_per_s: 9000.0,
         rejects: 2,
+        missed: 7,
         latency_p50_ms: 2.5,
         latency_p99_ms: f32::NAN,
     };
@@ -315,7 +316,7 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
     assert_eq!(
         hs["streams"],
         json!([{"key": "perception/scan", "inbound": true, "rate_hz": 30.0, "p50_ms": 2.5, "p99_ms": null,
-                "rejects": 2}])
+                "rejects": 2, "missed": 7}])
     );
 
     // the agent goes: said at once

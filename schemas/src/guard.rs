@@ -91,6 +91,8 @@ struct PublisherId {
 struct Heard {
     last_seq: u64,
     last_ns: u64,
+    /// Messages above `last_seq` refused since it (stale or future): not lost.
+    refused_since: u64,
 }
 
 /// Freshness and sequence checks for one subscription.
@@ -114,7 +116,43 @@ impl Guard {
     /// Accept or refuse a message that arrived on `key` at `received_ns` (our clock),
     /// from a sender whose clock reads `offset_ns` behind ours ([`Clocks::offset_ns`]).
     /// Freshness comes first, so a stale message leaves no trace in the sequence state.
-    pub fn check(&mut self, key: &str, header: &Header, received_ns: u64, offset_ns: i64) -> Result<(), InputError> {
+    ///
+    /// Accepted, it gives how many messages this publisher numbered between the last
+    /// one heard here and this one that never arrived (neither accepted nor refused):
+    /// lost on the way, as a lane that drops rather than queue drops them. Nothing is
+    /// known of what a publisher sent before its first message heard here.
+    pub fn check(&mut self, key: &str, header: &Header, received_ns: u64, offset_ns: i64) -> Result<u64, InputError> {
+        let id = PublisherId { key: key.to_string(), sender: header.sender.clone(), session: header.session };
+        if let Err(e) = self.fresh(header, received_ns, offset_ns) {
+            if let Some(heard) = self.publishers.get_mut(&id).filter(|h| header.seq > h.last_seq) {
+                heard.refused_since += 1;
+            }
+            return Err(e);
+        }
+        if let Some(heard) = self.publishers.get_mut(&id) {
+            if header.seq <= heard.last_seq {
+                return Err(InputError::Replayed {
+                    sender: id.sender,
+                    session: id.session,
+                    seq: header.seq,
+                    last: heard.last_seq,
+                });
+            }
+            let missed = (header.seq - heard.last_seq - 1).saturating_sub(heard.refused_since);
+            *heard = Heard { last_seq: header.seq, last_ns: received_ns, refused_since: 0 };
+            return Ok(missed);
+        }
+        if self.publishers.len() >= MAX_PUBLISHERS {
+            if let Some(oldest) = self.publishers.iter().min_by_key(|(_, h)| h.last_ns).map(|(id, _)| id.clone()) {
+                self.publishers.remove(&oldest);
+            }
+        }
+        self.publishers.insert(id, Heard { last_seq: header.seq, last_ns: received_ns, refused_since: 0 });
+        Ok(0)
+    }
+
+    /// The freshness check alone.
+    fn fresh(&self, header: &Header, received_ns: u64, offset_ns: i64) -> Result<(), InputError> {
         if let Some(f) = self.freshness {
             let age_ns = received_ns as i128 - header.capture_ns as i128 - offset_ns as i128;
             if age_ns > f.max_age.as_nanos() as i128 {
@@ -130,25 +168,6 @@ impl Guard {
                 });
             }
         }
-        let id = PublisherId { key: key.to_string(), sender: header.sender.clone(), session: header.session };
-        if let Some(heard) = self.publishers.get_mut(&id) {
-            if header.seq <= heard.last_seq {
-                return Err(InputError::Replayed {
-                    sender: id.sender,
-                    session: id.session,
-                    seq: header.seq,
-                    last: heard.last_seq,
-                });
-            }
-            *heard = Heard { last_seq: header.seq, last_ns: received_ns };
-            return Ok(());
-        }
-        if self.publishers.len() >= MAX_PUBLISHERS {
-            if let Some(oldest) = self.publishers.iter().min_by_key(|(_, h)| h.last_ns).map(|(id, _)| id.clone()) {
-                self.publishers.remove(&oldest);
-            }
-        }
-        self.publishers.insert(id, Heard { last_seq: header.seq, last_ns: received_ns });
         Ok(())
     }
 }
@@ -231,7 +250,7 @@ mod tests {
     #[test]
     fn old_and_future_captures_are_refused_with_their_age() {
         let mut g = Guard::new(Some(Freshness::within(Duration::from_millis(150))));
-        assert_eq!(g.check("k", &header("s", 1, 0, T0), T0 + 149 * MS, 0), Ok(()));
+        assert_eq!(g.check("k", &header("s", 1, 0, T0), T0 + 149 * MS, 0), Ok(0));
         assert_eq!(
             g.check("k", &header("s", 1, 1, T0), T0 + 5_700 * MS, 0),
             Err(InputError::Stale { age_ms: 5_700, bound_ms: 150 })
@@ -241,7 +260,7 @@ mod tests {
             Err(InputError::Future { ahead_ms: 60, bound_ms: 50 })
         );
         // the refused ones left no trace: seq 1 is still new
-        assert_eq!(g.check("k", &header("s", 1, 1, T0 + 200 * MS), T0 + 210 * MS, 0), Ok(()));
+        assert_eq!(g.check("k", &header("s", 1, 1, T0 + 200 * MS), T0 + 210 * MS, 0), Ok(0));
     }
 
     #[test]
@@ -277,7 +296,7 @@ mod tests {
         let mut g = Guard::new(Some(Freshness::within(Duration::from_millis(150))));
         let offset = clocks.offset_ns("sensor-agent");
         // a frame 20 ms old by the sender's clock
-        assert_eq!(g.check("k", &header("sensor-agent", 1, 0, T0 - 2_020 * MS), T0, offset), Ok(()));
+        assert_eq!(g.check("k", &header("sensor-agent", 1, 0, T0 - 2_020 * MS), T0, offset), Ok(0));
         // without the offset it would look 2 s stale
         assert_eq!(g.check("k", &header("sensor-agent", 1, 1, T0 - 2_020 * MS), T0, 0).unwrap_err().kind(), "stale");
         // a replayed health message (an old stamp) cannot shrink the offset's minimum
@@ -288,28 +307,49 @@ mod tests {
     #[test]
     fn repeated_and_regressing_sequences_are_replays_a_new_session_is_a_restart() {
         let mut g = Guard::new(None);
-        for seq in [0, 1, 5] {
-            assert_eq!(g.check("k", &header("cam", 7, seq, T0), T0, 0), Ok(()), "seq {seq}");
+        for (seq, lost) in [(0, 0), (1, 0), (5, 3)] {
+            assert_eq!(g.check("k", &header("cam", 7, seq, T0), T0, 0), Ok(lost), "seq {seq}");
         }
         for seq in [5, 4, 0] {
             let err = g.check("k", &header("cam", 7, seq, T0), T0, 0).unwrap_err();
             assert_eq!(err, InputError::Replayed { sender: "cam".into(), session: 7, seq, last: 5 });
         }
         // the sender restarted: numbering from 0 under a new session is not a replay
-        assert_eq!(g.check("k", &header("cam", 8, 0, T0), T0, 0), Ok(()));
+        assert_eq!(g.check("k", &header("cam", 8, 0, T0), T0, 0), Ok(0));
         // the same numbers from another sender or on another key are their own
-        assert_eq!(g.check("k", &header("other", 7, 1, T0), T0, 0), Ok(()));
-        assert_eq!(g.check("k2", &header("cam", 7, 1, T0), T0, 0), Ok(()));
+        assert_eq!(g.check("k", &header("other", 7, 1, T0), T0, 0), Ok(0));
+        assert_eq!(g.check("k2", &header("cam", 7, 1, T0), T0, 0), Ok(0));
         // the old session's messages are still checked against what it sent
         assert_eq!(g.check("k", &header("cam", 7, 5, T0), T0, 0).unwrap_err().kind(), "replayed");
     }
 
     #[test]
+    fn numbers_a_publisher_skipped_are_counted_as_lost_and_refused_ones_are_not() {
+        let mut g = Guard::new(Some(Freshness::within(Duration::from_millis(150))));
+        // heard from 10 on: what it sent before is not known here, not lost
+        assert_eq!(g.check("k", &header("cam", 7, 10, T0), T0, 0), Ok(0));
+        assert_eq!(g.check("k", &header("cam", 7, 11, T0), T0, 0), Ok(0));
+        // 12 and 13 never arrived
+        assert_eq!(g.check("k", &header("cam", 7, 14, T0), T0, 0), Ok(2));
+        // 15 arrived stale, 16 never arrived: one lost, one refused (counted as such)
+        assert_eq!(g.check("k", &header("cam", 7, 15, T0), T0 + 900 * MS, 0).unwrap_err().kind(), "stale");
+        assert_eq!(g.check("k", &header("cam", 7, 17, T0 + 900 * MS), T0 + 900 * MS, 0), Ok(1));
+        // a replay of an old number changes nothing
+        assert_eq!(
+            g.check("k", &header("cam", 7, 12, T0 + 900 * MS), T0 + 900 * MS, 0).unwrap_err().kind(),
+            "replayed"
+        );
+        assert_eq!(g.check("k", &header("cam", 7, 18, T0 + 900 * MS), T0 + 900 * MS, 0), Ok(0));
+        // a restart numbers from 0 under a new session: nothing lost
+        assert_eq!(g.check("k", &header("cam", 8, 0, T0 + 900 * MS), T0 + 900 * MS, 0), Ok(0));
+    }
+
+    #[test]
     fn a_flood_of_forged_sessions_is_bounded_and_forgets_the_least_recent() {
         let mut g = Guard::new(None);
-        assert_eq!(g.check("k", &header("cam", 1, 10, T0), T0, 0), Ok(()));
+        assert_eq!(g.check("k", &header("cam", 1, 10, T0), T0, 0), Ok(0));
         for s in 0..1_000u64 {
-            assert_eq!(g.check("k", &header("forger", 1_000 + s, 0, T0), T0 + 1 + s, 0), Ok(()));
+            assert_eq!(g.check("k", &header("forger", 1_000 + s, 0, T0), T0 + 1 + s, 0), Ok(0));
         }
         assert_eq!(g.publishers.len(), MAX_PUBLISHERS);
         assert!(!g.publishers.keys().any(|id| id.sender == "cam"), "the least recently heard is forgotten");

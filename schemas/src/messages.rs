@@ -652,6 +652,10 @@ pub struct StreamStats {
     pub bytes_per_s: f32,
     /// Rejected payloads since start.
     pub rejects: u64,
+    /// Messages since start that a publisher numbered and that never arrived (gaps in
+    /// its sequence numbers: dropped on the way, as a lane that drops rather than
+    /// queue does on a congested link). Always 0 for a publication.
+    pub missed: u64,
     /// Median age at receipt (capture -> now), milliseconds, over the last period.
     pub latency_p50_ms: f32,
     /// 99th percentile age at receipt, milliseconds, over the last period.

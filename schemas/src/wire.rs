@@ -157,7 +157,7 @@ impl SchemaId {
         match self {
             SchemaId::Hazard => 5,
             SchemaId::Command | SchemaId::Pose => 4,
-            SchemaId::RouteState | SchemaId::SpeechIntent => 3,
+            SchemaId::RouteState | SchemaId::SpeechIntent | SchemaId::HealthStats => 3,
             _ => 2,
         }
     }

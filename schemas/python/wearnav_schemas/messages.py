@@ -226,6 +226,7 @@ STREAM_STATS = Struct(
     rate_hz=F32,
     bytes_per_s=F32,
     rejects=U64,
+    missed=U64,
     latency_p50_ms=F32,
     latency_p99_ms=F32,
 )
@@ -280,7 +281,8 @@ SCHEMAS = (
     Schema(11, "applied", APPLIED),
     # v3 added Cancel and Floor, v4 Door
     Schema(12, "command", COMMAND, version=4),
-    Schema(13, "health_stats", HEALTH_STATS, 256 * 1024),
+    # v3 added missed (per stream)
+    Schema(13, "health_stats", HEALTH_STATS, 256 * 1024, version=3),
     Schema(14, "destinations", DESTINATIONS, 256 * 1024),
     Schema(15, "phone_haptic", PHONE_HAPTIC, 1024),
     Schema(16, "phone_speech", PHONE_SPEECH, 16 * 1024),

@@ -155,9 +155,10 @@ def _phone_motion(b):
 def _health_stats(b):
     state = "ok" if b["ok"] else "NOT OK"
     rejects = sum(r["count"] for r in b["rejects"])
+    missed = sum(s["missed"] for s in b["streams"])
     return (
         f"{b['agent']} {state} up {b['uptime_ms'] / 1000:.0f} s, {len(b['streams'])} streams, "
-        f"{rejects} rejects: {b['status']}"
+        f"{rejects} rejects, {missed} lost on the way: {b['status']}"
     )
 
 
