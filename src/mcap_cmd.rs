@@ -28,6 +28,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context};
 use bus::{BusOptions, Shutdown};
+use schemas::guard::Guard;
 use zenoh::key_expr::KeyExpr;
 
 /// MCAP message encoding of every recorded payload: the wearnav wire format.
@@ -222,10 +223,13 @@ impl Recording {
         Ok(self.path)
     }
 
-    fn write(&mut self, arrival: &Arrival, extras: &mut Extras) -> anyhow::Result<()> {
-        let header = schemas::decode_header(&arrival.payload).ok().map(|(h, _)| h);
+    fn write(
+        &mut self,
+        arrival: &Arrival,
+        header: Option<&schemas::Header>,
+        extras: &mut Extras,
+    ) -> anyhow::Result<()> {
         let schema = header
-            .as_ref()
             .and_then(|h| schemas::SchemaId::from_u16(h.schema))
             .map_or_else(|| UNKNOWN_SCHEMA.to_string(), |s| s.encoding_schema());
         let id = (arrival.key.clone(), schema, arrival.encoding.clone());
@@ -243,13 +247,13 @@ impl Recording {
         };
         let message = mcap::records::MessageHeader {
             channel_id,
-            sequence: header.as_ref().map_or(0, |h| h.seq as u32),
+            sequence: header.map_or(0, |h| h.seq as u32),
             log_time: arrival.arrival_ns,
-            publish_time: header.as_ref().map_or(arrival.arrival_ns, |h| h.capture_ns),
+            publish_time: header.map_or(arrival.arrival_ns, |h| h.capture_ns),
         };
         self.writer.write_to_known_channel(&message, &arrival.payload)?;
         self.payload_bytes += arrival.payload.len() as u64;
-        let schema = header.as_ref().and_then(|h| schemas::SchemaId::from_u16(h.schema));
+        let schema = header.and_then(|h| schemas::SchemaId::from_u16(h.schema));
         if let Some(json) = schema.and_then(|s| as_json(s, &arrival.payload)) {
             let topic = format!("{}{JSON_SUFFIX}", arrival.key);
             let id = (topic, "json".to_string(), String::new());
@@ -267,7 +271,7 @@ impl Recording {
         if let Some((name, json)) = schema.and_then(|s| as_foxglove(s, &arrival.payload)) {
             self.write_twin(&topic(), name, message, &json)?;
         }
-        let cloud_due = extras.cloud_every > 0 && header.as_ref().is_some_and(|h| h.seq % extras.cloud_every == 0);
+        let cloud_due = extras.cloud_every > 0 && header.is_some_and(|h| h.seq % extras.cloud_every == 0);
         if cloud_due && schema == Some(schemas::SchemaId::DepthFrame) {
             if let Some(json) = point_cloud(&arrival.payload, extras.cloud_stride, &mut extras.depth) {
                 self.write_twin(&topic(), "foxglove.PointCloud", message, &json)?;
@@ -567,12 +571,25 @@ struct Recorder {
     finished: Vec<PathBuf>,
     messages: u64,
     payload_bytes: u64,
+    /// Sequence numbers per publisher (no freshness: a recorder keeps what comes).
+    sequence: Guard,
+    /// Per key, messages its publishers numbered that never reached the recorder.
+    lost: BTreeMap<String, u64>,
 }
 
 impl Recorder {
     fn start(rotation: Rotation, extras: Extras) -> anyhow::Result<Self> {
         let current = Recording::create(&rotation.path(0), &extras)?;
-        Ok(Self { rotation, extras, current, finished: Vec::new(), messages: 0, payload_bytes: 0 })
+        Ok(Self {
+            rotation,
+            extras,
+            current,
+            finished: Vec::new(),
+            messages: 0,
+            payload_bytes: 0,
+            sequence: Guard::new(None),
+            lost: BTreeMap::new(),
+        })
     }
 
     fn write(&mut self, arrival: &Arrival) -> anyhow::Result<()> {
@@ -581,10 +598,22 @@ impl Recorder {
             let done = std::mem::replace(&mut self.current, next);
             self.finished.push(done.finish()?);
         }
-        self.current.write(arrival, &mut self.extras)?;
+        let header = schemas::decode_header(&arrival.payload).ok().map(|(h, _)| h);
+        self.current.write(arrival, header.as_ref(), &mut self.extras)?;
         self.messages += 1;
         self.payload_bytes += arrival.payload.len() as u64;
+        // a number seen before (a replay on the bus) is recorded all the same
+        if let Some(Ok(lost)) = header.map(|h| self.sequence.check(&arrival.key, &h, arrival.arrival_ns, 0)) {
+            if lost > 0 {
+                *self.lost.entry(arrival.key.clone()).or_default() += lost;
+            }
+        }
         Ok(())
+    }
+
+    /// Messages lost on the way to the recorder, all keys.
+    fn lost_total(&self) -> u64 {
+        self.lost.values().sum()
     }
 
     /// Finish the current file; every file written, in order.
@@ -615,11 +644,12 @@ fn write_loop(mut recording: Recorder, rx: mpsc::Receiver<Arrival>, stop: Arc<At
         if now >= next_report {
             let rate = in_period as f64 / (now - period_start).as_secs_f64();
             eprintln!(
-                "[{:6.1}s] {} messages, {:.1} MB, {:.0} msgs/s",
+                "[{:6.1}s] {} messages, {:.1} MB, {:.0} msgs/s, {} lost on the way",
                 (now - started).as_secs_f64(),
                 recording.messages,
                 recording.payload_bytes as f64 / 1e6,
-                rate
+                rate,
+                recording.lost_total()
             );
             (in_period, period_start, next_report) = (0, now, next_report + Duration::from_secs(1));
         }
@@ -702,8 +732,9 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
         Some(done) => done,
         None => writer.await,
     };
-    let recording = done.context("the recording's writer stopped")??;
+    let mut recording = done.context("the recording's writer stopped")??;
     let (messages, payload_bytes) = (recording.messages, recording.payload_bytes);
+    let lost = std::mem::take(&mut recording.lost);
     let files = recording.finish()?;
     let _ = session.close().await;
     let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
@@ -712,6 +743,14 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
         payload_bytes as f64 / 1e6,
         names.join(", ")
     );
+    if !lost.is_empty() {
+        let per_key: Vec<String> = lost.iter().map(|(k, n)| format!("{n} on {k}")).collect();
+        eprintln!(
+            "not recorded: {} messages lost on the way to the recorder (gaps in their publishers' numbering): {}",
+            lost.values().sum::<u64>(),
+            per_key.join(", ")
+        );
+    }
     Ok(())
 }
 
@@ -785,6 +824,9 @@ struct ChannelSummary {
     largest_gap_ms: f64,
     /// Messages whose sequence number was not above the one before on the channel.
     sequence_breaks: u64,
+    /// Messages missing from the recording: gaps in the numbering of each publisher
+    /// on the key, read from the wire header (0 for channels not of the wire).
+    missed: u64,
     #[serde(skip)]
     first_ns: u64,
     #[serde(skip)]
@@ -809,6 +851,7 @@ struct FileSummary {
 fn summarise(path: &Path) -> anyhow::Result<FileSummary> {
     let mut channels: Vec<ChannelSummary> = Vec::new();
     let (mut messages, mut first, mut last) = (0u64, u64::MAX, 0u64);
+    let mut numbering = Guard::new(None);
     let damage = read(path, |m| {
         messages += 1;
         (first, last) = (first.min(m.log_time), last.max(m.log_time));
@@ -824,6 +867,7 @@ fn summarise(path: &Path) -> anyhow::Result<FileSummary> {
                     rate_hz: 0.0,
                     largest_gap_ms: 0.0,
                     sequence_breaks: 0,
+                    missed: 0,
                     first_ns: m.log_time,
                     last_ns: m.log_time,
                     last_sequence: None,
@@ -838,6 +882,11 @@ fn summarise(path: &Path) -> anyhow::Result<FileSummary> {
             c.sequence_breaks += 1;
         }
         c.last_sequence = Some(m.sequence);
+        if m.message_encoding == MESSAGE_ENCODING {
+            if let Ok((header, _)) = schemas::decode_header(&m.data) {
+                c.missed += numbering.check(&m.topic, &header, m.log_time, 0).unwrap_or(0);
+            }
+        }
         c.last_ns = c.last_ns.max(m.log_time);
         c.count += 1;
         c.bytes += m.data.len() as u64;
@@ -872,14 +921,14 @@ fn write_table(out: &mut impl std::io::Write, summary: &FileSummary) -> std::io:
     let width = summary.channels.iter().map(|c| c.key.len()).max().unwrap_or(3).max(3);
     writeln!(
         out,
-        "{:<width$}  {:<26} {:>7} {:>8} {:>8} {:>9} {:>11} {:>6}",
-        "key", "schema", "count", "rate/s", "dur s", "max gap", "bytes", "seq!"
+        "{:<width$}  {:<26} {:>7} {:>8} {:>8} {:>9} {:>11} {:>6} {:>6}",
+        "key", "schema", "count", "rate/s", "dur s", "max gap", "bytes", "seq!", "lost"
     )?;
     for c in &summary.channels {
         writeln!(
             out,
-            "{:<width$}  {:<26} {:>7} {:>8.1} {:>8.1} {:>6.0} ms {:>11} {:>6}",
-            c.key, c.schema, c.count, c.rate_hz, c.duration_s, c.largest_gap_ms, c.bytes, c.sequence_breaks
+            "{:<width$}  {:<26} {:>7} {:>8.1} {:>8.1} {:>6.0} ms {:>11} {:>6} {:>6}",
+            c.key, c.schema, c.count, c.rate_hz, c.duration_s, c.largest_gap_ms, c.bytes, c.sequence_breaks, c.missed
         )?;
     }
     Ok(())

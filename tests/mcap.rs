@@ -422,8 +422,8 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     drop(sensor);
     std::thread::sleep(Duration::from_millis(500));
     sigterm(&recorder);
-    let (status, err) = finish(recorder, Duration::from_secs(20));
-    assert!(status.success(), "record failed: {err}");
+    let (status, recorded_err) = finish(recorder, Duration::from_secs(20));
+    assert!(status.success(), "record failed: {recorded_err}");
     drop(original_agent);
 
     let (_agent, endpoint) = compute_agent(user);
@@ -474,6 +474,15 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     // comes before must not. More than that is a recorder that loses frames.
     let missed: Vec<u64> = before.keys().filter(|f| !recorded.contains(f)).copied().collect();
     assert!(missed.len() <= 2, "{} of {} frames not recorded: {missed:?}", missed.len(), before.len());
+    // the recorder says what it lacks: the numbers missing between its first and last
+    let (first, last) = (recorded.first().copied().unwrap_or(0), recorded.last().copied().unwrap_or(0));
+    let inside = (last + 1 - first) as usize - recorded.len();
+    let report = format!("{inside} on wearnav/{user}/sensor/cane/depth");
+    assert_eq!(
+        recorded_err.contains(&report),
+        inside > 0,
+        "{inside} frames lost inside the recording:\n{recorded_err}"
+    );
     let compared: Vec<u64> = before.keys().copied().take_while(|f| missed.first().is_none_or(|m| f < m)).collect();
     assert!(compared.len() >= 30, "only {} frames before the first not recorded ({missed:?})", compared.len());
     let differ: Vec<u64> = compared.iter().filter(|f| after.get(f) != before.get(f)).copied().collect();
@@ -491,4 +500,70 @@ fn sensors_replayed_into_a_fresh_compute_agent_give_the_same_hazards_as_the_orig
     if missed.is_empty() {
         assert_eq!(after.len(), before.len());
     }
+}
+
+/// A file whose publisher skipped three numbers: `inspect` counts them, and a recorder
+/// fed that file by `replay` reports them at its end and writes a file that says so.
+#[test]
+fn messages_lost_on_the_way_are_counted_by_the_recorder_and_by_inspect() {
+    let dir = scratch();
+    let (user, skipped) = ("lossy", [5u64, 9, 10]);
+    let key = format!("wearnav/{user}/feedback/haptic");
+    let gappy = dir.path().join("gappy.mcap");
+    {
+        let mut writer = mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(&gappy).unwrap())).unwrap();
+        let name = schemas::SchemaId::HapticIntent.encoding_schema();
+        let schema = writer.add_schema(&name, "", &[]).unwrap();
+        let metadata = BTreeMap::from([("zenoh_encoding".to_string(), format!("application/octet-stream;{name}"))]);
+        let channel = writer.add_channel(schema, &key, "wearnav-bincode", &metadata).unwrap();
+        let origin = schemas::Origin { sender: "lossy-compute", session: 42 };
+        let still =
+            schemas::HapticIntent { left: 0.0, right: 0.0, pattern: schemas::HapticPattern::Steady, ttl_ms: 300 };
+        let t0 = 1_800_000_000_000_000_000u64;
+        for seq in (0..20u64).filter(|s| !skipped.contains(s)) {
+            let t = t0 + seq * 20_000_000;
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: seq as u32,
+                log_time: t,
+                publish_time: t,
+            };
+            writer.write_to_known_channel(&header, &schemas::encode(&origin, seq, t, &still)).unwrap();
+        }
+        writer.finish().unwrap();
+    }
+    assert_eq!(channel(&inspect_json(&gappy), "feedback/haptic")["missed"], 3, "the gaps in the file");
+    let table = wearnav(&["inspect", gappy.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&table.stdout);
+    assert!(text.lines().next_back().is_some_and(|l| l.ends_with(" 0      3")), "seq! 0, lost 3 in:\n{text}");
+
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let out = dir.path().join("heard.mcap");
+    let recorder = start(&[
+        "record",
+        "--user",
+        user,
+        "--listen",
+        &endpoint,
+        "--no-multicast",
+        "--keys",
+        "feedback/**",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    wait_listening(port, Duration::from_secs(20));
+    let played = wearnav(&["replay", gappy.to_str().unwrap(), "--connect", &endpoint, "--no-multicast"]);
+    assert!(played.status.success(), "replay failed: {}", String::from_utf8_lossy(&played.stderr));
+    std::thread::sleep(Duration::from_millis(300));
+    sigterm(&recorder);
+    let (status, err) = finish(recorder, Duration::from_secs(20));
+    assert!(status.success(), "record failed: {err}");
+    assert!(
+        err.contains(&format!("not recorded: 3 messages lost on the way to the recorder (gaps in their publishers' numbering): 3 on {key}")),
+        "the recorder's report:\n{err}"
+    );
+    let heard = inspect_json(&out);
+    let haptic = channel(&heard, "feedback/haptic");
+    assert_eq!((haptic["count"].as_u64(), haptic["missed"].as_u64()), (Some(17), Some(3)), "{haptic:#}");
 }
