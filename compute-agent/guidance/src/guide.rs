@@ -21,12 +21,13 @@
 //!    one's announcement was left out, its "now" is followed at once by the next
 //!    ("Turn right now." "Then turn left.": the "now" stays short);
 //! 7. a gateway ahead;
-//! 8. a numbered door the user comes level with ("Passing door 214, on your left."),
-//!    where nothing of 5-7 is near enough ahead for it to be held back by the door.
+//! 8. a named area of the map the user has just entered ("Entering the stair hall."),
+//!    then a numbered door the user comes level with ("Passing door 214, on your
+//!    left."), where nothing of 5-7 is near enough ahead for it to be held back by them.
 //!
 //! Everything spontaneous waits for `min_spacing_ms` after the previous one (arrival
 //! excepted); an instruction that has to wait is tried again next step, with the
-//! distances of then. A door asks nothing of the user: nothing waits for it.
+//! distances of then. A door or an area asks nothing of the user: nothing waits for it.
 
 use std::collections::VecDeque;
 
@@ -36,7 +37,7 @@ use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
 use crate::instruction::{ttl_ms, Instruction, InstructionKind};
 use crate::profile::{DirectionStyle, GuidanceProfile};
 use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
-use crate::where_am_i::where_am_i;
+use crate::where_am_i::{where_am_i, with_article};
 
 /// "Then turn left." follows the "now" before it within this, or is not said, ms.
 const THEN_WITHIN_MS: u64 = 1000;
@@ -71,6 +72,11 @@ const PASSING_BEHIND_M: f64 = 0.5;
 /// A door nearer the way than this is on it (a door the route goes through), not beside
 /// it, metres.
 pub(crate) const PASSING_MIN_M: f64 = 0.4;
+/// An area entered is said from when the user is this far past where they entered it
+/// (a step across its edge and back is no entering) to this far, metres (our choice;
+/// later, "entering" would be said well inside it).
+const ENTERED_FROM_M: f64 = 1.0;
+const ENTERED_UNTIL_M: f64 = 5.0;
 
 /// The headings of the last second of poses (ms, radians).
 #[derive(Clone, Debug, Default)]
@@ -206,6 +212,15 @@ pub struct Guide {
     doors_said: Vec<String>,
     /// where the user was when the last door was said
     last_door_at: Option<[f64; 2]>,
+    /// the floor and the areas the user was last in, innermost first
+    areas_here: Option<(i32, Vec<String>)>,
+    /// an area just entered, not yet said, and where the user entered it
+    area_entered: Option<(String, [f64; 2])>,
+    /// the areas said entering on this trip, by floor (each once)
+    areas_said: Vec<(i32, String)>,
+    /// when the last door or area was said: they keep the spacing between each other
+    /// (and after the route's words) without holding back the route's words
+    last_passing_ms: Option<u64>,
 }
 
 impl Guide {
@@ -244,6 +259,10 @@ impl Guide {
             detour: false,
             doors_said: Vec::new(),
             last_door_at: None,
+            areas_here: None,
+            area_entered: None,
+            areas_said: Vec::new(),
+            last_passing_ms: None,
         };
         g.set_legs(legs);
         g
@@ -477,6 +496,7 @@ impl Guide {
             }
             (self.at_gateway_said, self.gateway_left_said) = (None, false);
         }
+        self.follow_areas(pose);
         let pr = self.progress(pose);
         if self.off_route {
             if pr.lateral_m <= self.profile.on_route_m {
@@ -542,6 +562,9 @@ impl Guide {
                 }
                 return i;
             }
+        }
+        if let Some(i) = self.entering_area(pose, &pr, now_ms) {
+            return Some(i);
         }
         self.passing_door(pose, &pr, now_ms)
     }
@@ -861,16 +884,71 @@ impl Guide {
         self.headings.still(self.profile.still_max_deg_s)
     }
 
+    /// Which areas of the map the user is in: an innermost area that was not among
+    /// those of the last step was just entered (leaving a room for the corridor that
+    /// holds it enters nothing). Where the user first is on a floor enters nothing.
+    fn follow_areas(&mut self, pose: &UserPose) {
+        let chain: Vec<String> =
+            self.semantic.areas_at(pose.floor, pose.x_m, pose.y_m).iter().map(|a| a.name.clone()).collect();
+        match &self.areas_here {
+            Some((floor, before)) if *floor == pose.floor => {
+                if before == &chain {
+                    return;
+                }
+                if let Some(inner) = chain.first().filter(|a| !before.contains(a)) {
+                    self.area_entered = Some((inner.clone(), [pose.x_m, pose.y_m]));
+                } else if self.area_entered.as_ref().is_some_and(|(name, _)| !chain.contains(name)) {
+                    self.area_entered = None;
+                }
+            }
+            _ => self.area_entered = None,
+        }
+        self.areas_here = Some((pose.floor, chain));
+    }
+
+    /// "Entering the stair hall.": said 1-5 m past where the user entered a named area,
+    /// once a trip per area, under the rules of a door in passing (spacing after others
+    /// without counting for it, only where no turn, gateway or goal is near ahead).
+    fn entering_area(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
+        let p = self.profile;
+        let (name, at) = self.area_entered.clone()?;
+        let floor = pose.floor;
+        let past_m = dist(at, [pose.x_m, pose.y_m]);
+        if !p.passing_areas || past_m > ENTERED_UNTIL_M || self.areas_said.contains(&(floor, name.clone())) {
+            self.area_entered = None;
+            return None;
+        }
+        let clear_m = p.announce_turn_m + p.spacing_walk_m();
+        if past_m < ENTERED_FROM_M || !self.spaced_for_passing(now_ms) || self.straight_on_m(pr) <= clear_m {
+            return None;
+        }
+        let text = format!("Entering {}.", with_article(&name));
+        let key = format!("guidance/r{}/area/{floor}/{name}", self.generation);
+        let i = Instruction::untapped(InstructionKind::EnteringArea { name: name.clone() }, text, key, now_ms);
+        self.areas_said.push((floor, name));
+        self.area_entered = None;
+        self.last_passing_ms = Some(now_ms);
+        Some(i)
+    }
+
+    /// A door or an area may be said now: the spacing has passed since the route's
+    /// last words and since the last door or area.
+    fn spaced_for_passing(&self, now_ms: u64) -> bool {
+        let spacing = self.profile.min_spacing_ms;
+        [self.last_spontaneous_ms, self.last_passing_ms].iter().flatten().all(|&t| now_ms >= t.saturating_add(spacing))
+    }
+
     /// "Passing door 214, on your left.": the first numbered door beside the segment
     /// being walked that the user, facing along it, comes level with, not said before on
     /// this trip, at least `passing_door_every_m` from where the last was said; only
     /// where the next turn, gateway or goal is further ahead than its announcement and
     /// the spacing after it, so that a door never holds back what the route asks for.
-    /// It keeps the spacing after others, but does not count for it, is said without the
-    /// notice tap (it asks nothing) and is not what "repeat" says.
+    /// It keeps the spacing after the route's words and after the last door or area,
+    /// but does not count for the route's, is said without the notice tap (it asks
+    /// nothing) and is not what "repeat" says.
     fn passing_door(&mut self, pose: &UserPose, pr: &Progress, now_ms: u64) -> Option<Instruction> {
         let p = self.profile;
-        if !p.passing_doors || self.last_spontaneous_ms.is_some_and(|t| now_ms < t.saturating_add(p.min_spacing_ms)) {
+        if !p.passing_doors || !self.spaced_for_passing(now_ms) {
             return None;
         }
         let clear_m = p.announce_turn_m + p.spacing_walk_m();
@@ -915,6 +993,7 @@ impl Guide {
         let i = Instruction::untapped(kind, text, key, now_ms);
         self.doors_said.push(number);
         self.last_door_at = Some(here);
+        self.last_passing_ms = Some(now_ms);
         Some(i)
     }
 

@@ -87,6 +87,12 @@ pub enum InstructionKind {
         /// the number on its sign
         number: String,
     },
+    /// the user has just entered a named area of the map on the way: where they are,
+    /// asking nothing
+    EnteringArea {
+        /// the area's name
+        name: String,
+    },
     /// the answer to "where am I"
     WhereAmI,
     /// "go straight on for 8 metres": the answer to "repeat" once a repeated turn has
@@ -144,7 +150,7 @@ impl Instruction {
 }
 
 /// The speech priority of an instruction: `Text` for what asks nothing of the user
-/// now (a door in passing, "position uncertain", the "then" after a "now", whose own
+/// now (a door in passing, an area entered, "position uncertain", the "then" after a "now", whose own
 /// "now" follows), so a turn, a prompt or an answer (`Message`) cuts it off and goes
 /// first, and a newer one replaces one still waiting; `Message` for everything else,
 /// the request to stop and turn on the spot (and to stop turning when that did not
@@ -152,9 +158,10 @@ impl Instruction {
 /// things stand gives way"): the turns "now" the speech queue had dropped behind it.
 pub fn priority(kind: &InstructionKind) -> Priority {
     match kind {
-        InstructionKind::PassingDoor { .. } | InstructionKind::PositionUncertain | InstructionKind::TurnThen { .. } => {
-            Priority::Text
-        }
+        InstructionKind::PassingDoor { .. }
+        | InstructionKind::EnteringArea { .. }
+        | InstructionKind::PositionUncertain
+        | InstructionKind::TurnThen { .. } => Priority::Text,
         _ => Priority::Message,
     }
 }
@@ -178,14 +185,15 @@ pub fn localization_news(news: &str, serial: u64) -> SpeechIntent {
 }
 
 /// How long each kind may wait for the speaker, ms (our choice: a "now" said later
-/// than 1.5 s is said past the corner at walking pace, a door past the door; the
+/// than 1.5 s is said past the corner at walking pace, a door past the door, an area
+/// entered 2 s late well inside it; the
 /// "then" after a "now" must end (1 s of words) before the next "now" can be due, the
 /// spacing after the first; an announcement is good for about half its 6 m; answers
 /// and arrival for 5 s).
 pub fn ttl_ms(kind: &InstructionKind) -> u32 {
     match kind {
         InstructionKind::TurnNow { .. } | InstructionKind::PassingDoor { .. } => 1500,
-        InstructionKind::TurnThen { .. } => 2000,
+        InstructionKind::TurnThen { .. } | InstructionKind::EnteringArea { .. } => 2000,
         InstructionKind::TurnAhead { .. } | InstructionKind::OffRoute { .. } | InstructionKind::Continue => 3000,
         _ => 5000,
     }

@@ -113,6 +113,10 @@ pub struct GuidanceProfile {
     /// at most one door said per this many metres walked (default 10: our choice; the
     /// doors of a corridor are 3-6 m apart)
     pub passing_door_every_m: f64,
+    /// "Entering the stair hall." as the user enters a named area of the map on the
+    /// way (ISANA's areas; a place the user can tell from its sound and size), once a
+    /// trip per area, under the rules of a door in passing (default true)
+    pub passing_areas: bool,
 }
 
 /// A guidance profile that cannot be used.
@@ -240,6 +244,7 @@ impl Default for GuidanceProfile {
             passing_doors: true,
             passing_door_m: 2.5,
             passing_door_every_m: 10.0,
+            passing_areas: true,
         }
     }
 }

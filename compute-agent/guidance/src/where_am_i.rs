@@ -37,7 +37,7 @@ pub fn where_am_i(layer: &SemanticLayer, floor: i32, x: f64, y: f64, near_door_m
 
 /// "the corridor", but "room 214" and "Main Hall" as they are: a name with a number or
 /// a capital is a proper name.
-fn with_article(name: &str) -> String {
+pub(crate) fn with_article(name: &str) -> String {
     let proper = name.chars().any(|c| c.is_ascii_digit() || c.is_uppercase());
     if proper {
         name.to_string()

@@ -135,13 +135,17 @@ fn pose(at: [f64; 2], heading_rad: f64) -> UserPose {
 }
 
 /// Every instruction goes out at Message priority, never interrupting, with a key; a
-/// door in passing and "position uncertain" at Text, which a turn cuts off.
+/// door in passing, an area entered and "position uncertain" at Text, which a turn cuts
+/// off.
 fn assert_priorities(said: &[Said]) {
     for s in said {
         let speech = s.instruction.speech();
-        let tells_only =
-            matches!(s.instruction.kind, InstructionKind::PassingDoor { .. } | InstructionKind::TurnThen { .. })
-                || s.instruction.text.starts_with("Position uncertain:");
+        let tells_only = matches!(
+            s.instruction.kind,
+            InstructionKind::PassingDoor { .. }
+                | InstructionKind::EnteringArea { .. }
+                | InstructionKind::TurnThen { .. }
+        ) || s.instruction.text.starts_with("Position uncertain:");
         let expected = if tells_only { Priority::Text } else { Priority::Message };
         assert_eq!(speech.priority, expected, "{s:?}");
         assert!(!speech.interrupt, "{s:?}");
@@ -464,6 +468,112 @@ fn doors_passed_are_said_on_their_side_ten_metres_apart_and_never_hold_back_a_tu
     let mut guide = Guide::single_floor(route.clone(), "the end", doors_every_3_m(), GuidanceProfile::default());
     let said = walk(&mut guide, &backwards, 0, 0, Some(&p), |_| true);
     assert!(said.iter().all(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. })), "{said:#?}");
+}
+
+/// The corridor's layer with a lobby in the corridor (x `west_x`-14, inside it: its
+/// parent), and a hall at the foot of the corridor down (y 0.5-4).
+fn lobby_and_hall(west_x: f64) -> SemanticLayer {
+    let toml = format!(
+        "{LAYER}
+[[area]]
+name = \"lobby\"
+floor = 0
+parent = \"corridor\"
+polygon = [[{west_x}, 10.5], [14.0, 10.5], [14.0, 12.5], [{west_x}, 12.5]]
+
+[[area]]
+name = \"Hall B\"
+floor = 0
+parent = \"east wing\"
+polygon = [[18.5, 0.5], [20.5, 0.5], [20.5, 4.0], [18.5, 4.0]]
+"
+    );
+    SemanticLayer::parse(&toml, Path::new("areas.toml")).unwrap()
+}
+
+fn is_area(s: &Said) -> bool {
+    matches!(s.instruction.kind, InstructionKind::EnteringArea { .. })
+}
+
+#[test]
+fn an_area_entered_on_the_way_is_said_once_past_its_edge_and_never_holds_back_a_turn() {
+    let mut p = planner();
+    let route = l_route(&mut p);
+    let poses = poses_along(&route.waypoints);
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", lobby_and_hall(3.0), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses, 0, 0, Some(&p), |_| true);
+    // the lobby past its edge (x 3), the spacing after the route's start; leaving it for
+    // the corridor that holds it enters nothing; the hall at the foot of the corridor
+    // down is entered 2.5 m before the goal, where it would hold back the arrival: not
+    // said
+    assert_eq!(
+        texts(&said),
+        [
+            "Route to the stairs: 25 metres. Go straight on.",
+            "Entering the lobby.",
+            "Passing door 214, on your left.",
+            "In 6 metres, turn right.",
+            "Turn right now.",
+            "You have arrived at the stairs."
+        ],
+        "{said:#?}"
+    );
+    let lobby = &said[1];
+    assert_eq!(lobby.instruction.kind, InstructionKind::EnteringArea { name: "lobby".into() });
+    assert_eq!(lobby.t_ms, 3000, "{lobby:?}");
+    assert!((lobby.at[0] - 4.5).abs() < STEP_M, "{lobby:?}");
+    assert!(!lobby.instruction.vibrate_first, "it asks nothing: no notice tap");
+    assert_eq!(lobby.instruction.speech().ttl_ms, 2000);
+    assert!((said[2].at[0] - 9.0).abs() < STEP_M, "the door where it is said without the lobby: {said:#?}");
+    assert_spaced(&said, 3000);
+    assert_priorities(&said);
+    // the route's words, where and when they were said without the lobby and the door
+    let quiet = GuidanceProfile { passing_areas: false, passing_doors: false, ..GuidanceProfile::default() };
+    let mut without = Guide::single_floor(route.clone(), "the stairs", lobby_and_hall(3.0), quiet);
+    let plain = walk(&mut without, &poses, 0, 0, Some(&p), |_| true);
+    let route_words = |s: &[Said]| -> Vec<(u64, String)> {
+        s.iter()
+            .filter(|s| !is_area(s) && !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. }))
+            .map(|s| (s.t_ms, s.instruction.text.clone()))
+            .collect()
+    };
+    assert_eq!(route_words(&said), route_words(&plain));
+    assert_eq!(plain.len(), 4, "{plain:#?}");
+
+    // a lobby from x 6 on the long corridor east: said at x 7, and the door in it (x 10)
+    // waits the spacing after it
+    let east = p.plan([1.0, 11.5], [26.0, 11.5]).unwrap();
+    let mut guide = Guide::single_floor(east.clone(), "the end", lobby_and_hall(6.0), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&east.waypoints), 0, 0, Some(&p), |_| true);
+    assert_eq!(texts(&said)[1..3], ["Entering the lobby.", "Passing door 214, on your left."], "{said:#?}");
+    assert!((said[1].at[0] - 7.0).abs() < STEP_M, "{said:#?}");
+    assert_eq!(said[2].t_ms - said[1].t_ms, 3000, "{said:#?}");
+
+    // where the user starts enters nothing
+    let inside = p.plan([8.0, 11.5], [26.0, 11.5]).unwrap();
+    let mut guide = Guide::single_floor(inside.clone(), "the end", lobby_and_hall(3.0), GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&inside.waypoints), 0, 0, Some(&p), |_| true);
+    assert!(!said.iter().any(is_area), "{said:#?}");
+    // walked west, the lobby's east edge (x 14) a metre behind; then east again on a new
+    // route of the same trip: the lobby is not said twice, the door is
+    let west = p.plan([26.0, 11.5], [1.0, 11.5]).unwrap();
+    let mut guide = Guide::single_floor(west.clone(), "the west end", lobby_and_hall(3.0), GuidanceProfile::default());
+    let there = walk(&mut guide, &poses_along(&west.waypoints), 0, 0, Some(&p), |_| true);
+    assert_eq!(texts(&there)[1], "Entering the lobby.", "{there:#?}");
+    assert!((there[1].at[0] - 13.0).abs() < STEP_M, "{there:#?}");
+    let length_m = east.length_m;
+    let legs = vec![planning::Leg { route: east.clone(), end: planning::LegEnd::Goal }];
+    guide.set_route(planning::BuildingRoute { legs, walk_length_m: length_m, cost_m: length_m });
+    let again = walk(&mut guide, &poses_along(&east.waypoints), 0, 30_000, Some(&p), |_| true);
+    assert!(!again.iter().any(is_area), "{again:#?}");
+    assert_eq!(texts(&again)[1], "Passing door 214, on your left.", "{again:#?}");
+
+    // a place wavering across the lobby's edge enters it for no one: said only a metre
+    // past where it was entered
+    let edge: Vec<([f64; 2], f64)> = (0..40).map(|k| ([if k % 2 == 0 { 2.9 } else { 3.1 }, 11.5], 0.0)).collect();
+    let mut guide = Guide::single_floor(route.clone(), "the stairs", lobby_and_hall(3.0), GuidanceProfile::default());
+    let said = walk(&mut guide, &edge, 0, 0, Some(&p), |_| true);
+    assert!(!said.iter().any(is_area), "{said:#?}");
 }
 
 #[test]
