@@ -186,6 +186,16 @@ impl Tally {
     }
 }
 
+/// Waits up to 5 s for an agent's task to end; what went wrong goes to `failures`.
+async fn stopped(name: &str, task: tokio::task::JoinHandle<anyhow::Result<()>>, failures: &mut Vec<String>) {
+    match tokio::time::timeout(Duration::from_secs(5), task).await {
+        Ok(Ok(Ok(()))) => {}
+        Ok(Ok(Err(e))) => failures.push(format!("{name}: {e:#}")),
+        Ok(Err(e)) => failures.push(format!("{name} panicked: {e}")),
+        Err(_) => failures.push(format!("{name} did not stop within 5 s")),
+    }
+}
+
 fn fmt_ms(v: f32) -> String {
     if v.is_nan() {
         "-".into()
@@ -259,7 +269,17 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let compute = tokio::spawn(compute_agent::run::run(compute_config, shutdown.clone()));
     tokio::time::sleep(Duration::from_millis(300)).await;
     let feedback_config = feedback_agent::FeedbackConfig { bus: peer_bus.clone(), ..feedback_config };
-    let feedback = tokio::spawn(feedback_agent::run(feedback_config, shutdown.clone()));
+    // At the demo's end the feedback agent stops first: stopping after the compute agent,
+    // it would say that obstacle detection went offline (a signal stops all at once).
+    let feedback_shutdown = Shutdown::new();
+    tokio::spawn({
+        let (all, feedback) = (shutdown.clone(), feedback_shutdown.clone());
+        async move {
+            all.triggered().await;
+            feedback.trigger();
+        }
+    });
+    let feedback = tokio::spawn(feedback_agent::run(feedback_config, feedback_shutdown.clone()));
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let mut phone_config = phone_bridge::PhoneConfig::new(peer_bus.clone());
     phone_config.serve = match args.https {
@@ -329,7 +349,10 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
             _ = shutdown.triggered() => break,
             _ = &mut deadline => break,
             Some(h) = hazards.recv() => tally.on_hazard(h.body),
-            Some(a) = applied.recv() => tally.on_applied(&a.body),
+            Some(a) = applied.recv() => {
+                tally.on_applied(&a.body);
+                if let Some(g) = guide.as_mut() { g.on_applied(&a.body) }
+            }
             Some(i) = intents.recv() => tally.intent_ms.push(i.age_ms() as f32),
             Some(h) = health.recv() => tally.on_health(&h.body),
             _ = tick.tick() => eprintln!("{}", tally.status_line(started.elapsed(), period)),
@@ -348,25 +371,20 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
             _ = guide_tick.tick(), if guide.is_some() => {
                 if let Some(g) = guide.as_mut() {
                     g.tick().await;
-                    // a moment after arrival, so "you have arrived" is heard and shown
-                    if g.arrived_at.is_some_and(|t| t.elapsed() >= Duration::from_secs(2)) {
+                    // once "you have arrived" has been heard to its end
+                    if g.done(Duration::from_secs(8)) {
                         break;
                     }
                 }
             }
         }
     }
-    shutdown.trigger_exit();
     let mut failures = Vec::new();
-    for (name, task) in
-        [("sensor-agent", sensor), ("compute-agent", compute), ("feedback-agent", feedback), ("phone-bridge", phone)]
-    {
-        match tokio::time::timeout(Duration::from_secs(5), task).await {
-            Ok(Ok(Ok(()))) => {}
-            Ok(Ok(Err(e))) => failures.push(format!("{name}: {e:#}")),
-            Ok(Err(e)) => failures.push(format!("{name} panicked: {e}")),
-            Err(_) => failures.push(format!("{name} did not stop within 5 s")),
-        }
+    feedback_shutdown.trigger_exit();
+    stopped("feedback-agent", feedback, &mut failures).await;
+    shutdown.trigger_exit();
+    for (name, task) in [("sensor-agent", sensor), ("compute-agent", compute), ("phone-bridge", phone)] {
+        stopped(name, task, &mut failures).await;
     }
     let _ = session.close().await;
     let (p50, p99) = bus::health::percentiles(&mut tally.e2e_ms);

@@ -13,7 +13,7 @@ use bus::{Health, Lane, Publisher, Subscriber};
 use compute_agent::nav::{MapSource, NavConfig};
 use localization::Pose2;
 use map::Building;
-use schemas::{Command, GroundTruth, Keys, Pose, RouteState, RouteStatus, SpeechIntent};
+use schemas::{Applied, AppliedAction, Command, GroundTruth, Keys, Pose, RouteState, RouteStatus, SpeechIntent};
 use sensor_agent::sim::source::Guidance;
 use sensor_agent::sim::{Directions, DirectionsHandle, SimConfig, SimSource, World};
 use sensor_agent::source::FrameSource;
@@ -97,7 +97,9 @@ pub struct GuidedWatch {
     accepted: bool,
     last_status: Option<RouteStatus>,
     last_truth: Option<GroundTruth>,
-    pub(crate) arrived_at: Option<Instant>,
+    arrived_at: Option<Instant>,
+    /// the arrival's words were spoken to their end (or cut, or dropped) by a device
+    arrival_ended: bool,
     utterances: usize,
     floors_said: Vec<i32>,
 }
@@ -127,6 +129,7 @@ impl GuidedWatch {
             last_status: None,
             last_truth: None,
             arrived_at: None,
+            arrival_ended: false,
             utterances: 0,
             floors_said: Vec::new(),
         })
@@ -141,6 +144,26 @@ impl GuidedWatch {
 
     fn stamp(&self) -> String {
         format!("[{:6.1}s]", self.started.elapsed().as_secs_f32())
+    }
+
+    /// What a feedback device did: whether the arrival's words are over.
+    pub fn on_applied(&mut self, a: &Applied) {
+        let ended = match &a.action {
+            AppliedAction::SpeechFinished { text }
+            | AppliedAction::SpeechInterrupted { text }
+            | AppliedAction::SpeechDropped { text, .. } => text,
+            _ => return,
+        };
+        // the guide's words for it ("You have arrived at room 204.")
+        if self.arrived_at.is_some() && ended.starts_with("You have arrived") {
+            self.arrival_ended = true;
+        }
+    }
+
+    /// Arrived, and the arrival's words are over (or `limit` has passed since arrival,
+    /// for a device that never says what became of them).
+    pub fn done(&self, limit: Duration) -> bool {
+        self.arrived_at.is_some_and(|t| self.arrival_ended || t.elapsed() >= limit)
     }
 
     /// A route state: the walker's directions, and news for the terminal.

@@ -1080,3 +1080,25 @@ fn a_chest_camera_is_refused_on_a_recording_and_under_the_cane_cameras_name() {
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("--chest-device \"cane\" is the camera's or the body IMU's device"), "{err}");
 }
+
+/// The README's guided demo as a user runs it: the simulated user is walked to room 204
+/// by what the device says, across a lift ride, and the demo ends once "you have
+/// arrived" has been said to its end, with no warning at its end (the feedback agent
+/// stops before the agents it watches).
+#[test]
+fn the_guided_demo_walks_the_user_to_the_room_and_ends_after_the_arrival_is_said() {
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["demo", "--world", "building", "--destination", "room 204", "--duration", "120s"])
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .output()
+        .expect("wearnav demo runs");
+    let (said, log) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "the demo failed:\n{log}");
+    assert!(log.contains("guided walk summary: arrived at room 204 (floor 1,"), "{log}");
+    let speech: Vec<&str> = said.lines().filter(|l| l.starts_with("SPEAK")).collect();
+    let arrival = speech.iter().position(|l| *l == "SPEAK \"You have arrived at room 204.\"");
+    let arrival = arrival.unwrap_or_else(|| panic!("the arrival was not said: {speech:#?}"));
+    assert_eq!(speech[arrival + 1..], [] as [&str; 0], "said after the arrival, or the arrival cut: {speech:#?}");
+    assert!(speech.iter().any(|l| l.starts_with("SPEAK \"Floor 1: ")), "the second floor's start: {speech:#?}");
+}
