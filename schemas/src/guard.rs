@@ -115,7 +115,8 @@ impl Guard {
 
     /// Accept or refuse a message that arrived on `key` at `received_ns` (our clock),
     /// from a sender whose clock reads `offset_ns` behind ours ([`Clocks::offset_ns`]).
-    /// Freshness comes first, so a stale message leaves no trace in the sequence state.
+    /// Freshness comes first, so a stale message does not move the sequence state (it is
+    /// only noted as refused, so that it is not also counted as lost).
     ///
     /// Accepted, it gives how many messages this publisher numbered between the last
     /// one heard here and this one that never arrived (neither accepted nor refused):

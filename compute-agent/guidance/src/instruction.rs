@@ -150,11 +150,11 @@ impl Instruction {
 }
 
 /// The speech priority of an instruction: `Text` for what asks nothing of the user
-/// now (a door in passing, an area entered, "position uncertain", the "then" after a "now", whose own
-/// "now" follows), so a turn, a prompt or an answer (`Message`) cuts it off and goes
-/// first, and a newer one replaces one still waiting; `Message` for everything else,
-/// the request to stop and turn on the spot (and to stop turning when that did not
-/// find the place) included. Measured in docs/guidance.md ("What only tells where
+/// now (a door in passing, an area entered, "position uncertain", the "then" after a
+/// "now", whose own "now" follows), so a turn, a prompt or an answer (`Message`) cuts
+/// it off and goes first, and a newer one replaces one still waiting; `Message` for
+/// everything else, the request to stop and turn on the spot (and to stop turning when
+/// that did not find the place) included. Measured in docs/guidance.md ("What only tells where
 /// things stand gives way"): the turns "now" the speech queue had dropped behind it.
 pub fn priority(kind: &InstructionKind) -> Priority {
     match kind {
@@ -185,11 +185,11 @@ pub fn localization_news(news: &str, serial: u64) -> SpeechIntent {
 }
 
 /// How long each kind may wait for the speaker, ms (our choice: a "now" said later
-/// than 1.5 s is said past the corner at walking pace, a door past the door, an area
-/// entered 2 s late well inside it; the
-/// "then" after a "now" must end (1 s of words) before the next "now" can be due, the
-/// spacing after the first; an announcement is good for about half its 6 m; answers
-/// and arrival for 5 s).
+/// than 1.5 s is said past the corner at walking pace, a door past the door; an area
+/// entered is said 1-5 m into it, 2 s more is still near its edge; the "then" after a
+/// "now" must end (1 s of words) before the next "now" can be due, the spacing after
+/// the first; an announcement is good for about half its 6 m; answers and arrival for
+/// 5 s).
 pub fn ttl_ms(kind: &InstructionKind) -> u32 {
     match kind {
         InstructionKind::TurnNow { .. } | InstructionKind::PassingDoor { .. } => 1500,
