@@ -172,6 +172,7 @@ impl Tally {
             ),
             None => "no hazard yet".into(),
         };
+        let (rejects, lost) = self.losses();
         format!(
             "[{:6.1}s] sensor {} fps | perceived {:.1}/s | {} | capture->applied p50 {} p99 {} ms | rejects {} | lost {}",
             elapsed.as_secs_f32(),
@@ -180,8 +181,8 @@ impl Tally {
             state,
             fmt_ms(p50),
             fmt_ms(p99),
-            self.losses().0,
-            self.losses().1,
+            rejects,
+            lost,
         )
     }
 }

@@ -888,13 +888,15 @@ impl Guide {
     /// those of the last step was just entered (leaving a room for the corridor that
     /// holds it enters nothing). Where the user first is on a floor enters nothing.
     fn follow_areas(&mut self, pose: &UserPose) {
-        let chain: Vec<String> =
-            self.semantic.areas_at(pose.floor, pose.x_m, pose.y_m).iter().map(|a| a.name.clone()).collect();
+        let areas = self.semantic.areas_at(pose.floor, pose.x_m, pose.y_m);
+        let names = || areas.iter().map(|a| a.name.as_str());
+        // most steps stay where they were: nothing to keep anew
+        if self.areas_here.as_ref().is_some_and(|(f, b)| *f == pose.floor && b.iter().map(String::as_str).eq(names())) {
+            return;
+        }
+        let chain: Vec<String> = names().map(str::to_string).collect();
         match &self.areas_here {
             Some((floor, before)) if *floor == pose.floor => {
-                if before == &chain {
-                    return;
-                }
                 if let Some(inner) = chain.first().filter(|a| !before.contains(a)) {
                     self.area_entered = Some((inner.clone(), [pose.x_m, pose.y_m]));
                 } else if self.area_entered.as_ref().is_some_and(|(name, _)| !chain.contains(name)) {

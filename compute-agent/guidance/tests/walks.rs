@@ -153,6 +153,16 @@ fn assert_priorities(said: &[Said]) {
     }
 }
 
+/// What the route itself said, and when: the doors and areas said in passing left out.
+fn route_words(said: &[Said]) -> Vec<(u64, String)> {
+    said.iter()
+        .filter(|s| {
+            !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. } | InstructionKind::EnteringArea { .. })
+        })
+        .map(|s| (s.t_ms, s.instruction.text.clone()))
+        .collect()
+}
+
 /// No two instructions closer than the spacing, except arrival (and the "then" after a
 /// "now", which neither keeps the spacing nor counts for it).
 fn assert_spaced(said: &[Said], min_ms: u64) {
@@ -438,12 +448,6 @@ fn doors_passed_are_said_on_their_side_ten_metres_apart_and_never_hold_back_a_tu
     let quiet = GuidanceProfile { passing_doors: false, ..GuidanceProfile::default() };
     let mut without = Guide::single_floor(route.clone(), "the stairs", doors_every_3_m(), quiet);
     let plain = walk(&mut without, &poses, 0, 0, Some(&p), |_| true);
-    let route_words = |s: &[Said]| -> Vec<(u64, String)> {
-        s.iter()
-            .filter(|s| !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. }))
-            .map(|s| (s.t_ms, s.instruction.text.clone()))
-            .collect()
-    };
     assert_eq!(route_words(&said), route_words(&plain));
     assert_eq!(plain.len(), 4, "{plain:#?}");
 
@@ -531,12 +535,6 @@ fn an_area_entered_on_the_way_is_said_once_past_its_edge_and_never_holds_back_a_
     let quiet = GuidanceProfile { passing_areas: false, passing_doors: false, ..GuidanceProfile::default() };
     let mut without = Guide::single_floor(route.clone(), "the stairs", lobby_and_hall(3.0), quiet);
     let plain = walk(&mut without, &poses, 0, 0, Some(&p), |_| true);
-    let route_words = |s: &[Said]| -> Vec<(u64, String)> {
-        s.iter()
-            .filter(|s| !is_area(s) && !matches!(s.instruction.kind, InstructionKind::PassingDoor { .. }))
-            .map(|s| (s.t_ms, s.instruction.text.clone()))
-            .collect()
-    };
     assert_eq!(route_words(&said), route_words(&plain));
     assert_eq!(plain.len(), 4, "{plain:#?}");
 
