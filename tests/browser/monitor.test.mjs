@@ -36,21 +36,28 @@ const { start, waitFor, step } = h;
 const onBus = (suffix) => bus.filter((m) => m.line.key === `wearnav/${USER}/${suffix}`).map((m) => m.line);
 
 async function seen() {
+  // the utterances first, each on one line: a CI log keeps only the start of this
+  const spoken = onBus('feedback/speech').reverse()
+    .map((m) => `${new Date(m.header.capture_ns / 1e6).toISOString()} ${m.header.sender}#${m.header.seq} ${m.body.text}`);
+  let said = '(no page)';
   let dom = '(no page)';
   if (page) {
+    said = await page.evaluate(() => [...document.querySelectorAll('#utterances li')]
+      .map((li) => `${li.querySelector('time').dateTime} ${li.lastChild.textContent}`))
+      .then((l) => JSON.stringify(l.slice(0, 8)), (e) => `page unavailable: ${e.message}`);
     dom = await page.evaluate(() => ({
       connection: document.getElementById('connection').textContent,
       alert: document.getElementById('alert').textContent,
       scan: { ...document.getElementById('scan').dataset },
       map: { ...document.getElementById('map').dataset },
       rumble: window.__rumble || null,
-      said: [...document.querySelectorAll('#utterances li')].map((li) => li.textContent).slice(0, 5),
       agents: [...document.querySelectorAll('#agents-table tbody tr')].map((tr) => `${tr.dataset.agent}:${tr.dataset.alive}`),
-    })).then((s) => JSON.stringify(s, null, 1), (e) => `page unavailable: ${e.message}`);
+    })).then((s) => JSON.stringify(s), (e) => `page unavailable: ${e.message}`);
   }
   const keys = {};
   for (const m of bus) keys[m.line.key] = (keys[m.line.key] || 0) + 1;
-  return [`page: ${dom}`, `bus messages by key: ${JSON.stringify(keys)}`,
+  return [`said on the page, newest first: ${said}`, `said on the bus, newest first: ${JSON.stringify(spoken.slice(0, 8))}`,
+    `page: ${dom}`, `bus messages by key: ${JSON.stringify(keys)}`,
     `page errors: ${JSON.stringify(pageErrors.slice(-5))}`, h.exits()].join('\n');
 }
 
@@ -159,14 +166,28 @@ step('speech', ['page'], 'the utterances fill the list, the newest first', 20000
   assert.match(said, /^\d\d:\d\d:\d\dimportant/, `time and priority before the words: ${said}`);
   // the list is the bus's utterances, newest first; before the page connected (and
   // before monitor.py did) the bridge said its pairing code: the page got it from the
-  // bridge's state
+  // bridge's state. Each utterance is known by its capture time (the list's datetime,
+  // to the millisecond) and words. Two publishers' utterances a few milliseconds apart
+  // (the start said again after the words above cut it) may reach the bridge and
+  // monitor.py in either order, so the newest on the page are the bus's, each sender's
+  // in the bus's order.
   // (read until both sides agree: a start said again may reach one before the other)
   const listed = await waitFor('the list to be what feedback/speech carried, newest first', async () => {
-    const list = await page.evaluate(() => [...document.querySelectorAll('#utterances li')].map((li) => li.lastChild.textContent));
-    const spoken = onBus('feedback/speech').map((m) => m.body.text).reverse();
-    return spoken.length > 0 && JSON.stringify(list.slice(0, spoken.length)) === JSON.stringify(spoken) && list;
+    const list = await page.evaluate(() => [...document.querySelectorAll('#utterances li')]
+      .map((li) => `${li.querySelector('time').dateTime} ${li.lastChild.textContent}`));
+    const spoken = onBus('feedback/speech').reverse()
+      .map((m) => ({ sender: m.header.sender, id: `${new Date(m.header.capture_ns / 1e6).toISOString()} ${m.body.text}` }));
+    if (spoken.length === 0) return false;
+    const newest = list.slice(0, spoken.length);
+    if (JSON.stringify([...newest].sort()) !== JSON.stringify(spoken.map((s) => s.id).sort())) return false;
+    const senders = new Set(spoken.map((s) => s.sender));
+    const inOrder = [...senders].every((sender) => {
+      const theirs = spoken.filter((s) => s.sender === sender).map((s) => s.id);
+      return JSON.stringify(newest.filter((id) => theirs.includes(id))) === JSON.stringify(theirs);
+    });
+    return inOrder && list;
   }, 3000);
-  assert.match(listed[listed.length - 1], /^Phone bridge ready\. Pairing code( \d){6}\.$/, 'the oldest, said before the page came');
+  assert.match(listed[listed.length - 1], /^\S+Z Phone bridge ready\. Pairing code( \d){6}\.$/, 'the oldest, said before the page came');
 });
 
 step('map', ['speech'], 'the floor map shows the pose, and the route to the destination', 15000, async () => {
