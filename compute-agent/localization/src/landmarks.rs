@@ -34,6 +34,17 @@ pub enum Landmark {
         /// metres to the user's left
         left_m: f64,
     },
+    /// A named place the user says they are near (someone nearby told them, or they
+    /// know it), its name found on the map by the caller: where the user is within
+    /// [`LandmarkConfig::place_sigma_m`], not which way they face.
+    Place {
+        /// the floor's level
+        level: i32,
+        /// map x of the place, metres
+        x_m: f64,
+        /// map y of the place, metres
+        y_m: f64,
+    },
 }
 
 impl Landmark {
@@ -41,6 +52,7 @@ impl Landmark {
     pub fn offset_m(&self) -> (f64, f64) {
         match self {
             Landmark::Door { forward_m, left_m, .. } | Landmark::Corner { forward_m, left_m } => (*forward_m, *left_m),
+            Landmark::Place { .. } => (0.0, 0.0),
         }
     }
 }
@@ -83,6 +95,11 @@ pub struct LandmarkConfig {
     pub door_reset_fraction: f64,
     /// see `door_reset_fraction`
     pub door_reset_below_support: f64,
+    /// standard deviation of where a user who names a place stands from the place's
+    /// point on the map, metres: "at room 204" or "in the lobby" is a few metres, not a
+    /// door's arm's reach. A place is weighed and resets particles as a door number is,
+    /// with the same probability of being wrong (our choice).
+    pub place_sigma_m: f64,
     /// standard deviation of a measured wall angle, radians (3 degrees: a plane fit to
     /// a metre of wall in a depth image)
     pub wall_sigma_rad: f64,
@@ -112,6 +129,7 @@ impl Default for LandmarkConfig {
             corner_false_probability: 0.2,
             door_reset_fraction: 0.1,
             door_reset_below_support: 0.1,
+            place_sigma_m: 2.0,
             wall_sigma_rad: 3f64.to_radians(),
             wall_outlier_probability: 0.1,
             compass_tolerance_rad: 45f64.to_radians(),

@@ -511,8 +511,9 @@ pub struct ParticleFilter {
     free_nearest: Vec<u8>,
     bins: BinSums,
     next: Vec<Particle>,
-    /// door readings few particles agreed with: (floor index, door, body-frame offset)
-    door_resets: Vec<(u16, [f64; 2], [f64; 2])>,
+    /// door numbers and places told that few particles agreed with: (floor index, where,
+    /// body-frame offset, sigma)
+    door_resets: Vec<(u16, [f64; 2], [f64; 2], f64)>,
 }
 
 impl ParticleFilter {
@@ -1193,6 +1194,9 @@ impl ParticleFilter {
             && match lm {
                 Landmark::Door { number, .. } => self.floors.iter().any(|f| f.door(number).is_some()),
                 Landmark::Corner { .. } => true,
+                Landmark::Place { level, x_m, y_m } => {
+                    x_m.is_finite() && y_m.is_finite() && self.floor_index(*level).is_some()
+                }
             }
     }
 
@@ -1205,32 +1209,49 @@ impl ParticleFilter {
                 self.door_read = true;
                 // the door on each floor, once per floor, not once per particle
                 let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
-                let floor_miss = cfg.door_misread_probability.max(1e-6).ln();
-                let mut support = 0.0;
-                for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
-                    *lw += match doors[p.floor as usize] {
-                        Some([dx, dy]) => {
-                            let seen = p.pose.compose(fwd, left, 0.0);
-                            let d = (seen.x_m - dx).hypot(seen.y_m - dy);
-                            support += p.weight * (-d * d / (2.0 * cfg.sigma_m * cfg.sigma_m)).exp();
-                            mixture_log_p(d, cfg.sigma_m, cfg.door_misread_probability)
-                        }
-                        None => floor_miss,
-                    };
-                }
-                if support < cfg.door_reset_below_support {
-                    for (fi, door) in doors.iter().enumerate() {
-                        if let Some(xy) = door {
-                            self.door_resets.push((fi as u16, *xy, [fwd, left]));
-                        }
-                    }
-                }
+                self.weigh_told_place(&doors, [fwd, left], cfg.sigma_m);
+            }
+            Landmark::Place { level, x_m, y_m } => {
+                // a few metres: the scans still have to fix the place along a corridor
+                // before `Tracking` (a door's number does that itself)
+                let at: Vec<Option<[f64; 2]>> =
+                    self.floors.iter().map(|f| (f.level == *level).then_some([*x_m, *y_m])).collect();
+                self.weigh_told_place(&at, [0.0, 0.0], cfg.place_sigma_m);
             }
             Landmark::Corner { .. } => {
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
                     let seen = p.pose.compose(fwd, left, 0.0);
                     let d = self.floors[p.floor as usize].corner_field().distance_m(seen.x_m, seen.y_m);
                     *lw += mixture_log_p(d, cfg.sigma_m, cfg.corner_false_probability);
+                }
+            }
+        }
+    }
+
+    /// Weighs a place the user was told (a door's number, a named place): `at` is where
+    /// it is on each floor (none where the floor has no such place), `offset` where it
+    /// is from the user (forward, left), `sigma` how near. When few particles agree,
+    /// resets are queued where the reading puts the user (see
+    /// [`LandmarkConfig::door_reset_fraction`]).
+    fn weigh_told_place(&mut self, at: &[Option<[f64; 2]>], [fwd, left]: [f64; 2], sigma: f64) {
+        let misread = self.config.landmarks.door_misread_probability;
+        let floor_miss = misread.max(1e-6).ln();
+        let mut support = 0.0;
+        for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
+            *lw += match at[p.floor as usize] {
+                Some([dx, dy]) => {
+                    let seen = p.pose.compose(fwd, left, 0.0);
+                    let d = (seen.x_m - dx).hypot(seen.y_m - dy);
+                    support += p.weight * (-d * d / (2.0 * sigma * sigma)).exp();
+                    mixture_log_p(d, sigma, misread)
+                }
+                None => floor_miss,
+            };
+        }
+        if support < self.config.landmarks.door_reset_below_support {
+            for (fi, xy) in at.iter().enumerate() {
+                if let Some(xy) = xy {
+                    self.door_resets.push((fi as u16, *xy, [fwd, left], sigma));
                 }
             }
         }
@@ -1306,9 +1327,8 @@ impl ParticleFilter {
             let p = self.recovery_particle(w);
             self.next.push(p);
         }
-        let sigma = self.config.landmarks.sigma_m;
         for _ in 0..n_door {
-            let (fi, [dx, dy], [fwd, left]) = self.door_resets[self.rng.index(self.door_resets.len())];
+            let (fi, [dx, dy], [fwd, left], sigma) = self.door_resets[self.rng.index(self.door_resets.len())];
             // the door fixes where, not which way: the heading comes from the belief
             // (IMU, wall angles), uniform when that is uniform
             let h = self.particles[self.rng.index(self.particles.len())].pose.heading_rad + self.rng.normal(0.1);

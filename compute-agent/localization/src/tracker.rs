@@ -374,6 +374,22 @@ impl Tracker {
         Ok(())
     }
 
+    /// The user says they are near a named place, found on the map by the caller at
+    /// `at` (map metres) on floor `level` (someone nearby told them, or they know it):
+    /// the filter takes it as a landmark a few metres wide
+    /// ([`crate::LandmarkConfig::place_sigma_m`]), and where few particles agree, draws
+    /// some anew about it. A floor the building does not have, or a place that is no
+    /// point, is refused, counted by the filter, and changes nothing.
+    pub fn place(&mut self, level: i32, at: [f64; 2]) -> Result<(), String> {
+        let seen = [Landmark::Place { level, x_m: at[0], y_m: at[1] }];
+        if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
+            return Err(format!("no floor {level} with a place at ({:.1}, {:.1}) on the maps", at[0], at[1]));
+        }
+        // the user's own word for where they are: no look-alike
+        self.pf.forget_anchor();
+        Ok(())
+    }
+
     /// The filter's answer.
     pub fn estimate(&self) -> Estimate {
         self.pf.estimate()
@@ -747,6 +763,58 @@ normal = [0.0, -1.0]
         assert!(err.contains("999"), "{err}");
         assert_eq!(t.filter().counters().landmarks_rejected, refused + 1);
         assert!(t.estimate().pose.distance_m(&e.pose) < 1e-9, "a refused door moved the estimate");
+    }
+
+    /// The user stands at (16, 8.5) in the corridor up, facing up it, sweeping the cane
+    /// for `seconds`; nothing is known of where they are (both floors are alike). With
+    /// `told`, they say after a second that they are near the lift (16, 10) on floor 0.
+    fn standing_in_the_corridor_up(told: Option<(i32, [f64; 2])>, seconds: u64) -> (Tracker, u64) {
+        let g = grid();
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 3).unwrap();
+        t.start_global();
+        let (amp, w) = (25f64.to_radians(), std::f64::consts::TAU * 0.7);
+        let period = 33_333_333u64;
+        let heading = std::f64::consts::FRAC_PI_2;
+        let mut refused = 0;
+        for k in 0..30 * seconds {
+            let ts = k as f64 / 30.0;
+            if k > 0 {
+                t.odometry(&odom(0.0, 0.0, (k - 1) * period, k * period), Some(0.0)).unwrap();
+            }
+            if k == 30 {
+                if let Some((level, at)) = told {
+                    refused += u64::from(t.place(level, at).is_err());
+                }
+            }
+            let sweep = amp * (w * ts).sin();
+            t.frame(&scan_at(&g, 16.0, 8.5, heading, sweep), k * period, Some(amp * w * (w * ts).cos()), Some(0.0));
+        }
+        (t, refused)
+    }
+
+    #[test]
+    fn a_place_the_user_names_finds_them_where_the_scans_alone_cannot_and_one_on_no_floor_is_refused() {
+        let truth = Pose2::new(16.0, 8.5, std::f64::consts::FRAC_PI_2);
+        let off = |t: &Tracker| {
+            let e = t.estimate();
+            (e.level, e.pose.distance_m(&truth), wrap_angle(e.pose.heading_rad - truth.heading_rad).abs().to_degrees())
+        };
+        let (alone, _) = standing_in_the_corridor_up(None, 8);
+        let (told, refused) = standing_in_the_corridor_up(Some((0, [16.0, 10.0])), 8);
+        let (level, d, turned) = off(&told);
+        assert_eq!(refused, 0);
+        assert_eq!(level, 0, "the place is on floor 0");
+        assert!(d < 0.5 && turned < 10.0, "told: {d:.2} m and {turned:.0} deg off: {:?}", told.estimate().pose);
+        let (level, d, _) = off(&alone);
+        assert!(level != 0 || d > 2.0, "the scans alone found the place too (floor {level}, {d:.2} m off)");
+        // a floor the building does not have changes nothing and is counted
+        let (mut t, _) = standing_in_the_corridor_up(None, 1);
+        let before = (t.estimate().pose, t.filter().counters().landmarks_rejected);
+        let err = t.place(7, [16.0, 10.0]).unwrap_err();
+        assert!(err.contains("floor 7"), "{err}");
+        assert!(t.place(0, [f64::NAN, 10.0]).is_err());
+        assert_eq!(t.filter().counters().landmarks_rejected, before.1 + 2);
+        assert!(t.estimate().pose.distance_m(&before.0) < 1e-9, "a refused place moved the estimate");
     }
 
     /// A square room 6 m a side (x, y 1..7), the same turned by any quarter turn about
