@@ -368,6 +368,20 @@ impl Nav {
             let speech = self.speech(&text, "door");
             self.say(stamp, speech).await;
         }
+        if let Some((name, at)) = &response.place {
+            let text = match self.tracker.place(at.floor, [at.x, at.y]) {
+                Ok(()) => {
+                    tracing::info!("localization: near {name:?} taken (floor {}, {:.1}, {:.1})", at.floor, at.x, at.y);
+                    format!("Near {name}.")
+                }
+                Err(e) => {
+                    tracing::warn!("localization: {e}");
+                    format!("I cannot place you near {name}: {e}.")
+                }
+            };
+            let speech = self.speech(&text, "place");
+            self.say(stamp, speech).await;
+        }
         for speech in response.speech {
             tracing::info!("answer: {}", speech.text);
             self.say(stamp, speech).await;

@@ -6,6 +6,7 @@
     python3 schemas/python/send.py --user alice cmd mute off
     python3 schemas/python/send.py --user alice cmd floor 1
     python3 schemas/python/send.py --user alice cmd door 214
+    python3 schemas/python/send.py --user alice cmd place "room 204"
     python3 schemas/python/send.py --user alice --dry-run cmd where-am-i
 
 Encodes with wearnav_schemas (the same bytes a Rust agent would send), then puts it
@@ -66,6 +67,8 @@ def parse(argv):
         "floor", type=int)
     verbs.add_parser("door", help="say the number of the door I am at (read on its sign)").add_argument(
         "number")
+    verbs.add_parser("place", help="say which named place of the map I am near (\"room 204\")").add_argument(
+        "label")
 
     args = parser.parse_args(argv)
     if args.what == "speech" and not args.text.strip():
@@ -96,6 +99,7 @@ def message(args):
         "cancel": lambda: "Cancel",
         "floor": lambda: {"Floor": {"floor": args.floor}},
         "door": lambda: {"Door": {"number": args.number}},
+        "place": lambda: {"Place": {"label": args.label}},
     }
     return keys.cmd(args.verb), "command", commands[args.verb]()
 

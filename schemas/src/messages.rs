@@ -526,6 +526,14 @@ pub enum Command {
         /// [`crate::wire::MAX_DOOR_NUMBER_CHARS`] characters.
         number: String,
     },
+    /// The user says where they are by a place's name on the map ("room 204", "the
+    /// lobby"), as someone nearby told them or as they know it: a landmark for
+    /// localization, looser than a door's (the user is somewhere near that place).
+    Place {
+        /// The place's label, as for [`Command::Destination`], at most
+        /// [`crate::wire::MAX_PLACE_LABEL_CHARS`] characters.
+        label: String,
+    },
 }
 
 impl Command {
@@ -539,6 +547,7 @@ impl Command {
             Command::Cancel => "cancel",
             Command::Floor { .. } => "floor",
             Command::Door { .. } => "door",
+            Command::Place { .. } => "place",
         }
     }
 }

@@ -152,11 +152,12 @@ impl SchemaId {
     /// when the envelope gained the sender's `session` and the checksum trailer; `pose`
     /// v3 added `status` and v4 `guides`,
     /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`
-    /// and v4 `Door`, `speech_intent` v3 `notice`.
+    /// v4 `Door` and v5 `Place`, `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
             SchemaId::Hazard => 5,
-            SchemaId::Command | SchemaId::Pose => 4,
+            SchemaId::Command => 5,
+            SchemaId::Pose => 4,
             SchemaId::RouteState | SchemaId::SpeechIntent | SchemaId::HealthStats => 3,
             _ => 2,
         }
@@ -534,24 +535,32 @@ impl Message for Applied {
 /// Longest door number a `Door` command carries (signs say "214", "B1.07", "Lab 3").
 pub const MAX_DOOR_NUMBER_CHARS: usize = 16;
 
+/// Longest place label a `Place` command carries ("room 204", "north entrance").
+pub const MAX_PLACE_LABEL_CHARS: usize = 64;
+
 impl Message for Command {
     const SCHEMA: SchemaId = SchemaId::Command;
     fn validate(&self) -> Result<(), String> {
         match self {
-            Command::Door { number } => {
-                let n = number.trim();
-                if n.is_empty() {
-                    Err("door number is empty".into())
-                } else if n.chars().count() > MAX_DOOR_NUMBER_CHARS {
-                    Err(format!("door number is longer than {MAX_DOOR_NUMBER_CHARS} characters"))
-                } else if n.chars().any(char::is_control) {
-                    Err("door number has control characters".into())
-                } else {
-                    Ok(())
-                }
-            }
+            Command::Door { number } => short_words(number, "door number", MAX_DOOR_NUMBER_CHARS),
+            Command::Place { label } => short_words(label, "place label", MAX_PLACE_LABEL_CHARS),
             _ => Ok(()),
         }
+    }
+}
+
+/// `text` (trimmed) is not empty, at most `max` characters and without control
+/// characters; the error names it `what`.
+fn short_words(text: &str, what: &str, max: usize) -> Result<(), String> {
+    let t = text.trim();
+    if t.is_empty() {
+        Err(format!("{what} is empty"))
+    } else if t.chars().count() > max {
+        Err(format!("{what} is longer than {max} characters"))
+    } else if t.chars().any(char::is_control) {
+        Err(format!("{what} has control characters"))
+    } else {
+        Ok(())
     }
 }
 
@@ -668,12 +677,34 @@ mod tests {
     }
 
     #[test]
+    fn a_place_command_needs_a_short_printable_label() {
+        let long = "a".repeat(MAX_PLACE_LABEL_CHARS + 1);
+        let longest = "a".repeat(MAX_PLACE_LABEL_CHARS);
+        for (label, ok) in [
+            ("room 204", true),
+            (&longest[..], true),
+            ("", false),
+            (" ", false),
+            (&long[..], false),
+            ("lob\u{7}by", false),
+        ] {
+            let bytes = encode(&X, 0, 0, &Command::Place { label: label.into() });
+            match decode::<Command>(&bytes) {
+                Ok((_, body)) => assert!(ok && body == Command::Place { label: label.into() }, "{label:?} accepted"),
+                Err(e) => {
+                    assert!(!ok && e.kind() == "invalid" && e.to_string().contains("place label"), "{label:?}: {e}")
+                }
+            }
+        }
+    }
+
+    #[test]
     fn header_layout_is_bincode_legacy() {
         let bytes = encode(&Origin { sender: "ab", session: 9 }, 1, 2, &Command::Repeat);
         // schema u16, version u16, sender (u64 len + bytes), session u64, seq u64,
         // capture u64, variant u32, then the CRC-32 of all that.
         assert_eq!(&bytes[0..2], &12u16.to_le_bytes());
-        assert_eq!(&bytes[2..4], &4u16.to_le_bytes());
+        assert_eq!(&bytes[2..4], &5u16.to_le_bytes());
         assert_eq!(&bytes[4..12], &2u64.to_le_bytes());
         assert_eq!(&bytes[12..14], b"ab");
         assert_eq!(&bytes[14..22], &9u64.to_le_bytes());

@@ -484,6 +484,7 @@ fn command_and_health_vectors() -> Vec<[Golden; 2]> {
         vector("command_cancel", 37, Command::Cancel),
         vector("command_floor", 38, Command::Floor { floor: -1 }),
         vector("command_door", 39, Command::Door { number: "B1.07".into() }),
+        vector("command_place", 61, Command::Place { label: "room 204".into() }),
         vector(
             "health_stats",
             35,
@@ -741,6 +742,7 @@ fn key_vectors() -> Golden {
         ("Cancel", Command::Cancel.verb()),
         ("Floor", Command::Floor { floor: 0 }.verb()),
         ("Door", Command::Door { number: "1".into() }.verb()),
+        ("Place", Command::Place { label: "lobby".into() }.verb()),
     ];
     let table = KeysJson { user: "alice", cases, command_verbs };
     Golden::plain("keys.json".into(), json_text(&table))

@@ -52,6 +52,9 @@ pub struct Response {
     /// the user said the number of the door they are at: a landmark for localization
     /// (the agent answers once the filter has taken it, or refused it)
     pub door: Option<String>,
+    /// the user said they are near this named place of the map (its name as the map
+    /// has it, and where): a landmark for localization; answered as a door is
+    pub place: Option<(String, FloorPoint)>,
 }
 
 /// One trip: where to, and how far it got.
@@ -267,6 +270,10 @@ impl Navigator {
                 out.speech.push(self.say(format!("Floor {floor}."), "floor"));
             }
             Command::Door { number } => out.door = Some(number.trim().to_string()),
+            Command::Place { label } => match self.find(label) {
+                Ok(l) => out.place = Some((l.name.clone(), FloorPoint { floor: l.floor, x: l.x, y: l.y })),
+                Err(text) => out.speech.push(self.say(text, "place/unknown")),
+            },
             Command::Mute { .. } => {}
         }
         out

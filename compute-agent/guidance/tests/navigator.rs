@@ -126,6 +126,23 @@ fn an_unknown_destination_is_said_with_the_closest_names_and_starts_nothing() {
 }
 
 #[test]
+fn a_place_the_user_names_goes_to_localization_with_its_floor_and_point_and_an_unknown_one_is_said() {
+    let mut nav = navigator();
+    let lost = UserPose { confident: false, ..at(3.0, 3.0, 0.0, 0) };
+    let r = nav.command(&Command::Place { label: " Room 204 ".into() }, &lost, 0);
+    assert_eq!(texts(&r.speech), Vec::<&str>::new(), "the agent answers once the filter has it");
+    let (name, p) = r.place.expect("a place for localization");
+    assert_eq!((name.as_str(), p.floor, p.x, p.y), ("room 204", 1, 25.5, 11.5));
+    assert_eq!(nav.state(&lost).status, RouteStatus::Idle, "naming a place starts no trip");
+    let r = nav.command(&Command::Place { label: "room 241".into() }, &lost, 10);
+    assert_eq!(r.place, None);
+    assert_eq!(
+        texts(&r.speech),
+        ["I do not know a place called room 241. Places with a similar name: room 204, room 214, store room."]
+    );
+}
+
+#[test]
 fn a_destination_waits_for_the_position_then_guides_across_floors_to_arrival() {
     let mut nav = navigator();
     let lost = UserPose { confident: false, ..at(1.5, 11.5, 0.0, 0) };
@@ -482,7 +499,7 @@ fn news_that_the_position_is_lost_is_not_followed_by_position_uncertain_and_the_
 
 #[test]
 fn a_user_waiting_for_a_first_position_whom_turning_does_not_place_is_asked_for_a_door_number() {
-    const FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+    const FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are and tell me the place.";
     let here = at(1.5, 11.5, 0.0, 0);
     let lost = UserPose { confident: false, ..here };
     let search = GuidanceProfile::default().search_for_ms;

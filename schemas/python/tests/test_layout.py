@@ -125,7 +125,7 @@ def kind_of(payload, expected=None):
 
 def test_header_is_read_alone_with_its_length():
     header, used = decode_header(command())
-    assert header == {"schema": 12, "version": 4, "sender": "t", "session": 77, "seq": 5,
+    assert header == {"schema": 12, "version": 5, "sender": "t", "session": 77, "seq": 5,
                       "capture_ns": 9}
     assert used == 2 + 2 + 9 + 8 + 8 + 8
 

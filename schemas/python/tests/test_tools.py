@@ -49,6 +49,7 @@ def test_speech_from_the_command_line_decodes_as_that_speech_intent():
         (["repeat"], "wearnav/alice/cmd/repeat", "Repeat"),
         (["floor", "-1"], "wearnav/alice/cmd/floor", {"Floor": {"floor": -1}}),
         (["door", "B1.07"], "wearnav/alice/cmd/door", {"Door": {"number": "B1.07"}}),
+        (["place", "room 204"], "wearnav/alice/cmd/place", {"Place": {"label": "room 204"}}),
     ],
 )
 def test_command_goes_on_its_verb_key_and_decodes(argv, key, body):

@@ -160,6 +160,7 @@ COMMAND_VERBS = {
     "Cancel": "cancel",
     "Floor": "floor",
     "Door": "door",
+    "Place": "place",
 }
 
 

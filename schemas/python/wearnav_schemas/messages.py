@@ -188,6 +188,7 @@ COMMAND = Enum(
         "Cancel": None,
         "Floor": {"floor": I32},
         "Door": {"number": STRING},
+        "Place": {"label": STRING},
     },
 )
 
@@ -279,8 +280,8 @@ SCHEMAS = (
     # v3 added notice
     Schema(10, "speech_intent", SPEECH_INTENT, 16 * 1024, version=3),
     Schema(11, "applied", APPLIED),
-    # v3 added Cancel and Floor, v4 Door
-    Schema(12, "command", COMMAND, version=4),
+    # v3 added Cancel and Floor, v4 Door, v5 Place
+    Schema(12, "command", COMMAND, version=5),
     # v3 added missed (per stream)
     Schema(13, "health_stats", HEALTH_STATS, 256 * 1024, version=3),
     Schema(14, "destinations", DESTINATIONS, 256 * 1024),
