@@ -238,7 +238,8 @@ pub fn parse(text: &str) -> Result<FromPage, Refusal> {
 }
 
 /// A command's text field, trimmed: refused with `missing` when absent or blank, and
-/// as "`what` is at most N characters" when longer than `max_chars`.
+/// as "`what` is at most N characters" when longer than `max_chars`, and when it has
+/// control characters (the bus refuses them in a door number or a place's name).
 fn text_field(v: &Value, name: &str, missing: &str, what: &str, max_chars: usize) -> Result<String, Refusal> {
     let text = v
         .get(name)
@@ -248,6 +249,9 @@ fn text_field(v: &Value, name: &str, missing: &str, what: &str, max_chars: usize
         .ok_or_else(|| refuse("bad_field", missing))?;
     if text.chars().count() > max_chars {
         return Err(refuse("bad_field", format!("{what} is at most {max_chars} characters")));
+    }
+    if text.chars().any(char::is_control) {
+        return Err(refuse("bad_field", format!("{what} has control characters")));
     }
     Ok(text.to_string())
 }
@@ -265,6 +269,11 @@ fn parse_command(v: &Value) -> Result<Command, Refusal> {
             let number = text_field(v, "number", missing, "a door number", schemas::wire::MAX_DOOR_NUMBER_CHARS)?;
             Ok(Command::Door { number })
         }
+        "place" => {
+            let missing = "place needs a \"label\": the name of the place you are at";
+            let label = text_field(v, "label", missing, "a place name", schemas::wire::MAX_PLACE_LABEL_CHARS)?;
+            Ok(Command::Place { label })
+        }
         "where-am-i" => Ok(Command::WhereAmI),
         "repeat" => Ok(Command::Repeat),
         "cancel" => Ok(Command::Cancel),
@@ -277,7 +286,7 @@ fn parse_command(v: &Value) -> Result<Command, Refusal> {
         }
         other => Err(refuse(
             "unknown_verb",
-            format!("unknown command {other:?} (destination, where-am-i, door, repeat, cancel, mute)"),
+            format!("unknown command {other:?} (destination, where-am-i, door, place, repeat, cancel, mute)"),
         )),
     }
 }
@@ -435,6 +444,36 @@ mod tests {
         );
         assert_eq!(bad(r#"{"type":"command","verb":"door","number":""}"#).kind, "bad_field");
         assert_eq!(bad(r#"{"type":"command","verb":"door","number":"12345678901234567"}"#).kind, "bad_field");
+    }
+
+    #[test]
+    fn a_place_is_read_trimmed_and_refused_when_blank_missing_or_long() {
+        let ok = |t: &str| parse(t).unwrap();
+        let bad = |t: &str| parse(t).unwrap_err();
+        assert_eq!(
+            ok(r#"{"type":"command","verb":"place","label":"  room 204 "}"#),
+            FromPage::Command(Command::Place { label: "room 204".into() })
+        );
+        let missing = "place needs a \"label\": the name of the place you are at";
+        for frame in [
+            r#"{"type":"command","verb":"place","label":"   "}"#,
+            r#"{"type":"command","verb":"place","label":""}"#,
+            r#"{"type":"command","verb":"place"}"#,
+            r#"{"type":"command","verb":"place","label":204}"#,
+        ] {
+            let refused = bad(frame);
+            assert_eq!((refused.kind, refused.message.as_str()), ("bad_field", missing), "{frame}");
+        }
+        let max = schemas::wire::MAX_PLACE_LABEL_CHARS;
+        assert_eq!(max, 64);
+        let longest = format!(r#"{{"type":"command","verb":"place","label":" {} "}}"#, "é".repeat(max));
+        assert_eq!(ok(&longest), FromPage::Command(Command::Place { label: "é".repeat(max) }));
+        let long = bad(&format!(r#"{{"type":"command","verb":"place","label":"{}"}}"#, "a".repeat(max + 1)));
+        assert_eq!((long.kind, long.message.as_str()), ("bad_field", "a place name is at most 64 characters"));
+        let control = bad(r#"{"type":"command","verb":"place","label":"room\u0007204"}"#);
+        assert_eq!((control.kind, control.message.as_str()), ("bad_field", "a place name has control characters"));
+        let unknown = bad(r#"{"type":"command","verb":"teleport"}"#);
+        assert!(unknown.message.contains("door, place,"), "{}", unknown.message);
     }
 
     #[test]

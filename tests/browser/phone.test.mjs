@@ -24,6 +24,9 @@ import { artifacts, binDir, freePort, harness, here, python } from './harness.mj
 const USER = 'phone-e2e';
 const BUDGET_MS = 170000; // the whole test, start to end
 const DESTINATION = 'room 204';
+// A place on the map the user says they are near: beside door 101, on the simulated
+// user's floor (0), so the localization taking it does not move them elsewhere.
+const PLACE = 'room 101';
 // What guidance says first after Start: the route, or that the user is off it.
 const isGuidance = (text) => text.startsWith(`Route to ${DESTINATION}:`) || text.startsWith('Off the route:');
 
@@ -227,6 +230,29 @@ step('door', ['guidance'], 'a door number typed at "At a door" reaches the local
     (await calls()).speak.some((s) => s.text === 'Door 101.'), 20000);
 });
 
+step('place', ['door'], `a place's name typed at "Where I am" reaches the localization and is answered aloud`, 30000, async () => {
+  const field = page.getByLabel('Where I am: a place\'s name');
+  const button = page.getByRole('button', { name: 'I am near this place', exact: true });
+  await waitFor(`"${PLACE}" among the names the "Where I am" field suggests (its datalist)`, () =>
+    page.evaluate((p) => [...document.getElementById('place-labels').options].some((o) => o.value === p), PLACE), 5000);
+  const placeOnBus = (label) => monitor.some((m) =>
+    m.line.key === `wearnav/${USER}/cmd/place` && m.line.body?.Place?.label === label);
+
+  await field.fill(` ${PLACE} `);
+  await button.click();
+  await waitFor(`a command frame {verb: "place", label: "${PLACE}"} sent by the page`, () =>
+    framesOut.some((f) => f.msg.type === 'command' && f.msg.verb === 'place' && f.msg.label === PLACE), 5000);
+  await waitFor(`a Place command with label "${PLACE}" on cmd/place`, () => placeOnBus(PLACE), 5000);
+  await waitFor(`speechSynthesis asked to say "Near ${PLACE}." (the compute agent took it)`, async () =>
+    (await calls()).speak.some((s) => s.text === `Near ${PLACE}.`), 20000);
+
+  await field.fill('the moon');
+  await button.click();
+  await waitFor('a Place command with label "the moon" on cmd/place', () => placeOnBus('the moon'), 5000);
+  await waitFor('speechSynthesis asked to say "I do not know a place called the moon..."', async () =>
+    (await calls()).speak.some((s) => s.text.startsWith('I do not know a place called the moon')), 20000);
+});
+
 step('haptics', ['guidance'], 'the phone vibrates what the feedback agent asks, and feedback/applied reports it at the page\'s time', 30000, async () => {
   const match = await waitFor('a navigator.vibrate call with the pattern of a received vibrate message', async () => {
     const made = (await calls()).vibrate;
@@ -270,7 +296,8 @@ step('a11y', ['pairing'], 'the page has no serious accessibility violations and 
   assert.deepEqual(bad.map((v) => ({ id: v.id, impact: v.impact, help: v.help, nodes: v.nodes.map((n) => n.target.join(' ')) })), [],
     'axe-core: no serious or critical violations');
   const controls = [['combobox', 'Destination'], ['button', 'Start'], ['button', 'Where am I'], ['button', 'Repeat'],
-    ['button', 'Stop guidance'], ['button', 'Mute']];
+    ['button', 'Stop guidance'], ['button', 'Mute'], ['textbox', 'At a door: its number'], ['button', 'I am at this door'],
+    ['combobox', 'Where I am: a place\'s name'], ['button', 'I am near this place']];
   for (const [role, name] of controls) {
     const found = page.getByRole(role, { name, exact: true });
     assert.equal(await found.count(), 1, `exactly one ${role} named "${name}"`);
