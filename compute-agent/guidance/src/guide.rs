@@ -59,7 +59,7 @@ pub(crate) const STOP_UNCERTAIN: &str =
     "Position still uncertain: please stop, and turn slowly on the spot until I find your position.";
 /// Said when the user has turned on the spot for the profile's `search_for_ms` and the
 /// position is still not known: turning will not find it here.
-pub(crate) const SEARCH_FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+pub(crate) const SEARCH_FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are and tell me the place.";
 /// Said when the position is known again after the user was asked to stop and turn:
 /// the words of the localization's news for it, said once when both come in one step
 /// ([`crate::Navigator::step_after_news`]).

@@ -1147,7 +1147,7 @@ fn a_user_who_turned_on_the_spot_without_the_position_found_is_asked_to_stop_tur
         assert_eq!(guide.step(&lost, t, Some(p.graph())), None, "at {t} ms");
     }
     let failed = guide.step(&lost, stop_at + search_ms, Some(p.graph())).unwrap();
-    let words = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+    let words = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are and tell me the place.";
     assert_eq!(failed.text, words);
     assert_eq!(failed.kind, InstructionKind::SearchFailed);
     // asks something of the user: a turn's "now" does not cut it off, nor replace it waiting

@@ -77,8 +77,8 @@ pub enum Meaning {
     /// "Position found.": a user turning on the spot stops and waits
     Wait,
     /// "I cannot find your position by turning. Please stop turning, and tell me the
-    /// number of a door you are at, or ask someone nearby where you are.": the user
-    /// stops turning and stands; neither a door sign within reach nor a passer-by is
+    /// number of a door you are at, or ask someone nearby where you are and tell me the
+    /// place.": the user stops turning and stands; neither a door sign within reach nor a passer-by is
     /// simulated, so they stand and wait for the device to speak, asking nothing
     NoPlace,
     /// nothing to do now (an announcement, the position's news, a replan)
@@ -416,7 +416,7 @@ mod tests {
         let ear: Ear = Rc::default();
         let mut guide = SpokenGuide::new(ear.clone(), profile(), GoalSound { x_m: 10.0, y_m: 0.0 });
         let at = sim::UserPose { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0, floor: 0 };
-        let failed = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are.";
+        let failed = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are and tell me the place.";
         assert_eq!(meaning(failed, &profile()), Meaning::NoPlace);
         let said = [
             (1.0, "Turn left now."),
