@@ -97,8 +97,9 @@ pub struct LandmarkConfig {
     pub door_reset_below_support: f64,
     /// standard deviation of where a user who names a place stands from the place's
     /// point on the map, metres: "at room 204" or "in the lobby" is a few metres, not a
-    /// door's arm's reach. A place is weighed and resets particles as a door number is,
-    /// with the same probability of being wrong (our choice).
+    /// door's arm's reach. A place is weighed as a door number is, with the same
+    /// probability of being wrong, and always resets a share of the particles about it
+    /// (our choice).
     pub place_sigma_m: f64,
     /// standard deviation of a measured wall angle, radians (3 degrees: a plane fit to
     /// a metre of wall in a depth image)

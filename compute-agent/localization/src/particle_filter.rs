@@ -1209,14 +1209,21 @@ impl ParticleFilter {
                 self.door_read = true;
                 // the door on each floor, once per floor, not once per particle
                 let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
-                self.weigh_told_place(&doors, [fwd, left], cfg.sigma_m);
+                self.weigh_told_place(&doors, [fwd, left], cfg.sigma_m, cfg.door_reset_below_support);
             }
             Landmark::Place { level, x_m, y_m } => {
                 // a few metres: the scans still have to fix the place along a corridor
-                // before `Tracking` (a door's number does that itself)
+                // before `Tracking` (a door's number does that itself). The user's word
+                // is that they may be elsewhere than a told start or a gateway's stop
+                // put them: that no longer vouches for the place, nor is the place
+                // followed from it
+                self.start_vouches = false;
+                self.from_known = false;
                 let at: Vec<Option<[f64; 2]>> =
                     self.floors.iter().map(|f| (f.level == *level).then_some([*x_m, *y_m])).collect();
-                self.weigh_told_place(&at, [0.0, 0.0], cfg.place_sigma_m);
+                // always some particles about the place: a belief a few metres off may
+                // agree with it, and then none would be where the user is
+                self.weigh_told_place(&at, [0.0, 0.0], cfg.place_sigma_m, f64::INFINITY);
             }
             Landmark::Corner { .. } => {
                 for (p, lw) in self.particles.iter().zip(self.log_w.iter_mut()) {
@@ -1230,10 +1237,10 @@ impl ParticleFilter {
 
     /// Weighs a place the user was told (a door's number, a named place): `at` is where
     /// it is on each floor (none where the floor has no such place), `offset` where it
-    /// is from the user (forward, left), `sigma` how near. When few particles agree,
-    /// resets are queued where the reading puts the user (see
-    /// [`LandmarkConfig::door_reset_fraction`]).
-    fn weigh_told_place(&mut self, at: &[Option<[f64; 2]>], [fwd, left]: [f64; 2], sigma: f64) {
+    /// is from the user (forward, left), `sigma` how near. When the weight of the
+    /// particles that agree is below `reset_below`, resets are queued where the reading
+    /// puts the user (see [`LandmarkConfig::door_reset_fraction`]).
+    fn weigh_told_place(&mut self, at: &[Option<[f64; 2]>], [fwd, left]: [f64; 2], sigma: f64, reset_below: f64) {
         let misread = self.config.landmarks.door_misread_probability;
         let floor_miss = misread.max(1e-6).ln();
         let mut support = 0.0;
@@ -1248,7 +1255,7 @@ impl ParticleFilter {
                 None => floor_miss,
             };
         }
-        if support < self.config.landmarks.door_reset_below_support {
+        if support < reset_below {
             for (fi, xy) in at.iter().enumerate() {
                 if let Some(xy) = xy {
                     self.door_resets.push((fi as u16, *xy, [fwd, left], sigma));

@@ -377,8 +377,9 @@ impl Tracker {
     /// The user says they are near a named place, found on the map by the caller at
     /// `at` (map metres) on floor `level` (someone nearby told them, or they know it):
     /// the filter takes it as a landmark a few metres wide
-    /// ([`crate::LandmarkConfig::place_sigma_m`]), and where few particles agree, draws
-    /// some anew about it. A floor the building does not have, or a place that is no
+    /// ([`crate::LandmarkConfig::place_sigma_m`]) and draws some particles anew about it;
+    /// a told start no longer vouches for the place, and the look-alike check's anchor
+    /// is forgotten. A floor the building does not have, or a place that is no
     /// point, is refused, counted by the filter, and changes nothing.
     pub fn place(&mut self, level: i32, at: [f64; 2]) -> Result<(), String> {
         let seen = [Landmark::Place { level, x_m: at[0], y_m: at[1] }];
@@ -815,6 +816,13 @@ normal = [0.0, -1.0]
         assert!(t.place(0, [f64::NAN, 10.0]).is_err());
         assert_eq!(t.filter().counters().landmarks_rejected, before.1 + 2);
         assert!(t.estimate().pose.distance_m(&before.0) < 1e-9, "a refused place moved the estimate");
+        // a belief that agrees with the place gets particles drawn about it all the same
+        // (one a few metres off agrees with a place a few metres wide)
+        let mut t = Tracker::new(&building(), TrackerConfig::default(), 3).unwrap();
+        t.start_at(0, Pose2::new(16.0, 8.0, std::f64::consts::FRAC_PI_2)).unwrap();
+        let drawn = t.filter().counters().particles_at_doors;
+        t.place(0, [16.0, 10.0]).unwrap();
+        assert!(t.filter().counters().particles_at_doors > drawn, "no particles drawn about the place");
     }
 
     /// A square room 6 m a side (x, y 1..7), the same turned by any quarter turn about
