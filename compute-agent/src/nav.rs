@@ -375,8 +375,8 @@ impl Nav {
                     format!("Near {name}.")
                 }
                 Err(e) => {
-                    tracing::warn!("localization: {e}");
-                    format!("I cannot place you near {name}: {e}.")
+                    tracing::warn!("localization: near {name:?} refused: {e}");
+                    format!("{name} is not on my map.")
                 }
             };
             let speech = self.speech(&text, "place");

@@ -151,7 +151,7 @@ impl SchemaId {
     /// `turn_ahead` and `body_turn_deg_s`, v4 `predictive` and v5 `gravity`; every schema went up one
     /// when the envelope gained the sender's `session` and the checksum trailer; `pose`
     /// v3 added `status` and v4 `guides`,
-    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`
+    /// `route_state` v3 `floor`, `status` and `route`, `command` v3 `Cancel` and `Floor`,
     /// v4 `Door` and v5 `Place`, `speech_intent` v3 `notice`.
     pub const fn version(self) -> u16 {
         match self {
