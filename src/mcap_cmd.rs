@@ -734,6 +734,7 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
     };
     let mut recording = done.context("the recording's writer stopped")??;
     let (messages, payload_bytes) = (recording.messages, recording.payload_bytes);
+    let lost_total = recording.lost_total();
     let lost = std::mem::take(&mut recording.lost);
     let files = recording.finish()?;
     let _ = session.close().await;
@@ -746,8 +747,7 @@ pub async fn record(args: RecordArgs) -> anyhow::Result<()> {
     if !lost.is_empty() {
         let per_key: Vec<String> = lost.iter().map(|(k, n)| format!("{n} on {k}")).collect();
         eprintln!(
-            "not recorded: {} messages lost on the way to the recorder (gaps in their publishers' numbering): {}",
-            lost.values().sum::<u64>(),
+            "not recorded: {lost_total} messages lost on the way to the recorder (gaps in their publishers' numbering): {}",
             per_key.join(", ")
         );
     }

@@ -78,8 +78,9 @@ pub enum Meaning {
     Wait,
     /// "I cannot find your position by turning. Please stop turning, and tell me the
     /// number of a door you are at, or ask someone nearby where you are and tell me the
-    /// place.": the user stops turning and stands; neither a door sign within reach nor a passer-by is
-    /// simulated, so they stand and wait for the device to speak, asking nothing
+    /// place.": the user stops turning and stands; neither a door sign within reach nor
+    /// a passer-by is simulated, so they stand and wait for the device to speak, asking
+    /// nothing
     NoPlace,
     /// nothing to do now (an announcement, the position's news, a replan)
     Nothing,
