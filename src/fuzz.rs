@@ -500,6 +500,7 @@ fn wire_outcome(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::PhoneSpeech => decode_checked::<PhoneSpeech>(bytes),
         SchemaId::PhoneAck => decode_checked::<PhoneAck>(bytes),
         SchemaId::PhoneMotion => decode_checked::<PhoneMotion>(bytes),
+        SchemaId::Pressure => decode_checked::<Pressure>(bytes),
     }
 }
 
@@ -624,7 +625,7 @@ struct Seeds {
 
 /// The golden vectors (`schemas/vectors`, kept current by `schemas/tests/golden.rs`):
 /// representative values of every message as `encode` writes them.
-const GOLDEN: [&[u8]; 51] = [
+const GOLDEN: [&[u8]; 52] = [
     include_bytes!("../schemas/vectors/applied_device_status.bin"),
     include_bytes!("../schemas/vectors/applied_offline_warning.bin"),
     include_bytes!("../schemas/vectors/applied_rumble.bin"),
@@ -666,6 +667,7 @@ const GOLDEN: [&[u8]; 51] = [
     include_bytes!("../schemas/vectors/phone_speech_say.bin"),
     include_bytes!("../schemas/vectors/pose.bin"),
     include_bytes!("../schemas/vectors/pose_lost.bin"),
+    include_bytes!("../schemas/vectors/pressure.bin"),
     include_bytes!("../schemas/vectors/route_state_active.bin"),
     include_bytes!("../schemas/vectors/route_state_idle.bin"),
     include_bytes!("../schemas/vectors/route_state_preview.bin"),

@@ -1,7 +1,7 @@
 //! Typed key expressions: the only place in wearnav where key strings are formatted.
 //!
 //! Key space (ARCHITECTURE.md), one user per prefix so several people can share a LAN:
-//! `wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}`, `perception/{scan,hazard}`,
+//! `wearnav/<user>/sensor/<device>/{depth,imu,odom,pressure,truth}`, `perception/{scan,hazard}`,
 //! `localization/pose`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
 //! `health/<agent>`, `query/<service>`, `phone/{haptic,speech,ack}` (the phone app as a feedback
 //! device, through the phone bridge; `sensor/phone/motion` is the phone's compass and steps).
@@ -161,6 +161,16 @@ impl Keys {
     /// The phone's compass heading and steps (`sensor/<device>/motion`).
     pub fn motion(&self, device: &str) -> String {
         self.sensor(device, "motion")
+    }
+
+    /// Barometer readings of one device (`sensor/<device>/pressure`).
+    pub fn pressure(&self, device: &str) -> String {
+        self.sensor(device, "pressure")
+    }
+
+    /// Barometer readings of every device.
+    pub fn pressure_any(&self) -> String {
+        self.sensor("*", "pressure")
     }
 
     /// One user command verb (`destination`, `where-am-i`, `mute`, `repeat`, `cancel`,

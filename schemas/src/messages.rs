@@ -646,6 +646,17 @@ pub struct PhoneMotion {
     pub steps: u64,
 }
 
+/// One barometer reading (`sensor/<device>/pressure`): the air's pressure where the
+/// device is worn. What it measures is height: about 12 Pa a metre near sea level, so a
+/// storey is some 35 Pa; the weather moves it too, slowly (up to about 100 Pa an hour).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pressure {
+    /// Sample time, nanoseconds on the sender's clock (the clock of its other stamps).
+    pub stamp_ns: u64,
+    /// Static air pressure, pascals.
+    pub pressure_pa: f32,
+}
+
 /// Counters of one stream an agent publishes or subscribes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StreamStats {

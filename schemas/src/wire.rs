@@ -92,11 +92,13 @@ pub enum SchemaId {
     PhoneAck = 17,
     /// [`PhoneMotion`]
     PhoneMotion = 18,
+    /// [`Pressure`]
+    Pressure = 19,
 }
 
 impl SchemaId {
     /// Every schema, in id order.
-    pub const ALL: [SchemaId; 18] = [
+    pub const ALL: [SchemaId; 19] = [
         SchemaId::DepthFrame,
         SchemaId::ImuBatch,
         SchemaId::OdomIncrement,
@@ -115,6 +117,7 @@ impl SchemaId {
         SchemaId::PhoneSpeech,
         SchemaId::PhoneAck,
         SchemaId::PhoneMotion,
+        SchemaId::Pressure,
     ];
 
     /// The schema with this numeric id.
@@ -143,6 +146,7 @@ impl SchemaId {
             SchemaId::PhoneSpeech => "phone_speech",
             SchemaId::PhoneAck => "phone_ack",
             SchemaId::PhoneMotion => "phone_motion",
+            SchemaId::Pressure => "pressure",
         }
     }
 
@@ -624,6 +628,26 @@ impl Message for PhoneMotion {
         }
         if self.accuracy_deg.is_some_and(|a| !(a >= 0.0 && a.is_finite())) {
             return Err("heading accuracy not a finite positive angle".into());
+        }
+        Ok(())
+    }
+}
+
+/// Pressures a barometer can read on the ground where people live and travel (the
+/// Dead Sea shore to a high pass, storms included), pascals: anything else is a fault.
+pub const PRESSURE_RANGE_PA: std::ops::RangeInclusive<f32> = 30_000.0..=110_000.0;
+
+impl Message for Pressure {
+    const SCHEMA: SchemaId = SchemaId::Pressure;
+    const MAX_BYTES: usize = 1024;
+    fn validate(&self) -> Result<(), String> {
+        if !PRESSURE_RANGE_PA.contains(&self.pressure_pa) {
+            return Err(format!(
+                "pressure {} Pa outside {}..{} Pa",
+                self.pressure_pa,
+                PRESSURE_RANGE_PA.start(),
+                PRESSURE_RANGE_PA.end()
+            ));
         }
         Ok(())
     }

@@ -25,7 +25,7 @@ static ALLOCATOR: LargestAllocation = LargestAllocation;
 
 /// Every golden vector (`schemas/vectors`, kept current by `tests/golden.rs`):
 /// representative values of every message, as `encode` writes them.
-const GOLDEN: [&[u8]; 51] = [
+const GOLDEN: [&[u8]; 52] = [
     include_bytes!("../vectors/applied_device_status.bin"),
     include_bytes!("../vectors/applied_offline_warning.bin"),
     include_bytes!("../vectors/applied_rumble.bin"),
@@ -67,6 +67,7 @@ const GOLDEN: [&[u8]; 51] = [
     include_bytes!("../vectors/odom_increment.bin"),
     include_bytes!("../vectors/pose.bin"),
     include_bytes!("../vectors/pose_lost.bin"),
+    include_bytes!("../vectors/pressure.bin"),
     include_bytes!("../vectors/route_state_active.bin"),
     include_bytes!("../vectors/route_state_idle.bin"),
     include_bytes!("../vectors/route_state_preview.bin"),
@@ -173,6 +174,7 @@ fn check_schema(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::PhoneSpeech => check_decode::<PhoneSpeech>(bytes),
         SchemaId::PhoneAck => check_decode::<PhoneAck>(bytes),
         SchemaId::PhoneMotion => check_decode::<PhoneMotion>(bytes),
+        SchemaId::Pressure => check_decode::<Pressure>(bytes),
     }
 }
 

@@ -472,6 +472,7 @@ fn phone_vectors() -> Vec<[Golden; 2]> {
         vector("phone_ack_failed", 58, ack(8, PhoneEvent::Failed { reason: "synthesis-failed".into() })),
         vector("phone_motion", 59, PhoneMotion { heading_deg: Some(271.5), accuracy_deg: Some(15.0), steps: 42 }),
         vector("phone_motion_unknown", 60, PhoneMotion { heading_deg: None, accuracy_deg: None, steps: 0 }),
+        vector("pressure", 62, Pressure { stamp_ns: 1_700_000_000_123_000_000, pressure_pa: 101_325.5 }),
     ]
 }
 
@@ -707,6 +708,8 @@ fn key_vectors() -> Golden {
         case("phone_speech", &[], &k.phone_speech()),
         case("phone_ack", &[], &k.phone_ack()),
         case("motion", &["phone"], &k.motion("phone")),
+        case("pressure", &["cane"], &k.pressure("cane")),
+        case("pressure_any", &[], &k.pressure_any()),
         case("cmd", &["where-am-i"], &k.cmd("where-am-i")),
         case("cmd_any", &[], &k.cmd_any()),
         case("health", &["compute-agent"], &k.health("compute-agent")),

@@ -1,11 +1,12 @@
 """Typed key expressions, mirroring ``schemas/src/keys.rs`` (the golden file
 ``schemas/vectors/keys.json`` holds the Rust output these must equal).
 
-Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,truth}``,
+Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,pressure,truth}``,
 ``perception/{scan,hazard}``, ``localization/pose``, ``route/state``,
 ``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``,
 ``phone/{haptic,speech,ack}`` (the phone as a feedback device, through the phone bridge)
-and ``sensor/phone/motion`` (the phone's compass and steps).
+``sensor/phone/motion`` (the phone's compass and steps) and ``sensor/<device>/pressure``
+(a barometer's readings).
 """
 
 
@@ -118,6 +119,14 @@ class Keys:
     def motion(self, device):
         """The phone's compass heading and steps (``sensor/<device>/motion``)."""
         return self._sensor(device, "motion")
+
+    def pressure(self, device):
+        """Barometer readings of one device (``sensor/<device>/pressure``)."""
+        return self._sensor(device, "pressure")
+
+    def pressure_any(self):
+        """Barometer readings of every device."""
+        return self._sensor("*", "pressure")
 
     def cmd(self, verb):
         """One user command verb (``destination``, ``where-am-i``, ``mute``, ``repeat``,

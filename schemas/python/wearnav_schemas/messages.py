@@ -219,6 +219,8 @@ PHONE_MOTION = Struct(
     "PhoneMotion", heading_deg=Optional(F32), accuracy_deg=Optional(F32), steps=U64
 )
 
+PRESSURE = Struct("Pressure", stamp_ns=U64, pressure_pa=F32)
+
 STREAM_STATS = Struct(
     "StreamStats",
     key=STRING,
@@ -289,4 +291,5 @@ SCHEMAS = (
     Schema(16, "phone_speech", PHONE_SPEECH, 16 * 1024),
     Schema(17, "phone_ack", PHONE_ACK, 1024),
     Schema(18, "phone_motion", PHONE_MOTION, 1024),
+    Schema(19, "pressure", PRESSURE, 1024),
 )

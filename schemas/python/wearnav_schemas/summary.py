@@ -152,6 +152,10 @@ def _phone_motion(b):
     return f"{heading}, {b['steps']} steps"
 
 
+def _pressure(b):
+    return f"{b['pressure_pa']:.1f} Pa"
+
+
 def _health_stats(b):
     state = "ok" if b["ok"] else "NOT OK"
     rejects = sum(r["count"] for r in b["rejects"])
@@ -181,6 +185,7 @@ SUMMARIES = {
     "phone_speech": _phone_speech,
     "phone_ack": _phone_ack,
     "phone_motion": _phone_motion,
+    "pressure": _pressure,
 }
 
 
