@@ -8,11 +8,14 @@
 //! level = 0                 # unique integer, 0 = ground
 //! map = "floor0.yaml"       # map_server YAML, relative to the manifest
 //! semantic = "floor0.toml"  # optional semantic layer (see [`crate::semantic`])
+//! elevation_m = 0.0         # optional: the floor's height, metres, for a barometer;
+//!                           # on every floor or none, higher for each level up
 //!
 //! [[floor]]
 //! level = 1
 //! map = "floor1.yaml"
 //! semantic = "floor1.toml"
+//! elevation_m = 3.5
 //! ```
 //!
 //! A gateway may be listed in any floor's semantic file (or in several, with the same
@@ -43,6 +46,8 @@ pub struct Floor {
 pub struct Building {
     floors: Vec<Floor>,
     gateways: Vec<Gateway>,
+    /// each floor's height above the ground floor's, metres (all floors or none)
+    elevations: BTreeMap<i32, f64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -59,6 +64,9 @@ struct ManifestFloor {
     map: PathBuf,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     semantic: Option<PathBuf>,
+    /// the floor's height, metres (a barometer tells floors apart by it)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    elevation_m: Option<f64>,
 }
 
 impl Building {
@@ -93,7 +101,44 @@ impl Building {
                 return Err(err(format!("gateway '{}' stops on floor {}, which the building lacks", g.name, s.floor)));
             }
         }
-        Ok(Self { floors, gateways: gateways.into_values().collect() })
+        Ok(Self { floors, gateways: gateways.into_values().collect(), elevations: BTreeMap::new() })
+    }
+
+    /// The building with each floor's height (metres, any common zero): all floors or
+    /// none, finite, and higher for each level up. `file` names the source in errors.
+    pub fn with_elevations(mut self, elevations: &[(i32, f64)], file: &Path) -> Result<Self, MapError> {
+        let err = |message: String| MapError::Building { file: file.to_path_buf(), line: 0, message };
+        let mut map = BTreeMap::new();
+        for &(level, m) in elevations {
+            if self.floor(level).is_none() {
+                return Err(err(format!("an elevation is given for floor {level}, which the building lacks")));
+            }
+            if !m.is_finite() {
+                return Err(err(format!("floor {level}'s elevation {m} is no height")));
+            }
+            if map.insert(level, m).is_some() {
+                return Err(err(format!("floor {level}'s elevation is given twice")));
+            }
+        }
+        if !map.is_empty() {
+            if let Some(f) = self.floors.iter().find(|f| !map.contains_key(&f.level)) {
+                return Err(err(format!("floor {} has no elevation_m: give it for every floor or for none", f.level)));
+            }
+            let by_level: Vec<(i32, f64)> = map.iter().map(|(l, m)| (*l, *m)).collect();
+            if let Some(w) = by_level.windows(2).find(|w| w[1].1 <= w[0].1) {
+                return Err(err(format!(
+                    "floor {} ({} m) is not above floor {} ({} m)",
+                    w[1].0, w[1].1, w[0].0, w[0].1
+                )));
+            }
+        }
+        self.elevations = map;
+        Ok(self)
+    }
+
+    /// The height of floor `level`, metres, when the map gives floors' heights.
+    pub fn elevation(&self, level: i32) -> Option<f64> {
+        self.elevations.get(&level).copied()
     }
 
     /// Loads a building manifest and every map and semantic file it names.
@@ -107,6 +152,8 @@ impl Building {
         })?;
         let dir = manifest_path.parent().unwrap_or(Path::new("."));
         let mut floors = Vec::with_capacity(manifest.floors.len());
+        let elevations: Vec<(i32, f64)> =
+            manifest.floors.iter().filter_map(|mf| mf.elevation_m.map(|m| (mf.level, m))).collect();
         for mf in manifest.floors {
             let grid = crate::map_server::load_map(&dir.join(&mf.map))?;
             let semantic = match &mf.semantic {
@@ -122,7 +169,7 @@ impl Building {
             }
             floors.push(Floor { level: mf.level, grid, semantic });
         }
-        Self::new(floors, manifest_path)
+        Self::new(floors, manifest_path)?.with_elevations(&elevations, manifest_path)
     }
 
     /// Writes the manifest at `manifest_path` and, beside it, `floor<level>.yaml/.pgm/.toml`.
@@ -139,6 +186,7 @@ impl Building {
                 level: f.level,
                 map: PathBuf::from(format!("{stem}.yaml")),
                 semantic: Some(semantic),
+                elevation_m: self.elevation(f.level),
             });
         }
         let text = toml::to_string(&manifest).unwrap_or_default();

@@ -171,3 +171,40 @@ stops = [ { floor = 0, x = 0.5, y = 0.0 }, { floor = 1, x = 0.5, y = 0.0 } ]
     let e = Building::new(vec![one], Path::new("b.toml")).unwrap_err();
     assert!(e.to_string().contains("floor 7"), "{e}");
 }
+
+#[test]
+fn floors_heights_are_written_and_read_back_and_bad_ones_refused_with_the_floor_named() {
+    let dir = scratch("elevations");
+    let g = load_map(&data("map.yaml")).unwrap();
+    let floors: Vec<map::Floor> =
+        [0, 1, 2].map(|level| map::Floor { level, grid: g.clone(), semantic: Default::default() }).to_vec();
+    let file = Path::new("inline");
+    let b = Building::new(floors.clone(), file).unwrap();
+    assert_eq!(b.elevation(1), None, "no heights unless given");
+    let b = b.with_elevations(&[(0, 0.0), (1, 3.6), (2, 7.0)], file).unwrap();
+    b.write(&dir.join("building.toml")).unwrap();
+    let text = std::fs::read_to_string(dir.join("building.toml")).unwrap();
+    assert!(text.contains("elevation_m = 3.6"), "{text}");
+    let back = Building::load(&dir.join("building.toml")).unwrap();
+    assert_eq!(back, b);
+    assert_eq!((back.elevation(0), back.elevation(2), back.elevation(5)), (Some(0.0), Some(7.0), None));
+
+    let refused = |e: &[(i32, f64)]| Building::new(floors.clone(), file).unwrap().with_elevations(e, file).unwrap_err();
+    for (given, says) in [
+        (&[(0, 0.0), (1, 3.6)][..], "floor 2 has no elevation_m"),
+        (&[(0, 0.0), (1, 3.6), (2, 3.0)][..], "floor 2 (3 m) is not above floor 1 (3.6 m)"),
+        (&[(0, 0.0), (1, f64::NAN), (2, 7.0)][..], "floor 1's elevation NaN is no height"),
+        (&[(0, 0.0), (1, 3.6), (2, 7.0), (4, 9.0)][..], "floor 4, which the building lacks"),
+    ] {
+        let e = refused(given).to_string();
+        assert!(e.contains(says), "{e}");
+    }
+    // in a manifest too
+    std::fs::write(
+        dir.join("building.toml"),
+        text.replace("elevation_m = 3.6", "elevation_m = 30.0").replace("elevation_m = 7.0", "elevation_m = 20.0"),
+    )
+    .unwrap();
+    let e = Building::load(&dir.join("building.toml")).unwrap_err().to_string();
+    assert!(e.contains("floor 2 (20 m) is not above floor 1 (30 m)"), "{e}");
+}

@@ -5,7 +5,8 @@
 //! (boxes, cylinders, poles, tables, chairs, hanging obstacles) and no people; those are
 //! for the camera and the cane to find.
 //!
-//! What each element of the world becomes:
+//! The manifest gives each floor's height (`elevation_m`, the world's), by which a
+//! barometer tells the floors apart. What each element of the world becomes:
 //!
 //! | world | grid | semantic layer |
 //! | --- | --- | --- |
@@ -198,7 +199,10 @@ fn export_with(
             .map_err(|source| FloorPlanError::Semantic { world: world.name().to_string(), floor: level, source })?;
         floors.push(Floor { level, grid, semantic });
     }
+    // each floor's height, as the building's plans give it (a barometer tells floors by it)
+    let elevations: Vec<(i32, f64)> = world.floors().iter().map(|f| (f.index, f.elevation_m)).collect();
     Building::new(floors, Path::new(world.name()))
+        .and_then(|b| b.with_elevations(&elevations, Path::new(world.name())))
         .map_err(|source| FloorPlanError::Building { world: world.name().to_string(), source })
 }
 
