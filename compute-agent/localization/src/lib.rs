@@ -7,6 +7,7 @@
 //! | odometry + IMU motion model | [`motion`] | AMCL `odom_alpha1..4`; Zhang et al. (IMU limits heading drift) |
 //! | likelihood field of a range scan | [`likelihood_field`] | AMCL `likelihood_field` |
 //! | door numbers, corners, wall angles | [`landmarks`] | Zhang et al., CCNY |
+//! | height from a barometer (floor changes) | [`barometer`] | the barometric formula |
 //! | straight walls in a scan (the wall angle) | [`walls`] | split and merge; total least squares |
 //! | a floor ready for the filter | [`floor_model`] | |
 //! | the filter fed by the agent's streams: body odometry, swept-cane scan, floor confirmed | [`tracker`] | |
@@ -27,6 +28,7 @@
 //! # let _ = estimate; Ok(()) }
 //! ```
 
+pub mod barometer;
 mod bin_sums;
 pub mod carmen;
 pub mod corners;
@@ -43,6 +45,7 @@ pub mod scan;
 pub mod tracker;
 pub mod walls;
 
+pub use barometer::{Barometer, BarometerConfig, BarometerRefused};
 pub use corners::{corners_of_grid, corners_of_walls, CornerConfig, CornerField, GridCornerConfig};
 pub use floor_model::{dominant_wall_directions, FloorModel};
 pub use landmarks::{CompassHeading, Landmark, LandmarkConfig, WallAngle};

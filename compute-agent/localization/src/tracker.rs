@@ -13,6 +13,7 @@
 use map::{Building, Gateway};
 use serde::{Deserialize, Serialize};
 
+use crate::barometer::{Barometer, BarometerConfig};
 use crate::floor_model::FloorModel;
 use crate::landmarks::{CompassHeading, Landmark};
 use crate::likelihood_field::LikelihoodFieldConfig;
@@ -165,6 +166,12 @@ pub struct Tracker {
     /// the weights' sum, metres
     compass_walked_m: f64,
     compass_refused: u64,
+    /// each floor's height (all floors, or none when the map gives none), metres
+    elevations: Vec<(i32, f64)>,
+    /// the barometer's height, and the floor it counts from (`None`: the estimate's
+    /// floor, from the next reading)
+    barometer: Barometer,
+    barometer_level: Option<i32>,
 }
 
 impl Tracker {
@@ -193,6 +200,13 @@ impl Tracker {
             compass_offset_sum: [0.0; 2],
             compass_walked_m: 0.0,
             compass_refused: 0,
+            elevations: building
+                .floors()
+                .iter()
+                .filter_map(|f| Some((f.level, building.elevation(f.level)?)))
+                .collect(),
+            barometer: Barometer::new(BarometerConfig::default()),
+            barometer_level: None,
         })
     }
 
@@ -342,11 +356,66 @@ impl Tracker {
         self.north_deg.is_some()
     }
 
+    /// Whether the map gives each floor's height (a barometer can tell floors apart on it).
+    pub fn has_elevations(&self) -> bool {
+        !self.elevations.is_empty()
+    }
+
+    /// One barometer reading (`pressure_pa` at `stamp_ns` on the sender's clock): once
+    /// the pressure holds still at the height of another floor (within
+    /// [`BarometerConfig::same_floor_m`] of the map's heights, counted from the floor the
+    /// estimate stood on), the user has reached that floor, and it is taken as
+    /// [`Self::floor_confirmed`] takes the user's word: `Ok(Some(level))`. A height
+    /// between floors (a landing) changes nothing. A reading that is no pressure, or
+    /// one on a map without floors' heights, is refused and changes nothing; a floor
+    /// the barometer found that no gateway reaches is an error, and the barometer
+    /// counts from where the user is now.
+    pub fn pressure(&mut self, stamp_ns: u64, pressure_pa: f64) -> Result<Option<i32>, String> {
+        if self.elevations.is_empty() {
+            return Err("the floor map gives no floor heights (elevation_m): the barometer cannot tell floors".into());
+        }
+        self.barometer.add(stamp_ns, pressure_pa).map_err(|e| e.to_string())?;
+        let level = self.pf.estimate().level;
+        if self.barometer_level != Some(level) {
+            // the first reading, or the filter moved floors on its own: count from here
+            self.barometer_level = Some(level);
+            self.barometer.rebase();
+            return Ok(None);
+        }
+        let (Some(height_m), Some(here_m)) = (self.barometer.height_m(), self.elevation(level)) else {
+            return Ok(None);
+        };
+        let tolerance_m = BarometerConfig::default().same_floor_m;
+        if height_m.abs() <= tolerance_m {
+            return Ok(None);
+        }
+        let off = |m: f64| (m - (here_m + height_m)).abs();
+        let reached = self
+            .elevations
+            .iter()
+            .filter(|(l, m)| *l != level && off(*m) <= tolerance_m)
+            .min_by(|a, b| off(a.1).total_cmp(&off(b.1)));
+        let Some(&(to, _)) = reached else { return Ok(None) };
+        self.floor_confirmed(to).map(|()| Some(to))
+    }
+
+    fn elevation(&self, level: i32) -> Option<f64> {
+        self.elevations.iter().find(|(l, _)| *l == level).map(|(_, m)| *m)
+    }
+
+    /// Barometer readings refused so far.
+    pub fn barometer_refused(&self) -> u64 {
+        self.barometer.refused()
+    }
+
     /// The user says they are on `level` now (after an elevator or stairs): the
     /// particles go through the gateway that serves both floors nearest the estimate.
+    /// The barometer counts its height from this floor (the next still pressure).
     pub fn floor_confirmed(&mut self, level: i32) -> Result<(), String> {
+        self.barometer.rebase();
         let e = self.pf.estimate();
         if e.level == level {
+            self.barometer_level = Some(level);
             return Ok(());
         }
         let near = |g: &&Gateway| g.stop(e.level).map_or(f64::INFINITY, |s| (s.x - e.pose.x_m).hypot(s.y - e.pose.y_m));
@@ -355,8 +424,12 @@ impl Tracker {
             .iter()
             .filter(|g| g.stop(level).is_some() && g.stop(e.level).is_some())
             .min_by(|a, b| near(a).total_cmp(&near(b)))
-            .ok_or_else(|| format!("no elevator, stairs or ramp joins floor {} and floor {level}", e.level))?;
-        self.pf.take_gateway(gateway, level).map(|_| ()).map_err(|e| e.to_string())
+            .ok_or_else(|| format!("no elevator, stairs or ramp joins floor {} and floor {level}", e.level));
+        // on failure the barometer counts from the floor the estimate stays on
+        self.barometer_level = None;
+        self.pf.take_gateway(gateway?, level).map_err(|e| e.to_string())?;
+        self.barometer_level = Some(level);
+        Ok(())
     }
 
     /// The user is at door `number` (read on its sign, said through a command): the
@@ -741,6 +814,79 @@ normal = [0.0, -1.0]
         t.start_at(1, Pose2::new(16.0, 10.5, 1.57)).unwrap();
         let err = t.floor_confirmed(4).unwrap_err();
         assert_eq!(err, "no elevator, stairs or ramp joins floor 1 and floor 4");
+        assert_eq!(t.estimate().level, 1);
+    }
+
+    /// Air pressure at `height_m` above sea level (the standard atmosphere).
+    fn air_pa(height_m: f64) -> f64 {
+        101_325.0 * (1.0 - 2.255_77e-5 * height_m).powf(5.255_88)
+    }
+
+    #[test]
+    fn a_lift_ride_the_barometer_feels_takes_the_user_to_the_floor_at_that_height_and_a_landing_to_none() {
+        // floors 3.6 m apart, 120 m above the sea; the user stands in the lift on floor 0
+        let heights = [(0, 0.0), (1, 3.6)];
+        let b = building().with_elevations(&heights, Path::new("two floors")).unwrap();
+        let mut t = Tracker::new(&b, TrackerConfig::default(), 5).unwrap();
+        assert!(t.has_elevations());
+        t.start_at(0, Pose2::new(16.0, 10.5, 1.57)).unwrap();
+        let mut rng = crate::Rng::new(3);
+        let mut taken = Vec::new();
+        // 12 s standing, 6 s riding up (smoothly), 12 s standing; 25 readings a second
+        for i in 0..(30 * 25) {
+            let s = f64::from(i) / 25.0;
+            let f = ((s - 12.0) / 6.0).clamp(0.0, 1.0);
+            let up = 3.6 * (3.0 * f * f - 2.0 * f * f * f);
+            let stamp = 1_000_000_000 + (s * 1e9) as u64;
+            if let Some(level) = t.pressure(stamp, air_pa(120.0 + up) + rng.normal(1.5)).unwrap() {
+                taken.push((s, level));
+            }
+            if s < 18.0 {
+                assert_eq!(t.estimate().level, 0, "at {s:.2} s, the lift still moving");
+            }
+        }
+        assert_eq!(taken.len(), 1, "{taken:?}");
+        let (s, level) = taken[0];
+        assert_eq!(level, 1);
+        assert!((18.0..23.0).contains(&s), "taken {s:.2} s into the walk, the ride ended at 18 s");
+        let e = t.estimate();
+        assert_eq!(e.level, 1);
+        assert!((e.pose.x_m - 16.0).hypot(e.pose.y_m - 10.5) < 0.3, "{:?}", e.pose);
+
+        // half a floor down (a landing, a mezzanine the map lacks): nothing taken
+        for i in 0..(20 * 25) {
+            let s = 30.0 + f64::from(i) / 25.0;
+            let stamp = 1_000_000_000 + (s * 1e9) as u64;
+            let down = 1.8 * ((s - 30.0) / 5.0).clamp(0.0, 1.0);
+            assert_eq!(t.pressure(stamp, air_pa(123.6 - down) + rng.normal(1.5)), Ok(None), "at {s:.2} s");
+        }
+        assert_eq!(t.estimate().level, 1);
+
+        // no pressure, or a reading on a map without floors' heights: refused, counted
+        assert!(t.pressure(60_000_000_000, f64::NAN).unwrap_err().contains("no air pressure"));
+        assert_eq!(t.barometer_refused(), 1);
+        let mut plain = Tracker::new(&building(), TrackerConfig::default(), 5).unwrap();
+        assert!(!plain.has_elevations());
+        assert!(plain.pressure(1, air_pa(0.0)).unwrap_err().contains("no floor heights"));
+    }
+
+    #[test]
+    fn the_floor_the_user_says_is_where_the_barometer_counts_from() {
+        // the user says "floor 1" as the lift's doors open, before the pressure holds
+        // still: the barometer does not take the ride a second time
+        let b = building().with_elevations(&[(0, 0.0), (1, 3.6)], Path::new("two floors")).unwrap();
+        let mut t = Tracker::new(&b, TrackerConfig::default(), 5).unwrap();
+        t.start_at(0, Pose2::new(16.0, 10.5, 1.57)).unwrap();
+        for i in 0..(30 * 25) {
+            let s = f64::from(i) / 25.0;
+            let f = ((s - 12.0) / 6.0).clamp(0.0, 1.0);
+            let stamp = 1_000_000_000 + (s * 1e9) as u64;
+            if i == 18 * 25 {
+                t.floor_confirmed(1).unwrap();
+            }
+            let taken = t.pressure(stamp, air_pa(3.6 * (3.0 * f * f - 2.0 * f * f * f))).unwrap();
+            assert_eq!(taken, None, "at {s:.2} s");
+        }
         assert_eq!(t.estimate().level, 1);
     }
 
