@@ -1,5 +1,5 @@
 //! The sensor agent's loop: a source thread paces and compresses frames; the async
-//! side publishes depth, IMU, odometry and ground truth, and says in its health when
+//! side publishes depth, IMU, odometry, pressure and ground truth, and says in its health when
 //! the source stalls.
 
 use std::sync::{Arc, Mutex};
@@ -7,7 +7,9 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
-use schemas::{DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, MountGuess, OdomIncrement, PhoneMotion};
+use schemas::{
+    DepthEncoding, DepthFrame, GroundTruth, Hazard, ImuBatch, MountGuess, OdomIncrement, PhoneMotion, Pressure,
+};
 use tokio::sync::mpsc;
 use zenoh::sample::SampleKind;
 
@@ -211,6 +213,8 @@ struct Outputs {
     body_imu: Publisher<ImuBatch>,
     /// the body-worn phone's compass and steps (`sensor/<body_device>/motion`)
     motion: Publisher<PhoneMotion>,
+    /// the cane board's barometer (`sensor/<device>/pressure`)
+    pressure: Publisher<Pressure>,
     odom: Publisher<OdomIncrement>,
     truth: Publisher<GroundTruth>,
     /// The chest camera's depth and odometry.
@@ -246,6 +250,7 @@ pub async fn run(config: SensorConfig, source: Box<dyn FrameSource>, shutdown: S
             .await?,
         motion: Publisher::declare(&session, keys.motion(&config.body_device), AGENT, Lane::Events, Some(&health))
             .await?,
+        pressure: Publisher::declare(&session, keys.pressure(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
         odom: Publisher::declare(&session, keys.odom(dev), AGENT, Lane::Events, Some(&health)).await?,
         truth: Publisher::declare(&session, keys.truth(dev), AGENT, Lane::Telemetry, Some(&health)).await?,
         chest: match &config.chest_device {
@@ -382,7 +387,7 @@ fn report_level(change: &LevelChange, pacer: &Pacer, health: &Health, described:
 
 async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame>, chest: Option<DepthFrame>) {
     let stamp = frame.stamp_ns;
-    let mut results = Vec::with_capacity(7);
+    let mut results = Vec::with_capacity(8);
     if let (Some((chest_depth, chest_odom)), Some(source)) = (out.chest.as_mut(), frame.chest.as_deref()) {
         if let Some(odom) = source.odom {
             results.push(chest_odom.put(stamp, &odom).await);
@@ -403,6 +408,9 @@ async fn publish(out: &mut Outputs, frame: SourceFrame, depth: Option<DepthFrame
     }
     if let Some(motion) = &frame.motion {
         results.push(out.motion.put(stamp, motion).await);
+    }
+    if let Some(pressure) = &frame.pressure {
+        results.push(out.pressure.put(stamp, pressure).await);
     }
     if let Some(depth) = depth {
         results.push(out.depth.put(stamp, &depth).await);

@@ -3,7 +3,7 @@
 //! (the simulator here, recorded files and real cameras in the sensor agent). It lives
 //! with the simulator so that what walks simulated frames (the study) needs no bus.
 
-use schemas::{GroundTruth, ImuSample, Intrinsics, MountGuess, OdomIncrement, PhoneMotion};
+use schemas::{GroundTruth, ImuSample, Intrinsics, MountGuess, OdomIncrement, PhoneMotion, Pressure};
 
 /// One captured depth frame with whatever motion data came with it, uncompressed.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,6 +32,9 @@ pub struct SourceFrame {
     /// The body-worn phone's compass and steps, when a reading is due (the simulator's;
     /// a real phone's come through the phone bridge).
     pub motion: Option<PhoneMotion>,
+    /// The barometer's reading at this frame (the simulator's cane board; a real one's
+    /// is read by the sensor agent, `--barometer`).
+    pub pressure: Option<Pressure>,
     /// Odometry since the previous frame.
     pub odom: Option<OdomIncrement>,
     /// Ground truth (simulated sources only).
@@ -64,6 +67,7 @@ impl SourceFrame {
             imu: Vec::new(),
             body_imu: Vec::new(),
             motion: None,
+            pressure: None,
             odom: None,
             truth: None,
             chest: None,

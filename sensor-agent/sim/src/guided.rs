@@ -16,7 +16,7 @@ use std::sync::{Arc, Mutex};
 use schemas::{MapPoint, Pose, RouteStatus};
 
 use super::scene::ElevatorSpec;
-use super::walker::{wrap_pi, Trajectory};
+use super::walker::{wrap_pi, Ride, Trajectory};
 use super::world::UserPose;
 
 /// Integration step, seconds.
@@ -100,6 +100,8 @@ pub struct GuidedWalker {
     unsure: bool,
     /// elevator rides taken, for reports
     rides: u32,
+    /// every ride taken: start and end, seconds, floors from and to
+    ride_log: Vec<(f64, f64, i32, i32)>,
 }
 
 impl GuidedWalker {
@@ -116,6 +118,7 @@ impl GuidedWalker {
             aim: None,
             unsure: false,
             rides: 0,
+            ride_log: Vec::new(),
         }
     }
 
@@ -202,6 +205,7 @@ impl GuidedWalker {
                     let here = next.floor == pose.floor && to_floor != pose.floor;
                     if here && self.elevator_near(&pose, to_floor) && now.speed_m_s < 0.05 {
                         self.doing = Doing::Riding { until_s: t_s + RIDE_S, to_floor };
+                        self.ride_log.push((t_s, t_s + RIDE_S, pose.floor, to_floor));
                     }
                 }
             }
@@ -275,6 +279,12 @@ fn aim(truth: &UserPose, est: &Pose, next: &MapPoint) -> [f64; 2] {
 }
 
 impl Trajectory for GuidedWalker {
+    fn ride_at(&self, t_s: f64) -> Option<Ride> {
+        let &(from_s, to_s, from_floor, to_floor) =
+            self.ride_log.iter().rev().find(|(from_s, to_s, _, _)| (*from_s..*to_s).contains(&t_s))?;
+        Some(Ride { from_floor, to_floor, done: (t_s - from_s) / (to_s - from_s) })
+    }
+
     fn pose_at(&self, t_s: f64) -> UserPose {
         let (a, b) = self.around(t_s);
         if b.t_s <= a.t_s {
@@ -384,8 +394,12 @@ mod tests {
         tell(&d, RouteStatus::WaitingForFloor, [10.0, 0.0, 0.0], [9.5, 0.0, 0.0], Some(1));
         w.advance_to(4.0);
         assert_eq!(w.pose_at(4.0).floor, 0, "riding");
+        let ride = w.ride_at(4.0).expect("in the lift");
+        assert_eq!((ride.from_floor, ride.to_floor), (0, 1));
+        assert!(ride.done > 0.7 && ride.done < 0.8, "the ride started at the first step: {ride:?}");
         w.advance_to(6.0);
         assert_eq!((w.pose_at(6.0).floor, w.rides()), (1, 1));
+        assert_eq!(w.ride_at(6.0), None, "out of the lift");
         let said = d.lock().unwrap().said_floor.take();
         assert_eq!(said, Some(1));
         // what it heard before the ride was about floor 0: it waits, it does not ride back,

@@ -12,6 +12,7 @@
 //! Camera model from Taylor (2017, sec. 2.1) and Khoshelham & Elberink (2012); see
 //! each module.
 
+pub mod barometer;
 pub mod body;
 pub mod camera;
 pub mod cane;
@@ -43,5 +44,5 @@ pub use render::Renderer;
 pub use scene::SceneError;
 pub use signs::{DoorSignReader, SignReaderConfig, SignReading};
 pub use source::{SimConfig, SimSource};
-pub use walker::{ScriptedWalker, Trajectory};
+pub use walker::{Ride, ScriptedWalker, Trajectory};
 pub use world::{Nearest, ObstacleId, ObstacleKind, UserPose, World};

@@ -3,8 +3,9 @@
 //! moment and adds the IMU samples, odometry and ground truth since the last frame.
 
 use nalgebra::Vector3;
-use schemas::{GroundTruth, ImuSample, MountGuess, PhoneMotion};
+use schemas::{GroundTruth, ImuSample, MountGuess, PhoneMotion, Pressure};
 
+use super::barometer::{BarometerModel, BarometerNoise};
 use super::body::BodyMount;
 use super::camera::CameraProfile;
 use super::cane::CaneMount;
@@ -16,7 +17,7 @@ use super::odometry::{OdometryModel, OdometryNoise};
 use super::random::SimRng;
 use super::render::{Renderer, DEPTH_UNITS_PER_M};
 use super::scene::{SceneError, WalkerSpec};
-use super::walker::{ScriptedWalker, Trajectory};
+use super::walker::{Ride, ScriptedWalker, Trajectory};
 use super::world::{UserPose, World};
 use crate::frame::{FrameSource, SourceError, SourceFrame};
 
@@ -54,6 +55,8 @@ pub struct SimConfig {
     /// The compass of the body-worn phone (read at the phone's heading, so its mount is
     /// the body IMU's, `body_mount`), sent at 10 Hz; `None`: no compass.
     pub compass: Option<CompassNoise>,
+    /// The cane board's barometer, read with every frame; `None`: no barometer.
+    pub barometer: Option<BarometerNoise>,
 }
 
 impl Default for SimConfig {
@@ -75,6 +78,7 @@ impl Default for SimConfig {
             gravity_noise_deg: 0.5,
             chest: None,
             compass: Some(CompassNoise { mount_deg: 0.0, ..CompassNoise::default() }),
+            barometer: Some(BarometerNoise::default()),
         }
     }
 }
@@ -108,6 +112,13 @@ impl Trajectory for Walker {
         match self {
             Walker::Scripted(w) => w.speed_at(t_s),
             Walker::Guided(w) => Trajectory::speed_at(w, t_s),
+        }
+    }
+
+    fn ride_at(&self, t_s: f64) -> Option<Ride> {
+        match self {
+            Walker::Scripted(_) => None,
+            Walker::Guided(w) => w.ride_at(t_s),
         }
     }
 }
@@ -174,6 +185,7 @@ pub struct SimSource {
     body: BodyImu,
     chest: Option<ChestCamera>,
     compass: Option<PhoneCompass>,
+    barometer: Option<BarometerModel>,
     gravity_noise_rad: f64,
     start_ns: Option<u64>,
     next_imu: u64,
@@ -221,6 +233,8 @@ impl SimSource {
                 next: 0,
                 walked_m: 0.0,
             }),
+            // after every other stream, so they draw what they always drew
+            barometer: config.barometer.map(|noise| BarometerModel::new(noise, rng.fork())),
             gravity_noise_rad: config.gravity_noise_deg.to_radians(),
             start_ns: None,
             next_imu: 0,
@@ -278,6 +292,7 @@ impl SimSource {
             imu: Vec::new(),
             body_imu: Vec::new(),
             motion: None,
+            pressure: None,
             odom,
             truth: None,
             chest: None,
@@ -291,6 +306,20 @@ pub fn noisy_gravity(rng: &mut SimRng, sigma_rad: f64, g: Vector3<f64>) -> [f32;
     let tilted = g + Vector3::new(rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad, rng.gaussian() * sigma_rad);
     let u = tilted.normalize();
     [u.x as f32, u.y as f32, u.z as f32]
+}
+
+/// How high the user's floor is at `t_s` above the building's zero, metres: the floor's
+/// elevation, and in a lift the car's (smoothly from stop to stop).
+fn user_height_m(world: &World, walker: &impl Trajectory, t_s: f64) -> f64 {
+    let elevation = |floor: i32| world.floors().iter().find(|f| f.index == floor).map_or(0.0, |f| f.elevation_m);
+    match walker.ride_at(t_s) {
+        Some(r) => {
+            let f = r.done.clamp(0.0, 1.0);
+            let (from, to) = (elevation(r.from_floor), elevation(r.to_floor));
+            from + (to - from) * (3.0 * f * f - 2.0 * f * f * f)
+        }
+        None => elevation(walker.pose_at(t_s).floor),
+    }
 }
 
 /// The camera at `t_s`: the walker's pose, the cane's sweep and the walking bob.
@@ -360,6 +389,8 @@ impl FrameSource for SimSource {
             let heading = c.model.read(user.x_m, user.y_m, phone, SIM_NORTH_DEG.to_radians());
             Some(PhoneMotion { heading_deg: Some(heading), accuracy_deg: None, steps: (c.walked_m / STRIDE_M) as u64 })
         });
+        let height_m = user_height_m(&self.world, &self.walker, t_s);
+        let pressure = self.barometer.as_mut().map(|b| Pressure { stamp_ns, pressure_pa: b.read(t_s, height_m) });
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
         self.last = Some(LastFrame { stamp_ns, user });
@@ -381,6 +412,7 @@ impl FrameSource for SimSource {
             imu,
             body_imu,
             motion,
+            pressure,
             odom,
             truth: Some(GroundTruth {
                 x_m: user.x_m as f32,
@@ -409,6 +441,45 @@ mod tests {
             Ok(s) => s,
             Err(e) => panic!("{e}"),
         }
+    }
+
+    /// Standing on floor 1 of `building` until 10 s, then a 5 s lift ride down to 0.
+    struct RideDown;
+
+    impl Trajectory for RideDown {
+        fn pose_at(&self, t_s: f64) -> UserPose {
+            UserPose { x_m: 19.0, y_m: 5.0, yaw_rad: 0.0, floor: if t_s < 15.0 { 1 } else { 0 } }
+        }
+
+        fn speed_at(&self, _t_s: f64) -> f64 {
+            0.0
+        }
+
+        fn ride_at(&self, t_s: f64) -> Option<Ride> {
+            (10.0..15.0).contains(&t_s).then(|| Ride { from_floor: 1, to_floor: 0, done: (t_s - 10.0) / 5.0 })
+        }
+    }
+
+    #[test]
+    fn the_barometers_height_is_the_floors_and_in_a_lift_the_cars_between_them() {
+        let world = World::load("building").unwrap();
+        let heights: Vec<f64> =
+            [0.0, 10.0, 12.5, 14.9, 15.0, 30.0].map(|t| user_height_m(&world, &RideDown, t)).to_vec();
+        // floor 1 is 3.5 m up
+        assert_eq!(heights[0], 3.5);
+        assert_eq!(heights[1], 3.5);
+        assert!((heights[2] - 1.75).abs() < 1e-9, "{heights:?}");
+        assert!(heights[3] < 0.01 && heights[3] > 0.0, "{heights:?}");
+        assert_eq!(heights[4..], [0.0, 0.0]);
+        // and the frames carry the pressure at the user's floor, every frame
+        let mut s = source(SimConfig { world: "building".into(), ..SimConfig::default() });
+        let first = frame(&mut s, 1_000_000_000);
+        let p = first.pressure.expect("a pressure with the frame");
+        assert_eq!(p.stamp_ns, first.stamp_ns);
+        // the ground floor 120 m above the sea: 99.9 kPa, give or take the noise
+        assert!((p.pressure_pa - 99_893.0).abs() < 10.0, "{p:?}");
+        let quiet = source(SimConfig { world: "building".into(), barometer: None, ..SimConfig::default() });
+        assert_eq!(frame(&mut { quiet }, 1_000_000_000).pressure, None);
     }
 
     fn frame(s: &mut SimSource, now_ns: u64) -> SourceFrame {

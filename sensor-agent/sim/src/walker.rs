@@ -53,6 +53,22 @@ pub trait Trajectory {
     fn pose_at(&self, t_s: f64) -> UserPose;
     /// Walking speed at `t_s`, m/s.
     fn speed_at(&self, t_s: f64) -> f64;
+    /// In a lift at `t_s`: from which floor to which, and how much of the ride is done
+    /// (0 to 1). Walkers that ride no lift are never in one.
+    fn ride_at(&self, _t_s: f64) -> Option<Ride> {
+        None
+    }
+}
+
+/// A lift ride under way.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ride {
+    /// the floor left
+    pub from_floor: i32,
+    /// the floor ridden to
+    pub to_floor: i32,
+    /// the share of the ride done, 0 to 1
+    pub done: f64,
 }
 
 impl Trajectory for ScriptedWalker {
