@@ -1,6 +1,7 @@
 //! wearnav sensor agent: depth frames from a simulated world, recorded files or a real
 //! camera, compressed and published with IMU, odometry and (simulated) ground truth.
 
+pub mod barometer;
 #[cfg(feature = "openni2")]
 pub mod camera;
 pub mod formats;

@@ -106,6 +106,13 @@ struct Cli {
     /// camera's x (right), y (down) and z (forward), e.g. `-y,-z,x`.
     #[arg(long, value_name = "X,Y,Z", default_value = "x,y,z", requires = "imu", allow_hyphen_values = true)]
     imu_axes: String,
+    /// A barometer on the cane board (`openni2:` sources; the simulator has its own):
+    /// `bmp388:/dev/i2c-N[@0x77]`, a Bosch BMP388 or BMP390 on the kernel's i2c-dev bus.
+    /// Each frame then carries its pressure (`sensor/<device>/pressure`), from which the
+    /// compute agent tells when the user reached another floor (on a floor map that
+    /// gives each floor's height). Untested with hardware (docs/hardware.md).
+    #[arg(long, value_name = "SPEC")]
+    barometer: Option<String>,
     /// Health reports the source stalled after this long without a frame.
     #[arg(long, default_value_t = 500, value_name = "MS")]
     stall_after_ms: u64,
@@ -161,6 +168,18 @@ async fn main() -> anyhow::Result<()> {
         let imu = sensor_agent::imu::open(spec).with_context(|| format!("cannot open the IMU {spec:?}"))?;
         tracing::info!(imu = %imu.describe(), axes = %cli.imu_axes, "frames carry the IMU's sample and gravity");
         source = Box::new(sensor_agent::imu::WithImu::new(source, imu, axes));
+    }
+    if let Some(spec) = &cli.barometer {
+        if !cli.source.starts_with("openni2:") {
+            anyhow::bail!(
+                "--barometer is for a real camera's cane board (openni2:); {:?} brings its own barometer or none",
+                cli.source
+            );
+        }
+        let barometer =
+            sensor_agent::barometer::open(spec).with_context(|| format!("cannot open the barometer {spec:?}"))?;
+        tracing::info!(barometer = %barometer.describe(), "frames carry the barometer's pressure");
+        source = Box::new(sensor_agent::barometer::WithBarometer::new(source, barometer));
     }
     let mut config = sensor_agent::run::SensorConfig::new(cli.bus);
     config.device = cli.device;

@@ -24,3 +24,10 @@ fn an_imu_is_taken_for_a_real_camera_only_and_its_axes_only_with_it() {
     let (ok, err) = run(&["--source", "sim:approach", "--imu", "mpu6050:/dev/i2c-1", "--imu-axes", "-y,-z,x"]);
     assert!(!ok && err.contains("--imu is for a real camera"), "{err}");
 }
+
+#[test]
+fn a_barometer_is_taken_for_a_real_camera_only() {
+    // the simulator's frames carry the simulated cane board's pressure
+    let (ok, err) = run(&["--source", "sim:approach", "--barometer", "bmp388:/dev/i2c-1"]);
+    assert!(!ok && err.contains("--barometer is for a real camera's cane board (openni2:); \"sim:approach\""), "{err}");
+}
