@@ -66,6 +66,11 @@ pub struct DemoArgs {
     /// too), so what overhangs at head height is warned of.
     #[arg(long)]
     pub chest: bool,
+    /// On a guided walk (`--destination`): the simulated user does not say which floor
+    /// a lift took them to; the compute agent finds it with the cane board's barometer
+    /// (the simulator's: the floor plan gives each floor's height).
+    #[arg(long, requires = "destination")]
+    pub floor_unsaid: bool,
     /// On a simulated world: how guidance speaks, as TOML (fields of
     /// `guidance::GuidanceProfile`, the compute agent's `--guidance-profile`):
     /// `directions = "clock"`, `units = "steps"`, `passing_doors = false`, ...
@@ -237,7 +242,7 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     }
     let (source, guided) = match (&args.destination, &navigation) {
         (Some(label), Some((world, nav))) => {
-            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label, args.chest)?;
+            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label, args.chest, !args.floor_unsaid)?;
             let source = walk.source.take().context("the guided walk's source was taken twice")?;
             (source, Some(walk))
         }

@@ -2,7 +2,8 @@
 //! agent localizes on the world's floor plan (exported as `wearnav map` would, never
 //! the simulator's truth) and guides; the simulated user walks by the route it gives,
 //! as seen from where the device believes the user is, takes elevators when told to,
-//! and says which floor they reached. The demo reads the bus for the walker (route
+//! and says which floor they reached (with `--floor-unsaid` it does not: the barometer
+//! finds it). The demo reads the bus for the walker (route
 //! state, pose), sends the user's commands, prints what is said, and ends on arrival.
 
 use std::sync::{Arc, Mutex};
@@ -48,11 +49,13 @@ pub struct GuidedWalk {
     /// the simulated camera, walked by guidance (taken by the sensor agent)
     pub source: Option<Box<dyn FrameSource>>,
     directions: DirectionsHandle,
+    says_floor: bool,
 }
 
 impl GuidedWalk {
     /// The simulated camera of `world` walked by guidance to `label` on `building`.
-    pub fn prepare(world: &World, nav: &NavConfig, label: &str, chest: bool) -> anyhow::Result<Self> {
+    /// The user says the floor a lift took them to when `says_floor`.
+    pub fn prepare(world: &World, nav: &NavConfig, label: &str, chest: bool, says_floor: bool) -> anyhow::Result<Self> {
         let MapSource::Loaded(_, building) = &nav.map else {
             bail!("a guided walk needs the simulated world's own floor plan");
         };
@@ -65,7 +68,7 @@ impl GuidedWalk {
             ..SimConfig::default()
         };
         let sim = SimSource::new(config).with_context(|| format!("cannot simulate {:?}", world.name()))?;
-        Ok(Self { label: place.0, place: place.1, source: Some(Box::new(sim)), directions })
+        Ok(Self { label: place.0, place: place.1, source: Some(Box::new(sim)), directions, says_floor })
     }
 }
 
@@ -102,6 +105,9 @@ pub struct GuidedWatch {
     arrival_ended: bool,
     utterances: usize,
     floors_said: Vec<i32>,
+    says_floor: bool,
+    /// floors reached by lift and not said
+    floors_unsaid: Vec<i32>,
 }
 
 impl GuidedWatch {
@@ -132,6 +138,8 @@ impl GuidedWatch {
             arrival_ended: false,
             utterances: 0,
             floors_said: Vec::new(),
+            says_floor: walk.says_floor,
+            floors_unsaid: Vec::new(),
         })
     }
 
@@ -215,7 +223,10 @@ impl GuidedWatch {
             self.asked_at = Some(Instant::now());
         }
         let said = self.lock().said_floor.take();
-        if let Some(floor) = said {
+        if let Some(floor) = said.filter(|_| !self.says_floor) {
+            eprintln!("{} user: (out of the lift on floor {floor}, says nothing)", self.stamp());
+            self.floors_unsaid.push(floor);
+        } else if let Some(floor) = said {
             eprintln!("{} user: I am on floor {floor}", self.stamp());
             self.floors_said.push(floor);
             if let Err(e) = self.floor_out.put(bus::now_ns(), &Command::Floor { floor }).await {
@@ -231,10 +242,10 @@ impl GuidedWatch {
             bail!("guided walk to {}: no ground truth seen, the simulated walk never ran", self.label);
         };
         let off_m = (f64::from(t.x_m) - x).hypot(f64::from(t.y_m) - y);
-        let rides = if self.floors_said.is_empty() {
-            "no elevator ride".to_string()
-        } else {
-            format!("floors said after elevator rides: {:?}", self.floors_said)
+        let rides = match (self.floors_said.is_empty(), self.floors_unsaid.is_empty()) {
+            (true, true) => "no elevator ride".to_string(),
+            (false, _) => format!("floors said after elevator rides: {:?}", self.floors_said),
+            (true, false) => format!("floors reached by elevator, not said: {:?}", self.floors_unsaid),
         };
         let place = format!("{} (floor {floor}, {x:.2}, {y:.2})", self.label);
         match self.arrived_at {

@@ -3,7 +3,8 @@
 //!
 //! In: the body's odometry and gyro (from the loop), each frame's scan with the cane's
 //! and the body's turn rates, the worn phone's compass (`sensor/<device>/motion`, when
-//! the map says where north is), `cmd/*` commands, `query/destinations` and `query/route`,
+//! the map says where north is), a barometer's readings (`sensor/*/pressure`, when the
+//! map gives its floors' heights: a floor reached is taken as the user's word is), `cmd/*` commands, `query/destinations` and `query/route`,
 //! and `feedback/applied` (an instruction the feedback agent dropped or cut off is given
 //! again).
 //! Out: `localization/pose`, `route/state` (5 Hz, and at once when a command changes
@@ -23,7 +24,7 @@ use perception::body_rate::BodyRate;
 use perception::predictive::Way;
 use planning::UserProfile;
 use schemas::{
-    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, PhoneMotion, Pose, Priority, RouteState,
+    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, PhoneMotion, Pose, Pressure, Priority, RouteState,
     RouteStatus, Scan, SpeechIntent,
 };
 
@@ -144,6 +145,10 @@ pub struct Nav {
     pub(crate) cane_imu: Subscriber<ImuBatch>,
     /// the worn phone's compass; `None` without one or on a map without north
     pub(crate) motion: Option<Subscriber<PhoneMotion>>,
+    /// barometers' readings (`sensor/*/pressure`); `None` on a map without floors'
+    /// heights. The first device heard is the one read.
+    pub(crate) pressure: Option<Subscriber<Pressure>>,
+    barometer_device: Option<String>,
     /// what the feedback agent did: an instruction it never finished is given again
     pub(crate) applied: Subscriber<Applied>,
     pub(crate) destinations: Queryable,
@@ -190,6 +195,13 @@ impl Nav {
             }
             (None, _) => None,
         };
+        let pressure = if tracker.has_elevations() {
+            tracing::info!("floor changes are also read from a barometer ({})", keys.pressure_any());
+            Some(Subscriber::declare(session, keys.pressure_any(), false, health).await?)
+        } else {
+            tracing::info!("the floor map gives no floor heights (elevation_m): floors only from the user's word");
+            None
+        };
         let floors: Vec<String> = building.floors().iter().map(|f| f.level.to_string()).collect();
         tracing::info!(
             "floor map {}: floors {}, {} destinations; {}",
@@ -213,6 +225,8 @@ impl Nav {
             commands: Subscriber::declare_fresh(session, keys.cmd_any(), false, MAX_COMMAND_AGE, health).await?,
             cane_imu: Subscriber::declare(session, keys.imu_any(), false, health).await?,
             motion,
+            pressure,
+            barometer_device: None,
             applied: Subscriber::declare(session, keys.applied(), false, health).await?,
             destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
             routes: Queryable::declare(session, keys.query("route"), health).await?,
@@ -294,6 +308,42 @@ impl Nav {
             };
             health.reject(&motion.key, kind, &e);
         }
+    }
+
+    /// A barometer's reading: a floor reached is taken as the user's word for it would
+    /// be (the guide starts the floor's leg, or the user hears "Floor 2."). Readings of
+    /// a second barometer, or that are no pressure, are refused and counted.
+    pub async fn pressure(&mut self, reading: &Received<Pressure>, health: &Health) {
+        let device = self.keys.device_of(&reading.key).unwrap_or_default().to_string();
+        match &self.barometer_device {
+            None => {
+                tracing::info!("reading the barometer of {device}");
+                self.barometer_device = Some(device);
+            }
+            Some(d) if *d != device => {
+                let why = format!("the barometer of {d} is read; one of {device} too would mix two heights");
+                health.reject(&reading.key, "second_barometer", &why);
+                return;
+            }
+            Some(_) => {}
+        }
+        let refused = self.tracker.barometer_refused();
+        let level = match self.tracker.pressure(reading.body.stamp_ns, f64::from(reading.body.pressure_pa)) {
+            Ok(Some(level)) => level,
+            Ok(None) => return,
+            Err(e) if self.tracker.barometer_refused() > refused => {
+                return health.reject(&reading.key, "not_a_pressure", &e)
+            }
+            Err(e) => return tracing::warn!("the barometer says the user changed floors, but {e}"),
+        };
+        tracing::info!("localization: floor {level} reached (the barometer)");
+        let (pose, now_ms) = (self.user_pose(), self.now_ms());
+        let response = self.navigator.command(&Command::Floor { floor: level }, &pose, now_ms);
+        for speech in response.speech {
+            tracing::info!("answer: {}", speech.text);
+            self.say(bus::now_ns(), speech).await;
+        }
+        self.publish_state().await;
     }
 
     /// One frame's scan and the obstacle points the perception holds (the camera's

@@ -386,6 +386,11 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                     n.motion(&motion, &health);
                 }
             }
+            Some(reading) = bus::maybe(nav.as_ref().and_then(|n| n.pressure.as_ref()).map(|p| p.recv())) => {
+                if let Some(n) = nav.as_mut() {
+                    n.pressure(&reading, &health).await;
+                }
+            }
             Some(applied) = bus::maybe(nav.as_ref().map(|n| n.applied.recv())) => {
                 if let Some(n) = nav.as_mut() {
                     n.applied(&applied.body);
