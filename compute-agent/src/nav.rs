@@ -47,6 +47,9 @@ fn wall_points(grid: &map::OccupancyGrid) -> Vec<[f64; 2]> {
     out
 }
 
+/// A barometer reading older than this says nothing of where the user stands now, ns.
+const BAROMETER_FRESH_NS: u64 = 2_000_000_000;
+
 /// Period of `localization/pose` and `route/state`.
 pub const STATE_PERIOD: Duration = Duration::from_millis(200);
 
@@ -149,6 +152,8 @@ pub struct Nav {
     /// heights. The first device heard is the one read.
     pub(crate) pressure: Option<Subscriber<Pressure>>,
     barometer_device: Option<String>,
+    /// when the last barometer reading was taken, ns (the bus's clock)
+    pressure_at_ns: Option<u64>,
     /// what the feedback agent did: an instruction it never finished is given again
     pub(crate) applied: Subscriber<Applied>,
     pub(crate) destinations: Queryable,
@@ -227,6 +232,7 @@ impl Nav {
             motion,
             pressure,
             barometer_device: None,
+            pressure_at_ns: None,
             applied: Subscriber::declare(session, keys.applied(), false, health).await?,
             destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
             routes: Queryable::declare(session, keys.query("route"), health).await?,
@@ -328,7 +334,11 @@ impl Nav {
             Some(_) => {}
         }
         let refused = self.tracker.barometer_refused();
-        let level = match self.tracker.pressure(reading.body.stamp_ns, f64::from(reading.body.pressure_pa)) {
+        let taken = self.tracker.pressure(reading.body.stamp_ns, f64::from(reading.body.pressure_pa));
+        if self.tracker.barometer_refused() == refused {
+            self.pressure_at_ns = Some(bus::now_ns());
+        }
+        let level = match taken {
             Ok(Some(level)) => level,
             Ok(None) => return,
             Err(e) if self.tracker.barometer_refused() > refused => {
@@ -362,6 +372,9 @@ impl Nav {
         }
         let pose = self.user_pose();
         let now_ms = self.now_ms();
+        // a barometer that stopped sending says nothing of where the user stands
+        let fresh = self.pressure_at_ns.is_some_and(|t| bus::now_ns().saturating_sub(t) < BAROMETER_FRESH_NS);
+        self.navigator.set_height_held(fresh && self.tracker.height_held());
         if self.ways_round {
             let camera = self.tracker.points_in_map(held, &mut self.held);
             let before = self.navigator.detours().0;

@@ -182,6 +182,8 @@ pub struct Guide {
     at_gateway_said: Option<usize>,
     /// after that, the user walked away from the elevator and was told where it is
     gateway_left_said: bool,
+    /// a barometer says the user stands at their floor's height (not on the stairs)
+    height_held: bool,
     arrived: bool,
     off_route: bool,
     /// came back to the route after a deviation: say which way to face
@@ -242,6 +244,7 @@ impl Guide {
             gateway_ahead_said: None,
             at_gateway_said: None,
             gateway_left_said: false,
+            height_held: false,
             arrived: false,
             off_route: false,
             back_on_route: false,
@@ -490,7 +493,7 @@ impl Guide {
         }
         if self.at_gateway_said == Some(self.leg) {
             // waiting at the gateway for the floor to change; a user who walked away from
-            // the elevator and came back is told again what to do there
+            // the gateway and came back is told again what to do there
             if !(self.gateway_left_said && self.at_leg_end(pose)) {
                 return self.left_gateway(pose, now_ms);
             }
@@ -667,22 +670,34 @@ impl Guide {
         self.to_leg_end_m(pose) <= self.profile.arrival_radius_m.max(ARRIVAL_BESIDE_M)
     }
 
-    /// Told they are at the elevator, the user walked [`GATEWAY_LEFT_M`] or more from it:
+    /// Whether a barometer says the user stands at their floor's height, as the caller
+    /// last said (none: not known, no barometer): on the level, a user who walked away
+    /// from the foot of stairs or a ramp has not taken them.
+    pub fn set_height_held(&mut self, held: bool) {
+        self.height_held = held;
+    }
+
+    /// Told they are at the gateway, the user walked [`GATEWAY_LEFT_M`] or more from it:
     /// where it is, once until they come back (said while they stand or walk, not while
-    /// they turn). Nothing for stairs or a ramp: a user who takes them walks away from
-    /// their foot.
+    /// they turn). For stairs or a ramp only while a barometer says the user stands at
+    /// their floor's height ([`Self::set_height_held`]): a user who takes them walks
+    /// away from their foot too.
     fn left_gateway(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {
-        let LegEnd::Gateway { kind: GatewayKind::Elevator, .. } = self.legs[self.leg].end else {
+        let LegEnd::Gateway { kind, .. } = self.legs[self.leg].end else {
             return None;
         };
+        if kind != GatewayKind::Elevator && !self.height_held {
+            return None;
+        }
         let away_m = self.to_leg_end_m(pose);
         if self.gateway_left_said || away_m < GATEWAY_LEFT_M || !self.still() {
             return None;
         }
         let end = *self.waypoints().last()?;
-        let (name, _) = gateway_words(GatewayKind::Elevator);
+        let (name, _) = gateway_words(kind);
+        let is = if kind == GatewayKind::Stairs { "are" } else { "is" };
         let text = format!(
-            "The {name} is {} away, {}.",
+            "The {name} {is} {} away, {}.",
             distance_phrase(away_m, &self.profile),
             bearing_phrase(relative_right_deg(pose, end), &self.profile)
         );

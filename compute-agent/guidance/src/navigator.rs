@@ -105,6 +105,8 @@ pub struct Navigator {
     /// and, turning for the profile's `search_for_ms` without the place found, asked to
     /// stop turning and tell a door number or ask someone
     search_failed_said: bool,
+    /// a barometer says the user stands at their floor's height ([`Guide::set_height_held`])
+    height_held: bool,
 }
 
 impl Navigator {
@@ -137,6 +139,7 @@ impl Navigator {
             lost_news_ms: None,
             turn_asked_ms: None,
             search_failed_said: false,
+            height_held: false,
         }
     }
 
@@ -297,6 +300,13 @@ impl Navigator {
         self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND || lost_told && s.text == UNCERTAIN))
     }
 
+    /// Whether a barometer says, now, that the user stands at their floor's height (false
+    /// without one, or while its readings do not hold still): the guide can then tell a
+    /// user who walked away from the foot of stairs where they are.
+    pub fn set_height_held(&mut self, held: bool) {
+        self.height_held = held;
+    }
+
     /// One step with the pose of now: plans a held destination once the position is
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
@@ -347,6 +357,7 @@ impl Navigator {
         }
         let graph = self.planner.floor(pose.floor).map(|p| p.graph());
         let guide = self.trip.as_mut()?.guide.as_mut()?;
+        guide.set_height_held(self.height_held);
         let instruction = guide.step(pose, now_ms, graph)?;
         if instruction.needs_replan() {
             let goal = self.trip.as_ref()?.goal;

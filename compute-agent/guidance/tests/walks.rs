@@ -914,6 +914,53 @@ fn a_user_who_walks_away_from_the_elevator_is_told_where_it_is_and_back_at_it_wh
 }
 
 #[test]
+fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_barometer_holds_the_floor() {
+    use std::f64::consts::FRAC_PI_2;
+    // the same corridors, joined by stairs where the elevator was
+    let layer =
+        SemanticLayer::parse(&ELEVATOR.replace("\"elevator\"", "\"stairs\""), Path::new("stairs.toml")).unwrap();
+    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
+    let building = Building::new(floors.to_vec(), Path::new("two floors by stairs")).unwrap();
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
+    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let p0 = bp.floor(0).unwrap();
+    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(p0), |_| true);
+    let at_stairs = "You are at the stairs. Take them to floor 1, then tell me when you are there.";
+    assert_eq!(texts(&said).last(), Some(&at_stairs), "{said:#?}");
+    let end = legs[0].goal();
+    let north = |m: f64| pose([end[0], end[1] + m], FRAC_PI_2);
+    // no barometer: walking away from their foot is what taking the stairs looks like
+    // on the plan, so nothing is said
+    let mut blind = guide.clone();
+    for k in 0..=10u32 {
+        let m = 0.5 * f64::from(k);
+        assert_eq!(blind.step(&north(m), 60_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m away");
+    }
+    // a barometer holding the floor's height: the user is on the level, not on the stairs
+    guide.set_height_held(true);
+    for k in 0..6u32 {
+        let m = 0.5 * f64::from(k);
+        assert_eq!(guide.step(&north(m), 60_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m away");
+    }
+    let away = guide.step(&north(3.0), 63_000, Some(p0.graph())).expect("where the stairs are");
+    assert_eq!(away.text, "The stairs are 3 metres away, behind you.");
+    assert_eq!(away.kind, InstructionKind::AwayFromGateway { leg: 0 });
+    // back at their foot: what to do there, again; climbing (the height moving) says
+    // nothing more, and the floor reached goes on as before
+    let back = guide.step(&north(0.0), 80_000, Some(p0.graph())).expect("told at the stairs");
+    assert_eq!(back.text, at_stairs);
+    guide.set_height_held(false);
+    for k in 1..=10u32 {
+        let m = 0.5 * f64::from(k);
+        assert_eq!(guide.step(&north(m), 80_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m up");
+    }
+    assert!(guide.floor_confirmed(1));
+    assert_eq!(guide.floor(), Some(1));
+}
+
+#[test]
 fn an_elevator_ahead_the_user_did_not_hear_is_said_again_while_it_is_ahead() {
     let (layer, building) = two_floors();
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());

@@ -403,6 +403,17 @@ impl Tracker {
         self.elevations.iter().find(|(l, _)| *l == level).map(|(_, m)| *m)
     }
 
+    /// Whether the barometer says the user stands at the height of the floor the
+    /// estimate is on: its pressure held still for its still time, within
+    /// [`BarometerConfig::same_floor_m`] of where it last stood on this floor. False
+    /// with no barometer read, while the height moves (a lift, stairs) or stands
+    /// between floors.
+    pub fn height_held(&self) -> bool {
+        let level = self.pf.estimate().level;
+        let on_floor = |h: f64| h.abs() <= BarometerConfig::default().same_floor_m;
+        self.barometer_level == Some(level) && self.barometer.height_m().is_some_and(on_floor)
+    }
+
     /// Barometer readings refused so far.
     pub fn barometer_refused(&self) -> u64 {
         self.barometer.refused()
@@ -844,7 +855,12 @@ normal = [0.0, -1.0]
             if s < 18.0 {
                 assert_eq!(t.estimate().level, 0, "at {s:.2} s, the lift still moving");
             }
+            // at the floor's height standing, not while the car moves
+            if (11.0..12.0).contains(&s) || (15.0..18.0).contains(&s) {
+                assert_eq!(t.height_held(), s < 12.0, "at {s:.2} s");
+            }
         }
+        assert!(t.height_held(), "on floor 1, standing");
         assert_eq!(taken.len(), 1, "{taken:?}");
         let (s, level) = taken[0];
         assert_eq!(level, 1);
