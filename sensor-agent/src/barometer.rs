@@ -162,25 +162,7 @@ fn parse_spec(spec: &str) -> Result<(&str, u8), ImuError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Frames 33 ms apart, depth alone.
-    struct Camera(u64);
-
-    impl FrameSource for Camera {
-        fn describe(&self) -> String {
-            "openni2:test".into()
-        }
-
-        fn next_frame(&mut self, _now_ns: u64) -> Result<Option<SourceFrame>, SourceError> {
-            self.0 += 1;
-            let k = schemas::Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0 };
-            Ok(Some(SourceFrame::depth_only(self.0 * 33_333_333, (1, 1), 0.001, k, vec![1000])))
-        }
-
-        fn period_ns(&self) -> u64 {
-            33_333_333
-        }
-    }
+    use crate::test_data::Camera;
 
     /// A barometer rising 1 Pa a read; every third read fails.
     struct Chip(u32);

@@ -296,6 +296,7 @@ pub fn open(spec: &str) -> Result<Box<dyn Imu>, ImuError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_data::Camera;
 
     fn still(stamp_ns: u64, accel: [f32; 3]) -> ImuSample {
         ImuSample { stamp_ns, gyro_rad_s: [0.0; 3], accel_m_s2: accel }
@@ -335,25 +336,6 @@ mod tests {
         let g = f.gravity(t).unwrap();
         assert!((g[1] - 1.0).abs() < 0.01, "{g:?}");
         assert_eq!(f.add(&still(t + 1, [f32::NAN, 0.0, 0.0])).map(|g| g[1] > 0.99), Some(true));
-    }
-
-    /// Frames 33 ms apart, without IMU or gravity (a camera like the Xtion).
-    struct Camera(u64);
-
-    impl FrameSource for Camera {
-        fn describe(&self) -> String {
-            "openni2:test".into()
-        }
-
-        fn next_frame(&mut self, _now_ns: u64) -> Result<Option<SourceFrame>, SourceError> {
-            self.0 += 1;
-            let k = schemas::Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0 };
-            Ok(Some(SourceFrame::depth_only(self.0 * 33_333_333, (1, 1), 0.001, k, vec![1000])))
-        }
-
-        fn period_ns(&self) -> u64 {
-            33_333_333
-        }
     }
 
     /// A board lying flat, x forward, z up, turning left at 0.5 rad/s; every third
