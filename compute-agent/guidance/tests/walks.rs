@@ -797,7 +797,13 @@ stops = [ { floor = 0, x = 19.5, y = 1.5 }, { floor = 1, x = 19.5, y = 1.5 } ]
 /// The corridors of [`corridor_floor`] on floors 0 and 1, joined by the elevator of
 /// [`ELEVATOR`], and that semantic layer.
 fn two_floors() -> (SemanticLayer, Building) {
-    let layer = SemanticLayer::parse(ELEVATOR, Path::new("elevator.toml")).unwrap();
+    two_floors_joined_by("elevator")
+}
+
+/// [`two_floors`] with a gateway of this `type` ("stairs", "ramp") where the elevator is.
+fn two_floors_joined_by(kind: &str) -> (SemanticLayer, Building) {
+    let text = ELEVATOR.replace("\"elevator\"", &format!("\"{kind}\""));
+    let layer = SemanticLayer::parse(&text, Path::new("gateway.toml")).unwrap();
     let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
     let building = Building::new(floors.to_vec(), Path::new("two floors")).unwrap();
     (layer, building)
@@ -917,10 +923,7 @@ fn a_user_who_walks_away_from_the_elevator_is_told_where_it_is_and_back_at_it_wh
 fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_barometer_holds_the_floor() {
     use std::f64::consts::FRAC_PI_2;
     // the same corridors, joined by stairs where the elevator was
-    let layer =
-        SemanticLayer::parse(&ELEVATOR.replace("\"elevator\"", "\"stairs\""), Path::new("stairs.toml")).unwrap();
-    let floors = [0, 1].map(|level| Floor { level, grid: corridor_floor(), semantic: layer.floor(level) });
-    let building = Building::new(floors.to_vec(), Path::new("two floors by stairs")).unwrap();
+    let (layer, building) = two_floors_joined_by("stairs");
     let mut bp = BuildingPlanner::new(&building, UserProfile::default());
     let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
     let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
