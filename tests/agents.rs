@@ -786,6 +786,52 @@ async fn a_user_placed_in_the_wrong_room_who_names_the_place_they_are_near_is_fo
     assert!(unknown.starts_with("I do not know a place called the moon."), "{unknown:?}");
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_floor_the_user_says_that_the_barometer_does_not_feel_is_questioned_and_a_second_barometer_refused() {
+    use schemas::{Command, Pressure};
+    let user = "baro-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let h = &hub.health;
+    let speech = Subscriber::<schemas::SpeechIntent>::declare(&hub.session, keys.speech(), false, h).await.unwrap();
+    let health = hub.subscribe::<HealthStats>(keys.health_any()).await;
+    let mut floor =
+        Publisher::<Command>::declare(&hub.session, keys.cmd("floor"), "test-user", Lane::Events, None).await.unwrap();
+    // the building's walk on floor 0, its cane board's barometer on sensor/cane/pressure;
+    // the sample map gives the floors' heights (0 and 3.5 m)
+    let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:building"]);
+    let map = building_map();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map, "--start", "1,5,0,0"]);
+    let pressure_key = keys.pressure_any();
+    let reads = |h: &HealthStats| h.streams.iter().any(|s| s.inbound && s.key == pressure_key && s.count >= 100);
+    let read = wait_for(&health, Duration::from_secs(30), |h| h.body.agent == "compute-agent" && reads(&h.body)).await;
+    assert!(read.is_some(), "the barometer's readings did not reach the compute agent");
+
+    // "floor 1", standing on floor 0: taken, and questioned at once
+    let said_ns = bus::now_ns();
+    floor.put(said_ns, &Command::Floor { floor: 1 }).await.unwrap();
+    let check = wait_for(&speech, Duration::from_secs(5), |s| s.body.text.starts_with("You said floor 1")).await;
+    let check = check.expect("the floor said was not questioned");
+    assert_eq!(
+        check.body.text,
+        "You said floor 1, but the height I measure is floor 0's. Please check which floor you are on, and tell me."
+    );
+    let after_ms = check.header.capture_ns.saturating_sub(said_ns) / 1_000_000;
+    assert!(after_ms < 2_000, "questioned {after_ms} ms after the word");
+
+    // a second barometer is not mixed in; a pressure no air has is refused by the schema
+    let mut phone =
+        Publisher::<Pressure>::declare(&hub.session, keys.pressure("phone"), "test-phone", Lane::Telemetry, None)
+            .await
+            .unwrap();
+    phone.put(bus::now_ns(), &Pressure { stamp_ns: bus::now_ns(), pressure_pa: 99_800.0 }).await.unwrap();
+    phone.put(bus::now_ns(), &Pressure { stamp_ns: bus::now_ns(), pressure_pa: 5_000.0 }).await.unwrap();
+    let count = |h: &HealthStats, kind: &str| h.rejects.iter().find(|r| r.kind == kind).map_or(0, |r| r.count);
+    let refused = |h: &HealthStats| count(h, "second_barometer") == 1 && count(h, "invalid") == 1;
+    let counted = wait_for(&health, Duration::from_secs(5), |h| h.body.agent == "compute-agent" && refused(&h.body));
+    assert!(counted.await.is_some(), "a second barometer's reading and a pressure of 5 kPa were not both refused");
+}
+
 /// 1.5 m forward in 30 odometry steps of 33 ms, each published `late_ms` after its end.
 async fn walk_east(odom: &mut Publisher<schemas::OdomIncrement>, late_ms: u64) {
     for _ in 0..30 {

@@ -317,8 +317,9 @@ impl Nav {
     }
 
     /// A barometer's reading: a floor reached is taken as the user's word for it would
-    /// be (the guide starts the floor's leg, or the user hears "Floor 2."). Readings of
-    /// a second barometer, or that are no pressure, are refused and counted.
+    /// be (the guide starts the floor's leg, or the user hears "Floor 2."); a floor the
+    /// user said that the height is not, they are asked to check (once for each word).
+    /// Readings of a second barometer, or that are no pressure, are refused and counted.
     pub async fn pressure(&mut self, reading: &Received<Pressure>, health: &Health) {
         let device = self.keys.device_of(&reading.key).unwrap_or_default().to_string();
         match &self.barometer_device {
@@ -339,7 +340,15 @@ impl Nav {
             self.pressure_at_ns = Some(bus::now_ns());
         }
         let level = match taken {
-            Ok(Some(level)) => level,
+            Ok(Some(localization::FloorNews::Reached(level))) => level,
+            Ok(Some(localization::FloorNews::Disagrees { said, felt })) => {
+                tracing::warn!("the user said floor {said}; the barometer's height is floor {felt}'s");
+                let text = format!(
+                    "You said floor {said}, but the height I measure is floor {felt}'s. Please check which floor you are on, and tell me."
+                );
+                let speech = self.speech(&text, "floor/check");
+                return self.say(bus::now_ns(), speech).await;
+            }
             Ok(None) => return,
             Err(e) if self.tracker.barometer_refused() > refused => {
                 return health.reject(&reading.key, "not_a_pressure", &e)

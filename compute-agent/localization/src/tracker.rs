@@ -136,6 +136,20 @@ const MAX_SWEEP_RAD: f64 = 1.2;
 /// starts it again from zero.
 const MAX_FRAME_GAP_S: f64 = 0.5;
 
+/// What the barometer says of the floor ([`Tracker::pressure`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloorNews {
+    /// The user reached this floor (taken, as the user's word is).
+    Reached(i32),
+    /// The user said floor `said`; the height is floor `felt`'s.
+    Disagrees {
+        /// the floor the user said (kept)
+        said: i32,
+        /// the floor at the height the barometer measures
+        felt: i32,
+    },
+}
+
 /// A particle filter fed by the agent's streams.
 #[derive(Clone, Debug)]
 pub struct Tracker {
@@ -172,6 +186,10 @@ pub struct Tracker {
     /// floor, from the next reading)
     barometer: Barometer,
     barometer_level: Option<i32>,
+    /// the user said a floor the barometer has not checked yet
+    floor_said: bool,
+    /// the floor the user said that the barometer's height is not (said against once)
+    floor_disputed: Option<i32>,
 }
 
 impl Tracker {
@@ -207,6 +225,8 @@ impl Tracker {
                 .collect(),
             barometer: Barometer::new(BarometerConfig::default()),
             barometer_level: None,
+            floor_said: false,
+            floor_disputed: None,
         })
     }
 
@@ -361,42 +381,82 @@ impl Tracker {
         !self.elevations.is_empty()
     }
 
-    /// One barometer reading (`pressure_pa` at `stamp_ns` on the sender's clock): once
-    /// the pressure holds still at the height of another floor (within
-    /// [`BarometerConfig::same_floor_m`] of the map's heights, counted from the floor the
-    /// estimate stood on), the user has reached that floor, and it is taken as
-    /// [`Self::floor_confirmed`] takes the user's word: `Ok(Some(level))`. A height
-    /// between floors (a landing) changes nothing. A reading that is no pressure, or
-    /// one on a map without floors' heights, is refused and changes nothing; a floor
-    /// the barometer found that no gateway reaches is an error, and the barometer
-    /// counts from where the user is now.
-    pub fn pressure(&mut self, stamp_ns: u64, pressure_pa: f64) -> Result<Option<i32>, String> {
+    /// One barometer reading (`pressure_pa` at `stamp_ns` on the sender's clock). Once the
+    /// pressure holds still, the height it gives (counted from the floor the barometer
+    /// last stood on, within [`BarometerConfig::same_floor_m`] of the map's heights) is
+    /// a floor, and:
+    ///
+    /// - another floor than the estimate's, the user having said nothing since: the
+    ///   user reached it, and it is taken as [`Self::floor_confirmed`] takes the user's
+    ///   word ([`FloorNews::Reached`]);
+    /// - another floor than the one the user said since: [`FloorNews::Disagrees`], once
+    ///   for each word; the user's word stands (they may read the lift's display), the
+    ///   caller asks them to check;
+    /// - the estimate's floor: nothing to say (and the user's word, if any, checked).
+    ///
+    /// A height between floors (a landing) changes nothing; nor does a filter that
+    /// moved floors on its own with the height unchanged (a recovery): the barometer
+    /// counts from there. A reading that is no pressure, or one on a map without floors'
+    /// heights, is refused and changes nothing; a floor the barometer found that no
+    /// gateway reaches is an error, and the barometer counts from where the estimate is.
+    pub fn pressure(&mut self, stamp_ns: u64, pressure_pa: f64) -> Result<Option<FloorNews>, String> {
         if self.elevations.is_empty() {
             return Err("the floor map gives no floor heights (elevation_m): the barometer cannot tell floors".into());
         }
         self.barometer.add(stamp_ns, pressure_pa).map_err(|e| e.to_string())?;
         let level = self.pf.estimate().level;
-        if self.barometer_level != Some(level) {
-            // the first reading, or the filter moved floors on its own: count from here
-            self.barometer_level = Some(level);
-            self.barometer.rebase();
+        let Some(from) = self.barometer_level else {
+            // the first reading, or a floor not reached: count from the estimate's
+            self.rebase_barometer(level);
             return Ok(None);
-        }
-        let (Some(height_m), Some(here_m)) = (self.barometer.height_m(), self.elevation(level)) else {
+        };
+        let (Some(height_m), Some(from_m)) = (self.barometer.height_m(), self.elevation(from)) else {
             return Ok(None);
         };
         let tolerance_m = BarometerConfig::default().same_floor_m;
-        if height_m.abs() <= tolerance_m {
+        let off = |m: f64| (m - (from_m + height_m)).abs();
+        let felt =
+            self.elevations.iter().filter(|(_, m)| off(*m) <= tolerance_m).min_by(|a, b| off(a.1).total_cmp(&off(b.1)));
+        let Some(&(felt, _)) = felt else { return Ok(None) };
+        let said = std::mem::take(&mut self.floor_said);
+        if felt == level {
+            if felt != from || said {
+                self.rebase_barometer(level);
+            }
+            self.floor_disputed = None;
             return Ok(None);
         }
-        let off = |m: f64| (m - (here_m + height_m)).abs();
-        let reached = self
-            .elevations
-            .iter()
-            .filter(|(l, m)| *l != level && off(*m) <= tolerance_m)
-            .min_by(|a, b| off(a.1).total_cmp(&off(b.1)));
-        let Some(&(to, _)) = reached else { return Ok(None) };
-        self.floor_confirmed(to).map(|()| Some(to))
+        if said {
+            // the user's word stands, said against once; the barometer goes on counting
+            // from the floor it measures
+            self.floor_disputed = Some(level);
+            self.rebase_barometer(felt);
+            return Ok(Some(FloorNews::Disagrees { said: level, felt }));
+        }
+        if felt == from {
+            if self.floor_disputed != Some(level) {
+                // the filter moved floors with the height unchanged: count from its floor
+                self.rebase_barometer(level);
+            }
+            return Ok(None);
+        }
+        // a floor neither the estimate's nor the one counted from: reached
+        self.floor_disputed = None;
+        match self.take_floor(felt) {
+            Ok(()) => {
+                self.rebase_barometer(felt);
+                Ok(Some(FloorNews::Reached(felt)))
+            }
+            Err(e) => {
+                self.rebase_barometer(level);
+                Err(e)
+            }
+        }
+    }
+
+    fn rebase_barometer(&mut self, level: i32) {
+        self.barometer.rebase();
+        self.barometer_level = Some(level);
     }
 
     fn elevation(&self, level: i32) -> Option<f64> {
@@ -421,12 +481,16 @@ impl Tracker {
 
     /// The user says they are on `level` now (after an elevator or stairs): the
     /// particles go through the gateway that serves both floors nearest the estimate.
-    /// The barometer counts its height from this floor (the next still pressure).
+    /// A barometer checks the word against the height once it holds still
+    /// ([`Self::pressure`]).
     pub fn floor_confirmed(&mut self, level: i32) -> Result<(), String> {
-        self.barometer.rebase();
+        self.floor_said = true;
+        self.take_floor(level)
+    }
+
+    fn take_floor(&mut self, level: i32) -> Result<(), String> {
         let e = self.pf.estimate();
         if e.level == level {
-            self.barometer_level = Some(level);
             return Ok(());
         }
         let near = |g: &&Gateway| g.stop(e.level).map_or(f64::INFINITY, |s| (s.x - e.pose.x_m).hypot(s.y - e.pose.y_m));
@@ -435,12 +499,8 @@ impl Tracker {
             .iter()
             .filter(|g| g.stop(level).is_some() && g.stop(e.level).is_some())
             .min_by(|a, b| near(a).total_cmp(&near(b)))
-            .ok_or_else(|| format!("no elevator, stairs or ramp joins floor {} and floor {level}", e.level));
-        // on failure the barometer counts from the floor the estimate stays on
-        self.barometer_level = None;
-        self.pf.take_gateway(gateway?, level).map_err(|e| e.to_string())?;
-        self.barometer_level = Some(level);
-        Ok(())
+            .ok_or_else(|| format!("no elevator, stairs or ramp joins floor {} and floor {level}", e.level))?;
+        self.pf.take_gateway(gateway, level).map(|_| ()).map_err(|e| e.to_string())
     }
 
     /// The user is at door `number` (read on its sign, said through a command): the
@@ -862,8 +922,8 @@ normal = [0.0, -1.0]
         }
         assert!(t.height_held(), "on floor 1, standing");
         assert_eq!(taken.len(), 1, "{taken:?}");
-        let (s, level) = taken[0];
-        assert_eq!(level, 1);
+        let (s, news) = taken[0];
+        assert_eq!(news, FloorNews::Reached(1));
         assert!((18.0..23.0).contains(&s), "taken {s:.2} s into the walk, the ride ended at 18 s");
         let e = t.estimate();
         assert_eq!(e.level, 1);
@@ -884,6 +944,55 @@ normal = [0.0, -1.0]
         let mut plain = Tracker::new(&building(), TrackerConfig::default(), 5).unwrap();
         assert!(!plain.has_elevations());
         assert!(plain.pressure(1, air_pa(0.0)).unwrap_err().contains("no floor heights"));
+    }
+
+    #[test]
+    fn a_floor_the_user_says_that_the_height_is_not_is_said_against_once_and_the_word_kept() {
+        // three floors; the user, at the lift on floor 0, says "floor 1" before riding
+        // (or misread the display): the barometer feels floor 0 and says so once
+        let heights = [(0, 0.0), (1, 3.6), (2, 7.0)];
+        let layer = SemanticLayer::parse(
+            &LIFT.replace(
+                "{ floor = 1, x = 16.0, y = 11.0 } ]",
+                "{ floor = 1, x = 16.0, y = 11.0 }, { floor = 2, x = 16.0, y = 11.0 } ]",
+            ),
+            Path::new("lift.toml"),
+        )
+        .unwrap();
+        let floors = [0, 1, 2].map(|level| Floor { level, grid: grid(), semantic: layer.floor(level) });
+        let b = Building::new(floors.to_vec(), Path::new("three floors"))
+            .unwrap()
+            .with_elevations(&heights, Path::new("three floors"))
+            .unwrap();
+        let mut t = Tracker::new(&b, TrackerConfig::default(), 5).unwrap();
+        t.start_at(0, Pose2::new(16.0, 10.5, 1.57)).unwrap();
+        // the pressure at `height(s)` 25 times a second from `from_s` to `to_s`: the news
+        fn feel(t: &mut Tracker, from_s: f64, to_s: f64, height: impl Fn(f64) -> f64) -> Vec<(f64, FloorNews)> {
+            let mut news = Vec::new();
+            for i in (from_s * 25.0) as u32..(to_s * 25.0) as u32 {
+                let s = f64::from(i) / 25.0;
+                if let Some(n) = t.pressure(1_000_000_000 + (s * 1e9) as u64, air_pa(height(s))).unwrap() {
+                    news.push((s, n));
+                }
+            }
+            news
+        }
+        let mut news = feel(&mut t, 0.0, 5.0, |_| 0.0);
+        t.floor_confirmed(1).unwrap();
+        assert_eq!(t.estimate().level, 1, "the word is taken");
+        news.extend(feel(&mut t, 5.0, 15.0, |_| 0.0));
+        // the lift then takes them up two floors, to floor 2
+        let ride = |s: f64| 7.0 * ((s - 15.0) / 8.0).clamp(0.0, 1.0);
+        news.extend(feel(&mut t, 15.0, 35.0, ride));
+        assert_eq!(news.len(), 2, "{news:?}");
+        assert_eq!(news[0].1, FloorNews::Disagrees { said: 1, felt: 0 });
+        assert!(news[0].0 < 6.0, "said against at once: {news:?}");
+        assert_eq!(news[1].1, FloorNews::Reached(2), "counted from the floor measured: {news:?}");
+        assert_eq!(t.estimate().level, 2);
+        // they say "floor 2": agreed, nothing said
+        t.floor_confirmed(2).unwrap();
+        news.extend(feel(&mut t, 35.0, 45.0, |_| 7.0));
+        assert_eq!(news.len(), 2, "{news:?}");
     }
 
     #[test]
