@@ -996,7 +996,7 @@ normal = [0.0, -1.0]
     }
 
     #[test]
-    fn the_floor_the_user_says_is_where_the_barometer_counts_from() {
+    fn the_floor_the_user_says_as_the_doors_open_is_agreed_with_not_taken_again() {
         // the user says "floor 1" as the lift's doors open, before the pressure holds
         // still: the barometer does not take the ride a second time
         let b = building().with_elevations(&[(0, 0.0), (1, 3.6)], Path::new("two floors")).unwrap();
