@@ -4,12 +4,13 @@
 //! In: the body's odometry and gyro (from the loop), each frame's scan with the cane's
 //! and the body's turn rates, the worn phone's compass (`sensor/<device>/motion`, when
 //! the map says where north is), a barometer's readings (`sensor/*/pressure`, when the
-//! map gives its floors' heights: a floor reached is taken as the user's word is), `cmd/*` commands, `query/destinations` and `query/route`,
-//! and `feedback/applied` (an instruction the feedback agent dropped or cut off is given
-//! again).
+//! map gives its floors' heights: a floor reached is taken as the user's word is),
+//! `cmd/*` commands, `query/destinations` and `query/route`, and `feedback/applied` (an
+//! instruction the feedback agent dropped or cut off is given again).
 //! Out: `localization/pose`, `route/state` (5 Hz, and at once when a command changes
 //! it), and speech intents at `Message` priority on `feedback/speech`: the position
-//! found or lost, and the guide's instructions (never before localization tracks).
+//! found or lost, the guide's instructions (never before localization tracks), and a
+//! floor the user said that the barometer's height is not, to be checked.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
