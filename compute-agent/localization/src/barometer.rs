@@ -82,6 +82,8 @@ pub struct Barometer {
     medians: VecDeque<(u64, f64)>,
     /// the pressure of the known floor, pascals (`None`: the next still one)
     reference_pa: Option<f64>,
+    /// the smoothed pressure of the last reading, when it held still ([`Self::add`])
+    still_pa: Option<f64>,
     last_ns: Option<u64>,
     refused: u64,
     scratch: Vec<f64>,
@@ -95,6 +97,7 @@ impl Barometer {
             raw: VecDeque::new(),
             medians: VecDeque::new(),
             reference_pa: None,
+            still_pa: None,
             last_ns: None,
             refused: 0,
             scratch: Vec::new(),
@@ -131,7 +134,8 @@ impl Barometer {
         while self.medians.front().is_some_and(|&(t, _)| stamp_ns - t > ns(self.config.still_s)) {
             self.medians.pop_front();
         }
-        if self.still_pa().is_some() {
+        self.still_pa = self.still();
+        if self.still_pa.is_some() {
             match self.reference_pa {
                 None => self.reference_pa = Some(median),
                 Some(r) if (r - median).abs() <= self.config.same_floor_m * r * PER_M => {
@@ -146,7 +150,7 @@ impl Barometer {
 
     /// The smoothed pressure, when it has held within the still range for the still
     /// time (the window full), pascals.
-    fn still_pa(&self) -> Option<f64> {
+    fn still(&self) -> Option<f64> {
         let (&(first, _), &(last, now)) = (self.medians.front()?, self.medians.back()?);
         // the window covers the still time, give or take one reading's spacing
         if ((last - first) as f64) < self.config.still_s * 1e9 * 0.9 {
@@ -160,7 +164,7 @@ impl Barometer {
     /// pressure holds still and a reference is known; `None` otherwise (moving, or
     /// nothing still read since [`Self::rebase`]).
     pub fn height_m(&self) -> Option<f64> {
-        let now = self.still_pa()?;
+        let now = self.still_pa?;
         let reference = self.reference_pa?;
         // the pressure's log ratio is height over the scale height (isothermal air)
         Some((reference / now).ln() / PER_M)
@@ -168,10 +172,12 @@ impl Barometer {
 
     /// The user is on a known floor from now: the next still pressure is its reference.
     pub fn rebase(&mut self) {
-        self.reference_pa = None;
-        if let Some(now) = self.still_pa() {
-            self.reference_pa = Some(now);
-        }
+        self.reference_pa = self.still_pa;
+    }
+
+    /// How the readings are taken.
+    pub fn config(&self) -> &BarometerConfig {
+        &self.config
     }
 
     /// Readings refused so far.

@@ -413,7 +413,7 @@ impl Tracker {
         let (Some(height_m), Some(from_m)) = (self.barometer.height_m(), self.elevation(from)) else {
             return Ok(None);
         };
-        let tolerance_m = BarometerConfig::default().same_floor_m;
+        let tolerance_m = self.barometer.config().same_floor_m;
         let off = |m: f64| (m - (from_m + height_m)).abs();
         let felt =
             self.elevations.iter().filter(|(_, m)| off(*m) <= tolerance_m).min_by(|a, b| off(a.1).total_cmp(&off(b.1)));
@@ -470,7 +470,7 @@ impl Tracker {
     /// between floors.
     pub fn height_held(&self) -> bool {
         let level = self.pf.estimate().level;
-        let on_floor = |h: f64| h.abs() <= BarometerConfig::default().same_floor_m;
+        let on_floor = |h: f64| h.abs() <= self.barometer.config().same_floor_m;
         self.barometer_level == Some(level) && self.barometer.height_m().is_some_and(on_floor)
     }
 
