@@ -335,9 +335,8 @@ impl Nav {
             }
             Some(_) => {}
         }
-        let refused = self.tracker.barometer_refused();
         let taken = self.tracker.pressure(reading.body.stamp_ns, f64::from(reading.body.pressure_pa));
-        if self.tracker.barometer_refused() == refused {
+        if !matches!(taken, Err(localization::PressureError::Refused(_))) {
             self.pressure_at_ns = Some(bus::now_ns());
         }
         let level = match taken {
@@ -351,7 +350,7 @@ impl Nav {
                 return self.say(bus::now_ns(), speech).await;
             }
             Ok(None) => return,
-            Err(e) if self.tracker.barometer_refused() > refused => {
+            Err(e @ localization::PressureError::Refused(_)) => {
                 return health.reject(&reading.key, "not_a_pressure", &e)
             }
             Err(e) => return tracing::warn!("the barometer says the user changed floors, but {e}"),

@@ -58,7 +58,7 @@ pub use particle_filter::{
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;
 pub use scan::{Beam, Scan};
-pub use tracker::{CaneOnBody, CompassRefused, FloorNews, Tracker, TrackerConfig};
+pub use tracker::{CaneOnBody, CompassRefused, FloorNews, PressureError, Tracker, TrackerConfig};
 pub use walls::{longest_wall, wall_segments, WallFitConfig, WallSegment};
 
 /// Why a filter could not be built or started.

@@ -136,6 +136,20 @@ const MAX_SWEEP_RAD: f64 = 1.2;
 /// starts it again from zero.
 const MAX_FRAME_GAP_S: f64 = 0.5;
 
+/// Why a barometer reading told nothing ([`Tracker::pressure`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PressureError {
+    /// the map gives no floors' heights
+    #[error("the floor map gives no floor heights (elevation_m): the barometer cannot tell floors")]
+    NoHeights,
+    /// the reading was refused (counted by the barometer)
+    #[error(transparent)]
+    Refused(#[from] crate::barometer::BarometerRefused),
+    /// the floor at the height reached cannot be gone to from the estimate's
+    #[error("{0}")]
+    NoWay(String),
+}
+
 /// What the barometer says of the floor ([`Tracker::pressure`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FloorNews {
@@ -399,11 +413,11 @@ impl Tracker {
     /// counts from there. A reading that is no pressure, or one on a map without floors'
     /// heights, is refused and changes nothing; a floor the barometer found that no
     /// gateway reaches is an error, and the barometer counts from where the estimate is.
-    pub fn pressure(&mut self, stamp_ns: u64, pressure_pa: f64) -> Result<Option<FloorNews>, String> {
+    pub fn pressure(&mut self, stamp_ns: u64, pressure_pa: f64) -> Result<Option<FloorNews>, PressureError> {
         if self.elevations.is_empty() {
-            return Err("the floor map gives no floor heights (elevation_m): the barometer cannot tell floors".into());
+            return Err(PressureError::NoHeights);
         }
-        self.barometer.add(stamp_ns, pressure_pa).map_err(|e| e.to_string())?;
+        self.barometer.add(stamp_ns, pressure_pa)?;
         let level = self.pf.estimate().level;
         let Some(from) = self.barometer_level else {
             // the first reading, or a floor not reached: count from the estimate's
@@ -449,7 +463,7 @@ impl Tracker {
             }
             Err(e) => {
                 self.rebase_barometer(level);
-                Err(e)
+                Err(PressureError::NoWay(e))
             }
         }
     }
@@ -939,11 +953,11 @@ normal = [0.0, -1.0]
         assert_eq!(t.estimate().level, 1);
 
         // no pressure, or a reading on a map without floors' heights: refused, counted
-        assert!(t.pressure(60_000_000_000, f64::NAN).unwrap_err().contains("no air pressure"));
+        assert!(t.pressure(60_000_000_000, f64::NAN).unwrap_err().to_string().contains("no air pressure"));
         assert_eq!(t.barometer_refused(), 1);
         let mut plain = Tracker::new(&building(), TrackerConfig::default(), 5).unwrap();
         assert!(!plain.has_elevations());
-        assert!(plain.pressure(1, air_pa(0.0)).unwrap_err().contains("no floor heights"));
+        assert!(plain.pressure(1, air_pa(0.0)).unwrap_err().to_string().contains("no floor heights"));
     }
 
     #[test]
