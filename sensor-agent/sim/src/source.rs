@@ -308,9 +308,10 @@ pub fn noisy_gravity(rng: &mut SimRng, sigma_rad: f64, g: Vector3<f64>) -> [f32;
     [u.x as f32, u.y as f32, u.z as f32]
 }
 
-/// How high the user's floor is at `t_s` above the building's zero, metres: the floor's
-/// elevation, and in a lift the car's (smoothly from stop to stop).
-fn user_height_m(world: &World, walker: &impl Trajectory, t_s: f64) -> f64 {
+/// How high the user's floor is at `t_s` above the building's zero, metres: `floor`'s
+/// elevation (the floor the user stands on then), and in a lift the car's (smoothly
+/// from stop to stop).
+fn user_height_m(world: &World, walker: &impl Trajectory, t_s: f64, floor: i32) -> f64 {
     let elevation = |floor: i32| world.floors().iter().find(|f| f.index == floor).map_or(0.0, |f| f.elevation_m);
     match walker.ride_at(t_s) {
         Some(r) => {
@@ -318,7 +319,7 @@ fn user_height_m(world: &World, walker: &impl Trajectory, t_s: f64) -> f64 {
             let (from, to) = (elevation(r.from_floor), elevation(r.to_floor));
             from + (to - from) * (3.0 * f * f - 2.0 * f * f * f)
         }
-        None => elevation(walker.pose_at(t_s).floor),
+        None => elevation(floor),
     }
 }
 
@@ -389,7 +390,7 @@ impl FrameSource for SimSource {
             let heading = c.model.read(user.x_m, user.y_m, phone, SIM_NORTH_DEG.to_radians());
             Some(PhoneMotion { heading_deg: Some(heading), accuracy_deg: None, steps: (c.walked_m / STRIDE_M) as u64 })
         });
-        let height_m = user_height_m(&self.world, &self.walker, t_s);
+        let height_m = user_height_m(&self.world, &self.walker, t_s, user.floor);
         let pressure = self.barometer.as_mut().map(|b| Pressure { stamp_ns, pressure_pa: b.read(t_s, height_m) });
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
@@ -463,8 +464,9 @@ mod tests {
     #[test]
     fn the_barometers_height_is_the_floors_and_in_a_lift_the_cars_between_them() {
         let world = World::load("building").unwrap();
-        let heights: Vec<f64> =
-            [0.0, 10.0, 12.5, 14.9, 15.0, 30.0].map(|t| user_height_m(&world, &RideDown, t)).to_vec();
+        let heights: Vec<f64> = [0.0, 10.0, 12.5, 14.9, 15.0, 30.0]
+            .map(|t| user_height_m(&world, &RideDown, t, RideDown.pose_at(t).floor))
+            .to_vec();
         // floor 1 is 3.5 m up
         assert_eq!(heights[0], 3.5);
         assert_eq!(heights[1], 3.5);
