@@ -28,7 +28,8 @@ pub struct LocalizeArgs {
     #[arg(long, value_name = "FILE", required_unless_present = "world", conflicts_with = "world")]
     carmen: Option<PathBuf>,
     /// A simulated world (built-in name or scene file): the walk's user is localized on
-    /// the world's floor plan from a known start (0.1 m, 2 degrees off).
+    /// the world's floor plan from a known start (0.1 m, 2 degrees off; `--global`: from
+    /// nothing).
     #[arg(long, value_name = "WORLD")]
     world: Option<String>,
     /// With `--world`: which scans correct the filter (`none`: odometry and gyro alone;
@@ -101,13 +102,16 @@ pub struct LocalizeArgs {
     /// Seed of the filter; the odometry noise is drawn with seed + 5.
     #[arg(long, value_name = "S", default_value_t = 1)]
     seed: u64,
-    /// Start from nothing (particles over all free space) instead of near the first
-    /// logged pose; reports when the estimate came within 0.5 m to stay.
-    #[arg(long, requires = "carmen")]
+    /// Start from nothing (particles over all free space, any heading) instead of near
+    /// the first logged pose, or with `--world` the walk's true start: as the agent does
+    /// when it is given no start. With `--carmen`, reports when the estimate came within
+    /// 0.5 m to stay.
+    #[arg(long)]
     global: bool,
     /// With `--world`: also write every camera frame (time, metres walked, truth,
     /// estimate, errors along and across, status, whether the filter corrected, usable
-    /// beams, door signs read, the scan's wall against the map) to FILE as CSV, for plotting where the estimate went.
+    /// beams, door signs read, the scan's wall against the map, whether guidance may take
+    /// the place) to FILE as CSV, for plotting where the estimate went.
     #[arg(long, value_name = "FILE", requires = "world")]
     frames: Option<PathBuf>,
     /// Print JSON instead of text.
@@ -192,6 +196,7 @@ fn on_world(args: &LocalizeArgs, name: &str) -> anyhow::Result<()> {
         misread_after_m: args.misread_after,
         wall_angles: args.wall_angles.then(localization::WallFitConfig::default),
         corners: args.corners.then(localization::CornerConfig::default),
+        global_start: args.global,
         ..defaults
     };
     let clock = Instant::now();
@@ -223,12 +228,12 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
     writeln!(
         out,
         "t_s,walked_m,truth_x_m,truth_y_m,truth_heading_deg,estimate_x_m,estimate_y_m,estimate_heading_deg,\
-         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread,wall_residual_deg,wall_used,corner_residuals_m,corners_used"
+         position_error_m,along_error_m,across_error_m,heading_error_deg,status,updated,beams,doors_read,misread,wall_residual_deg,wall_used,corner_residuals_m,corners_used,guides"
     )?;
     for f in frames {
         writeln!(
             out,
-            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{},{},{},{},{}",
+            "{:.3},{:.3},{:.3},{:.3},{:.2},{:.3},{:.3},{:.2},{:.3},{:.3},{:.3},{:.2},{:?},{},{},{},{},{},{},{},{},{}",
             f.t_s,
             f.walked_m,
             f.truth[0],
@@ -249,7 +254,8 @@ fn write_frames(path: &std::path::Path, frames: &[study::localize_walk::FrameLoc
             f.wall_residual_deg.map_or(String::new(), |d| format!("{d:.2}")),
             f.wall_used,
             f.corner_residuals_m.iter().map(|d| format!("{d:.2}")).collect::<Vec<_>>().join(" "),
-            f.corners_used
+            f.corners_used,
+            f.guides
         )?;
     }
     out.flush()?;

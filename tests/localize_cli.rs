@@ -109,8 +109,8 @@ fn on_a_simulated_walk_the_scan_holds_the_user_on_the_floor_plan() {
     // every frame in the CSV, with the summary's walk and door signs in it
     let csv = std::fs::read_to_string(&frames_csv).expect("the frames file");
     let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
-    assert!(rows[0].starts_with(&["t_s", "walked_m", "truth_x_m"]) && rows[0].len() == 21, "{:?}", rows[0]);
-    assert_eq!(rows[0][17..], ["wall_residual_deg", "wall_used", "corner_residuals_m", "corners_used"]);
+    assert!(rows[0].starts_with(&["t_s", "walked_m", "truth_x_m"]) && rows[0].len() == 22, "{:?}", rows[0]);
+    assert_eq!(rows[0][17..], ["wall_residual_deg", "wall_used", "corner_residuals_m", "corners_used", "guides"]);
     assert_eq!(rows.len() - 1, with_scan["frames"].as_u64().unwrap() as usize);
     let walked: f64 = rows.last().unwrap()[1].parse().unwrap();
     assert!((walked - with_scan["walked_m"].as_f64().unwrap()).abs() < 0.01, "{walked}");

@@ -49,6 +49,9 @@ pub struct LocalizeWalkConfig {
     pub start_sigma_m: f64,
     /// ... and this heading standard deviation, degrees.
     pub start_sigma_heading_deg: f64,
+    /// Start from nothing instead (the filter's `global_particles` over the start
+    /// floor's free space, any heading): as the agent does when no start is given.
+    pub global_start: bool,
     /// Feed the body-worn gyro's yaw rate ([`BodyGyro`]) to the motion model (it then
     /// replaces the odometry's heading change).
     pub imu: bool,
@@ -97,6 +100,7 @@ impl Default for LocalizeWalkConfig {
             resolution_m: floor_plan::DEFAULT_RESOLUTION_M,
             start_sigma_m: 0.1,
             start_sigma_heading_deg: 2.0,
+            global_start: false,
             imu: true,
             scans: ScanUse::Frame,
             map: LocalizationMap::FloorPlan,
@@ -171,6 +175,9 @@ pub struct FrameLocalization {
     pub across_error_m: f64,
     /// The filter's status.
     pub status: Status,
+    /// Guidance may take the estimate ([`localization::Estimate::guides`]: `Tracking`
+    /// or followed from a known place, and not a search's place unconfirmed).
+    pub guides: bool,
     /// The filter corrected with this frame's scan (AMCL updates after 0.25 m or 0.2 rad).
     pub updated: bool,
     /// Usable beams in the scan (a hit short of the range limit).
@@ -228,6 +235,10 @@ pub struct LocalizeSummary {
     pub tracking_fraction: f64,
     /// Frames with status `Tracking` while more than 1 m off.
     pub tracking_over_1m: usize,
+    /// Frames guidance may take ([`FrameLocalization::guides`]), as a share.
+    pub guiding_fraction: f64,
+    /// Frames guidance may take while more than 1 m off.
+    pub guiding_over_1m: usize,
     /// Median share of a frame's beams that are usable.
     pub beams_median: f64,
     /// Median of [`FrameLocalization::truth_fit_m`] over frames with beams, metres.
@@ -310,7 +321,7 @@ impl WalkLocalization {
         format!(
             "world {} seed {}: {} frames, {:.1} s, {:.1} m walked, {} updates\n\
              position RMSE {:.3} m (along {:.3}, across {:.3}), median {:.3} m, p95 {:.3} m, max {:.3} m; heading RMSE {:.2}°\n\
-             tracking {:.1} % of frames ({} while > 1 m off); {} particles drawn by the recovery, {} look-alikes refused, {} particles through a wall weighed out; update median {:.3} ms\n\
+             tracking {:.1} % of frames ({} while > 1 m off), guidance may take {:.1} % ({} while > 1 m off); {} particles drawn by the recovery, {} look-alikes refused, {} particles through a wall weighed out; update median {:.3} ms\n\
              door signs: {} read, {} misread, {} refused by the filter{}\n\
              scan: {:.0} usable beams per frame (median), {:.3} m median distance to the plan's walls at the true pose{}\n\
              walls: {} frames with a straight wall, {:.1}° median off the map's directions at the true heading (p90 {:.1}°), {} given to the filter\n\
@@ -331,6 +342,8 @@ impl WalkLocalization {
             s.heading_rmse_deg,
             100.0 * s.tracking_fraction,
             s.tracking_over_1m,
+            100.0 * s.guiding_fraction,
+            s.guiding_over_1m,
             s.particles_injected,
             s.look_alikes,
             s.wall_crossings,
@@ -455,7 +468,12 @@ fn localize_perceived(
         first.y_m + rng.gaussian() * config.start_sigma_m,
         first.heading_rad + rng.gaussian() * sigma_heading,
     );
-    pf.init_pose(level, start, config.start_sigma_m.max(0.01), sigma_heading.max(0.2f64.to_radians()))?;
+    // drawn either way, so that the streams forked after it are the same
+    if config.global_start {
+        pf.init_global();
+    } else {
+        pf.init_pose(level, start, config.start_sigma_m.max(0.01), sigma_heading.max(0.2f64.to_radians()))?;
+    }
 
     let mut reader = config.signs.map(|c| DoorSignReader::new(c, world, rng.fork()));
     let mut misread_pending = config.misread_after_m;
@@ -584,6 +602,7 @@ fn localize_perceived(
             along_error_m: ct * dx + st * dy,
             across_error_m: -st * dx + ct * dy,
             status: e.status,
+            guides: e.guides(),
             updated: c.updated,
             beams,
             truth_fit_m,
@@ -789,6 +808,8 @@ fn summarize(
         across_rmse_m: rmse(&across),
         tracking_fraction: tracking as f64 / frames.len().max(1) as f64,
         tracking_over_1m: frames.iter().filter(|f| f.status == Status::Tracking && f.position_error_m > 1.0).count(),
+        guiding_fraction: frames.iter().filter(|f| f.guides).count() as f64 / frames.len().max(1) as f64,
+        guiding_over_1m: frames.iter().filter(|f| f.guides && f.position_error_m > 1.0).count(),
         beams_median: quantile(&beams, 0.5),
         truth_fit_median_m: quantile(&fit, 0.5),
         walls_found: walls.len(),
