@@ -83,7 +83,8 @@ struct Cli {
     map: Option<PathBuf>,
     /// Where the user stands at the start: `X,Y,HEADING_DEG[,FLOOR]` in the map's frame
     /// (heading counter-clockwise from +x). Without it the filter searches every floor,
-    /// and guidance waits until it knows the position.
+    /// and guidance waits until the user confirms the place it finds with the number of
+    /// a door they are at or the name of a place they are near (places look alike).
     #[arg(long, value_name = "X,Y,DEG[,FLOOR]", value_parser = parse_start, requires = "map")]
     start: Option<(i32, localization::Pose2)>,
     /// How guidance speaks, as TOML (fields of `guidance::GuidanceProfile`; missing ones

@@ -266,10 +266,12 @@ impl Nav {
 
     /// Where the user heads, for the predictive cue: the route from the user's place on
     /// this floor and the floor's walls near them, in the body's frame at the filter's
-    /// pose. `None` (the cost functions decide) while the filter does not track or no
-    /// route is being followed.
+    /// pose. `None` (the cost functions decide) while the filter does not track, tracks
+    /// a place a search found that the user has not confirmed, or no route is being
+    /// followed.
     pub fn way(&mut self) -> Option<Way<'_>> {
-        if self.tracker.estimate().status != localization::Status::Tracking {
+        let e = self.tracker.estimate();
+        if e.status != localization::Status::Tracking || e.searched {
             return None;
         }
         let pose = self.user_pose();

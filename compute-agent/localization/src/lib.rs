@@ -53,12 +53,12 @@ pub use likelihood_field::{FreeSpaceConfig, GridPose, GridPoses, LikelihoodField
 pub use motion::{MotionNoise, OdometryIncrement};
 pub use particle_filter::{
     Correction, Counters, Estimate, FilterConfig, Observations, Particle, ParticleFilter, RecoveryAnchor, Rejected,
-    Status, WALL_CROSSING_LOG_P,
+    Status, CONFIRM_DOOR_M, CONFIRM_PER_WALKED, CONFIRM_WITHIN_M, WALL_CROSSING_LOG_P,
 };
 pub use pose::{wrap_angle, Pose2};
 pub use rng::Rng;
 pub use scan::{Beam, Scan};
-pub use tracker::{CaneOnBody, CompassRefused, FloorNews, PressureError, Tracker, TrackerConfig};
+pub use tracker::{CaneOnBody, CompassRefused, FloorNews, PressureError, Tracker, TrackerConfig, SEARCHED_NEWS};
 pub use walls::{longest_wall, wall_segments, WallFitConfig, WallSegment};
 
 /// Why a filter could not be built or started.

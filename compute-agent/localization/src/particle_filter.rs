@@ -285,6 +285,23 @@ struct Anchor {
     walked_m: f64,
 }
 
+/// A door number or a named place told while the place was a search's, that may yet
+/// confirm it ([`ParticleFilter::confirm_searched`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Told {
+    /// floor index
+    floor: usize,
+    /// where it is on the map
+    at: [f64; 2],
+    /// where it is from the user now (forward, left), metres: where the reading put it,
+    /// moved by the odometry since
+    offset: [f64; 2],
+    /// how near the estimate must put it, metres
+    near: f64,
+    /// walked since it was told, metres
+    walked_m: f64,
+}
+
 /// One hypothesis of where the user is.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Particle {
@@ -337,6 +354,15 @@ pub struct Estimate {
     /// `Tracking` alone.
     #[serde(default)]
     pub followed: bool,
+    /// The place was found by a search over every floor (a global start: no start
+    /// told) and no word of the user's has confirmed it since: a door number read at
+    /// it, or a place named near it ([`ParticleFilter::correct`]). On a floor plan
+    /// with look-alikes (a rectangular room, a symmetric corridor) such a search
+    /// settles on a mirror image of the place as readily as on the place, and calls it
+    /// `Tracking` (docs/localization.md, "A global start is not a place"): guidance
+    /// does not take it ([`Estimate::guides`]).
+    #[serde(default)]
+    pub searched: bool,
     /// short-term scan fit in (0, 1]: weighted mean over particles of the mean, over
     /// beams, of a beam's likelihood relative to a beam on a wall (how much of the scan
     /// the map explains); 1 when no scan was seen
@@ -347,9 +373,10 @@ pub struct Estimate {
 
 impl Estimate {
     /// Whether route guidance may take this place: `Tracking`, or followed from a known
-    /// place ([`Estimate::followed`]).
+    /// place ([`Estimate::followed`]); never a place a search found and the user has
+    /// not confirmed ([`Estimate::searched`]).
     pub fn guides(&self) -> bool {
-        self.status == Status::Tracking || self.followed
+        (self.status == Status::Tracking || self.followed) && !self.searched
     }
 
     /// Standard deviation along the covariance's major axis, metres.
@@ -391,6 +418,8 @@ pub struct Counters {
     /// `Tracking` estimates out of the anchor's reach, refused as look-alikes
     /// ([`FilterConfig::recovery_anchor`])
     pub look_alikes: u64,
+    /// searched places a door number or a named place confirmed ([`Estimate::searched`])
+    pub searches_confirmed: u64,
     /// compass readings refused (not a finite heading)
     pub compass_rejected: u64,
     /// particles whose motion passed through a wall ([`FilterConfig::wall_crossing_log_p`])
@@ -472,6 +501,12 @@ pub struct ParticleFilter {
     scan_constraint: Option<f64>,
     /// whether this correction applied a door number
     door_read: bool,
+    /// door numbers and named places told while the place was a search's
+    /// ([`Estimate::searched`]), kept for [`CONFIRM_WITHIN_M`] of walking
+    told: Vec<Told>,
+    /// the place descends from a search over the whole map (a global start), confirmed
+    /// since or not: a jump from it is a place no word confirmed
+    from_search: bool,
     /// the scan constraint summed over the corrections of the `Tracking` streak
     streak_constraint: f64,
     /// a told start or gateway stop stands in for the scan constraint until `Tracking`
@@ -557,6 +592,8 @@ impl ParticleFilter {
             compass_now: None,
             scan_constraint: None,
             door_read: false,
+            told: Vec::new(),
+            from_search: true,
             streak_constraint: 0.0,
             start_vouches: false,
             from_known: false,
@@ -569,6 +606,7 @@ impl ParticleFilter {
                 cluster_weight: 0.0,
                 status: Status::Lost,
                 followed: false,
+                searched: true,
                 fit: 1.0,
                 particles: 0,
             },
@@ -606,6 +644,9 @@ impl ParticleFilter {
         }
         self.after_init();
         self.anchor = None;
+        self.estimate.searched = true;
+        self.from_search = true;
+        self.told.clear();
     }
 
     /// Start near a known pose: `min_particles.max(1000).min(max_particles)` particles,
@@ -638,6 +679,9 @@ impl ParticleFilter {
         // `Tracking` ends; a streak after that must find it in the scans
         self.start_vouches = true;
         self.from_known = true;
+        self.estimate.searched = false;
+        self.from_search = false;
+        self.told.clear();
         self.follow(None);
         self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: floor as u16, walked_m: 0.0 });
         Ok(())
@@ -841,6 +885,14 @@ impl ParticleFilter {
             _ => None,
         };
         self.pending = self.pending.compose(odometry.forward_m, odometry.left_m, yaw);
+        let step_m = odometry.forward_m.hypot(odometry.left_m);
+        let (sin, cos) = (-yaw).sin_cos();
+        for t in &mut self.told {
+            let [fx, lx] = [t.offset[0] - odometry.forward_m, t.offset[1] - odometry.left_m];
+            t.offset = [cos * fx - sin * lx, sin * fx + cos * lx];
+            t.walked_m += step_m;
+        }
+        self.told.retain(|t| t.walked_m <= CONFIRM_WITHIN_M);
         if let (Some(a), Some(c)) = (&mut self.anchor, self.config.recovery_anchor) {
             a.pose = a.pose.compose(odometry.forward_m, odometry.left_m, yaw);
             a.walked_m += odometry.forward_m.hypot(odometry.left_m);
@@ -944,6 +996,7 @@ impl ParticleFilter {
             self.estimate.fit = self.w_fast;
         }
         self.compute_estimate();
+        self.confirm_searched();
         self.hold_to_anchor();
         self.follow(Some(&predicted));
 
@@ -960,13 +1013,48 @@ impl ParticleFilter {
         out
     }
 
+    /// A searched place ([`Estimate::searched`]) the user's word confirms: a door number
+    /// or named place told in the last [`CONFIRM_WITHIN_M`] of walking is where the
+    /// estimate puts it, on its floor ([`CONFIRM_DOOR_M`], a place's `place_sigma_m`,
+    /// and [`CONFIRM_PER_WALKED`] per metre walked since), and the main cluster holds
+    /// `tracking_min_cluster_weight` of the belief. Confirmed, it vouches for the place
+    /// as a told start does, and anchors the look-alike check there; a later jump of the
+    /// estimate ([`FOLLOW_MAX_JUMP_M`]: the belief went to a look-alike) makes it a
+    /// search's place again, for a word to confirm anew.
+    fn confirm_searched(&mut self) {
+        let e = &self.estimate;
+        // the word must have made the place the filter's own: where look-alikes still
+        // hold much of the belief, its main cluster may be a stride off the place
+        if !e.searched || e.cluster_weight < self.config.tracking_min_cluster_weight {
+            return;
+        }
+        let Some(fi) = self.floor_index(e.level) else { return };
+        let confirmed = self.told.iter().any(|t| {
+            let seen = e.pose.compose(t.offset[0], t.offset[1], 0.0);
+            t.floor == fi && (seen.x_m - t.at[0]).hypot(seen.y_m - t.at[1]) <= t.near + CONFIRM_PER_WALKED * t.walked_m
+        });
+        if confirmed {
+            // the user's word for the place, as a told start is: it vouches for the
+            // place, and a person does not jump from it
+            let pose = e.pose;
+            self.estimate.searched = false;
+            self.start_vouches = true;
+            self.from_known = true;
+            self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: fi as u16, walked_m: 0.0 });
+            self.told.clear();
+            self.counters.searches_confirmed += 1;
+        }
+    }
+
     /// A person does not jump: a `Tracking` estimate within the anchor's reach becomes
     /// the anchor; one out of it is a look-alike, and the particles are drawn again
     /// around the anchor (which stays, and keeps moving with the odometry).
     fn hold_to_anchor(&mut self) {
         let Some(c) = self.config.recovery_anchor else { return };
         let e = &self.estimate;
-        if e.status != Status::Tracking {
+        // a searched place is no person's place yet: anchored to it, the place itself
+        // would be refused as its look-alike
+        if e.status != Status::Tracking || e.searched {
             return;
         }
         let (pose, level) = (e.pose, e.level);
@@ -1209,6 +1297,12 @@ impl ParticleFilter {
                 self.door_read = true;
                 // the door on each floor, once per floor, not once per particle
                 let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
+                if self.estimate.searched {
+                    let told = |(floor, d): (usize, &Option<[f64; 2]>)| {
+                        Some(Told { floor, at: (*d)?, offset: [fwd, left], near: CONFIRM_DOOR_M, walked_m: 0.0 })
+                    };
+                    self.told.extend(doors.iter().enumerate().filter_map(told));
+                }
                 self.weigh_told_place(&doors, [fwd, left], cfg.sigma_m, cfg.door_reset_below_support);
             }
             Landmark::Place { level, x_m, y_m } => {
@@ -1221,6 +1315,13 @@ impl ParticleFilter {
                 self.from_known = false;
                 let at: Vec<Option<[f64; 2]>> =
                     self.floors.iter().map(|f| (f.level == *level).then_some([*x_m, *y_m])).collect();
+                if self.estimate.searched {
+                    let near = cfg.place_sigma_m;
+                    let told = |(floor, p): (usize, &Option<[f64; 2]>)| {
+                        Some(Told { floor, at: (*p)?, offset: [0.0, 0.0], near, walked_m: 0.0 })
+                    };
+                    self.told.extend(at.iter().enumerate().filter_map(told));
+                }
                 // always some particles about the place: a belief a few metres off may
                 // agree with it, and then none would be where the user is
                 self.weigh_told_place(&at, [0.0, 0.0], cfg.place_sigma_m, f64::INFINITY);
@@ -1518,6 +1619,10 @@ impl ParticleFilter {
             && compass_agrees;
         self.from_known = e.status == Status::Tracking || (self.from_known && holds && !jumped);
         self.estimate.followed = self.from_known && self.estimate.status != Status::Lost;
+        // a search's place that jumped is not the place the user's word confirmed
+        if jumped && self.from_search {
+            self.estimate.searched = true;
+        }
     }
 
     /// The current estimate: the last correction's, moved by the motion since.
@@ -1553,6 +1658,21 @@ impl ParticleFilter {
         (self.w_fast, self.w_slow, self.last_w_avg)
     }
 }
+
+/// A door's number confirms a searched place ([`Estimate::searched`]) when the
+/// estimate puts the door within this of where the reading says, metres (at the door,
+/// not at a mirror image of it metres away, nor on a floor alike); a named place,
+/// within its own `place_sigma_m`.
+pub const CONFIRM_DOOR_M: f64 = 1.0;
+
+/// A door number or named place confirms a searched place until the user has walked
+/// this far since saying it, metres (the belief may need a few metres of scans to
+/// gather where the word put it), with its reach growing by [`CONFIRM_PER_WALKED`].
+pub const CONFIRM_WITHIN_M: f64 = 10.0;
+
+/// How much a told place's reach grows per metre walked since (the odometry that
+/// carries it errs by a few percent).
+pub const CONFIRM_PER_WALKED: f64 = 0.05;
 
 /// A correction that moves the place further than this from where the motion alone
 /// took it ends [`Estimate::followed`], metres: a person does not jump, and the scans

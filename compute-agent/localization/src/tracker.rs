@@ -101,6 +101,11 @@ impl Default for TrackerConfig {
 /// metres.
 pub const START_SLACK_M: f64 = 0.5;
 
+/// Said when a search over the whole map (no start told) finds a place: places look
+/// alike, so it asks for the user's word before guidance takes it
+/// ([`crate::Estimate::searched`]).
+pub const SEARCHED_NEWS: &str = "I may have found your position, but places here can look alike. To be sure, tell me the number of a door you are at, or the name of a place you are near.";
+
 /// A compass reading less sure than this (as the phone reports its accuracy) is
 /// refused, degrees: past it the phone itself says it needs calibrating.
 pub const COMPASS_MAX_ACCURACY_DEG: f32 = 45.0;
@@ -178,8 +183,9 @@ pub struct Tracker {
     /// the sweep at the last correction
     sweep_at_update: f64,
     last_frame_ns: Option<u64>,
-    /// the status last announced (`None`: nothing said yet)
-    announced: Option<Status>,
+    /// the status last announced (`None`: nothing said yet), and whether the place
+    /// was then a search's the user had not confirmed ([`Estimate::searched`])
+    announced: Option<(Status, bool)>,
     scan: Scan,
     /// the building's north on the map, degrees counter-clockwise from +x
     north_deg: Option<f64>,
@@ -524,11 +530,15 @@ impl Tracker {
     /// filter, and changes nothing.
     pub fn door(&mut self, number: &str) -> Result<(), String> {
         let seen = [Landmark::Door { number: number.to_string(), forward_m: 0.0, left_m: 0.0 }];
+        let searched = self.pf.estimate().searched;
         if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
             return Err(format!("door {number:?} is on none of the floor maps"));
         }
         // a door's number is the user's own word for where they are: no look-alike
-        self.pf.forget_anchor();
+        // (a search's place it confirmed is anchored by the filter itself)
+        if !searched {
+            self.pf.forget_anchor();
+        }
         Ok(())
     }
 
@@ -541,11 +551,15 @@ impl Tracker {
     /// point, is refused, counted by the filter, and changes nothing.
     pub fn place(&mut self, level: i32, at: [f64; 2]) -> Result<(), String> {
         let seen = [Landmark::Place { level, x_m: at[0], y_m: at[1] }];
+        let searched = self.pf.estimate().searched;
         if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
             return Err(format!("no floor {level} with a place at ({:.1}, {:.1}) on the maps", at[0], at[1]));
         }
-        // the user's own word for where they are: no look-alike
-        self.pf.forget_anchor();
+        // the user's own word for where they are: no look-alike (a search's place it
+        // confirmed is anchored by the filter itself)
+        if !searched {
+            self.pf.forget_anchor();
+        }
         Ok(())
     }
 
@@ -606,18 +620,21 @@ impl Tracker {
     }
 
     /// What to tell the user when the status changed since the last call: the position
-    /// found (tracking), or lost. Converging is not news.
+    /// found (tracking), found by a search but not yet confirmed ([`SEARCHED_NEWS`]), or
+    /// lost. Converging is not news.
     pub fn news(&mut self) -> Option<&'static str> {
-        let now = self.pf.estimate().status;
+        let e = self.pf.estimate();
+        let now = (e.status, e.searched);
         let said = match (self.announced, now) {
-            (Some(Status::Tracking), Status::Tracking) => None,
-            (_, Status::Tracking) => Some("Position found."),
-            (Some(Status::Tracking), Status::Lost) => {
+            (Some(was), now) if was == now && now.0 == Status::Tracking => None,
+            (_, (Status::Tracking, false)) => Some("Position found."),
+            (_, (Status::Tracking, true)) => Some(SEARCHED_NEWS),
+            (Some((Status::Tracking, _)), (Status::Lost, _)) => {
                 Some("Position lost: walk on slowly while I look for it, or tell me the number of a door you are at.")
             }
             _ => None,
         };
-        if said.is_some() || now == Status::Lost {
+        if said.is_some() || now.0 == Status::Lost {
             self.announced = Some(now);
         }
         said
@@ -796,6 +813,71 @@ normal = [0.0, -1.0]
         // without the cane's rate the sweep is its mean, not a stale angle
         t.frame(&scan_at(&g, 3.0, 2.0, 0.0, 0.0), 300 * 33_333_333, None, Some(0.0));
         assert_eq!(t.sweep_rad(), 0.0);
+    }
+
+    #[test]
+    fn a_place_a_search_found_is_not_guided_on_until_the_user_confirms_it_with_a_door_number() {
+        // nothing known, the two floors alike: the user walks east along the corridor
+        // (y = 2), at x = 12 stops to say the number of door 112 beside them (floor 0
+        // only), and walks on to x = 15
+        let g = grid();
+        let (amp, w) = (17f64.to_radians(), std::f64::consts::TAU * 0.7);
+        let period = 33_333_333u64;
+        let mut guided = 0;
+        for seed in 1..=4 {
+            let mut t = Tracker::new(&building(), TrackerConfig::default(), seed).unwrap();
+            t.start_global();
+            let (mut said, mut tracked, mut after) = (Vec::new(), 0, None);
+            for k in 0..420u64 {
+                let ts = k as f64 / 30.0;
+                // 1 m/s east, a second at door 112
+                let x = if k < 300 { 2.0 + ts } else { 12.0 + (ts - 11.0).clamp(0.0, 3.0) };
+                let forward = if (300..330).contains(&k) { 0.0 } else { 1.0 / 30.0 };
+                let sweep = amp * (w * ts).sin();
+                if k > 0 {
+                    t.odometry(&odom(forward * 1.02, 0.0, (k - 1) * period, k * period), Some(0.0)).unwrap();
+                }
+                // twice: one reading moves belief at most tenfold (the filter's door
+                // model), and the floor alike may hold much of it
+                if k == 310 || k == 320 {
+                    t.door("112").unwrap();
+                    after = after.or(Some(said.len()));
+                }
+                t.frame(&scan_at(&g, x, 2.0, 0.0, sweep), k * period, Some(amp * w * (w * ts).cos()), Some(0.0));
+                said.extend(t.news());
+                let e = t.estimate();
+                if after.is_none() {
+                    // the search's place, whatever the filter's status: not guided on
+                    assert!(e.searched && !e.guides(), "seed {seed}, frame {k}: {e:?}");
+                    tracked += usize::from(e.status == Status::Tracking);
+                } else if e.guides() {
+                    // after the word: guided on the place the word confirmed only
+                    let off = (e.pose.x_m - x).hypot(e.pose.y_m - 2.0);
+                    assert!(e.level == 0 && off < 0.5, "seed {seed}, frame {k}: {off:.2} m off: {e:?}");
+                }
+            }
+            let before = &said[..after.unwrap()];
+            assert!(!before.contains(&"Position found."), "seed {seed}: {said:?}");
+            if tracked > 0 {
+                assert_eq!(before.first().copied(), Some(SEARCHED_NEWS), "seed {seed}: {said:?}");
+            }
+            // confirmed, guided on once tracked, and told so; where the look-alikes
+            // (the other floor) still hold much of the belief, not yet, and not told
+            let e = t.estimate();
+            let after = &said[after.unwrap()..];
+            if e.guides() {
+                guided += 1;
+                assert!(after == ["Position found."], "seed {seed}: {e:?} {said:?}");
+            } else {
+                assert!(after.is_empty(), "seed {seed}: {e:?} {said:?}");
+            }
+            eprintln!(
+                "seed {seed}: Tracking on {tracked} frames of the search; confirmed {}, guided {}; {said:?}",
+                !e.searched,
+                e.guides()
+            );
+        }
+        assert!(guided >= 1, "guided on {guided} of the confirmed places");
     }
 
     #[test]

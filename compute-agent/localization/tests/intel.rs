@@ -213,3 +213,44 @@ fn global_seeds() {
         eprintln!("global {n}: converged at update / tracking while > 1 m off, per seed:{line}");
     }
 }
+
+#[test]
+// diagnostics (a global start, guidance waiting until `Tracking` has held for some metres
+// of walking): `cargo test -p localization --features diagnostics -- --nocapture NAME`
+#[cfg(feature = "diagnostics")]
+fn global_tracking_held() {
+    for held_m in [0.0, 2.0, 5.0, 10.0] {
+        let mut line = String::new();
+        let (mut before_total, mut after_total, mut started) = (0, 0, vec![]);
+        for seed in 1..=30 {
+            let mut pf = filter(FilterConfig::default(), seed);
+            pf.init_global();
+            let r = run(&mut pf, &noisy_increments(0.1, seed + 5));
+            let c = r.converged_at(0.5, 20).unwrap_or(r.status.len());
+            // metres walked when the current `Tracking` streak began
+            let mut since: Option<f64> = None;
+            let (mut before, mut first) = (0, None);
+            for k in 0..r.status.len() {
+                since = if r.status[k] == Status::Tracking { Some(since.unwrap_or(r.walked_m[k])) } else { None };
+                let taken = since.is_some_and(|s| r.walked_m[k] - s >= held_m);
+                first = first.or(taken.then_some(k));
+                if taken && r.position_error_m[k] > 1.0 {
+                    if k < c {
+                        before += 1;
+                    } else {
+                        after_total += 1;
+                    }
+                }
+            }
+            before_total += before;
+            started.extend(first.map(|k| r.walked_m[k]));
+            line += &format!(" {before}/{:.1}", first.map_or(f64::NAN, |k| r.walked_m[k]));
+        }
+        eprintln!(
+            "held {held_m} m: updates taken while > 1 m off before convergence {before_total} (after it {after_total}); \
+             walked when first taken: median {:.1} m, max {:.1} m; per seed (before / walked):{line}",
+            quantile(&started, 0.5),
+            quantile(&started, 1.0)
+        );
+    }
+}
