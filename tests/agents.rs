@@ -787,6 +787,62 @@ async fn a_user_placed_in_the_wrong_room_who_names_the_place_they_are_near_is_fo
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_place_the_agent_found_with_no_start_told_is_not_guided_on_until_the_user_names_it() {
+    use schemas::{Command, GroundTruth, LocalizationStatus, Pose};
+    let user = "search-test";
+    let hub = hub(user).await;
+    let keys = hub.options.keys().unwrap();
+    let h = &hub.health;
+    let poses = Subscriber::<Pose>::declare(&hub.session, keys.pose(), true, h).await.unwrap();
+    let speech = Subscriber::<schemas::SpeechIntent>::declare(&hub.session, keys.speech(), false, h).await.unwrap();
+    let truth = Subscriber::<GroundTruth>::declare(&hub.session, keys.truth_any(), true, h).await.unwrap();
+    let mut place =
+        Publisher::<Command>::declare(&hub.session, keys.cmd("place"), "test-user", Lane::Events, None).await.unwrap();
+    // the building's scripted walk (from the entrance east along the corridor, then up
+    // to the foot of the stairs, where the user stands); the agent is told no start:
+    // it searches both floors, which are alike
+    let _sensor = spawn("sensor-agent", &hub.endpoint, user, &["--source", "sim:building"]);
+    let map = building_map();
+    let _compute = spawn("compute-agent", &hub.endpoint, user, &["--map", &map]);
+    let off = |p: &Pose, t: &GroundTruth| (p.x_m - t.x_m).hypot(p.y_m - t.y_m);
+    // until the user stands at the stairs: no pose guidance may take, whatever the
+    // filter's status
+    let (mut seen, mut tracked) = (0, 0);
+    let mut now_truth = wait_for(&truth, Duration::from_secs(30), |_| true).await.expect("no truth").body;
+    let until = tokio::time::Instant::now() + Duration::from_secs(40);
+    while now_truth.y_m < 7.3 && tokio::time::Instant::now() < until {
+        let Ok(Some(p)) = tokio::time::timeout_at(until, poses.recv()).await else { break };
+        while let Some(t) = truth.try_recv() {
+            now_truth = t.body;
+        }
+        assert!(!p.body.guides, "guidance may take a place no one confirmed: {:?}", p.body);
+        seen += 1;
+        tracked += usize::from(p.body.status == LocalizationStatus::Tracking);
+    }
+    assert!(seen >= 20 && now_truth.y_m >= 7.3, "{seen} poses; the walk at {now_truth:?}");
+    let mut before = Vec::new();
+    while let Some(s) = speech.try_recv() {
+        before.push(s.body.text);
+    }
+    assert!(!before.iter().any(|t| t == "Position found."), "{before:#?}");
+    if tracked > 0 {
+        assert!(before.iter().any(|t| t == localization::SEARCHED_NEWS), "tracked {tracked} poses: {before:#?}");
+    }
+    // the user says where they are: the stair hall, 1.6 m from them; and again, as a
+    // user does who hears nothing back
+    place.put(bus::now_ns(), &Command::Place { label: "stair hall".into() }).await.unwrap();
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    place.put(bus::now_ns(), &Command::Place { label: "stair hall".into() }).await.unwrap();
+    let found = wait_for(&speech, Duration::from_secs(15), |s| s.body.text == "Position found.").await;
+    assert!(found.is_some(), "the place named did not confirm the position");
+    let p = wait_for(&poses, Duration::from_secs(2), |p| p.body.guides).await.expect("no pose guidance takes").body;
+    while let Some(t) = truth.try_recv() {
+        now_truth = t.body;
+    }
+    assert!(p.floor == 0 && off(&p, &now_truth) < 0.75, "{p:?} against {now_truth:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_floor_the_user_says_that_the_barometer_does_not_feel_is_questioned_and_a_second_barometer_refused() {
     use schemas::{Command, Pressure};
     let user = "baro-test";

@@ -54,8 +54,10 @@ pub enum ToPage {
     },
     /// How far the position is known.
     Position {
-        /// `tracking`, `followed` (converging, and route guidance takes the place: it is
-        /// followed from a known one), `converging`, `lost`.
+        /// `tracking`, `found` (tracking a place a search found that the user has not
+        /// confirmed: route guidance does not take it), `followed` (converging, and route
+        /// guidance takes the place: it is followed from a known one), `converging`,
+        /// `lost`.
         status: &'static str,
         /// Floor.
         floor: i32,
@@ -355,7 +357,8 @@ pub fn route(r: &RouteState) -> Option<ToPage> {
 /// How far the position is known.
 pub fn position(p: &Pose) -> ToPage {
     let status = match p.status {
-        LocalizationStatus::Tracking => "tracking",
+        LocalizationStatus::Tracking if p.guides => "tracking",
+        LocalizationStatus::Tracking => "found",
         LocalizationStatus::Converging if p.guides => "followed",
         LocalizationStatus::Converging => "converging",
         LocalizationStatus::Lost => "lost",
@@ -563,5 +566,8 @@ mod tests {
         assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"converging","floor":2}"#);
         (p.status, p.guides) = (LocalizationStatus::Tracking, true);
         assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"tracking","floor":2}"#);
+        // tracked, but a search's place the user has not confirmed: guidance waits
+        p.guides = false;
+        assert_eq!(to_text(&position(&p)), r#"{"type":"position","status":"found","floor":2}"#);
     }
 }

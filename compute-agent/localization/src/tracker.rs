@@ -881,6 +881,52 @@ normal = [0.0, -1.0]
     }
 
     #[test]
+    fn a_search_that_finds_the_place_asks_for_the_users_word_and_says_found_once_it_is_given() {
+        // one floor: the walk east along the corridor from a global start, the user
+        // saying the number of door 114 as they pass it (x = 15.3), when the corridor up
+        // has pinned the place
+        let door = "north_deg = 90.0\n[[door]]\nnumber = \"114\"\nx = 15.3\ny = 3.0\nfloor = 0\nnormal = [0.0, -1.0]\n";
+        let layer = SemanticLayer::parse(door, Path::new("door.toml")).unwrap();
+        let b = Building::new(vec![Floor { level: 0, grid: grid(), semantic: layer }], Path::new("one")).unwrap();
+        let g = grid();
+        let mut t = Tracker::new(&b, TrackerConfig::default(), 3).unwrap();
+        t.start_global();
+        let (amp, w) = (17f64.to_radians(), std::f64::consts::TAU * 0.7);
+        let period = 33_333_333u64;
+        let mut said = Vec::new();
+        let mut word = None;
+        for k in 0..435u64 {
+            let ts = k as f64 / 30.0;
+            let x = 2.0 + ts;
+            if k > 0 {
+                t.odometry(&odom(1.0 / 30.0 * 1.02, 0.0, (k - 1) * period, k * period), Some(0.0)).unwrap();
+            }
+            if k == 400 {
+                t.door("114").unwrap();
+                word = Some(said.len());
+            }
+            t.frame(
+                &scan_at(&g, x, 2.0, 0.0, amp * (w * ts).sin()),
+                k * period,
+                Some(amp * w * (w * ts).cos()),
+                Some(0.0),
+            );
+            said.extend(t.news());
+            let e = t.estimate();
+            if word.is_none() {
+                assert!(e.searched && !e.guides(), "frame {k}: {e:?}");
+            }
+        }
+        // the search's place: asked for the user's word, never told "found" before it;
+        // confirmed, told "found"
+        assert_eq!(said, [SEARCHED_NEWS, "Position found."], "{said:?}");
+        assert!(!said[..word.unwrap()].contains(&"Position found."), "{said:?}");
+        let e = t.estimate();
+        assert!(!e.searched && e.guides() && (e.pose.x_m - 16.47).abs() < 0.3, "{e:?}");
+        assert_eq!(t.filter().counters().searches_confirmed, 1);
+    }
+
+    #[test]
     fn a_walk_down_the_corridor_with_a_swept_cane_is_tracked_and_found_once() {
         let g = grid();
         let mut t = Tracker::new(&building(), TrackerConfig::default(), 3).unwrap();
