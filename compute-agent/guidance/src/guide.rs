@@ -536,8 +536,7 @@ impl Guide {
             }
             (LegEnd::Gateway { kind, to_floor, .. }, true) => {
                 let (name, it) = gateway_words(*kind);
-                let text =
-                    format!("You are at the {name}. Take {it} to floor {to_floor}, then tell me when you are there.");
+                let text = format!("You are at the {name}. Take {it} to floor {to_floor}{}", self.floor_told(false));
                 let key = format!("leg{}/at-gateway", self.leg);
                 let i = self.issue(InstructionKind::AtGateway { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
                 if i.is_some() {
@@ -557,7 +556,7 @@ impl Guide {
             if pr.remaining_m <= self.profile.announce_turn_m && self.gateway_ahead_said != Some(self.leg) {
                 let (name, it) = gateway_words(kind);
                 let text =
-                    format!("{} ahead; take {it} to floor {to_floor}; tell me when you are there.", capitalised(name));
+                    format!("{} ahead; take {it} to floor {to_floor}{}", capitalised(name), self.floor_told(true));
                 let key = format!("leg{}/gateway-ahead", self.leg);
                 let i = self.issue(InstructionKind::GatewayAhead { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
                 if i.is_some() {
@@ -675,6 +674,18 @@ impl Guide {
     /// from the foot of stairs or a ramp has not taken them.
     pub fn set_height_held(&mut self, held: bool) {
         self.height_held = held;
+    }
+
+    /// How the words at a gateway (`ahead` of it, or at it) end: who tells the floor.
+    /// With a barometer holding the floor's height the agent notices the floor itself
+    /// (the user may still say it); without, the user says it.
+    fn floor_told(&self, ahead: bool) -> &'static str {
+        match (self.height_held, ahead) {
+            (true, true) => "; I will notice the floor when you get there.",
+            (true, false) => ". I will notice the floor when you get there; you can also tell me.",
+            (false, true) => "; tell me when you are there.",
+            (false, false) => ", then tell me when you are there.",
+        }
     }
 
     /// Told they are at the gateway, the user walked [`GATEWAY_LEFT_M`] or more from it:

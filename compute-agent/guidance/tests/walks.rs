@@ -950,10 +950,14 @@ fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_baro
     let away = guide.step(&north(3.0), 63_000, Some(p0.graph())).expect("where the stairs are");
     assert_eq!(away.text, "The stairs are 3 metres away, behind you.");
     assert_eq!(away.kind, InstructionKind::AwayFromGateway { leg: 0 });
-    // back at their foot: what to do there, again; climbing (the height moving) says
-    // nothing more, and the floor reached goes on as before
+    // back at their foot: what to do there, again, now that the barometer will notice
+    // the floor; climbing (the height moving) says nothing more, and the floor reached
+    // goes on as before
     let back = guide.step(&north(0.0), 80_000, Some(p0.graph())).expect("told at the stairs");
-    assert_eq!(back.text, at_stairs);
+    assert_eq!(
+        back.text,
+        "You are at the stairs. Take them to floor 1. I will notice the floor when you get there; you can also tell me."
+    );
     guide.set_height_held(false);
     for k in 1..=10u32 {
         let m = 0.5 * f64::from(k);

@@ -380,6 +380,9 @@ mod tests {
             "Off the route: finding a new route.",
             "Elevator ahead; take it to floor 2; tell me when you are there.",
             "You are at the elevator. Take it to floor 1, then tell me when you are there.",
+            "Elevator ahead; take it to floor 2; I will notice the floor when you get there.",
+            "You are at the stairs. Take them to floor 1. I will notice the floor when you get there; you can also tell me.",
+            localization::SEARCHED_NEWS,
             "Passing door 214, on your left.",
             "Passing door 3, at 3 o'clock.",
         ] {
