@@ -29,7 +29,7 @@ use std::path::Path;
 use schemas::Pressure;
 
 use crate::imu::{ImuError, LinuxI2c};
-use crate::source::{FrameSource, SourceError, SourceFrame};
+use crate::source::{FailedReads, FrameSource, SourceError, SourceFrame};
 
 /// One barometer reading.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,18 +64,18 @@ pub const TEMPERATURE_RANGE_C: RangeInclusive<f64> = -40.0..=85.0;
 pub struct WithBarometer {
     source: Box<dyn FrameSource>,
     barometer: Box<dyn Barometer>,
-    failed_reads: u64,
+    failed_reads: FailedReads,
 }
 
 impl WithBarometer {
     /// `source`'s frames with `barometer`'s readings.
     pub fn new(source: Box<dyn FrameSource>, barometer: Box<dyn Barometer>) -> Self {
-        Self { source, barometer, failed_reads: 0 }
+        Self { source, barometer, failed_reads: FailedReads::default() }
     }
 
     /// Reads that failed (their frames went without a pressure).
     pub fn failed_reads(&self) -> u64 {
-        self.failed_reads
+        self.failed_reads.get()
     }
 }
 
@@ -88,13 +88,7 @@ impl FrameSource for WithBarometer {
         let Some(mut frame) = self.source.next_frame(now_ns)? else { return Ok(None) };
         match self.barometer.read() {
             Ok(r) => frame.pressure = Some(Pressure { stamp_ns: frame.stamp_ns, pressure_pa: r.pressure_pa as f32 }),
-            Err(e) => {
-                self.failed_reads += 1;
-                // the first, then every 100th: a loose cable must not flood the log
-                if self.failed_reads % 100 == 1 {
-                    tracing::warn!(barometer = %self.barometer.describe(), failed = self.failed_reads, "barometer read failed, frame sent without pressure: {e}");
-                }
-            }
+            Err(e) => self.failed_reads.count(&self.barometer.describe(), "pressure", &e),
         }
         Ok(Some(frame))
     }

@@ -167,3 +167,24 @@ mod tests {
         assert!(err.contains("--features openni2"), "{err}");
     }
 }
+
+/// The failed reads of a device read at each frame beside the camera (an IMU, a
+/// barometer): counted, the first and then every 100th logged (a loose cable must not
+/// flood the log).
+#[derive(Debug, Default)]
+pub(crate) struct FailedReads(u64);
+
+impl FailedReads {
+    /// One more failed read of `device`, whose frame goes without `lost`.
+    pub(crate) fn count(&mut self, device: &str, lost: &str, error: &dyn std::fmt::Display) {
+        self.0 += 1;
+        if self.0 % 100 == 1 {
+            tracing::warn!(device, failed = self.0, "{device} read failed, frame sent without {lost}: {error}");
+        }
+    }
+
+    /// Reads that failed so far.
+    pub(crate) fn get(&self) -> u64 {
+        self.0
+    }
+}

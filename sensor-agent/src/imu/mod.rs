@@ -28,7 +28,7 @@ use std::path::Path;
 
 use schemas::ImuSample;
 
-use crate::source::{FrameSource, SourceError, SourceFrame};
+use crate::source::{FailedReads, FrameSource, SourceError, SourceFrame};
 
 /// Standard gravity, m/s².
 pub const G: f32 = 9.806_65;
@@ -216,18 +216,18 @@ pub struct WithImu {
     imu: Box<dyn Imu>,
     axes: AxisMap,
     gravity: GravityFilter,
-    failed_reads: u64,
+    failed_reads: FailedReads,
 }
 
 impl WithImu {
     /// `source`'s frames with `imu`, mounted as `axes` says.
     pub fn new(source: Box<dyn FrameSource>, imu: Box<dyn Imu>, axes: AxisMap) -> Self {
-        Self { source, imu, axes, gravity: GravityFilter::default(), failed_reads: 0 }
+        Self { source, imu, axes, gravity: GravityFilter::default(), failed_reads: FailedReads::default() }
     }
 
     /// Reads that failed (their frames went without IMU).
     pub fn failed_reads(&self) -> u64 {
-        self.failed_reads
+        self.failed_reads.get()
     }
 }
 
@@ -249,11 +249,7 @@ impl FrameSource for WithImu {
                 frame.imu.push(sample);
             }
             Err(e) => {
-                self.failed_reads += 1;
-                // the first, then every 100th: a loose cable must not flood the log
-                if self.failed_reads % 100 == 1 {
-                    tracing::warn!(imu = %self.imu.describe(), failed = self.failed_reads, "IMU read failed, frame sent without IMU: {e}");
-                }
+                self.failed_reads.count(&self.imu.describe(), "IMU", &e);
                 frame.gravity_camera = self.gravity.gravity(frame.stamp_ns);
             }
         }
