@@ -872,16 +872,24 @@ fn two_floor_route_announces_the_elevator_and_continues_on_the_confirmed_floor()
     assert_spaced(&all, 3000);
 }
 
+/// The route from floor 0's (1.5, 11.5) to floor 1's, through the building's gateway: its
+/// planner, legs, and the guide after the user walked the first leg to the gateway
+/// (with what it said).
+fn walked_to_the_gateway(layer: SemanticLayer, building: &Building) -> (BuildingPlanner, Vec<Route>, Guide, Vec<Said>) {
+    let mut bp = BuildingPlanner::new(building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
+    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(bp.floor(0).unwrap()), |_| true);
+    (bp, legs, guide, said)
+}
+
 #[test]
 fn a_user_who_walks_away_from_the_elevator_is_told_where_it_is_and_back_at_it_what_to_do_there() {
     use std::f64::consts::FRAC_PI_2;
     let (layer, building) = two_floors();
-    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
-    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
-    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
-    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let (bp, legs, mut guide, said) = walked_to_the_gateway(layer, &building);
     let p0 = bp.floor(0).unwrap();
-    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(p0), |_| true);
     let at_lift = "You are at the elevator. Take it to floor 1, then tell me when you are there.";
     assert_eq!(texts(&said).last(), Some(&at_lift), "{said:#?}");
     // the lift is at the south end of the corridor: the user walks back north, away from it
@@ -924,12 +932,8 @@ fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_baro
     use std::f64::consts::FRAC_PI_2;
     // the same corridors, joined by stairs where the elevator was
     let (layer, building) = two_floors_joined_by("stairs");
-    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
-    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
-    let legs: Vec<Route> = route.legs.iter().map(|l| l.route.clone()).collect();
-    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let (bp, legs, mut guide, said) = walked_to_the_gateway(layer, &building);
     let p0 = bp.floor(0).unwrap();
-    let said = walk(&mut guide, &poses_along(&legs[0].waypoints), 0, 0, Some(p0), |_| true);
     let at_stairs = "You are at the stairs. Take them to floor 1, then tell me when you are there.";
     assert_eq!(texts(&said).last(), Some(&at_stairs), "{said:#?}");
     let end = legs[0].goal();
