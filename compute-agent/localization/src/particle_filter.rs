@@ -267,7 +267,9 @@ pub struct RecoveryAnchor {
     /// half-width of the headings drawn, radians
     pub heading_rad: f64,
     /// after this much walking without `Tracking` the anchor is forgotten (its heading
-    /// may have drifted too far) and the recovery draws over the whole map, metres
+    /// may have drifted too far) and the recovery draws over the whole map, metres; a
+    /// place not followed from the last known one is then a search's
+    /// ([`Estimate::searched`])
     pub forget_m: f64,
 }
 
@@ -355,8 +357,11 @@ pub struct Estimate {
     #[serde(default)]
     pub followed: bool,
     /// The place was found by a search over every floor (a global start: no start
-    /// told) and no word of the user's has confirmed it since: a door number read at
-    /// it, or a place named near it ([`ParticleFilter::correct`]). On a floor plan
+    /// told; or a recovery drawing over the whole map once the anchor of a person's
+    /// recovery was lost, [`RecoveryAnchor::forget_m`], and the place was no longer
+    /// followed from the last known one) and no word of the user's has confirmed it
+    /// since: a door number read at it, or a place named near it
+    /// ([`ParticleFilter::correct`]). On a floor plan
     /// with look-alikes (a rectangular room, a symmetric corridor) such a search
     /// settles on a mirror image of the place as readily as on the place, and calls it
     /// `Tracking` (docs/localization.md, "A global start is not a place"): guidance
@@ -420,6 +425,9 @@ pub struct Counters {
     pub look_alikes: u64,
     /// searched places a door number or a named place confirmed ([`Estimate::searched`])
     pub searches_confirmed: u64,
+    /// anchors of a person's recovery lost by walking past [`RecoveryAnchor::forget_m`]
+    /// without `Tracking` (the recovery then draws over the whole map)
+    pub anchors_lost: u64,
     /// compass readings refused (not a finite heading)
     pub compass_rejected: u64,
     /// particles whose motion passed through a wall ([`FilterConfig::wall_crossing_log_p`])
@@ -518,6 +526,10 @@ pub struct ParticleFilter {
     /// where the user was last known to be, carried by the odometry; only with
     /// [`FilterConfig::recovery_anchor`]
     anchor: Option<Anchor>,
+    /// the anchor was lost (walked past [`RecoveryAnchor::forget_m`], or left behind at
+    /// a gateway far from it) and neither a new anchor nor the user's word has come
+    /// since: the recovery draws over the whole map, as a global start's search does
+    anchor_lost: bool,
     scan_seen: bool,
     estimate: Estimate,
     counters: Counters,
@@ -598,6 +610,7 @@ impl ParticleFilter {
             start_vouches: false,
             from_known: false,
             anchor: None,
+            anchor_lost: false,
             scan_seen: false,
             estimate: Estimate {
                 pose: Pose2::default(),
@@ -644,6 +657,7 @@ impl ParticleFilter {
         }
         self.after_init();
         self.anchor = None;
+        self.anchor_lost = false;
         self.estimate.searched = true;
         self.from_search = true;
         self.told.clear();
@@ -684,6 +698,7 @@ impl ParticleFilter {
         self.told.clear();
         self.follow(None);
         self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: floor as u16, walked_m: 0.0 });
+        self.anchor_lost = false;
         Ok(())
     }
 
@@ -797,6 +812,7 @@ impl ParticleFilter {
         let r = self.config.gateway_radius_m;
         // the anchor goes through with the user when it was near a stop, as the
         // particles do; otherwise the recovery has no place to start from
+        let anchored = self.anchor.is_some();
         self.anchor = self.anchor.and_then(|a| {
             let stop = gateway.stop(self.floors[a.floor as usize].level)?;
             let (ox, oy) = (a.pose.x_m - stop.x, a.pose.y_m - stop.y);
@@ -806,6 +822,7 @@ impl ParticleFilter {
                 walked_m: 0.0,
             })
         });
+        self.anchor_lost |= anchored && self.anchor.is_none();
         let n = self.particles.len().max(1);
         // moved copies of the particles near a stop, with their weights
         self.next.clear();
@@ -900,6 +917,8 @@ impl ParticleFilter {
             // than the filter's (its heading may have drifted too far)
             if a.walked_m > c.forget_m {
                 self.anchor = None;
+                self.anchor_lost = true;
+                self.counters.anchors_lost += 1;
             }
         }
         self.pending_dt_s += odometry.dt_s;
@@ -996,6 +1015,13 @@ impl ParticleFilter {
             self.estimate.fit = self.w_fast;
         }
         self.compute_estimate();
+        // the anchor lost, the recovery has drawn over the whole map: a place no longer
+        // followed from the last known one (or that jumped from it) is a search's, for
+        // the user's word to confirm, as a global start's is
+        if self.anchor_lost && (!self.from_known || self.jumped(Some(&predicted))) {
+            self.estimate.searched = true;
+            self.from_search = true;
+        }
         self.confirm_searched();
         self.hold_to_anchor();
         self.follow(Some(&predicted));
@@ -1041,6 +1067,7 @@ impl ParticleFilter {
             self.start_vouches = true;
             self.from_known = true;
             self.anchor = self.config.recovery_anchor.map(|_| Anchor { pose, floor: fi as u16, walked_m: 0.0 });
+            self.anchor_lost = false;
             self.told.clear();
             self.counters.searches_confirmed += 1;
         }
@@ -1072,6 +1099,7 @@ impl ParticleFilter {
             }
         }
         self.anchor = Some(Anchor { pose, floor: floor as u16, walked_m: 0.0 });
+        self.anchor_lost = false;
     }
 
     /// Starts the particles about `pose` on the first floor as a told start would, but
@@ -1079,15 +1107,16 @@ impl ParticleFilter {
     /// look-alike check.
     #[cfg(test)]
     pub(crate) fn throw_to(&mut self, pose: Pose2) {
-        let anchor = self.anchor;
+        let (anchor, lost) = (self.anchor, self.anchor_lost);
         self.init_pose(self.floors[0].level, pose, 0.05, 0.02).expect("a finite pose");
-        self.anchor = anchor;
+        (self.anchor, self.anchor_lost) = (anchor, lost);
     }
 
     /// Forgets the anchor ([`FilterConfig::recovery_anchor`]): the user said where
     /// they are (a door's number), so the next `Tracking` estimate is taken as it is.
     pub fn forget_anchor(&mut self) {
         self.anchor = None;
+        self.anchor_lost = false;
     }
 
     /// Augmented MCL's averages of the scan fit under the predicted (prior-weighted)
@@ -1603,11 +1632,9 @@ impl ParticleFilter {
     /// `predicted` being the last estimate moved by the motion alone (`None`: a place
     /// just told).
     fn follow(&mut self, predicted: Option<&Estimate>) {
+        let jumped = self.jumped(predicted);
         let c = &self.config;
         let e = &self.estimate;
-        let jumped = predicted.is_some_and(|p| {
-            p.level != e.level || (p.pose.x_m - e.pose.x_m).hypot(p.pose.y_m - e.pose.y_m) > FOLLOW_MAX_JUMP_M
-        });
         let compass_agrees =
             self.compass_now.is_none_or(|h| wrap_angle(e.pose.heading_rad - h).abs() <= c.landmarks.compass_gate_rad);
         // `Tracking`'s conditions on this correction, the heading's looser, without the
@@ -1623,6 +1650,15 @@ impl ParticleFilter {
         if jumped && self.from_search {
             self.estimate.searched = true;
         }
+    }
+
+    /// Whether the estimate moved further than [`FOLLOW_MAX_JUMP_M`] from `predicted`,
+    /// the last estimate moved by the motion alone, or to another floor.
+    fn jumped(&self, predicted: Option<&Estimate>) -> bool {
+        let e = &self.estimate;
+        predicted.is_some_and(|p| {
+            p.level != e.level || (p.pose.x_m - e.pose.x_m).hypot(p.pose.y_m - e.pose.y_m) > FOLLOW_MAX_JUMP_M
+        })
     }
 
     /// The current estimate: the last correction's, moved by the motion since.
