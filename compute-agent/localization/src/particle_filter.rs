@@ -1112,6 +1112,13 @@ impl ParticleFilter {
         (self.anchor, self.anchor_lost) = (anchor, lost);
     }
 
+    /// Whether the anchor of a person's recovery is lost (walked off, or left at a
+    /// gateway far from it), for the tests.
+    #[cfg(test)]
+    pub(crate) fn anchor_lost(&self) -> bool {
+        self.anchor_lost
+    }
+
     /// Forgets the anchor ([`FilterConfig::recovery_anchor`]): the user said where
     /// they are (a door's number), so the next `Tracking` estimate is taken as it is.
     pub fn forget_anchor(&mut self) {

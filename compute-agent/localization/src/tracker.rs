@@ -1109,6 +1109,12 @@ normal = [0.0, -1.0]
         assert_eq!(e.level, 1);
         assert!((e.pose.x_m - 16.0).hypot(e.pose.y_m - 10.5) < 0.3, "{:?}", e.pose);
         assert_ne!(t.pose().status, schemas::LocalizationStatus::Tracking, "tracking is earned again");
+        // the look-alike check's anchor goes up with the user; one left far from the
+        // lift is lost (the place at the stop is still a known one, not a search's)
+        assert!(!t.pf.anchor_lost());
+        t.start_at(0, Pose2::new(4.0, 2.0, 0.0)).unwrap();
+        t.floor_confirmed(1).unwrap();
+        assert!(t.pf.anchor_lost() && !t.estimate().searched);
         // a start off the map or inside the walls is refused with the reason
         let off = t.start_at(0, Pose2::new(30.0, 2.0, 0.0)).unwrap_err().to_string();
         assert_eq!(
