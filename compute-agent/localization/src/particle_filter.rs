@@ -1054,6 +1054,13 @@ impl ParticleFilter {
         if !e.searched || e.cluster_weight < self.config.tracking_min_cluster_weight {
             return;
         }
+        // a door's number says where the user is, not which way they face: where a
+        // compass is read, a place turned from its heading is a turned copy (anchored
+        // there, the place itself would be refused as its look-alike)
+        let gate = self.config.landmarks.compass_gate_rad;
+        if self.compass_now.is_some_and(|h| wrap_angle(e.pose.heading_rad - h).abs() > gate) {
+            return;
+        }
         let Some(fi) = self.floor_index(e.level) else { return };
         let confirmed = self.told.iter().any(|t| {
             let seen = e.pose.compose(t.offset[0], t.offset[1], 0.0);
@@ -1833,6 +1840,32 @@ mod tests {
         for _ in 0..(metres / 0.5).round() as usize {
             pf.predict(&step, Some(0.0)).expect("plausible");
         }
+    }
+
+    #[test]
+    fn a_door_number_does_not_confirm_a_searched_place_the_compass_says_is_turned_about() {
+        let mut pf = hall(Some(RecoveryAnchor::default()));
+        // a search's place at (5, 10) facing +x, the number of a door 1 m ahead told
+        pf.estimate.searched = true;
+        pf.from_search = true;
+        pf.anchor = None;
+        let told = Told { floor: 0, at: [6.0, 10.0], offset: [1.0, 0.0], near: CONFIRM_DOOR_M, walked_m: 0.0 };
+        assert!(pf.estimate.cluster_weight >= 0.8, "{:?}", pf.estimate);
+        // the compass says the user faces -x: the place turned about, not confirmed
+        pf.told = vec![told];
+        pf.compass_now = Some(std::f64::consts::PI);
+        pf.confirm_searched();
+        assert!(pf.estimate.searched && pf.anchor.is_none() && pf.counters.searches_confirmed == 0);
+        // within the compass's gate (60 degrees), or with no compass: confirmed
+        for compass in [Some(50f64.to_radians()), None] {
+            pf.estimate.searched = true;
+            pf.anchor = None;
+            pf.told = vec![told];
+            pf.compass_now = compass;
+            pf.confirm_searched();
+            assert!(!pf.estimate.searched && pf.anchor.is_some(), "compass {compass:?}");
+        }
+        assert_eq!(pf.counters.searches_confirmed, 2);
     }
 
     #[test]
