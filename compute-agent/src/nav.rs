@@ -386,6 +386,7 @@ impl Nav {
         // a barometer that stopped sending says nothing of where the user stands
         let fresh = self.pressure_at_ns.is_some_and(|t| bus::now_ns().saturating_sub(t) < BAROMETER_FRESH_NS);
         self.navigator.set_height_held(fresh && self.tracker.height_held());
+        self.navigator.set_awaiting_word(self.tracker.estimate().awaits_word());
         if self.ways_round {
             let camera = self.tracker.points_in_map(held, &mut self.held);
             let before = self.navigator.detours().0;
@@ -419,6 +420,7 @@ impl Nav {
         tracing::info!("command {:?} from {}", cmd.body, cmd.header.sender);
         let pose = self.user_pose();
         let now_ms = self.now_ms();
+        self.navigator.set_awaiting_word(self.tracker.estimate().awaits_word());
         let response = self.navigator.command(&cmd.body, &pose, now_ms);
         let stamp = bus::now_ns();
         if let Some(level) = response.floor_confirmed {

@@ -60,6 +60,12 @@ pub(crate) const STOP_UNCERTAIN: &str =
 /// Said when the user has turned on the spot for the profile's `search_for_ms` and the
 /// position is still not known: turning will not find it here.
 pub(crate) const SEARCH_FAILED: &str = "I cannot find your position by turning. Please stop turning, and tell me the number of a door you are at, or ask someone nearby where you are and tell me the place.";
+/// Said while localization has found a place by a search that only the user's word can
+/// confirm (a door number, a named place: turning will not), every profile's
+/// `search_for_ms` after the localization's own question
+/// (`localization::tracker::SEARCHED_NEWS`) ([`Guide::set_awaiting_word`]).
+pub(crate) const CONFIRM_PLACE: &str =
+    "I am still not sure where you are: tell me the number of a door you are at, or the name of a place you are near.";
 /// Said when the position is known again after the user was asked to stop and turn:
 /// the words of the localization's news for it, said once when both come in one step
 /// ([`crate::Navigator::step_after_news`]).
@@ -184,6 +190,12 @@ pub struct Guide {
     gateway_left_said: bool,
     /// a barometer says the user stands at their floor's height (not on the stairs)
     height_held: bool,
+    /// localization found a place by a search that waits for the user's word
+    /// ([`Guide::set_awaiting_word`])
+    awaiting_word: bool,
+    /// when the user was last asked for it (the localization's question, then
+    /// [`CONFIRM_PLACE`]), ms; none while not awaiting
+    word_asked_ms: Option<u64>,
     arrived: bool,
     off_route: bool,
     /// came back to the route after a deviation: say which way to face
@@ -245,6 +257,8 @@ impl Guide {
             at_gateway_said: None,
             gateway_left_said: false,
             height_held: false,
+            awaiting_word: false,
+            word_asked_ms: None,
             arrived: false,
             off_route: false,
             back_on_route: false,
@@ -450,6 +464,27 @@ impl Guide {
                 self.uncertain_said = i.is_some();
                 return i;
             }
+            if self.awaiting_word {
+                // a place a search found waits for the user's word: turning will not
+                // confirm it. The localization asked at once; asked again each
+                // `search_for_ms`
+                let asked = *self.word_asked_ms.get_or_insert(now_ms);
+                if now_ms.saturating_sub(asked) < self.profile.search_for_ms {
+                    return None;
+                }
+                let i = self.issue(
+                    InstructionKind::ConfirmPlace,
+                    CONFIRM_PLACE.into(),
+                    "uncertain/confirm",
+                    now_ms,
+                    Pace::Spaced,
+                );
+                if i.is_some() {
+                    self.word_asked_ms = Some(now_ms);
+                }
+                return i;
+            }
+            self.word_asked_ms = None;
             if self.stop_said {
                 if self.search_failed_said || now_ms.saturating_sub(self.stop_said_ms) < self.profile.search_for_ms {
                     return None;
@@ -475,6 +510,7 @@ impl Guide {
             return i;
         }
         (self.uncertain_said, self.uncertain_since_ms, self.search_failed_said) = (false, None, false);
+        self.word_asked_ms = None;
         if std::mem::take(&mut self.stop_said) {
             // the user stands turning on the spot until told: said at once, and the way
             // to face follows once they stand still
@@ -571,10 +607,13 @@ impl Guide {
         self.passing_door(pose, &pr, now_ms)
     }
 
-    /// The answer to "where am I": the areas around the pose and the nearest door.
+    /// The answer to "where am I": the areas around the pose and the nearest door (not
+    /// confident: that it is not known, or the question for the user's word).
     pub fn where_am_i(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
         let text = if pose.confident && pose.x_m.is_finite() && pose.y_m.is_finite() {
             where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m)
+        } else if self.awaiting_word {
+            CONFIRM_PLACE.to_string()
         } else {
             "Position uncertain: I do not know where you are.".to_string()
         };
@@ -600,10 +639,11 @@ impl Guide {
             last.kind
         {
             if !pose.confident {
-                let (kind, text) = match (self.search_failed_said, self.stop_said) {
-                    (true, _) => (InstructionKind::SearchFailed, SEARCH_FAILED),
-                    (false, true) => (InstructionKind::StopAndTurn, STOP_UNCERTAIN),
-                    (false, false) => (InstructionKind::PositionUncertain, UNCERTAIN),
+                let (kind, text) = match (self.awaiting_word, self.search_failed_said, self.stop_said) {
+                    (true, _, _) => (InstructionKind::ConfirmPlace, CONFIRM_PLACE),
+                    (false, true, _) => (InstructionKind::SearchFailed, SEARCH_FAILED),
+                    (false, false, true) => (InstructionKind::StopAndTurn, STOP_UNCERTAIN),
+                    (false, false, false) => (InstructionKind::PositionUncertain, UNCERTAIN),
                 };
                 return self.answer(kind, text.into(), "repeat", now_ms, false);
             }
@@ -630,6 +670,7 @@ impl Guide {
                 InstructionKind::PositionUncertain
                 | InstructionKind::StopAndTurn
                 | InstructionKind::SearchFailed
+                | InstructionKind::ConfirmPlace
                 | InstructionKind::PositionFound,
                 true,
             ) if !self.off_route => {
@@ -667,6 +708,15 @@ impl Guide {
     /// [`ARRIVAL_BESIDE_M`]), as the crow flies.
     fn at_leg_end(&self, pose: &UserPose) -> bool {
         self.to_leg_end_m(pose) <= self.profile.arrival_radius_m.max(ARRIVAL_BESIDE_M)
+    }
+
+    /// Whether localization has found a place by a search that waits for the user's
+    /// word (`Tracking`, `searched`: `localization::Estimate::searched`), as the caller
+    /// last said. While the pose is not confident, the user is then not asked to stop
+    /// and turn on the spot (turning will not confirm the place) but asked again for a
+    /// door number or a named place ([`CONFIRM_PLACE`]) each `search_for_ms`.
+    pub fn set_awaiting_word(&mut self, awaiting: bool) {
+        self.awaiting_word = awaiting;
     }
 
     /// Whether a barometer says the user stands at their floor's height, as the caller

@@ -78,6 +78,9 @@ pub enum InstructionKind {
     /// turned on the spot for the profile's `search_for_ms` and still not confident:
     /// the user is asked to stop turning and to tell a door number or ask someone
     SearchFailed,
+    /// localization found a place by a search that only the user's word confirms:
+    /// asked for a door number or a named place (again each `search_for_ms`)
+    ConfirmPlace,
     /// the position is known again after the user was asked to stop and turn on the
     /// spot: they stop turning, and the way to face follows
     PositionFound,

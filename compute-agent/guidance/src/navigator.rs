@@ -11,7 +11,9 @@ use map::{Building, Label, SemanticLayer};
 use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
-use crate::guide::{Guide, Headings, UserPose, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN};
+use crate::guide::{
+    Guide, Headings, UserPose, CONFIRM_PLACE, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN,
+};
 use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
@@ -107,6 +109,12 @@ pub struct Navigator {
     search_failed_said: bool,
     /// a barometer says the user stands at their floor's height ([`Guide::set_height_held`])
     height_held: bool,
+    /// localization found a place by a search that waits for the user's word
+    /// ([`Guide::set_awaiting_word`])
+    awaiting_word: bool,
+    /// when the user was last asked for it, ms (a trip with a route leaves that to its
+    /// guide)
+    word_asked_ms: Option<u64>,
 }
 
 impl Navigator {
@@ -140,6 +148,8 @@ impl Navigator {
             turn_asked_ms: None,
             search_failed_said: false,
             height_held: false,
+            awaiting_word: false,
+            word_asked_ms: None,
         }
     }
 
@@ -217,6 +227,12 @@ impl Navigator {
                         if let Some(s) = self.plan_trip(pose, now_ms) {
                             out.speech.push(s);
                         }
+                    } else if self.awaiting_word {
+                        // a place a search found waits for the user's word: turning
+                        // will not confirm it
+                        let text = format!("Going to {name}. {CONFIRM_PLACE}");
+                        out.speech.push(self.say(text, "destination/waiting"));
+                        self.word_asked_ms = Some(now_ms);
                     } else {
                         let text = format!("Going to {name}. Turn slowly on the spot until I find your position.");
                         out.speech.push(self.say(text, "destination/waiting"));
@@ -231,6 +247,7 @@ impl Navigator {
                         let text = where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m);
                         self.say(text, "where-am-i")
                     }
+                    None if self.awaiting_word => self.say(CONFIRM_PLACE.into(), "where-am-i"),
                     None => self.say("Position uncertain: I do not know where you are.".into(), "where-am-i"),
                 };
                 out.speech.push(speech);
@@ -307,6 +324,14 @@ impl Navigator {
         self.height_held = held;
     }
 
+    /// Whether localization has found a place by a search that waits for the user's word
+    /// ([`Guide::set_awaiting_word`]), as the caller last said: while the pose is not
+    /// confident, the user is asked for a door number or a named place, not to turn on
+    /// the spot.
+    pub fn set_awaiting_word(&mut self, awaiting: bool) {
+        self.awaiting_word = awaiting;
+    }
+
     /// One step with the pose of now: plans a held destination once the position is
     /// known, then lets the guide speak; replans when it asks.
     pub fn step(&mut self, pose: &UserPose, now_ms: u64) -> Option<SpeechIntent> {
@@ -314,6 +339,7 @@ impl Navigator {
         let placed = pose.placed();
         if placed {
             (self.unplaced_since_ms, self.turn_asked_ms, self.search_failed_said) = (None, None, false);
+            self.word_asked_ms = None;
         } else {
             self.unplaced_since_ms.get_or_insert(now_ms);
         }
@@ -323,6 +349,17 @@ impl Navigator {
                 // asked to stop and turn on the spot (below): found; "repeat" plans again
                 return Some(self.say(POSITION_FOUND.into(), "found"));
             }
+            if self.awaiting_word && !placed {
+                // a place a search found waits for the user's word: asked again each
+                // `search_for_ms` (the localization asked first), never to turn
+                let asked = *self.word_asked_ms.get_or_insert(now_ms);
+                if now_ms.saturating_sub(asked) < self.profile.search_for_ms {
+                    return None;
+                }
+                self.word_asked_ms = Some(now_ms);
+                return Some(self.say(CONFIRM_PLACE.into(), "uncertain/confirm"));
+            }
+            self.word_asked_ms = None;
             let searched = self.turn_asked_ms.is_some_and(|t| now_ms.saturating_sub(t) >= self.profile.search_for_ms);
             if searched && !placed && !self.search_failed_said {
                 // asked to turn on the spot, and turning did not find the place
@@ -358,6 +395,7 @@ impl Navigator {
         let graph = self.planner.floor(pose.floor).map(|p| p.graph());
         let guide = self.trip.as_mut()?.guide.as_mut()?;
         guide.set_height_held(self.height_held);
+        guide.set_awaiting_word(self.awaiting_word);
         let instruction = guide.step(pose, now_ms, graph)?;
         if instruction.needs_replan() {
             let goal = self.trip.as_ref()?.goal;

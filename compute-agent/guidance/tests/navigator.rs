@@ -523,3 +523,76 @@ fn a_user_waiting_for_a_first_position_whom_turning_does_not_place_is_asked_for_
     let route = nav.step(&here, 1000 + 4 * search).map(|s| s.text);
     assert_eq!(route.as_deref(), Some("Route to room 204: 40 metres. Go straight on."));
 }
+
+/// What localization asks when it has found a place by a search
+/// (`localization::SEARCHED_NEWS`), and what the guide asks again after it.
+const SEARCHED: &str = "I may have found your position, but places here can look alike. To be sure, tell me the number of a door you are at, or the name of a place you are near.";
+const CONFIRM: &str =
+    "I am still not sure where you are: tell me the number of a door you are at, or the name of a place you are near.";
+
+#[test]
+fn a_place_a_search_found_is_asked_for_the_users_word_again_and_never_for_turning_on_the_spot() {
+    // a trip under way, then a place the filter found by a search (the anchor lost):
+    // not confident, and turning will not confirm it
+    let here = at(1.5, 11.5, 0.0, 0);
+    let search = GuidanceProfile::default().search_for_ms;
+    let mut nav = navigator();
+    assert_eq!(
+        texts(&nav.command(&go("room 204"), &here, 0).speech),
+        ["Route to room 204: 40 metres. Go straight on."]
+    );
+    let found = UserPose { confident: false, ..here };
+    nav.set_awaiting_word(true);
+    let t = 10_000;
+    assert_eq!(nav.step_after_news(&found, Some(SEARCHED), t), None, "the news asked");
+    let mut said = Vec::new();
+    for now in (t + 100..t + 3 * search).step_by(100) {
+        said.extend(nav.step_after_news(&found, None, now).map(|s| (now, s.text, s.priority)));
+    }
+    // asked again each `search_for_ms`, at `Message` (it asks something), never to turn
+    assert_eq!(said.len(), 2, "{said:?}");
+    for ((when, text, priority), k) in said.iter().zip(1..) {
+        assert_eq!((text.as_str(), *priority), (CONFIRM, Priority::Message));
+        assert!(when.abs_diff(t + k * search) <= 200, "asked at {when} ms");
+    }
+    // "repeat" and "where am I" say what is wanted
+    let r = nav.command(&Command::Repeat, &found, t + 3 * search);
+    assert_eq!(texts(&r.speech), [CONFIRM]);
+    let r = nav.command(&Command::WhereAmI, &found, t + 3 * search);
+    assert_eq!(texts(&r.speech), [CONFIRM]);
+    // the user's word confirmed it: guided on, and asked nothing more
+    nav.set_awaiting_word(false);
+    let mut after = Vec::new();
+    for now in (t + 3 * search..t + 5 * search).step_by(100) {
+        after.extend(nav.step_after_news(&here, (now == t + 3 * search).then_some("Position found."), now));
+    }
+    assert!(after.iter().all(|s| s.text != CONFIRM && !s.text.contains("turn slowly")), "{:?}", texts(&after));
+    // the same place not confident without a search's place waiting: asked to stop and
+    // turn on the spot after `stop_when_uncertain_ms`
+    let stop = GuidanceProfile::default().stop_when_uncertain_ms;
+    let mut lost = nav.clone();
+    let stops: Vec<_> = (t + 5 * search..t + 5 * search + stop + 1000)
+        .step_by(100)
+        .filter_map(|now| lost.step(&found, now))
+        .filter(|s| s.text.contains("turn slowly on the spot"))
+        .collect();
+    assert_eq!(stops.len(), 1);
+}
+
+#[test]
+fn a_user_waiting_for_a_first_position_a_search_found_is_asked_for_a_door_number_not_to_turn() {
+    let here = at(1.5, 11.5, 0.0, 0);
+    let found = UserPose { confident: false, ..here };
+    let search = GuidanceProfile::default().search_for_ms;
+    let mut nav = navigator();
+    nav.set_awaiting_word(true);
+    let r = nav.command(&go("room 204"), &found, 1000);
+    assert_eq!(texts(&r.speech), [format!("Going to room 204. {CONFIRM}").as_str()]);
+    let said: Vec<_> =
+        (1100..1000 + 2 * search + 500).step_by(100).filter_map(|t| nav.step(&found, t).map(|s| (t, s.text))).collect();
+    assert_eq!(said, [(1000 + search, CONFIRM.to_string()), (1000 + 2 * search, CONFIRM.to_string())]);
+    // confirmed: the route
+    nav.set_awaiting_word(false);
+    let route = nav.step(&here, 1000 + 3 * search).map(|s| s.text);
+    assert_eq!(route.as_deref(), Some("Route to room 204: 40 metres. Go straight on."));
+}

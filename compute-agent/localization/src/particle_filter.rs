@@ -384,6 +384,13 @@ impl Estimate {
         (self.status == Status::Tracking || self.followed) && !self.searched
     }
 
+    /// Whether the filter tracks a place a search found that only the user's word can
+    /// confirm ([`Estimate::searched`]): a door number or a named place, not turning on
+    /// the spot (`guidance::Navigator::set_awaiting_word`).
+    pub fn awaits_word(&self) -> bool {
+        self.status == Status::Tracking && self.searched
+    }
+
     /// Standard deviation along the covariance's major axis, metres.
     pub fn position_std_m(&self) -> f64 {
         let [[a, b, _], [_, d, _], _] = self.covariance;

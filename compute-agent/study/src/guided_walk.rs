@@ -135,6 +135,7 @@ pub fn guided_walk(world_name: &str, label: &str, seed: u64, timeout_s: f64) -> 
         let mut said = Vec::new();
         let news = tracker.news();
         said.extend(news.map(str::to_string));
+        nav.set_awaiting_word(e.awaits_word());
         if !asked {
             said.extend(
                 nav.command(&Command::Destination { label: place.name.clone() }, &pose, now_ms)

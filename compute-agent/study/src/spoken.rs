@@ -296,6 +296,12 @@ impl SpokenDevice {
         out.extend(self.navigator.step_after_news(pose, news, now_ms));
     }
 
+    /// Whether the device's filter tracks a place a search found that waits for the
+    /// user's word (`Navigator::set_awaiting_word`).
+    pub fn set_awaiting_word(&mut self, awaiting: bool) {
+        self.navigator.set_awaiting_word(awaiting);
+    }
+
     /// A command from the user (`cmd/*`) at the believed `pose`; the answer into `out`.
     pub fn command(&mut self, command: &Command, pose: &UserPose, now_ms: u64, out: &mut Vec<SpeechIntent>) {
         out.extend(self.navigator.command(command, pose, now_ms).speech);
@@ -383,6 +389,8 @@ mod tests {
             "Elevator ahead; take it to floor 2; I will notice the floor when you get there.",
             "You are at the stairs. Take them to floor 1. I will notice the floor when you get there; you can also tell me.",
             localization::SEARCHED_NEWS,
+            "I am still not sure where you are: tell me the number of a door you are at, or the name of a place you are near.",
+            "Going to music. I am still not sure where you are: tell me the number of a door you are at, or the name of a place you are near.",
             "Passing door 214, on your left.",
             "Passing door 3, at 3 o'clock.",
         ] {

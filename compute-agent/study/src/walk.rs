@@ -1193,6 +1193,8 @@ impl<'w> Walk<'w> {
             }
             let news = self.tracker.as_mut().and_then(Tracker::news);
             let now_ms = (t * 1000.0) as u64;
+            let awaiting = self.tracker.as_ref().filter(|_| config.pose == PoseSource::Filter);
+            device.set_awaiting_word(awaiting.is_some_and(|t| t.estimate().awaits_word()));
             for asked in std::mem::take(&mut self.ear.borrow_mut().asked) {
                 device.command(&asked, &g, now_ms, &mut self.said);
             }
