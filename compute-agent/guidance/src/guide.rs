@@ -714,7 +714,8 @@ impl Guide {
     /// word (`Tracking`, `searched`: `localization::Estimate::searched`), as the caller
     /// last said. While the pose is not confident, the user is then not asked to stop
     /// and turn on the spot (turning will not confirm the place) but asked again for a
-    /// door number or a named place ([`CONFIRM_PLACE`]) each `search_for_ms`.
+    /// door number or a named place ("I am still not sure where you are: ...") each
+    /// `search_for_ms`.
     pub fn set_awaiting_word(&mut self, awaiting: bool) {
         self.awaiting_word = awaiting;
     }
