@@ -1064,8 +1064,7 @@ impl ParticleFilter {
         // a door's number says where the user is, not which way they face: where a
         // compass is read, a place turned from its heading is a turned copy (anchored
         // there, the place itself would be refused as its look-alike)
-        let gate = self.config.landmarks.compass_gate_rad;
-        if self.compass_now.is_some_and(|h| wrap_angle(e.pose.heading_rad - h).abs() > gate) {
+        if !self.compass_agrees(e.pose.heading_rad) {
             return;
         }
         let Some(fi) = self.floor_index(e.level) else { return };
@@ -1338,6 +1337,17 @@ impl ParticleFilter {
             }
     }
 
+    /// While the place is a search's, keeps a door number or named place told (`at`: its
+    /// point on each floor that has it, `offset` from the user, to be within `near`) for
+    /// [`ParticleFilter::confirm_searched`].
+    fn remember_told(&mut self, at: &[Option<[f64; 2]>], offset: [f64; 2], near: f64) {
+        if self.estimate.searched {
+            let told =
+                |(floor, p): (usize, &Option<[f64; 2]>)| Some(Told { floor, at: (*p)?, offset, near, walked_m: 0.0 });
+            self.told.extend(at.iter().enumerate().filter_map(told));
+        }
+    }
+
     /// Adds a usable landmark's log-likelihood ([`ParticleFilter::landmark_usable`]).
     fn weigh_landmark(&mut self, lm: &Landmark) {
         let (fwd, left) = lm.offset_m();
@@ -1347,12 +1357,7 @@ impl ParticleFilter {
                 self.door_read = true;
                 // the door on each floor, once per floor, not once per particle
                 let doors: Vec<Option<[f64; 2]>> = self.floors.iter().map(|f| f.door(number)).collect();
-                if self.estimate.searched {
-                    let told = |(floor, d): (usize, &Option<[f64; 2]>)| {
-                        Some(Told { floor, at: (*d)?, offset: [fwd, left], near: CONFIRM_DOOR_M, walked_m: 0.0 })
-                    };
-                    self.told.extend(doors.iter().enumerate().filter_map(told));
-                }
+                self.remember_told(&doors, [fwd, left], CONFIRM_DOOR_M);
                 self.weigh_told_place(&doors, [fwd, left], cfg.sigma_m, cfg.door_reset_below_support);
             }
             Landmark::Place { level, x_m, y_m } => {
@@ -1365,13 +1370,7 @@ impl ParticleFilter {
                 self.from_known = false;
                 let at: Vec<Option<[f64; 2]>> =
                     self.floors.iter().map(|f| (f.level == *level).then_some([*x_m, *y_m])).collect();
-                if self.estimate.searched {
-                    let near = cfg.place_sigma_m;
-                    let told = |(floor, p): (usize, &Option<[f64; 2]>)| {
-                        Some(Told { floor, at: (*p)?, offset: [0.0, 0.0], near, walked_m: 0.0 })
-                    };
-                    self.told.extend(at.iter().enumerate().filter_map(told));
-                }
+                self.remember_told(&at, [0.0, 0.0], cfg.place_sigma_m);
                 // always some particles about the place: a belief a few metres off may
                 // agree with it, and then none would be where the user is
                 self.weigh_told_place(&at, [0.0, 0.0], cfg.place_sigma_m, f64::INFINITY);
@@ -1615,9 +1614,7 @@ impl ParticleFilter {
             && std_h <= c.tracking_max_heading_std_rad
             && (!self.scan_seen || fit.min(now) >= c.tracking_min_fit);
         // a heading the compass contradicts is a turned copy of the place, not the place
-        let heading = self.estimate.pose.heading_rad;
-        let compass_agrees =
-            self.compass_now.is_none_or(|h| wrap_angle(heading - h).abs() <= c.landmarks.compass_gate_rad);
+        let compass_agrees = self.compass_agrees(self.estimate.pose.heading_rad);
         if tracking_now && !compass_agrees {
             self.counters.compass_disagreements += 1;
         }
@@ -1656,8 +1653,7 @@ impl ParticleFilter {
         let jumped = self.jumped(predicted);
         let c = &self.config;
         let e = &self.estimate;
-        let compass_agrees =
-            self.compass_now.is_none_or(|h| wrap_angle(e.pose.heading_rad - h).abs() <= c.landmarks.compass_gate_rad);
+        let compass_agrees = self.compass_agrees(e.pose.heading_rad);
         // `Tracking`'s conditions on this correction, the heading's looser, without the
         // streak of corrections on enough beams that would confirm the place
         let holds = e.cluster_weight >= c.tracking_min_cluster_weight
@@ -1671,6 +1667,13 @@ impl ParticleFilter {
         if jumped && self.from_search {
             self.estimate.searched = true;
         }
+    }
+
+    /// Whether `heading` is within the compass's gate of its last reading
+    /// ([`LandmarkConfig::compass_gate_rad`]); true without one.
+    fn compass_agrees(&self, heading: f64) -> bool {
+        let gate = self.config.landmarks.compass_gate_rad;
+        self.compass_now.is_none_or(|h| wrap_angle(heading - h).abs() <= gate)
     }
 
     /// Whether the estimate moved further than [`FOLLOW_MAX_JUMP_M`] from `predicted`,

@@ -529,15 +529,9 @@ impl Tracker {
     /// covers the reach). A number on none of the floors is refused, counted by the
     /// filter, and changes nothing.
     pub fn door(&mut self, number: &str) -> Result<(), String> {
-        let seen = [Landmark::Door { number: number.to_string(), forward_m: 0.0, left_m: 0.0 }];
-        let searched = self.pf.estimate().searched;
-        if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
+        let seen = Landmark::Door { number: number.to_string(), forward_m: 0.0, left_m: 0.0 };
+        if !self.users_word(seen) {
             return Err(format!("door {number:?} is on none of the floor maps"));
-        }
-        // a door's number is the user's own word for where they are: no look-alike
-        // (a search's place it confirmed is anchored by the filter itself)
-        if !searched {
-            self.pf.forget_anchor();
         }
         Ok(())
     }
@@ -550,17 +544,26 @@ impl Tracker {
     /// is forgotten. A floor the building does not have, or a place that is no
     /// point, is refused, counted by the filter, and changes nothing.
     pub fn place(&mut self, level: i32, at: [f64; 2]) -> Result<(), String> {
-        let seen = [Landmark::Place { level, x_m: at[0], y_m: at[1] }];
-        let searched = self.pf.estimate().searched;
-        if self.pf.correct(&Observations { landmarks: &seen, ..Default::default() }).landmarks_refused > 0 {
+        if !self.users_word(Landmark::Place { level, x_m: at[0], y_m: at[1] }) {
             return Err(format!("no floor {level} with a place at ({:.1}, {:.1}) on the maps", at[0], at[1]));
         }
-        // the user's own word for where they are: no look-alike (a search's place it
-        // confirmed is anchored by the filter itself)
+        Ok(())
+    }
+
+    /// A door number or a named place the user said, to the filter: false when the
+    /// maps cannot place it (refused, counted, nothing changed). It is the user's own
+    /// word for where they are, so there is no look-alike to refuse: the anchor is
+    /// forgotten, unless the place was a search's, which the word confirms (and the
+    /// filter anchors itself).
+    fn users_word(&mut self, seen: Landmark) -> bool {
+        let searched = self.pf.estimate().searched;
+        if self.pf.correct(&Observations { landmarks: &[seen], ..Default::default() }).landmarks_refused > 0 {
+            return false;
+        }
         if !searched {
             self.pf.forget_anchor();
         }
-        Ok(())
+        true
     }
 
     /// The filter's answer.
