@@ -66,6 +66,13 @@ pub(crate) const SEARCH_FAILED: &str = "I cannot find your position by turning. 
 /// (`localization::tracker::SEARCHED_NEWS`) ([`Guide::set_awaiting_word`]).
 pub(crate) const CONFIRM_PLACE: &str =
     "I am still not sure where you are: tell me the number of a door you are at, or the name of a place you are near.";
+/// Whether the user waiting to confirm a searched place is to be asked for their word
+/// again now: `every_ms` after `asked` (the first call, when the localization's own
+/// question was said, starts the count). The caller sets `asked` once it asked.
+pub(crate) fn word_ask_due(asked: &mut Option<u64>, now_ms: u64, every_ms: u64) -> bool {
+    now_ms.saturating_sub(*asked.get_or_insert(now_ms)) >= every_ms
+}
+
 /// Said when the position is known again after the user was asked to stop and turn:
 /// the words of the localization's news for it, said once when both come in one step
 /// ([`crate::Navigator::step_after_news`]).
@@ -468,8 +475,7 @@ impl Guide {
                 // a place a search found waits for the user's word: turning will not
                 // confirm it. The localization asked at once; asked again each
                 // `search_for_ms`
-                let asked = *self.word_asked_ms.get_or_insert(now_ms);
-                if now_ms.saturating_sub(asked) < self.profile.search_for_ms {
+                if !word_ask_due(&mut self.word_asked_ms, now_ms, self.profile.search_for_ms) {
                     return None;
                 }
                 let i = self.issue(

@@ -12,7 +12,7 @@ use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
 use crate::guide::{
-    Guide, Headings, UserPose, CONFIRM_PLACE, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN,
+    word_ask_due, Guide, Headings, UserPose, CONFIRM_PLACE, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN,
 };
 use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
@@ -352,8 +352,7 @@ impl Navigator {
             if self.awaiting_word && !placed {
                 // a place a search found waits for the user's word: asked again each
                 // `search_for_ms` (the localization asked first), never to turn
-                let asked = *self.word_asked_ms.get_or_insert(now_ms);
-                if now_ms.saturating_sub(asked) < self.profile.search_for_ms {
+                if !word_ask_due(&mut self.word_asked_ms, now_ms, self.profile.search_for_ms) {
                     return None;
                 }
                 self.word_asked_ms = Some(now_ms);
