@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use bus::{Health, Lane, Publisher, Query, Queryable, Received, Subscriber};
-use guidance::{GuidanceProfile, Navigator, UserPose};
+use guidance::{Barometer, GuidanceProfile, Navigator, UserPose};
 use localization::{Pose2, Tracker, TrackerConfig};
 use map::{Building, Cell};
 use perception::body_rate::BodyRate;
@@ -50,6 +50,18 @@ fn wall_points(grid: &map::OccupancyGrid) -> Vec<[f64; 2]> {
 
 /// A barometer reading older than this says nothing of where the user stands now, ns.
 const BAROMETER_FRESH_NS: u64 = 2_000_000_000;
+
+/// What the barometer says of the user's height at `now_ns` for the guide: unread when
+/// no reading was taken within [`BAROMETER_FRESH_NS`] (none, or it stopped sending),
+/// else whether its height is held at the estimate's floor (`held`,
+/// `Tracker::height_held`).
+fn barometer_state(last_reading_ns: Option<u64>, now_ns: u64, held: bool) -> Barometer {
+    match last_reading_ns {
+        Some(t) if now_ns.saturating_sub(t) < BAROMETER_FRESH_NS && held => Barometer::AtFloor,
+        Some(t) if now_ns.saturating_sub(t) < BAROMETER_FRESH_NS => Barometer::OffFloor,
+        _ => Barometer::Unread,
+    }
+}
 
 /// Period of `localization/pose` and `route/state`.
 pub const STATE_PERIOD: Duration = Duration::from_millis(200);
@@ -384,8 +396,7 @@ impl Nav {
         let pose = self.user_pose();
         let now_ms = self.now_ms();
         // a barometer that stopped sending says nothing of where the user stands
-        let fresh = self.pressure_at_ns.is_some_and(|t| bus::now_ns().saturating_sub(t) < BAROMETER_FRESH_NS);
-        self.navigator.set_height_held(fresh && self.tracker.height_held());
+        self.navigator.set_barometer(barometer_state(self.pressure_at_ns, bus::now_ns(), self.tracker.height_held()));
         self.navigator.set_awaiting_word(self.tracker.estimate().awaits_word());
         if self.ways_round {
             let camera = self.tracker.points_in_map(held, &mut self.held);
@@ -534,5 +545,22 @@ impl Nav {
         if let Err(e) = self.speech_out.put(capture_ns, &speech).await {
             tracing::warn!("{e:#}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_barometer_that_stopped_sending_two_seconds_ago_is_unread_for_the_guide() {
+        let t = 50_000_000_000;
+        assert_eq!(barometer_state(None, t, true), Barometer::Unread);
+        assert_eq!(barometer_state(Some(t - 1_999_000_000), t, true), Barometer::AtFloor);
+        assert_eq!(barometer_state(Some(t - 1_999_000_000), t, false), Barometer::OffFloor);
+        assert_eq!(barometer_state(Some(t - 2_000_000_000), t, true), Barometer::Unread);
+        assert_eq!(barometer_state(Some(t - 2_000_000_000), t, false), Barometer::Unread);
+        // `now` read before the reading arrived: fresh, not unread
+        assert_eq!(barometer_state(Some(t + 5), t, false), Barometer::OffFloor);
     }
 }

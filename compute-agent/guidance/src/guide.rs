@@ -125,6 +125,19 @@ impl Headings {
     }
 }
 
+/// What a barometer says of the user's height, as the caller last read it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Barometer {
+    /// none is read: there is none, or it stopped sending
+    #[default]
+    Unread,
+    /// its height holds still at the floor the user is on (they stand on the level)
+    AtFloor,
+    /// it is read, but the height is not the floor's: moving (stairs, a lift, a ramp)
+    /// or between floors
+    OffFloor,
+}
+
 /// Where the user is, as localization says.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UserPose {
@@ -195,8 +208,11 @@ pub struct Guide {
     at_gateway_said: Option<usize>,
     /// after that, the user walked away from the elevator and was told where it is
     gateway_left_said: bool,
-    /// a barometer says the user stands at their floor's height (not on the stairs)
-    height_held: bool,
+    /// what a barometer says of the user's height ([`Guide::set_barometer`])
+    barometer: Barometer,
+    /// the words at the gateway of this leg said the barometer would notice the floor
+    /// reached: said otherwise if it stops sending before then
+    floor_noticed_said: Option<usize>,
     /// localization found a place by a search that waits for the user's word
     /// ([`Guide::set_awaiting_word`])
     awaiting_word: bool,
@@ -263,7 +279,8 @@ impl Guide {
             gateway_ahead_said: None,
             at_gateway_said: None,
             gateway_left_said: false,
-            height_held: false,
+            barometer: Barometer::Unread,
+            floor_noticed_said: None,
             awaiting_word: false,
             word_asked_ms: None,
             arrived: false,
@@ -339,6 +356,7 @@ impl Guide {
         self.gateway_ahead_said = None;
         self.at_gateway_said = None;
         self.gateway_left_said = false;
+        self.floor_noticed_said = None;
         self.arrived = false;
         self.off_route = false;
         self.back_on_route = false;
@@ -399,6 +417,10 @@ impl Guide {
             }
             // a user at the lift who did not hear which floor waits there for nothing
             InstructionKind::AtGateway { leg } if self.at_gateway_said == Some(leg) => self.at_gateway_said = None,
+            // a user who did not hear that the floor will not be noticed waits for it
+            InstructionKind::FloorNotNoticed { leg } if leg == self.leg && self.at_gateway_said == Some(leg) => {
+                self.floor_noticed_said = Some(leg);
+            }
             // still away from the elevator: where it is, said again
             InstructionKind::AwayFromGateway { leg } if leg == self.leg && self.gateway_left_said => {
                 self.gateway_left_said = false;
@@ -534,6 +556,9 @@ impl Guide {
             }
         }
         if self.at_gateway_said == Some(self.leg) {
+            if let Some(i) = self.floor_not_noticed(now_ms) {
+                return Some(i);
+            }
             // waiting at the gateway for the floor to change; a user who walked away from
             // the gateway and came back is told again what to do there
             if !(self.gateway_left_said && self.at_leg_end(pose)) {
@@ -580,9 +605,11 @@ impl Guide {
                 let (name, it) = gateway_words(*kind);
                 let text = format!("You are at the {name}. Take {it} to floor {to_floor}{}", self.floor_told(false));
                 let key = format!("leg{}/at-gateway", self.leg);
+                let noticed = self.height_held();
                 let i = self.issue(InstructionKind::AtGateway { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
                 if i.is_some() {
                     self.at_gateway_said = Some(self.leg);
+                    self.floor_noticed_said = noticed.then_some(self.leg);
                 }
                 return i;
             }
@@ -726,18 +753,24 @@ impl Guide {
         self.awaiting_word = awaiting;
     }
 
-    /// Whether a barometer says the user stands at their floor's height, as the caller
-    /// last said (none: not known, no barometer): on the level, a user who walked away
-    /// from the foot of stairs or a ramp has not taken them.
-    pub fn set_height_held(&mut self, held: bool) {
-        self.height_held = held;
+    /// What a barometer says of the user's height, as the caller last read it: at
+    /// their floor's height (on the level), a user who walked away from the foot of
+    /// stairs or a ramp has not taken them, and the words at a gateway say the floor
+    /// reached will be noticed; a barometer that stops sending ([`Barometer::Unread`])
+    /// after those words were said has the user told to say the floor themselves.
+    pub fn set_barometer(&mut self, barometer: Barometer) {
+        self.barometer = barometer;
+    }
+
+    fn height_held(&self) -> bool {
+        self.barometer == Barometer::AtFloor
     }
 
     /// How the words at a gateway (`ahead` of it, or at it) end: who tells the floor.
     /// With a barometer holding the floor's height the agent notices the floor itself
     /// (the user may still say it); without, the user says it.
     fn floor_told(&self, ahead: bool) -> &'static str {
-        match (self.height_held, ahead) {
+        match (self.height_held(), ahead) {
             (true, true) => "; I will notice the floor when you get there.",
             (true, false) => ". I will notice the floor when you get there; you can also tell me.",
             (false, true) => "; tell me when you are there.",
@@ -745,16 +778,37 @@ impl Guide {
         }
     }
 
+    /// Told at the gateway that the floor reached will be noticed, the barometer stopped
+    /// sending: the user is to say it ("I can no longer measure the height: ..."), once
+    /// (again if a warning cut it off). A barometer read again afterwards still notices
+    /// the floor.
+    fn floor_not_noticed(&mut self, now_ms: u64) -> Option<Instruction> {
+        if self.floor_noticed_said != Some(self.leg) || self.barometer != Barometer::Unread {
+            return None;
+        }
+        let LegEnd::Gateway { to_floor, .. } = self.legs[self.leg].end else {
+            return None;
+        };
+        let text = format!("I can no longer measure the height, so I will not notice the floor: tell me when you are on floor {to_floor}.");
+        self.serial += 1;
+        let key = format!("leg{}/floor-not-noticed/{}", self.leg, self.serial);
+        let i = self.issue(InstructionKind::FloorNotNoticed { leg: self.leg }, text, &key, now_ms, Pace::Spaced);
+        if i.is_some() {
+            self.floor_noticed_said = None;
+        }
+        i
+    }
+
     /// Told they are at the gateway, the user walked [`GATEWAY_LEFT_M`] or more from it:
     /// where it is, once until they come back (said while they stand or walk, not while
     /// they turn). For stairs or a ramp only while a barometer says the user stands at
-    /// their floor's height ([`Self::set_height_held`]): a user who takes them walks
+    /// their floor's height ([`Self::set_barometer`]): a user who takes them walks
     /// away from their foot too.
     fn left_gateway(&mut self, pose: &UserPose, now_ms: u64) -> Option<Instruction> {
         let LegEnd::Gateway { kind, .. } = self.legs[self.leg].end else {
             return None;
         };
-        if kind != GatewayKind::Elevator && !self.height_held {
+        if kind != GatewayKind::Elevator && !self.height_held() {
             return None;
         }
         let away_m = self.to_leg_end_m(pose);

@@ -60,6 +60,12 @@ pub enum InstructionKind {
         /// leg index
         leg: usize,
     },
+    /// told at the gateway that the floor reached would be noticed, the barometer
+    /// stopped sending: the user is to say the floor
+    FloorNotNoticed {
+        /// leg index
+        leg: usize,
+    },
     /// within the arrival radius of the goal; guidance ends
     Arrived,
     /// off the route, and the route is near: where to rejoin it

@@ -25,7 +25,7 @@ pub mod utterance;
 pub mod way;
 pub mod where_am_i;
 
-pub use guide::{Ahead, Guide, UserPose};
+pub use guide::{Ahead, Barometer, Guide, UserPose};
 pub use instruction::{Instruction, InstructionKind};
 pub use navigator::{Navigator, Response};
 pub use profile::{DirectionStyle, DistanceUnits, GuidanceProfile, ProfileError};

@@ -12,7 +12,8 @@ use planning::{BuildingPlanner, BuildingRoute, FloorPoint, UserProfile};
 use schemas::{Command, Destination, Destinations, MapPoint, Priority, RouteState, RouteStatus, SpeechIntent};
 
 use crate::guide::{
-    word_ask_due, Guide, Headings, UserPose, CONFIRM_PLACE, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN, UNCERTAIN,
+    word_ask_due, Barometer, Guide, Headings, UserPose, CONFIRM_PLACE, POSITION_FOUND, SEARCH_FAILED, STOP_UNCERTAIN,
+    UNCERTAIN,
 };
 use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
@@ -107,8 +108,8 @@ pub struct Navigator {
     /// and, turning for the profile's `search_for_ms` without the place found, asked to
     /// stop turning and tell a door number or ask someone
     search_failed_said: bool,
-    /// a barometer says the user stands at their floor's height ([`Guide::set_height_held`])
-    height_held: bool,
+    /// what a barometer says of the user's height ([`Guide::set_barometer`])
+    barometer: Barometer,
     /// localization found a place by a search that waits for the user's word
     /// ([`Guide::set_awaiting_word`])
     awaiting_word: bool,
@@ -147,7 +148,7 @@ impl Navigator {
             lost_news_ms: None,
             turn_asked_ms: None,
             search_failed_said: false,
-            height_held: false,
+            barometer: Barometer::Unread,
             awaiting_word: false,
             word_asked_ms: None,
         }
@@ -317,11 +318,12 @@ impl Navigator {
         self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND || lost_told && s.text == UNCERTAIN))
     }
 
-    /// Whether a barometer says, now, that the user stands at their floor's height (false
-    /// without one, or while its readings do not hold still): the guide can then tell a
-    /// user who walked away from the foot of stairs where they are.
-    pub fn set_height_held(&mut self, held: bool) {
-        self.height_held = held;
+    /// What a barometer says, now, of the user's height ([`Guide::set_barometer`]):
+    /// at their floor's, the guide can tell a user who walked away from the foot of
+    /// stairs where they are; one that stopped sending after the guide said it would
+    /// notice the floor has the user told to say it.
+    pub fn set_barometer(&mut self, barometer: Barometer) {
+        self.barometer = barometer;
     }
 
     /// Whether localization has found a place by a search that waits for the user's word
@@ -393,7 +395,7 @@ impl Navigator {
         }
         let graph = self.planner.floor(pose.floor).map(|p| p.graph());
         let guide = self.trip.as_mut()?.guide.as_mut()?;
-        guide.set_height_held(self.height_held);
+        guide.set_barometer(self.barometer);
         guide.set_awaiting_word(self.awaiting_word);
         let instruction = guide.step(pose, now_ms, graph)?;
         if instruction.needs_replan() {

@@ -8,7 +8,9 @@
 
 use std::path::Path;
 
-use guidance::{DirectionStyle, DistanceUnits, GuidanceProfile, Guide, Instruction, InstructionKind, UserPose};
+use guidance::{
+    Barometer, DirectionStyle, DistanceUnits, GuidanceProfile, Guide, Instruction, InstructionKind, UserPose,
+};
 use map::{Building, Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
 use planning::{BuildingPlanner, FloorPoint, NavGraphConfig, Planner, Route, UserProfile};
 use schemas::Priority;
@@ -946,7 +948,7 @@ fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_baro
         assert_eq!(blind.step(&north(m), 60_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m away");
     }
     // a barometer holding the floor's height: the user is on the level, not on the stairs
-    guide.set_height_held(true);
+    guide.set_barometer(Barometer::AtFloor);
     for k in 0..6u32 {
         let m = 0.5 * f64::from(k);
         assert_eq!(guide.step(&north(m), 60_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m away");
@@ -962,11 +964,66 @@ fn a_user_who_walks_away_from_the_stairs_is_told_where_they_are_only_when_a_baro
         back.text,
         "You are at the stairs. Take them to floor 1. I will notice the floor when you get there; you can also tell me."
     );
-    guide.set_height_held(false);
+    guide.set_barometer(Barometer::OffFloor);
     for k in 1..=10u32 {
         let m = 0.5 * f64::from(k);
         assert_eq!(guide.step(&north(m), 80_000 + u64::from(k) * 500, Some(p0.graph())), None, "{m} m up");
     }
+    assert!(guide.floor_confirmed(1));
+    assert_eq!(guide.floor(), Some(1));
+}
+
+#[test]
+fn a_user_told_the_barometer_would_notice_the_floor_is_asked_to_say_it_when_the_barometer_stops() {
+    use std::f64::consts::FRAC_PI_2;
+    let (layer, building) = two_floors_joined_by("stairs");
+    let mut bp = BuildingPlanner::new(&building, UserProfile::default());
+    let route = bp.plan(FloorPoint { floor: 0, x: 1.5, y: 11.5 }, FloorPoint { floor: 1, x: 1.5, y: 11.5 }).unwrap();
+    let leg0 = route.legs[0].route.clone();
+    let mut guide = Guide::building(route, "room 214", layer, GuidanceProfile::default());
+    let p0 = bp.floor(0).unwrap();
+    // the same walk without a barometer: the user is to say the floor from the start,
+    // so nothing changes when none is read
+    let mut without = guide.clone();
+    let said = walk(&mut without, &poses_along(&leg0.waypoints), 0, 0, Some(p0), |_| true);
+    assert_eq!(
+        texts(&said).last(),
+        Some(&"You are at the stairs. Take them to floor 1, then tell me when you are there.")
+    );
+    guide.set_barometer(Barometer::AtFloor);
+    let said = walk(&mut guide, &poses_along(&leg0.waypoints), 0, 0, Some(p0), |_| true);
+    assert_eq!(
+        texts(&said).last(),
+        Some(&"You are at the stairs. Take them to floor 1. I will notice the floor when you get there; you can also tell me.")
+    );
+    let end = leg0.goal();
+    let up = |m: f64| pose([end[0], end[1] + m], FRAC_PI_2);
+    // climbing: the height moves, nothing to say
+    guide.set_barometer(Barometer::OffFloor);
+    for k in 1..=4u32 {
+        assert_eq!(guide.step(&up(0.5 * f64::from(k)), 90_000 + u64::from(k) * 500, Some(p0.graph())), None);
+        assert_eq!(without.step(&up(0.5 * f64::from(k)), 90_000 + u64::from(k) * 500, Some(p0.graph())), None);
+    }
+    // the barometer stops sending on the way up: the user would wait at the top for
+    // nothing, so they are told to say the floor, at once and once
+    guide.set_barometer(Barometer::Unread);
+    without.set_barometer(Barometer::Unread);
+    let told = guide.step(&up(2.5), 93_000, Some(p0.graph())).expect("told to say the floor");
+    let asked = "I can no longer measure the height, so I will not notice the floor: tell me when you are on floor 1.";
+    assert_eq!(told.text, asked);
+    assert_eq!(told.kind, InstructionKind::FloorNotNoticed { leg: 0 });
+    assert_eq!(told.speech().priority, Priority::Message);
+    assert_eq!(without.step(&up(2.5), 93_000, Some(p0.graph())), None, "nothing was promised without a barometer");
+    for k in 1..=10u32 {
+        assert_eq!(guide.step(&up(2.5 + 0.3 * f64::from(k)), 93_000 + u64::from(k) * 1000, Some(p0.graph())), None);
+    }
+    // cut off by a warning: said again, with a key of its own
+    assert!(guide.not_heard(asked));
+    let again = guide.step(&up(6.0), 104_000, Some(p0.graph())).expect("said again");
+    assert_eq!(again.text, asked);
+    assert_ne!(again.dedup_key, told.dedup_key);
+    assert_eq!(guide.step(&up(6.0), 108_000, Some(p0.graph())), None);
+    // the user says the floor: the next leg, as always
     assert!(guide.floor_confirmed(1));
     assert_eq!(guide.floor(), Some(1));
 }
