@@ -501,6 +501,7 @@ fn wire_outcome(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::PhoneAck => decode_checked::<PhoneAck>(bytes),
         SchemaId::PhoneMotion => decode_checked::<PhoneMotion>(bytes),
         SchemaId::Pressure => decode_checked::<Pressure>(bytes),
+        SchemaId::CameraPlace => decode_checked::<CameraPlace>(bytes),
     }
 }
 
@@ -625,7 +626,7 @@ struct Seeds {
 
 /// The golden vectors (`schemas/vectors`, kept current by `schemas/tests/golden.rs`):
 /// representative values of every message as `encode` writes them.
-const GOLDEN: [&[u8]; 52] = [
+const GOLDEN: [&[u8]; 53] = [
     include_bytes!("../schemas/vectors/applied_device_status.bin"),
     include_bytes!("../schemas/vectors/applied_offline_warning.bin"),
     include_bytes!("../schemas/vectors/applied_rumble.bin"),
@@ -633,6 +634,7 @@ const GOLDEN: [&[u8]; 52] = [
     include_bytes!("../schemas/vectors/applied_speech_finished.bin"),
     include_bytes!("../schemas/vectors/applied_speech_interrupted.bin"),
     include_bytes!("../schemas/vectors/applied_speech_started.bin"),
+    include_bytes!("../schemas/vectors/camera_place.bin"),
     include_bytes!("../schemas/vectors/command_cancel.bin"),
     include_bytes!("../schemas/vectors/command_destination.bin"),
     include_bytes!("../schemas/vectors/command_floor.bin"),

@@ -12,8 +12,8 @@
 //! recorder, `publish_time` the header's capture time (the arrival time when the header
 //! does not decode), `sequence` the header's sequence number (its low 32 bits).
 //! Hazards, haptic and speech intents also get a decoded JSON twin on `<key>/json`
-//! for tools that read JSON but not the wire, and the scan, the pose, the route and the
-//! hazard a Foxglove twin on `<key>/foxglove` (`foxglove.LaserScan`,
+//! for tools that read JSON but not the wire, and the scan, the pose, the route, the
+//! hazard and the camera's place a Foxglove twin on `<key>/foxglove` (`foxglove.LaserScan`,
 //! `foxglove.PoseInFrame`, `foxglove.PosesInFrame`, `foxglove.FrameTransform`, JSON) that
 //! Foxglove draws; replay leaves the twins out.
 
@@ -298,9 +298,11 @@ fn foxglove_pose(x: f64, y: f64, yaw: f64) -> serde_json::Value {
 /// so Foxglove draws them: `foxglove.LaserScan` in the user frame (`wearnav_user`: x
 /// forward, y left; a bin that saw nothing has range 0, which Foxglove draws at the
 /// origin), `foxglove.PoseInFrame` and `foxglove.PosesInFrame` (the route ahead, each
-/// point facing the next) in the map frame (`map`, the floor's plane; z = 0); and each
+/// point facing the next) in the map frame (`map`, the floor's plane; z = 0); each
 /// hazard's floor plane as the `foxglove.FrameTransform` from the user frame to the
-/// camera's (`wearnav_camera`, the point clouds' frame).
+/// camera's (`wearnav_camera`, the point clouds' frame); and each frame's camera place
+/// (`localization/camera`) as the `foxglove.FrameTransform` from the map to the user
+/// frame, so the scan and the point cloud are drawn on the map.
 fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static str, Vec<u8>)> {
     let (stamp, pose) = (foxglove_time, foxglove_pose);
     let value = match schema {
@@ -377,6 +379,21 @@ fn as_foxglove(schema: schemas::SchemaId, payload: &[u8]) -> Option<(&'static st
                     "child_frame_id": "wearnav_camera",
                     "translation": { "x": translation[0], "y": translation[1], "z": translation[2] },
                     "rotation": { "x": rotation[0], "y": rotation[1], "z": rotation[2], "w": rotation[3] },
+                }),
+            )
+        }
+        schemas::SchemaId::CameraPlace => {
+            // the scan's frame on the map: the floor below the camera, turned to its view
+            let (header, c) = schemas::decode::<schemas::CameraPlace>(payload).ok()?;
+            let yaw = f64::from(c.yaw_rad);
+            (
+                "foxglove.FrameTransform",
+                serde_json::json!({
+                    "timestamp": stamp(header.capture_ns),
+                    "parent_frame_id": "map",
+                    "child_frame_id": "wearnav_user",
+                    "translation": { "x": f64::from(c.x_m), "y": f64::from(c.y_m), "z": 0.0 },
+                    "rotation": { "x": 0.0, "y": 0.0, "z": (yaw / 2.0).sin(), "w": (yaw / 2.0).cos() },
                 }),
             )
         }

@@ -25,8 +25,8 @@ use perception::body_rate::BodyRate;
 use perception::predictive::Way;
 use planning::UserProfile;
 use schemas::{
-    Applied, AppliedAction, Command, ImuBatch, Keys, OdomIncrement, PhoneMotion, Pose, Pressure, Priority, RouteState,
-    RouteStatus, Scan, SpeechIntent,
+    Applied, AppliedAction, CameraPlace, Command, ImuBatch, Keys, OdomIncrement, PhoneMotion, Pose, Pressure, Priority,
+    RouteState, RouteStatus, Scan, SpeechIntent,
 };
 
 use crate::run::AGENT;
@@ -155,6 +155,7 @@ pub struct Nav {
     body_device: Option<String>,
     keys: Keys,
     pose_out: Publisher<Pose>,
+    camera_out: Publisher<CameraPlace>,
     route_out: Publisher<RouteState>,
     speech_out: Publisher<SpeechIntent>,
     pub(crate) commands: Subscriber<Command>,
@@ -238,6 +239,7 @@ impl Nav {
             body_device,
             keys: keys.clone(),
             pose_out: Publisher::declare(session, keys.pose(), AGENT, Lane::Telemetry, Some(health)).await?,
+            camera_out: Publisher::declare(session, keys.camera_place(), AGENT, Lane::Telemetry, Some(health)).await?,
             route_out: Publisher::declare(session, keys.route_state(), AGENT, Lane::Events, Some(health)).await?,
             speech_out: Publisher::declare(session, keys.speech(), AGENT, Lane::RealTime, Some(health)).await?,
             commands: Subscriber::declare_fresh(session, keys.cmd_any(), false, MAX_COMMAND_AGE, health).await?,
@@ -386,6 +388,20 @@ impl Nav {
     pub async fn frame(&mut self, scan: &Scan, held: &[[f32; 2]], capture_ns: u64, body_yaw_rate: Option<f32>) {
         let cane = self.cane_rate.rate_at(capture_ns, bus::now_ns()).map(f64::from);
         self.tracker.frame(scan, capture_ns, cane, body_yaw_rate.map(f64::from));
+        // where this frame's scan lies on the map, at the frame's capture (for viewers)
+        let (camera, yaw) = self.tracker.camera_in_map();
+        let place = CameraPlace {
+            x_m: camera[0] as f32,
+            y_m: camera[1] as f32,
+            yaw_rad: localization::wrap_angle(yaw) as f32,
+            floor: self.tracker.estimate().level,
+            status: localization::tracker::wire_status(self.tracker.estimate().status),
+        };
+        if [place.x_m, place.y_m, place.yaw_rad].iter().all(|v| v.is_finite()) {
+            if let Err(e) = self.camera_out.put(capture_ns, &place).await {
+                tracing::warn!("{e:#}");
+            }
+        }
         let news = self.tracker.news();
         if let Some(news) = news {
             tracing::info!("localization: {news}");

@@ -2,7 +2,7 @@
 //!
 //! Key space (ARCHITECTURE.md), one user per prefix so several people can share a LAN:
 //! `wearnav/<user>/sensor/<device>/{depth,imu,odom,pressure,truth}`, `perception/{scan,hazard}`,
-//! `localization/pose`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
+//! `localization/{pose,camera}`, `route/state`, `feedback/{haptic,speech,applied}`, `cmd/<verb>`,
 //! `health/<agent>`, `query/<service>`, `phone/{haptic,speech,ack}` (the phone app as a feedback
 //! device, through the phone bridge; `sensor/phone/motion` is the phone's compass and steps).
 
@@ -120,6 +120,11 @@ impl Keys {
     /// Pose on the floor map.
     pub fn pose(&self) -> String {
         format!("{}/localization/pose", self.prefix)
+    }
+
+    /// Where the scan's frame is on the map, each frame (`localization/camera`).
+    pub fn camera_place(&self) -> String {
+        format!("{}/localization/camera", self.prefix)
     }
 
     /// Current route and next waypoint.

@@ -309,6 +309,26 @@ pub struct Pose {
     pub guides: bool,
 }
 
+/// Where the scan's frame is on the map at one frame's capture (`localization/camera`):
+/// the camera's floor frame (the scan's: on the floor below the camera, x along its
+/// view, y to the left), placed by the localization estimate of then, the cane's reach
+/// from the hand and its sweep. A recording's viewer draws the scan and the point cloud
+/// on the map with it; nothing steers by it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraPlace {
+    /// Map x of the point on the floor below the camera, metres.
+    pub x_m: f32,
+    /// Map y of that point, metres.
+    pub y_m: f32,
+    /// The camera's view on the map, radians (0 = +x, counter-clockwise): the scan's
+    /// bearing 0.
+    pub yaw_rad: f32,
+    /// Floor index.
+    pub floor: i32,
+    /// The localization status of the estimate it was placed from.
+    pub status: LocalizationStatus,
+}
+
 /// How far a [`Pose`] can be trusted; route guidance acts on it where [`Pose::guides`]
 /// says so.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

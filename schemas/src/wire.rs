@@ -94,11 +94,13 @@ pub enum SchemaId {
     PhoneMotion = 18,
     /// [`Pressure`]
     Pressure = 19,
+    /// [`CameraPlace`]
+    CameraPlace = 20,
 }
 
 impl SchemaId {
     /// Every schema, in id order.
-    pub const ALL: [SchemaId; 19] = [
+    pub const ALL: [SchemaId; 20] = [
         SchemaId::DepthFrame,
         SchemaId::ImuBatch,
         SchemaId::OdomIncrement,
@@ -118,6 +120,7 @@ impl SchemaId {
         SchemaId::PhoneAck,
         SchemaId::PhoneMotion,
         SchemaId::Pressure,
+        SchemaId::CameraPlace,
     ];
 
     /// The schema with this numeric id.
@@ -147,6 +150,7 @@ impl SchemaId {
             SchemaId::PhoneAck => "phone_ack",
             SchemaId::PhoneMotion => "phone_motion",
             SchemaId::Pressure => "pressure",
+            SchemaId::CameraPlace => "camera_place",
         }
     }
 
@@ -491,6 +495,14 @@ impl Message for Pose {
     const SCHEMA: SchemaId = SchemaId::Pose;
     fn validate(&self) -> Result<(), String> {
         finite("pose", &[self.x_m, self.y_m, self.yaw_rad])
+    }
+}
+
+impl Message for CameraPlace {
+    const SCHEMA: SchemaId = SchemaId::CameraPlace;
+    const MAX_BYTES: usize = 1024;
+    fn validate(&self) -> Result<(), String> {
+        finite("camera place", &[self.x_m, self.y_m, self.yaw_rad])
     }
 }
 

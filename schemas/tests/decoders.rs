@@ -25,7 +25,7 @@ static ALLOCATOR: LargestAllocation = LargestAllocation;
 
 /// Every golden vector (`schemas/vectors`, kept current by `tests/golden.rs`):
 /// representative values of every message, as `encode` writes them.
-const GOLDEN: [&[u8]; 52] = [
+const GOLDEN: [&[u8]; 53] = [
     include_bytes!("../vectors/applied_device_status.bin"),
     include_bytes!("../vectors/applied_offline_warning.bin"),
     include_bytes!("../vectors/applied_rumble.bin"),
@@ -33,6 +33,7 @@ const GOLDEN: [&[u8]; 52] = [
     include_bytes!("../vectors/applied_speech_finished.bin"),
     include_bytes!("../vectors/applied_speech_interrupted.bin"),
     include_bytes!("../vectors/applied_speech_started.bin"),
+    include_bytes!("../vectors/camera_place.bin"),
     include_bytes!("../vectors/command_cancel.bin"),
     include_bytes!("../vectors/command_destination.bin"),
     include_bytes!("../vectors/command_floor.bin"),
@@ -175,6 +176,7 @@ fn check_schema(schema: SchemaId, bytes: &[u8]) -> Result<&'static str, String> 
         SchemaId::PhoneAck => check_decode::<PhoneAck>(bytes),
         SchemaId::PhoneMotion => check_decode::<PhoneMotion>(bytes),
         SchemaId::Pressure => check_decode::<Pressure>(bytes),
+        SchemaId::CameraPlace => check_decode::<CameraPlace>(bytes),
     }
 }
 

@@ -335,6 +335,11 @@ fn localization_vectors() -> Vec<[Golden; 2]> {
             },
         ),
         vector(
+            "camera_place",
+            63,
+            CameraPlace { x_m: 13.25, y_m: 3.5, yaw_rad: 0.75, floor: 2, status: LocalizationStatus::Tracking },
+        ),
+        vector(
             "pose_lost",
             18,
             Pose {
@@ -700,6 +705,7 @@ fn key_vectors() -> Golden {
         case("scan", &[], &k.scan()),
         case("hazard", &[], &k.hazard()),
         case("pose", &[], &k.pose()),
+        case("camera_place", &[], &k.camera_place()),
         case("route_state", &[], &k.route_state()),
         case("haptic", &[], &k.haptic()),
         case("speech", &[], &k.speech()),

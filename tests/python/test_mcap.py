@@ -248,12 +248,14 @@ def rotate(q, v):
 
 
 def test_each_hazards_floor_places_the_camera_in_the_scans_frame_and_its_point_cloud_on_that_floor(recording):
-    transforms = foxglove_messages(recording, "foxglove.FrameTransform")
+    every = foxglove_messages(recording, "foxglove.FrameTransform")
+    assert {topic for _, _, topic in every} == {
+        f"wearnav/{USER}/perception/hazard/foxglove", f"wearnav/{USER}/localization/camera/foxglove"}
+    transforms = [t for t in every if t[2] == f"wearnav/{USER}/perception/hazard/foxglove"]
     hazards = [h for _, h, _ in transforms]
     assert len(transforms) >= 90, f"{len(transforms)} transforms in 5 s of 30 Hz hazards"
     by_stamp = {}
     for fox, hazard, topic in transforms:
-        assert topic == f"wearnav/{USER}/perception/hazard/foxglove", topic
         assert (fox["parent_frame_id"], fox["child_frame_id"]) == ("wearnav_user", "wearnav_camera")
         stamp = hazard.header["capture_ns"]
         assert (fox["timestamp"]["sec"], fox["timestamp"]["nsec"]) == divmod(stamp, 10**9)
@@ -285,6 +287,81 @@ def test_each_hazards_floor_places_the_camera_in_the_scans_frame_and_its_point_c
         assert abs(np.percentile(z, 5)) < 0.03, f"the lowest points at {np.percentile(z, 5):.2f} m, not on the floor"
         placed += 1
     assert placed >= len(clouds) - 2, f"{placed} of {len(clouds)} clouds had their frame's transform"
+
+
+def test_each_frames_camera_place_puts_its_scan_on_the_walls_of_the_floor_plan_the_agent_localizes_on(recording, tmp_path):
+    # the demo walks its default world, `approach`; its compute agent localizes on the
+    # world's floor plan (walls only), which `wearnav map` writes
+    plan = tmp_path / "approach"
+    run = subprocess.run([str(WEARNAV), "map", "--world", "approach", "--out", str(plan)],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    meta = dict(line.split(": ", 1) for line in (plan / "floor0.yaml").read_text().splitlines())
+    ox, oy, _ = json.loads(meta["origin"])
+    res = float(meta["resolution"])
+    width, height, pixels = read_pgm(plan / meta["image"])
+    occupied = (255 - pixels.astype(float)) / 255 > float(meta["occupied_thresh"])
+
+    def near_wall(x, y, within_m=0.15):
+        k, col, row = math.ceil(within_m / res), int((x - ox) / res), height - 1 - int((y - oy) / res)
+        r0, r1, c0, c1 = max(row - k, 0), min(row + k + 1, height), max(col - k, 0), min(col + k + 1, width)
+        return r0 < r1 and c0 < c1 and bool(occupied[r0:r1, c0:c1].any())
+
+    places = {}
+    for fox, place, topic in foxglove_messages(recording, "foxglove.FrameTransform"):
+        if topic != f"wearnav/{USER}/localization/camera/foxglove":
+            continue
+        stamp = place.header["capture_ns"]
+        assert (fox["timestamp"]["sec"], fox["timestamp"]["nsec"]) == divmod(stamp, 10**9)
+        assert (fox["parent_frame_id"], fox["child_frame_id"]) == ("map", "wearnav_user")
+        t, r = fox["translation"], fox["rotation"]
+        body = place.body
+        assert (t["x"], t["y"], t["z"]) == pytest.approx((body["x_m"], body["y_m"], 0), abs=1e-6)
+        assert (r["x"], r["y"]) == (0, 0)
+        yaw = 2 * math.atan2(r["z"], r["w"])
+        assert math.remainder(yaw - body["yaw_rad"], 2 * math.pi) == pytest.approx(0, abs=1e-6)
+        assert body["floor"] == 0 and body["status"] in ("Tracking", "Converging"), body
+        places[stamp] = body
+    scans, truth = {}, {}
+    with open(recording, "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            if channel.topic == f"wearnav/{USER}/perception/scan":
+                scan = decode(message.data)
+                scans[scan.header["capture_ns"]] = scan.body
+            elif channel.topic.endswith("/truth") and channel.message_encoding == "wearnav-bincode":
+                t = decode(message.data)
+                truth[t.header["capture_ns"]] = t.body
+    assert len(places) >= 90, f"{len(places)} camera places in 5 s of 30 Hz frames"
+    assert len(set(places) & set(scans)) >= len(scans) - 2, "a camera place for every frame's scan"
+    # the camera's view is the walker's heading turned by the cane's sweep (measured:
+    # within 1.9 degrees)
+    for stamp, place in places.items():
+        if stamp in truth:
+            g = truth[stamp]
+            view = g["yaw_rad"] + math.radians(g["sweep_deg"])
+            assert abs(math.degrees(math.remainder(place["yaw_rad"] - view, 2 * math.pi))) < 5, (place, g)
+
+    def on_walls(ahead_m):
+        """The share of the scans' ranges, placed by their frame's camera place moved
+        `ahead_m` along its view, that lie within 15 cm of a wall of the plan."""
+        hits = total = 0
+        for stamp, scan in scans.items():
+            p = places.get(stamp)
+            if p is None:
+                continue
+            x0 = p["x_m"] + ahead_m * math.cos(p["yaw_rad"])
+            y0 = p["y_m"] + ahead_m * math.sin(p["yaw_rad"])
+            for i, r in enumerate(scan["ranges_m"]):
+                if math.isfinite(r):
+                    a = p["yaw_rad"] + math.radians(scan["angle_min_deg"] + i * scan["angle_increment_deg"])
+                    total += 1
+                    hits += near_wall(x0 + r * math.cos(a), y0 + r * math.sin(a))
+        assert total >= 1000, f"{total} ranges"
+        return hits / total
+
+    # measured: every range on the wall the walker faces; 30 cm off, none
+    assert on_walls(0.0) >= 0.95
+    assert on_walls(0.3) < 0.2 and on_walls(-0.3) < 0.2
 
 
 def read_pgm(path):

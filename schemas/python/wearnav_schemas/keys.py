@@ -2,7 +2,7 @@
 ``schemas/vectors/keys.json`` holds the Rust output these must equal).
 
 Key space, one user per prefix: ``wearnav/<user>/sensor/<device>/{depth,imu,odom,pressure,truth}``,
-``perception/{scan,hazard}``, ``localization/pose``, ``route/state``,
+``perception/{scan,hazard}``, ``localization/{pose,camera}``, ``route/state``,
 ``feedback/{haptic,speech,applied}``, ``cmd/<verb>``, ``health/<agent>``, ``query/<service>``,
 ``phone/{haptic,speech,ack}`` (the phone as a feedback device, through the phone bridge)
 ``sensor/phone/motion`` (the phone's compass and steps) and ``sensor/<device>/pressure``
@@ -87,6 +87,10 @@ class Keys:
     def pose(self):
         """Pose on the floor map."""
         return f"{self._prefix}/localization/pose"
+
+    def camera_place(self):
+        """Where the scan's frame is on the map, each frame (``localization/camera``)."""
+        return f"{self._prefix}/localization/camera"
 
     def route_state(self):
         """Current route and next waypoint."""

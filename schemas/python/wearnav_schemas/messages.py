@@ -110,6 +110,10 @@ POSE = Struct(
     guides=BOOL,
 )
 
+CAMERA_PLACE = Struct(
+    "CameraPlace", x_m=F32, y_m=F32, yaw_rad=F32, floor=I32, status=LOCALIZATION_STATUS
+)
+
 MAP_POINT = Struct("MapPoint", x_m=F32, y_m=F32, floor=I32)
 
 ROUTE_STATUS = Enum(
@@ -292,4 +296,5 @@ SCHEMAS = (
     Schema(17, "phone_ack", PHONE_ACK, 1024),
     Schema(18, "phone_motion", PHONE_MOTION, 1024),
     Schema(19, "pressure", PRESSURE, 1024),
+    Schema(20, "camera_place", CAMERA_PLACE, 1024),
 )

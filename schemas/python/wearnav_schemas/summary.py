@@ -152,6 +152,12 @@ def _phone_motion(b):
     return f"{heading}, {b['steps']} steps"
 
 
+def _camera_place(b):
+    status, _ = _variant(b["status"])
+    yaw = math.degrees(b["yaw_rad"])
+    return f"camera at x {b['x_m']:.2f} y {b['y_m']:.2f} looking {yaw:.0f} deg floor {b['floor']} ({status})"
+
+
 def _pressure(b):
     return f"{b['pressure_pa']:.1f} Pa"
 
@@ -186,6 +192,7 @@ SUMMARIES = {
     "phone_ack": _phone_ack,
     "phone_motion": _phone_motion,
     "pressure": _pressure,
+    "camera_place": _camera_place,
 }
 
 
