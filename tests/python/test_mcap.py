@@ -50,8 +50,10 @@ def wait_listening(port, demo, log, limit=20.0):
     pytest.fail(f"nothing listens on port {port} after {limit} s; the demo's log:\n{log.read_text()[-3000:]}")
 
 
-@pytest.fixture
-def recording(tmp_path):
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    """5 s of the demo recorded once for every test of this file (each only reads it)."""
+    tmp_path = tmp_path_factory.mktemp("recording")
     if not WEARNAV.exists():
         pytest.fail(f"{WEARNAV} missing: run `cargo build --workspace` first")
     port = free_port()
