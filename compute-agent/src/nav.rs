@@ -300,8 +300,9 @@ impl Nav {
 
     /// One odometry increment of the body, with the body's gyro rate over it.
     pub fn odometry(&mut self, inc: &Received<OdomIncrement>, body_yaw_rate: Option<f32>, health: &Health) {
-        if let Err(e) = self.tracker.odometry(&inc.body, body_yaw_rate.map(f64::from)) {
-            health.reject(&inc.key, "implausible", &e);
+        match self.tracker.odometry(&inc.body, body_yaw_rate.map(f64::from)) {
+            Ok(()) => self.navigator.walked(f64::from(inc.body.forward_m).hypot(f64::from(inc.body.left_m))),
+            Err(e) => health.reject(&inc.key, "implausible", &e),
         }
     }
 

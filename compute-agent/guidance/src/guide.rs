@@ -37,7 +37,7 @@ use planning::{BuildingRoute, Leg, LegEnd, NavGraph, Rejoin, Route};
 use crate::instruction::{ttl_ms, Instruction, InstructionKind};
 use crate::profile::{DirectionStyle, GuidanceProfile};
 use crate::utterance::{bearing_phrase, capitalised, distance_phrase, gateway_words, turn_phrase, wrap_deg, Turn};
-use crate::where_am_i::{where_am_i, with_article};
+use crate::where_am_i::{not_known, where_am_i, with_article, LastKnown};
 
 /// "Then turn left." follows the "now" before it within this, or is not said, ms.
 const THEN_WITHIN_MS: u64 = 1000;
@@ -219,6 +219,8 @@ pub struct Guide {
     /// when the user was last asked for it (the localization's question, then
     /// [`CONFIRM_PLACE`]), ms; none while not awaiting
     word_asked_ms: Option<u64>,
+    /// where the user was last placed, as the caller last said ([`Guide::set_last_known`])
+    last_known: Option<LastKnown>,
     arrived: bool,
     off_route: bool,
     /// came back to the route after a deviation: say which way to face
@@ -280,6 +282,7 @@ impl Guide {
             at_gateway_said: None,
             gateway_left_said: false,
             barometer: Barometer::Unread,
+            last_known: None,
             floor_noticed_said: None,
             awaiting_word: false,
             word_asked_ms: None,
@@ -648,7 +651,7 @@ impl Guide {
         } else if self.awaiting_word {
             CONFIRM_PLACE.to_string()
         } else {
-            "Position uncertain: I do not know where you are.".to_string()
+            not_known(self.last_known.as_ref(), &self.semantic, &self.profile, pose.floor)
         };
         self.answer(InstructionKind::WhereAmI, text, "where-am-i", now_ms, true)
     }
@@ -760,6 +763,13 @@ impl Guide {
     /// after those words were said has the user told to say the floor themselves.
     pub fn set_barometer(&mut self, barometer: Barometer) {
         self.barometer = barometer;
+    }
+
+    /// Where the user was last placed and how far they walked since, as the caller
+    /// knows it: "where am I" while the place is not known says it
+    /// ([`crate::where_am_i::not_known`]).
+    pub fn set_last_known(&mut self, last: Option<LastKnown>) {
+        self.last_known = last;
     }
 
     fn height_held(&self) -> bool {

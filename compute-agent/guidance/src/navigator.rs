@@ -19,7 +19,7 @@ use crate::instruction::NEWS_TTL_MS;
 use crate::perceived::{Perceived, PASS_M};
 use crate::profile::GuidanceProfile;
 use crate::utterance::distance_phrase;
-use crate::where_am_i::where_am_i;
+use crate::where_am_i::{not_known, where_am_i, LastKnown};
 
 /// How long an answer or an announcement of the navigator's own may wait for the
 /// speaker, ms (as the guide's answers).
@@ -110,6 +110,9 @@ pub struct Navigator {
     search_failed_said: bool,
     /// what a barometer says of the user's height ([`Guide::set_barometer`])
     barometer: Barometer,
+    /// where guidance last took the place, and the odometry's distance walked since
+    /// ([`Navigator::walked`])
+    last_known: Option<LastKnown>,
     /// localization found a place by a search that waits for the user's word
     /// ([`Guide::set_awaiting_word`])
     awaiting_word: bool,
@@ -149,6 +152,7 @@ impl Navigator {
             turn_asked_ms: None,
             search_failed_said: false,
             barometer: Barometer::Unread,
+            last_known: None,
             awaiting_word: false,
             word_asked_ms: None,
         }
@@ -242,14 +246,21 @@ impl Navigator {
                 }
             },
             Command::WhereAmI => {
+                let last = self.last_known;
                 let speech = match self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
-                    Some(guide) => guide.where_am_i(pose, now_ms).speech(),
+                    Some(guide) => {
+                        guide.set_last_known(last);
+                        guide.where_am_i(pose, now_ms).speech()
+                    }
                     None if pose.confident => {
                         let text = where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m);
                         self.say(text, "where-am-i")
                     }
                     None if self.awaiting_word => self.say(CONFIRM_PLACE.into(), "where-am-i"),
-                    None => self.say("Position uncertain: I do not know where you are.".into(), "where-am-i"),
+                    None => {
+                        let text = not_known(last.as_ref(), &self.semantic, &self.profile, pose.floor);
+                        self.say(text, "where-am-i")
+                    }
                 };
                 out.speech.push(speech);
             }
@@ -318,6 +329,15 @@ impl Navigator {
         self.step(pose, now_ms).filter(|s| !(found && s.text == POSITION_FOUND || lost_told && s.text == UNCERTAIN))
     }
 
+    /// The user walked `m` metres (the odometry's step): counted since the place was
+    /// last taken, for "where am I" while it is not known ("Last known: near door 214,
+    /// 12 metres walked since."). Not a finite, non-negative distance: not counted.
+    pub fn walked(&mut self, m: f64) {
+        if let Some(last) = self.last_known.as_mut().filter(|_| m.is_finite() && m >= 0.0) {
+            last.walked_m += m;
+        }
+    }
+
     /// What a barometer says, now, of the user's height ([`Guide::set_barometer`]):
     /// at their floor's, the guide can tell a user who walked away from the foot of
     /// stairs where they are; one that stopped sending after the guide said it would
@@ -340,6 +360,7 @@ impl Navigator {
         self.headings.push(now_ms, pose.heading_rad);
         let placed = pose.placed();
         if placed {
+            self.last_known = Some(LastKnown { floor: pose.floor, x_m: pose.x_m, y_m: pose.y_m, walked_m: 0.0 });
             (self.unplaced_since_ms, self.turn_asked_ms, self.search_failed_said) = (None, None, false);
             self.word_asked_ms = None;
         } else {

@@ -230,6 +230,59 @@ fn cancel_repeat_and_where_am_i_answer_with_or_without_a_route() {
 }
 
 #[test]
+fn a_user_whose_place_is_lost_hears_where_they_were_last_placed_and_how_far_they_walked_since() {
+    let mut nav = navigator();
+    let placed = at(10.0, 11.5, 0.0, 0);
+    assert_eq!(nav.step(&placed, 0), None);
+    let lost = UserPose { x_m: 14.0, confident: false, ..placed };
+    for k in 1..=24u64 {
+        nav.walked(0.5);
+        nav.step(&lost, k * 100);
+    }
+    nav.walked(f64::NAN);
+    nav.walked(-3.0);
+    let said = nav.command(&Command::WhereAmI, &lost, 2500).speech;
+    assert_eq!(
+        texts(&said),
+        ["Position uncertain: I do not know where you are. Last known: in the corridor, 12 metres walked since."]
+    );
+    // on a trip, the guide answers with the same words
+    let mut guided = navigator();
+    assert_eq!(
+        texts(&guided.command(&go("room 204"), &placed, 0).speech),
+        ["Route to room 204: 35 metres. Go straight on."]
+    );
+    guided.step(&placed, 100);
+    for k in 2..=8u64 {
+        guided.walked(1.0);
+        guided.step(&lost, k * 100);
+    }
+    let said = guided.command(&Command::WhereAmI, &lost, 1000).speech;
+    assert_eq!(
+        texts(&said),
+        ["Position uncertain: I do not know where you are. Last known: in the corridor, 7 metres walked since."]
+    );
+    // placed again: where they are, and the count starts anew
+    let back = at(17.0, 11.5, 0.0, 0);
+    guided.step(&back, 1100);
+    assert_eq!(texts(&guided.command(&Command::WhereAmI, &back, 1200).speech), ["In the corridor."]);
+    guided.walked(2.0);
+    guided.step(&lost, 1300);
+    assert_eq!(
+        texts(&guided.command(&Command::WhereAmI, &lost, 1400).speech),
+        ["Position uncertain: I do not know where you are. Last known: in the corridor, 2 metres walked since."]
+    );
+    // a place the map has no name for is not offered
+    let mut unnamed = navigator();
+    unnamed.step(&at(19.5, 5.0, 0.0, 0), 0);
+    unnamed.walked(4.0);
+    assert_eq!(
+        texts(&unnamed.command(&Command::WhereAmI, &lost, 100).speech),
+        ["Position uncertain: I do not know where you are."]
+    );
+}
+
+#[test]
 fn an_unreachable_destination_is_said_and_the_planner_reason_kept_for_the_log() {
     let mut nav = navigator();
     let here = at(1.5, 11.5, 0.0, 0);
