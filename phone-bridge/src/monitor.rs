@@ -10,8 +10,8 @@ use std::collections::{BTreeMap, VecDeque};
 use map::{Cell, Floor};
 use perception::config::CostConfig;
 use schemas::{
-    GroundTruth, HapticIntent, HapticPattern, Hazard, HealthStats, LocalizationStatus, MapPoint, Pose, RouteState,
-    RouteStatus, Scan, SideCosts, SpeechIntent,
+    CameraPlace, GroundTruth, HapticIntent, HapticPattern, Hazard, HealthStats, LocalizationStatus, MapPoint, Pose,
+    RouteState, RouteStatus, Scan, SideCosts, SpeechIntent,
 };
 use serde::Serialize;
 
@@ -26,7 +26,8 @@ pub const MAX_MAP_CELLS: usize = 1 << 20;
 /// What a page can subscribe to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stream {
-    /// `perception/scan`, and the cost regions it is drawn with.
+    /// `perception/scan`, the cost regions it is drawn with, and where each scan lies
+    /// on the map (`localization/camera`).
     Scan,
     /// `perception/hazard`: costs, rumble state, nearest, latency by stage.
     Hazard,
@@ -294,6 +295,20 @@ pub enum ToMonitor {
         /// a known place).
         guides: bool,
     },
+    /// Where a frame's scan lies on the map (`localization/camera`): the page draws
+    /// the scan of the same capture stamp on the map with it.
+    Camera {
+        /// Capture stamp of the frame, ms since the epoch (the scan's `t`).
+        t: f64,
+        /// Map x of the floor below the camera, metres.
+        x_m: f32,
+        /// Map y, metres.
+        y_m: f32,
+        /// The camera's view (the scan's bearing 0), radians from +x, counter-clockwise.
+        yaw_rad: f32,
+        /// Floor.
+        floor: i32,
+    },
     /// Where the simulated user really is (simulator only).
     Truth {
         /// Capture stamp, ms since the epoch.
@@ -380,7 +395,7 @@ impl ToMonitor {
     pub fn stream(&self) -> Option<Stream> {
         Some(match self {
             ToMonitor::Subscribed { .. } => return None,
-            ToMonitor::Regions { .. } | ToMonitor::Scan { .. } => Stream::Scan,
+            ToMonitor::Regions { .. } | ToMonitor::Scan { .. } | ToMonitor::Camera { .. } => Stream::Scan,
             ToMonitor::Hazard { .. } => Stream::Hazard,
             ToMonitor::Haptic { .. } => Stream::Haptic,
             ToMonitor::Pose { .. } => Stream::Pose,
@@ -505,6 +520,11 @@ pub fn pose(p: &Pose, capture_ns: u64) -> ToMonitor {
         sigma_yaw_deg: finite(p.covariance[8]).filter(|v| *v >= 0.0).map(|v| v.sqrt().to_degrees()),
         guides: p.guides,
     }
+}
+
+/// Where a frame's scan lies on the map, for the page (sent with the scan stream).
+pub fn camera(c: &CameraPlace, capture_ns: u64) -> ToMonitor {
+    ToMonitor::Camera { t: ms(capture_ns), x_m: c.x_m, y_m: c.y_m, yaw_rad: c.yaw_rad, floor: c.floor }
 }
 
 /// The simulator's truth for the page.

@@ -17,8 +17,8 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use bus::{BusOptions, Health, Lane, Publisher, Shutdown, Subscriber};
 use schemas::{
-    Command, Destinations, GroundTruth, HapticIntent, Hazard, HealthStats, PhoneAck, PhoneEvent, PhoneHaptic,
-    PhoneMotion, PhoneSpeech, Pose, Priority, RouteState, Scan, SpeechIntent,
+    CameraPlace, Command, Destinations, GroundTruth, HapticIntent, Hazard, HealthStats, PhoneAck, PhoneEvent,
+    PhoneHaptic, PhoneMotion, PhoneSpeech, Pose, Priority, RouteState, Scan, SpeechIntent,
 };
 use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
@@ -40,7 +40,7 @@ pub const COMMAND_BURST: f64 = 10.0;
 /// three periods says the connection is lost.
 pub const CLOCK_PERIOD: Duration = Duration::from_secs(1);
 /// Monitor messages queued for the slowest monitor page before it loses some (about
-/// 4 s of the scan, hazard, intent, truth and pose at 30 Hz).
+/// 3 s of the scan, the camera's place, hazard, intent, truth and pose at 30 Hz).
 const MONITOR_QUEUE: usize = 512;
 /// Why the bridge answers a speech request `Failed` itself.
 pub const NO_PAGE: &str = "no phone page is connected";
@@ -627,6 +627,7 @@ pub async fn run(
     let scans = Subscriber::<Scan>::declare(&session, keys.scan(), true, &health).await?;
     let intents = Subscriber::<HapticIntent>::declare(&session, keys.haptic(), true, &health).await?;
     let truths = Subscriber::<GroundTruth>::declare(&session, keys.truth_any(), true, &health).await?;
+    let cameras = Subscriber::<CameraPlace>::declare(&session, keys.camera_place(), true, &health).await?;
     let utterances = Subscriber::<SpeechIntent>::declare(&session, keys.speech(), false, &health).await?;
     let agent_stats = Subscriber::<HealthStats>::declare(&session, keys.health_any(), false, &health).await?;
     let liveliness = session
@@ -723,6 +724,7 @@ pub async fn run(
             Some(s) = scans.recv() => bridge.publish_monitor(monitor::scan(&s.body, s.header.seq, s.header.capture_ns)),
             Some(i) = intents.recv() => bridge.publish_monitor(monitor::haptic(&i.body, i.header.capture_ns)),
             Some(t) = truths.recv() => bridge.publish_monitor(monitor::truth(&t.body, t.header.capture_ns)),
+            Some(c) = cameras.recv() => bridge.publish_monitor(monitor::camera(&c.body, c.header.capture_ns)),
             Some(u) = utterances.recv() => bridge.publish_monitor(monitor::utterance(&u.body, u.header.capture_ns)),
             Some(a) = agent_stats.recv() => {
                 let alive = lock(&bridge.view).agents_alive.contains(&a.body.agent);

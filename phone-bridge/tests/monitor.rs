@@ -14,9 +14,9 @@ use common::{connect, drain, get, next_of, pair};
 use futures_util::SinkExt;
 use map::{Building, Cell, Floor, OccupancyGrid, Origin, SemanticLayer};
 use schemas::{
-    CostFunction, GroundState, GroundTruth, HapticIntent, HapticPattern, Hazard, HealthStats, LocalizationStatus,
-    MapPoint, Pose, Priority, RouteState, RouteStatus, Rumble, Scan, SideCosts, SpeechIntent, StageLatency,
-    StreamStats,
+    CameraPlace, CostFunction, GroundState, GroundTruth, HapticIntent, HapticPattern, Hazard, HealthStats,
+    LocalizationStatus, MapPoint, Pose, Priority, RouteState, RouteStatus, Rumble, Scan, SideCosts, SpeechIntent,
+    StageLatency, StreamStats,
 };
 use serde_json::{json, Value};
 use tokio_tungstenite::tungstenite::Message;
@@ -259,6 +259,18 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
     let tr = next_of(&mut monitor, "truth", WAIT).await;
     assert_eq!((&tr["x_m"], &tr["floor"]), (&json!(3.1), &json!(0)), "{tr}");
 
+    // where the scan's frame lies on the map: with the scan stream, at the frame's stamp
+    let mut cameras =
+        Publisher::<CameraPlace>::declare(&session, keys.camera_place(), "test", Lane::Telemetry, None).await.unwrap();
+    let place = CameraPlace { x_m: 3.5, y_m: 4.25, yaw_rad: 0.5, floor: 0, status: LocalizationStatus::Tracking };
+    cameras.put(t_ns, &place).await.unwrap();
+    let cam = next_of(&mut monitor, "camera", WAIT).await;
+    assert_eq!(
+        (&cam["x_m"], &cam["y_m"], &cam["yaw_rad"], &cam["floor"], &cam["t"]),
+        (&json!(3.5), &json!(4.25), &json!(0.5), &json!(0), &json!(t_ns as f64 / 1e6)),
+        "{cam}"
+    );
+
     let mut routes =
         Publisher::<RouteState>::declare(&session, keys.route_state(), "test", Lane::Events, None).await.unwrap();
     let point = |x_m, y_m| MapPoint { x_m, y_m, floor: 0 };
@@ -336,7 +348,8 @@ async fn a_monitor_gets_the_state_then_the_bus_and_a_phone_beside_it_none_of_it(
     let on_phone = drain(&mut phone, Duration::from_millis(300)).await;
     let types: std::collections::BTreeSet<&str> = on_phone.iter().filter_map(|m| m["type"].as_str()).collect();
     assert!(types.contains("obstacle") && types.contains("position") && types.contains("route"), "{types:?}");
-    let monitor_types = ["subscribed", "regions", "map", "scan", "hazard", "haptic", "pose", "truth", "route-path"];
+    let monitor_types =
+        ["subscribed", "regions", "map", "scan", "camera", "hazard", "haptic", "pose", "truth", "route-path"];
     for t in monitor_types.iter().chain(&["health", "utterance"]) {
         assert!(!types.contains(t), "the phone socket got a {t}: {types:?}");
     }

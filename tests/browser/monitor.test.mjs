@@ -203,6 +203,29 @@ step('map', ['speech'], 'the floor map shows the pose, and the route to the dest
   assert.match(await page.locator('#map-note').textContent(), /publishes its covariance, not its particles/);
 });
 
+step('scan-on-map', ['map'], 'the latest scan is drawn on the map where the camera place of its frame puts it', 10000, async () => {
+  const drawn = await waitFor('a scan drawn on the map (data-scan-seq on #map)', () =>
+    page.evaluate(() => { const d = document.getElementById('map').dataset; return d.scanSeq ? { ...d } : null; }), 5000);
+  const scan = await waitFor(`scan #${drawn.scanSeq} from the compute agent on the bus`, () =>
+    onBus('perception/scan').find((m) => m.header.seq === Number(drawn.scanSeq) && m.header.sender === 'compute-agent'), 3000);
+  const place = await waitFor('the camera place of the same frame on the bus', () =>
+    onBus('localization/camera').find((m) => m.header.capture_ns === scan.header.capture_ns), 3000);
+  const { angle_min_deg: first, angle_increment_deg: step, ranges_m: ranges } = scan.body;
+  const { x_m: cx, y_m: cy, yaw_rad: yaw } = place.body;
+  const expected = [];
+  ranges.forEach((r, i) => {
+    if (r === null) return;
+    const a = yaw + (first + i * step) * Math.PI / 180;
+    expected.push([cx + r * Math.cos(a), cy + r * Math.sin(a)]);
+  });
+  const points = drawn.scanPoints.split(' ').map((p) => p.split(',').map(Number));
+  assert.ok(expected.length > 0, 'the building is not empty ahead of the user');
+  assert.equal(points.length, expected.length, 'a point on the map for each beam that saw something');
+  // the page has the ranges to the millimetre and writes the points to the millimetre
+  const off = Math.max(...points.map((p, i) => Math.hypot(p[0] - expected[i][0], p[1] - expected[i][1])));
+  assert.ok(off < 0.002, `the points drawn are where the bus's scan and camera place put them (${off} m off at most)`);
+});
+
 step('health', ['page'], 'every agent is listed alive and ok, with the latency of what it reads', 10000, async () => {
   const rows = await waitFor(`rows for ${AGENTS.join(', ')}, alive and ok`, () => page.evaluate((names) => {
     const rows = [...document.querySelectorAll('#agents-table tbody tr')].map((tr) => ({
@@ -214,7 +237,7 @@ step('health', ['page'], 'every agent is listed alive and ok, with the latency o
   assert.match(compute.cells[5], /sensor\/\*\/depth \d+\.\d\/s \d+\.\d\/\d+\.\d ms/, `compute-agent's depth rate and age: ${compute.cells[5]}`);
 });
 
-step('look', ['scan', 'rumble', 'speech', 'map', 'health'], 'no serious accessibility violations; a screenshot', 10000, async () => {
+step('look', ['scan', 'rumble', 'speech', 'map', 'scan-on-map', 'health'], 'no serious accessibility violations; a screenshot', 10000, async () => {
   await page.addScriptTag({ path: path.join(here, 'node_modules/axe-core/axe.min.js') });
   const result = await page.evaluate(() => window.axe.run());
   const bad = result.violations.filter((v) => v.impact === 'serious' || v.impact === 'critical');
