@@ -71,6 +71,12 @@ pub struct DemoArgs {
     /// (the simulator's: the floor plan gives each floor's height).
     #[arg(long, requires = "destination")]
     pub floor_unsaid: bool,
+    /// On a guided walk (`--destination`), a fault: the simulated cane board's
+    /// barometer stops sending when the first elevator ride starts. The device, which
+    /// had said it would notice the floor, asks the user to say it (with
+    /// `--floor-unsaid` the user says it only then).
+    #[arg(long, requires = "destination")]
+    pub barometer_fails_in_lift: bool,
     /// On a simulated world: how guidance speaks, as TOML (fields of
     /// `guidance::GuidanceProfile`, the compute agent's `--guidance-profile`):
     /// `directions = "clock"`, `units = "steps"`, `passing_doors = false`, ...
@@ -242,7 +248,16 @@ pub async fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     }
     let (source, guided) = match (&args.destination, &navigation) {
         (Some(label), Some((world, nav))) => {
-            let mut walk = crate::guided::GuidedWalk::prepare(world, nav, label, args.chest, !args.floor_unsaid)?;
+            let mut walk = crate::guided::GuidedWalk::prepare(
+                world,
+                nav,
+                label,
+                crate::guided::WalkOptions {
+                    chest: args.chest,
+                    says_floor: !args.floor_unsaid,
+                    barometer_stops_in_ride: args.barometer_fails_in_lift,
+                },
+            )?;
             let source = walk.source.take().context("the guided walk's source was taken twice")?;
             (source, Some(walk))
         }

@@ -3,7 +3,7 @@
 //! the simulator's truth) and guides; the simulated user walks by the route it gives,
 //! as seen from where the device believes the user is, takes elevators when told to,
 //! and says which floor they reached (with `--floor-unsaid` it does not: the barometer
-//! finds it). The demo reads the bus for the walker (route
+//! finds it, and the user says it only when the device asks them to). The demo reads the bus for the walker (route
 //! state, pose), sends the user's commands, prints what is said, and ends on arrival.
 
 use std::sync::{Arc, Mutex};
@@ -40,6 +40,17 @@ pub fn sim_navigation(source: &str) -> anyhow::Result<Option<(World, NavConfig)>
     Ok(Some((world, nav)))
 }
 
+/// How the simulated user and their devices behave on a guided walk.
+#[derive(Debug, Clone, Copy)]
+pub struct WalkOptions {
+    /// a second depth camera worn at the chest
+    pub chest: bool,
+    /// the user says the floor a lift took them to (else only when the device asks)
+    pub says_floor: bool,
+    /// a fault: the cane board's barometer stops sending when the first ride starts
+    pub barometer_stops_in_ride: bool,
+}
+
 /// A guided walk set up before the agents start.
 pub struct GuidedWalk {
     /// where to
@@ -54,8 +65,7 @@ pub struct GuidedWalk {
 
 impl GuidedWalk {
     /// The simulated camera of `world` walked by guidance to `label` on `building`.
-    /// The user says the floor a lift took them to when `says_floor`.
-    pub fn prepare(world: &World, nav: &NavConfig, label: &str, chest: bool, says_floor: bool) -> anyhow::Result<Self> {
+    pub fn prepare(world: &World, nav: &NavConfig, label: &str, options: WalkOptions) -> anyhow::Result<Self> {
         let MapSource::Loaded(_, building) = &nav.map else {
             bail!("a guided walk needs the simulated world's own floor plan");
         };
@@ -64,11 +74,18 @@ impl GuidedWalk {
         let config = SimConfig {
             world: world.name().to_string(),
             guided_by: Some(Guidance(directions.clone())),
-            chest: chest.then(sensor_agent::sim::ChestMount::default),
+            chest: options.chest.then(sensor_agent::sim::ChestMount::default),
+            barometer_stops_in_ride: options.barometer_stops_in_ride,
             ..SimConfig::default()
         };
         let sim = SimSource::new(config).with_context(|| format!("cannot simulate {:?}", world.name()))?;
-        Ok(Self { label: place.0, place: place.1, source: Some(Box::new(sim)), directions, says_floor })
+        Ok(Self {
+            label: place.0,
+            place: place.1,
+            source: Some(Box::new(sim)),
+            directions,
+            says_floor: options.says_floor,
+        })
     }
 }
 
@@ -108,6 +125,12 @@ pub struct GuidedWatch {
     says_floor: bool,
     /// floors reached by lift and not said
     floors_unsaid: Vec<i32>,
+    /// the floor reached by lift that the user has not said yet
+    unsaid: Option<i32>,
+    /// the device asked the user to say the floor they are on
+    floor_asked: bool,
+    /// floors said because the device asked
+    floors_said_when_asked: Vec<i32>,
 }
 
 impl GuidedWatch {
@@ -140,6 +163,9 @@ impl GuidedWatch {
             floors_said: Vec::new(),
             says_floor: walk.says_floor,
             floors_unsaid: Vec::new(),
+            unsaid: None,
+            floor_asked: false,
+            floors_said_when_asked: Vec::new(),
         })
     }
 
@@ -198,10 +224,12 @@ impl GuidedWatch {
         self.lock().estimate = Some(pose);
     }
 
-    /// What the user hears.
+    /// What the user hears; a user who does not say the floor on their own says it
+    /// when asked to ("... tell me when you are on floor 1.").
     pub fn on_speech(&mut self, speech: &SpeechIntent) {
         self.utterances += 1;
         eprintln!("{} says ({:?}): {}", self.stamp(), speech.priority, speech.text);
+        self.floor_asked |= speech.text.contains("tell me when you are on floor");
     }
 
     /// The simulator's truth (for the report only; the agents never see it).
@@ -222,16 +250,29 @@ impl GuidedWatch {
             }
             self.asked_at = Some(Instant::now());
         }
-        let said = self.lock().said_floor.take();
-        if let Some(floor) = said.filter(|_| !self.says_floor) {
+        let reached = self.lock().said_floor.take();
+        if let Some(floor) = reached.filter(|_| !self.says_floor) {
             eprintln!("{} user: (out of the lift on floor {floor}, says nothing)", self.stamp());
             self.floors_unsaid.push(floor);
-        } else if let Some(floor) = said {
+            self.unsaid = Some(floor);
+        } else if let Some(floor) = reached {
             eprintln!("{} user: I am on floor {floor}", self.stamp());
             self.floors_said.push(floor);
-            if let Err(e) = self.floor_out.put(bus::now_ns(), &Command::Floor { floor }).await {
-                eprintln!("{} {e:#}", self.stamp());
+            self.say_floor(floor).await;
+        }
+        if self.floor_asked {
+            if let Some(floor) = self.unsaid.take() {
+                self.floor_asked = false;
+                eprintln!("{} user: (asked) I am on floor {floor}", self.stamp());
+                self.floors_said_when_asked.push(floor);
+                self.say_floor(floor).await;
             }
+        }
+    }
+
+    async fn say_floor(&mut self, floor: i32) {
+        if let Err(e) = self.floor_out.put(bus::now_ns(), &Command::Floor { floor }).await {
+            eprintln!("{} {e:#}", self.stamp());
         }
     }
 
@@ -245,7 +286,13 @@ impl GuidedWatch {
         let rides = match (self.floors_said.is_empty(), self.floors_unsaid.is_empty()) {
             (true, true) => "no elevator ride".to_string(),
             (false, _) => format!("floors said after elevator rides: {:?}", self.floors_said),
-            (true, false) => format!("floors reached by elevator, not said: {:?}", self.floors_unsaid),
+            (true, false) if self.floors_said_when_asked.is_empty() => {
+                format!("floors reached by elevator, not said: {:?}", self.floors_unsaid)
+            }
+            (true, false) => format!(
+                "floors reached by elevator, not said: {:?}, said when the device asked: {:?}",
+                self.floors_unsaid, self.floors_said_when_asked
+            ),
         };
         let place = format!("{} (floor {floor}, {x:.2}, {y:.2})", self.label);
         match self.arrived_at {

@@ -1294,3 +1294,35 @@ fn a_user_who_does_not_say_the_floor_is_guided_on_from_where_the_barometer_finds
     // is taken; the guide then speaks at its next step
     assert!((1.0..8.0).contains(&waited), "floor 1 said {waited:.1} s after the doors opened:\n{log}");
 }
+
+/// The guided demo with a cane board whose barometer stops sending when the lift ride
+/// starts: told at the elevator that the floor would be noticed, the user (who says no
+/// floor unless asked) is asked to say it, says it once out of the lift, and is guided
+/// on to the room. Without the question they would stand at the lift doors for good.
+#[test]
+fn a_user_told_the_floor_would_be_noticed_is_asked_for_it_when_the_barometer_stops_in_the_lift() {
+    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
+        .args(["demo", "--world", "building", "--destination", "room 204", "--duration", "120s"])
+        .args(["--floor-unsaid", "--barometer-fails-in-lift"])
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .output()
+        .expect("wearnav demo runs");
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "the demo failed:\n{log}");
+    assert!(log.contains("guided walk summary: arrived at room 204 (floor 1,"), "{log}");
+    assert!(log.contains("floors reached by elevator, not said: [1], said when the device asked: [1]"), "{log}");
+    let at = |needle: &str| {
+        let line = log.lines().find(|l| l.contains(needle)).unwrap_or_else(|| panic!("no {needle:?} in\n{log}"));
+        line.trim_start_matches('[').split('s').next().and_then(|t| t.trim().parse::<f64>().ok()).expect("a time")
+    };
+    let told = at("I will notice the floor when you get there; you can also tell me.");
+    let asked =
+        at("says (Message): I can no longer measure the height, so I will not notice the floor: tell me when you are on floor 1.");
+    let (said, guided_on) = (at("user: (asked) I am on floor 1"), at("says (Message): Floor 1: "));
+    // the ride starts after the words at the elevator, and the barometer counts as
+    // stopped 2 s after its last reading; the question comes once
+    assert!(asked - told >= 2.0, "asked {asked:.1} s, told at the elevator {told:.1} s:\n{log}");
+    assert_eq!(log.matches("I can no longer measure the height").count(), 1, "{log}");
+    assert!(told < asked && asked <= said && said < guided_on, "{told} {asked} {said} {guided_on}:\n{log}");
+}
