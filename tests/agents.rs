@@ -1244,14 +1244,13 @@ fn a_chest_camera_is_refused_on_a_recording_and_under_the_cane_cameras_name() {
     assert!(err.contains("--chest-device \"cane\" is the camera's or the body IMU's device"), "{err}");
 }
 
-/// The README's guided demo as a user runs it: the simulated user is walked to room 204
-/// by what the device says, across a lift ride, and the demo ends once "you have
-/// arrived" has been said to its end, with no warning at its end (the feedback agent
-/// stops before the agents it watches).
-#[test]
-fn the_guided_demo_walks_the_user_to_the_room_and_ends_after_the_arrival_is_said() {
+/// `wearnav demo --world building --destination "room 204"` with `extra` arguments, run
+/// to its end: what it printed (the feedback agent's console) and its log, once it has
+/// said the user arrived at room 204 on floor 1.
+fn guided_demo_to_room_204(extra: &[&str]) -> (String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
         .args(["demo", "--world", "building", "--destination", "room 204", "--duration", "120s"])
+        .args(extra)
         .env("RUST_LOG", "warn")
         .stdin(Stdio::null())
         .output()
@@ -1259,6 +1258,23 @@ fn the_guided_demo_walks_the_user_to_the_room_and_ends_after_the_arrival_is_said
     let (said, log) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "the demo failed:\n{log}");
     assert!(log.contains("guided walk summary: arrived at room 204 (floor 1,"), "{log}");
+    (said.into_owned(), log.into_owned())
+}
+
+/// When the guided demo's log first has `needle`: seconds into the walk, from its
+/// "[  23.5s] ..." stamp.
+fn logged_at(log: &str, needle: &str) -> f64 {
+    let line = log.lines().find(|l| l.contains(needle)).unwrap_or_else(|| panic!("no {needle:?} in\n{log}"));
+    line.trim_start_matches('[').split('s').next().and_then(|t| t.trim().parse::<f64>().ok()).expect("a time")
+}
+
+/// The README's guided demo as a user runs it: the simulated user is walked to room 204
+/// by what the device says, across a lift ride, and the demo ends once "you have
+/// arrived" has been said to its end, with no warning at its end (the feedback agent
+/// stops before the agents it watches).
+#[test]
+fn the_guided_demo_walks_the_user_to_the_room_and_ends_after_the_arrival_is_said() {
+    let (said, _) = guided_demo_to_room_204(&[]);
     let speech: Vec<&str> = said.lines().filter(|l| l.starts_with("SPEAK")).collect();
     let arrival = speech.iter().position(|l| *l == "SPEAK \"You have arrived at room 204.\"");
     let arrival = arrival.unwrap_or_else(|| panic!("the arrival was not said: {speech:#?}"));
@@ -1271,22 +1287,11 @@ fn the_guided_demo_walks_the_user_to_the_room_and_ends_after_the_arrival_is_said
 /// heights, takes floor 1 a few seconds after the doors open, and guides on to the room.
 #[test]
 fn a_user_who_does_not_say_the_floor_is_guided_on_from_where_the_barometer_finds_them() {
-    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
-        .args(["demo", "--world", "building", "--destination", "room 204", "--duration", "120s", "--floor-unsaid"])
-        .env("RUST_LOG", "warn")
-        .stdin(Stdio::null())
-        .output()
-        .expect("wearnav demo runs");
-    let log = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "the demo failed:\n{log}");
-    assert!(log.contains("guided walk summary: arrived at room 204 (floor 1,"), "{log}");
+    let (_, log) = guided_demo_to_room_204(&["--floor-unsaid"]);
     assert!(log.contains("floors reached by elevator, not said: [1]"), "{log}");
     assert!(!log.contains("user: I am on floor"), "the user said a floor:\n{log}");
     // "[  23.5s] user: (out of the lift ...)", then "[  26.2s] says (Message): Floor 1: ..."
-    let at = |needle: &str| {
-        let line = log.lines().find(|l| l.contains(needle)).unwrap_or_else(|| panic!("no {needle:?} in\n{log}"));
-        line.trim_start_matches('[').split('s').next().and_then(|t| t.trim().parse::<f64>().ok()).expect("a time")
-    };
+    let at = |needle: &str| logged_at(&log, needle);
     let (out_of_lift, floor_said) =
         (at("user: (out of the lift on floor 1, says nothing)"), at("says (Message): Floor 1: "));
     let waited = floor_said - out_of_lift;
@@ -1301,21 +1306,9 @@ fn a_user_who_does_not_say_the_floor_is_guided_on_from_where_the_barometer_finds
 /// on to the room. Without the question they would stand at the lift doors for good.
 #[test]
 fn a_user_told_the_floor_would_be_noticed_is_asked_for_it_when_the_barometer_stops_in_the_lift() {
-    let out = Command::new(env!("CARGO_BIN_EXE_wearnav"))
-        .args(["demo", "--world", "building", "--destination", "room 204", "--duration", "120s"])
-        .args(["--floor-unsaid", "--barometer-fails-in-lift"])
-        .env("RUST_LOG", "warn")
-        .stdin(Stdio::null())
-        .output()
-        .expect("wearnav demo runs");
-    let log = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "the demo failed:\n{log}");
-    assert!(log.contains("guided walk summary: arrived at room 204 (floor 1,"), "{log}");
+    let (_, log) = guided_demo_to_room_204(&["--floor-unsaid", "--barometer-fails-in-lift"]);
     assert!(log.contains("floors reached by elevator, not said: [1], said when the device asked: [1]"), "{log}");
-    let at = |needle: &str| {
-        let line = log.lines().find(|l| l.contains(needle)).unwrap_or_else(|| panic!("no {needle:?} in\n{log}"));
-        line.trim_start_matches('[').split('s').next().and_then(|t| t.trim().parse::<f64>().ok()).expect("a time")
-    };
+    let at = |needle: &str| logged_at(&log, needle);
     let told = at("I will notice the floor when you get there; you can also tell me.");
     let asked =
         at("says (Message): I can no longer measure the height, so I will not notice the floor: tell me when you are on floor 1.");
