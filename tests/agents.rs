@@ -1308,6 +1308,7 @@ fn a_user_who_does_not_say_the_floor_is_guided_on_from_where_the_barometer_finds
 fn a_user_told_the_floor_would_be_noticed_is_asked_for_it_when_the_barometer_stops_in_the_lift() {
     let (_, log) = guided_demo_to_room_204(&["--floor-unsaid", "--barometer-fails-in-lift"]);
     assert!(log.contains("floors reached by elevator, not said: [1], said when the device asked: [1]"), "{log}");
+    assert!(log.contains("no reading from the barometer of cane for 2 s: floors reached are noticed only"), "{log}");
     let at = |needle: &str| logged_at(&log, needle);
     let told = at("I will notice the floor when you get there; you can also tell me.");
     let asked =

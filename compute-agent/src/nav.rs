@@ -168,6 +168,8 @@ pub struct Nav {
     barometer_device: Option<String>,
     /// when the last barometer reading was taken, ns (the bus's clock)
     pressure_at_ns: Option<u64>,
+    /// no reading from the barometer read before for [`BAROMETER_FRESH_NS`] (logged)
+    barometer_silent: bool,
     /// what the feedback agent did: an instruction it never finished is given again
     pub(crate) applied: Subscriber<Applied>,
     pub(crate) destinations: Queryable,
@@ -248,6 +250,7 @@ impl Nav {
             pressure,
             barometer_device: None,
             pressure_at_ns: None,
+            barometer_silent: false,
             applied: Subscriber::declare(session, keys.applied(), false, health).await?,
             destinations: Queryable::declare(session, keys.query("destinations"), health).await?,
             routes: Queryable::declare(session, keys.query("route"), health).await?,
@@ -382,6 +385,23 @@ impl Nav {
         self.publish_state().await;
     }
 
+    /// Says in the log when the barometer read before falls silent, and when it is
+    /// heard again.
+    fn log_barometer_silence(&mut self, barometer: Barometer) {
+        let (Some(device), silent) = (self.barometer_device.as_deref(), barometer == Barometer::Unread) else {
+            return;
+        };
+        if silent && !self.barometer_silent {
+            tracing::warn!(
+                "no reading from the barometer of {device} for {} s: floors reached are noticed only when the user says them",
+                BAROMETER_FRESH_NS / 1_000_000_000
+            );
+        } else if !silent && self.barometer_silent {
+            tracing::info!("the barometer of {device} is heard again");
+        }
+        self.barometer_silent = silent;
+    }
+
     /// One frame's scan and the obstacle points the perception holds (the camera's
     /// floor frame, x forward, y left): the filter corrects, what stands on the route
     /// ahead and the floor plan lacks gets a way round (`Navigator::perceived`), the
@@ -413,7 +433,9 @@ impl Nav {
         let pose = self.user_pose();
         let now_ms = self.now_ms();
         // a barometer that stopped sending says nothing of where the user stands
-        self.navigator.set_barometer(barometer_state(self.pressure_at_ns, bus::now_ns(), self.tracker.height_held()));
+        let barometer = barometer_state(self.pressure_at_ns, bus::now_ns(), self.tracker.height_held());
+        self.log_barometer_silence(barometer);
+        self.navigator.set_barometer(barometer);
         self.navigator.set_awaiting_word(self.tracker.estimate().awaits_word());
         if self.ways_round {
             let camera = self.tracker.points_in_map(held, &mut self.held);
