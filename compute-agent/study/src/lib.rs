@@ -305,7 +305,10 @@ struct Flags {
 
 impl CourseArgs {
     /// These arguments with `flags` (as typed after `--versus`) applied on top: only
-    /// the flags typed there change, every other argument stays as it is here.
+    /// the flags typed there change, every other argument stays as it is here. What
+    /// the flags need or exclude is checked against the arguments as they end up
+    /// (`--versus=--predictive` on top of `--body-gyro` is taken; on top of `--oracle`
+    /// it is refused).
     pub fn with_flags(&self, flags: &str) -> anyhow::Result<CourseArgs> {
         use clap::{CommandFactory, FromArgMatches};
         let err = |e: clap::Error| {
@@ -314,7 +317,12 @@ impl CourseArgs {
             let first = what.split_whitespace().collect::<Vec<_>>().join(" ");
             anyhow::anyhow!("--versus \"{flags}\": {first}")
         };
-        let argv = std::iter::once("course").chain(flags.split_whitespace());
+        // clap checks what a flag needs among the flags it parses: the switches given
+        // here that others need go in first (switches cannot be switched off there)
+        let words: Vec<&str> = flags.split_whitespace().collect();
+        let needed = [(self.body_gyro, "--body-gyro"), (self.chest, "--chest")];
+        let given_here = needed.into_iter().filter(|(on, flag)| *on && !words.contains(flag)).map(|(_, flag)| flag);
+        let argv = std::iter::once("course").chain(given_here).chain(words.iter().copied());
         let matches = Flags::command().try_get_matches_from(argv).map_err(err)?;
         let given = CourseArgs::from_arg_matches(&matches).map_err(err)?;
         let typed = |id: &str| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine);
@@ -348,9 +356,14 @@ impl CourseArgs {
             no_rumble,
             oracle,
             oracle_sees,
+            oracle_guards,
             oracle_turn_rate_deg_s,
             predictive,
+            body_guard,
             pose,
+            ways_round,
+            localization_map,
+            odometry_noise,
             guide,
             route_lookahead_m,
             route_map,
@@ -383,6 +396,13 @@ impl CourseArgs {
         anyhow::ensure!(
             !typed("versus") && !typed("trace") && !typed("json"),
             "--versus \"{flags}\": --versus, --trace and --json cannot be given inside --versus"
+        );
+        let cues = [(v.oracle.is_some(), "--oracle"), (v.predictive, "--predictive"), (v.body_guard, "--body-guard")];
+        let on: Vec<&str> = cues.iter().filter(|(on, _)| *on).map(|(_, name)| *name).collect();
+        anyhow::ensure!(
+            on.len() <= 1,
+            "--versus \"{flags}\": with the arguments already given it would walk {}, which exclude each other",
+            on.join(" and ")
         );
         Ok(v)
     }

@@ -479,6 +479,19 @@ fn versus_walks_the_same_seeds_and_tells_a_switch_that_matters_from_the_spread()
     assert!(refused("--json").contains("cannot be given inside"));
     let e = refused("--no-such-switch");
     assert!(e.contains("--versus \"--no-such-switch\"") && e.contains("--no-such-switch'"), "{e}");
+    // what a flag needs may have been given before --versus; what it excludes too
+    assert!(refused("--predictive").contains("--body-gyro"), "the cue needs the body gyro");
+    let gyro = parsed("--runs 4 --body-gyro");
+    let v = gyro.with_flags("--predictive --pose truth").unwrap();
+    assert!(v.predictive && v.body_gyro && v.pose == study::walk::PoseSource::Truth, "{v:?}");
+    assert!(gyro.with_flags("--body-gyro --predictive").is_ok_and(|v| v.predictive), "given again");
+    let v = parsed("--runs 4 --body-gyro --predictive").with_flags("--localization-map mapped --odometry-noise 2");
+    assert!(v.is_ok_and(|v| v.localization_map != base.localization_map && v.odometry_noise == 2.0));
+    assert!(gyro.with_flags("--body-guard").is_ok_and(|v| v.body_guard));
+    let e = parsed("--runs 4 --body-gyro --oracle goal").with_flags("--predictive").unwrap_err();
+    assert!(format!("{e:#}").contains("--oracle and --predictive, which exclude each other"), "{e:#}");
+    let e = parsed("--runs 4 --chest").with_flags("--chest-pitch-deg 20").map(|v| v.chest_pitch_deg);
+    assert_eq!(e.ok(), Some(20.0), "the chest camera given before");
 
     // the device on and off, seed by seed, in a dead end: with it off no rumble, and the
     // body walks into the wall in every walk
