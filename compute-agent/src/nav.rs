@@ -411,12 +411,13 @@ impl Nav {
         self.tracker.frame(scan, capture_ns, cane, body_yaw_rate.map(f64::from));
         // where this frame's scan lies on the map, at the frame's capture (for viewers)
         let (camera, yaw) = self.tracker.camera_in_map();
+        let estimate = self.tracker.estimate();
         let place = CameraPlace {
             x_m: camera[0] as f32,
             y_m: camera[1] as f32,
             yaw_rad: localization::wrap_angle(yaw) as f32,
-            floor: self.tracker.estimate().level,
-            status: localization::tracker::wire_status(self.tracker.estimate().status),
+            floor: estimate.level,
+            status: localization::tracker::wire_status(estimate.status),
         };
         if [place.x_m, place.y_m, place.yaw_rad].iter().all(|v| v.is_finite()) {
             if let Err(e) = self.camera_out.put(capture_ns, &place).await {

@@ -219,8 +219,6 @@ pub struct Guide {
     /// when the user was last asked for it (the localization's question, then
     /// [`CONFIRM_PLACE`]), ms; none while not awaiting
     word_asked_ms: Option<u64>,
-    /// where the user was last placed, as the caller last said ([`Guide::set_last_known`])
-    last_known: Option<LastKnown>,
     arrived: bool,
     off_route: bool,
     /// came back to the route after a deviation: say which way to face
@@ -282,7 +280,6 @@ impl Guide {
             at_gateway_said: None,
             gateway_left_said: false,
             barometer: Barometer::Unread,
-            last_known: None,
             floor_noticed_said: None,
             awaiting_word: false,
             word_asked_ms: None,
@@ -644,14 +641,15 @@ impl Guide {
     }
 
     /// The answer to "where am I": the areas around the pose and the nearest door (not
-    /// confident: that it is not known, or the question for the user's word).
-    pub fn where_am_i(&mut self, pose: &UserPose, now_ms: u64) -> Instruction {
+    /// confident: that it is not known and where the user was `last` placed, or the
+    /// question for the user's word).
+    pub fn where_am_i(&mut self, pose: &UserPose, last: Option<&LastKnown>, now_ms: u64) -> Instruction {
         let text = if pose.confident && pose.x_m.is_finite() && pose.y_m.is_finite() {
             where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m)
         } else if self.awaiting_word {
             CONFIRM_PLACE.to_string()
         } else {
-            not_known(self.last_known.as_ref(), &self.semantic, &self.profile, pose.floor)
+            not_known(last, &self.semantic, &self.profile, pose.floor)
         };
         self.answer(InstructionKind::WhereAmI, text, "where-am-i", now_ms, true)
     }
@@ -763,13 +761,6 @@ impl Guide {
     /// after those words were said has the user told to say the floor themselves.
     pub fn set_barometer(&mut self, barometer: Barometer) {
         self.barometer = barometer;
-    }
-
-    /// Where the user was last placed and how far they walked since, as the caller
-    /// knows it: "where am I" while the place is not known says it
-    /// ([`crate::where_am_i::not_known`]).
-    pub fn set_last_known(&mut self, last: Option<LastKnown>) {
-        self.last_known = last;
     }
 
     fn height_held(&self) -> bool {

@@ -248,10 +248,7 @@ impl Navigator {
             Command::WhereAmI => {
                 let last = self.last_known;
                 let speech = match self.trip.as_mut().and_then(|t| t.guide.as_mut()) {
-                    Some(guide) => {
-                        guide.set_last_known(last);
-                        guide.where_am_i(pose, now_ms).speech()
-                    }
+                    Some(guide) => guide.where_am_i(pose, last.as_ref(), now_ms).speech(),
                     None if pose.confident => {
                         let text = where_am_i(&self.semantic, pose.floor, pose.x_m, pose.y_m, self.profile.near_door_m);
                         self.say(text, "where-am-i")

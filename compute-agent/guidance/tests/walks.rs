@@ -733,14 +733,14 @@ fn where_am_i_names_the_corridor_the_wing_and_the_door() {
     let mut p = planner();
     let route = l_route(&mut p);
     let mut guide = Guide::single_floor(route, "the stairs", layer(), GuidanceProfile::default());
-    let i = guide.where_am_i(&pose([10.5, 11.5], 0.0), 1000);
+    let i = guide.where_am_i(&pose([10.5, 11.5], 0.0), None, 1000);
     assert_eq!(i.text, "In the corridor, east wing, near door 214.");
     assert_eq!(i.kind, InstructionKind::WhereAmI);
     assert!(!i.vibrate_first, "the user asked: no vibration");
     assert_eq!(i.speech().priority, Priority::Message);
-    assert_eq!(guide.where_am_i(&pose([19.5, 5.0], 0.0), 2000).text, "In the east wing.");
+    assert_eq!(guide.where_am_i(&pose([19.5, 5.0], 0.0), None, 2000).text, "In the east wing.");
     let unsure = UserPose { confident: false, ..pose([10.5, 11.5], 0.0) };
-    assert_eq!(guide.where_am_i(&unsure, 3000).text, "Position uncertain: I do not know where you are.");
+    assert_eq!(guide.where_am_i(&unsure, None, 3000).text, "Position uncertain: I do not know where you are.");
 }
 
 #[test]
@@ -1079,7 +1079,7 @@ fn a_pose_with_nan_is_no_pose() {
     let i = guide.step(&nan, 10_000, Some(p.graph())).unwrap();
     assert_eq!(i.kind, InstructionKind::PositionUncertain);
     assert_eq!(guide.step(&pose([corner[0] - 1.0, corner[1]], f64::NAN), 20_000, Some(p.graph())), None);
-    assert_eq!(guide.where_am_i(&nan, 20_100).text, "Position uncertain: I do not know where you are.");
+    assert_eq!(guide.where_am_i(&nan, None, 20_100).text, "Position uncertain: I do not know where you are.");
     // a finite pose again: the turn is said
     let back = guide.step(&pose([corner[0] - 1.0, corner[1]], 0.0), 30_000, Some(p.graph())).unwrap();
     assert_eq!(back.text, "Turn right now.");
@@ -1102,7 +1102,7 @@ fn answers_to_the_user_neither_wait_for_nor_delay_guidance() {
             said.push((t_ms, i.text));
         }
         if t_ms.is_multiple_of(700) && !asked.arrived() {
-            let a = asked.where_am_i(&here, t_ms);
+            let a = asked.where_am_i(&here, None, t_ms);
             assert_eq!(a.issued_ms, t_ms);
             assert!(a.text.starts_with("In the ") || a.text.starts_with("Near door"), "{}", a.text);
         }

@@ -190,10 +190,8 @@ pub struct SimSource {
     chest: Option<ChestCamera>,
     compass: Option<PhoneCompass>,
     barometer: Option<BarometerModel>,
-    /// stop the barometer when a ride starts (`SimConfig::barometer_stops_in_ride`)
+    /// stop the barometer for good when a ride starts (`SimConfig::barometer_stops_in_ride`)
     barometer_stops_in_ride: bool,
-    /// the barometer stopped sending
-    barometer_stopped: bool,
     gravity_noise_rad: f64,
     start_ns: Option<u64>,
     next_imu: u64,
@@ -244,7 +242,6 @@ impl SimSource {
             // after every other stream, so they draw what they always drew
             barometer: config.barometer.map(|noise| BarometerModel::new(noise, rng.fork())),
             barometer_stops_in_ride: config.barometer_stops_in_ride,
-            barometer_stopped: false,
             gravity_noise_rad: config.gravity_noise_deg.to_radians(),
             start_ns: None,
             next_imu: 0,
@@ -401,11 +398,10 @@ impl FrameSource for SimSource {
             Some(PhoneMotion { heading_deg: Some(heading), accuracy_deg: None, steps: (c.walked_m / STRIDE_M) as u64 })
         });
         let height_m = user_height_m(&self.world, &self.walker, t_s, user.floor);
-        self.barometer_stopped |= self.barometer_stops_in_ride && self.walker.ride_at(t_s).is_some();
-        let pressure = match (&mut self.barometer, self.barometer_stopped) {
-            (Some(b), false) => Some(Pressure { stamp_ns, pressure_pa: b.read(t_s, height_m) }),
-            _ => None,
-        };
+        if self.barometer_stops_in_ride && self.walker.ride_at(t_s).is_some() {
+            self.barometer = None;
+        }
+        let pressure = self.barometer.as_mut().map(|b| Pressure { stamp_ns, pressure_pa: b.read(t_s, height_m) });
         let odom = self.last.map(|l| self.odometry.increment(&l.user, &user, l.stamp_ns, stamp_ns));
         let gravity = self.noisy_gravity(camera.gravity_camera());
         self.last = Some(LastFrame { stamp_ns, user });
