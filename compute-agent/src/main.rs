@@ -106,6 +106,13 @@ struct Cli {
     /// not yet better than the cost functions.
     #[arg(long, requires = "map", conflicts_with = "no_body_imu")]
     predictive: bool,
+    /// With --predictive: the model's turning rate is learnt from how fast the user
+    /// turns (the body's gyro) while acting on a side or both rumble, never above the
+    /// typical 60°/s; the log says what it learnt. Off by default: the figures in
+    /// docs/predictive-cue.md were measured without it ("A user other than the typical
+    /// one").
+    #[arg(long, requires = "predictive")]
+    learn_turn_rate: bool,
     /// What the camera finds that the floor map lacks (a desk, a bench, a person) goes
     /// onto the planner, and a route something stands on ahead is laid round it:
     /// "Something stands in the way. A way round: ..." (docs/guidance.md, "Ways round
@@ -172,7 +179,10 @@ async fn main() -> anyhow::Result<()> {
         }
         config.nav = Some(nav);
     }
-    config.predictive = cli.predictive.then(perception::predictive::PredictiveConfig::default);
+    config.predictive = cli.predictive.then(|| perception::predictive::PredictiveConfig {
+        learn_turn_rate: cli.learn_turn_rate,
+        ..Default::default()
+    });
     let shutdown = bus::Shutdown::new();
     shutdown.trigger_on_signals();
     compute_agent::run::run(config, shutdown).await

@@ -341,6 +341,8 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     let mut state_tick = tokio::time::interval(STATE_PERIOD);
     state_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut step = ComputeStep::new(config.perception.clone(), config.cue.clone());
+    // the learnt turning rate last told in the log
+    let mut turn_rate_told = None;
     if let Some(p) = config.predictive.filter(|_| nav.is_some()) {
         step = step.with_predictive(p);
     }
@@ -448,6 +450,9 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
                 let status = [chest_status.map(str::to_string), nav_status].into_iter().flatten().collect::<Vec<_>>();
                 let status = (!status.is_empty()).then(|| status.join("; "));
                 let scan = process(&frame, body_yaw_rate_rad_s, way, &mut step, &health, &mut out, status).await;
+                if let Some(news) = turn_rate_news(&mut turn_rate_told, step.learnt_turn_rate_deg_s()) {
+                    tracing::info!("{news}");
+                }
                 if let (Some(n), Some(scan)) = (nav.as_mut(), scan) {
                     n.frame(&scan, step.obstacle_points(), frame.header.capture_ns, body_yaw_rate_rad_s).await;
                 }
@@ -458,6 +463,24 @@ pub async fn run(config: ComputeConfig, shutdown: Shutdown) -> anyhow::Result<()
     health_task.join().await?;
     session.close().await.map_err(|e| anyhow::anyhow!("{e}")).context("closing the Zenoh session")?;
     Ok(())
+}
+
+/// The log's line when the predictive cue's model has learnt the user's turning rate
+/// (`now`, degrees per second) for the first time, or moved 5°/s or more from the rate
+/// last told (`told`, updated).
+fn turn_rate_news(told: &mut Option<f64>, now: Option<f64>) -> Option<String> {
+    let now = now?;
+    let news = match *told {
+        None => format!(
+            "the predictive cue's model of the user now turns at {now:.0}°/s, learnt from their turns on the rumble"
+        ),
+        Some(last) if (now - last).abs() >= 5.0 => {
+            format!("the predictive cue's model of the user now turns at {now:.0}°/s (was {last:.0}°/s)")
+        }
+        Some(_) => return None,
+    };
+    *told = Some(now);
+    Some(news)
 }
 
 /// A frame that was fresh on arrival may have waited for the loop: checked again.
@@ -594,5 +617,26 @@ async fn publish_blind(capture_ns: u64, blind: Blind, health: &Arc<Health>, out:
         if let Err(e) = result {
             tracing::warn!("{e:#}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::turn_rate_news;
+
+    #[test]
+    fn the_log_tells_the_learnt_turning_rate_once_and_again_when_it_moves_five_degrees_a_second() {
+        let mut told = None;
+        assert_eq!(turn_rate_news(&mut told, None), None, "nothing learnt yet");
+        let first = turn_rate_news(&mut told, Some(31.2));
+        assert_eq!(
+            first.as_deref(),
+            Some("the predictive cue's model of the user now turns at 31°/s, learnt from their turns on the rumble")
+        );
+        assert_eq!(turn_rate_news(&mut told, Some(34.0)), None);
+        assert_eq!(turn_rate_news(&mut told, Some(27.0)), None, "4.2°/s from the rate told");
+        let moved = turn_rate_news(&mut told, Some(25.9));
+        assert_eq!(moved.as_deref(), Some("the predictive cue's model of the user now turns at 26°/s (was 31°/s)"));
+        assert_eq!(told, Some(25.9));
     }
 }

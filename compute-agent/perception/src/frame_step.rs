@@ -159,6 +159,12 @@ impl ComputeStep {
         self
     }
 
+    /// The turning rate the predictive cue's model has learnt from this user, degrees
+    /// per second ([`PredictiveCue::learnt_turn_rate_deg_s`]).
+    pub fn learnt_turn_rate_deg_s(&self) -> Option<f64> {
+        self.predictive.as_ref().and_then(PredictiveCue::learnt_turn_rate_deg_s)
+    }
+
     /// The same step with a second depth device's cue joined to every frame's
     /// ([`crate::second_view`]): a chest camera's states, as [`ComputeStep::second_view_heard`]
     /// hands them on, warn the sides they warn of while fresh.
@@ -246,6 +252,7 @@ impl ComputeStep {
                 if let Some(p) = self.predictive.as_mut() {
                     let yaw_rate = perception.body_yaw_rate_rad_s.map(f64::from);
                     let speed = f64::from(perception.speed_m_s);
+                    p.observe_turn(t_s, yaw_rate);
                     let own = p.config().own_way;
                     if own {
                         self.own_way.update(t_s, yaw_rate, speed, p.last_sent(), p.config().user.walk_speed_m_s);

@@ -135,6 +135,10 @@ pub struct PredictiveConfig {
     /// A frame without a way gets one from the user's own walking (the heading they
     /// last walked free, [`OwnWay`]; the frame step keeps it) instead of none.
     pub own_way: bool,
+    /// The model's turning rate is learnt from the user's own turning
+    /// ([`PredictiveCue::observe_turn`]): never above `user.turn_rate_deg_s`, the
+    /// rate it starts from.
+    pub learn_turn_rate: bool,
 }
 
 /// What the predictive cue keeps from being touched.
@@ -153,7 +157,8 @@ pub enum Guards {
 impl Default for PredictiveConfig {
     /// 2.5 s ahead (a reaction, slowing down and a turn) at 30 steps a second, 5 cm
     /// margin, warnings deferred while one 0.1 s later would do, 50 ms to the hands,
-    /// 0.5 m goal radius, the cane and the body guarded, no way but the one given.
+    /// 0.5 m goal radius, the cane and the body guarded, no way but the one given, the
+    /// model's turning rate not learnt.
     fn default() -> Self {
         Self {
             user: UserModel::default(),
@@ -166,6 +171,7 @@ impl Default for PredictiveConfig {
             goal_radius_m: 0.5,
             guards: Guards::All,
             own_way: false,
+            learn_turn_rate: false,
         }
     }
 }
@@ -253,6 +259,11 @@ pub struct PredictiveCue {
     cane_armed: Vec<bool>,
     /// The look-ahead's turns away from touches, when acted on and on the user's left.
     pending: VecDeque<(f64, bool)>,
+    /// How fast the user turned while acting on a rumble, degrees per second: the last
+    /// [`TURN_SAMPLES`] readings ([`PredictiveCue::observe_turn`]).
+    turns: VecDeque<f64>,
+    /// The model's turning rate as configured, degrees per second.
+    configured_turn_deg_s: f64,
 }
 
 /// How far ahead the point lies that a user walking straight on heads for, metres.
@@ -271,6 +282,19 @@ const INSIDE_TOUCH_M: f64 = 0.02;
 /// A point counts as touched again only after it came this much further than the
 /// margin from the cane and the body, metres.
 const RELEASE_M: f64 = 0.05;
+
+/// The turning rate is learnt from the body's yaw rate this long after a rumble began,
+/// seconds: a user reacting in up to about 0.8 s is turning by then (our choice).
+const TURN_SETTLE_S: f64 = 1.0;
+/// Readings of the turning rate kept: the last 10 s of turning on a rumble at 30
+/// frames a second.
+const TURN_SAMPLES: usize = 300;
+/// Readings before the learnt rate replaces the one configured: a second of turning.
+const TURN_SAMPLES_MIN: usize = 30;
+/// The learnt turning rate is never taken below this, degrees per second: a user who
+/// does not turn on the rumble at all is modelled as the slowest turner, not as one who
+/// never turns (our choice).
+const TURN_FLOOR_DEG_S: f64 = 15.0;
 
 impl PredictiveCue {
     /// A cue that has sent nothing yet.
@@ -291,7 +315,49 @@ impl PredictiveCue {
             phase: None,
             cane_armed: Vec::new(),
             pending: VecDeque::new(),
+            turns: VecDeque::new(),
+            configured_turn_deg_s: config.user.turn_rate_deg_s,
         }
+    }
+
+    /// Takes the body's yaw rate at `t_s` (radians per second, the gyro's reading; `None`
+    /// without one). With [`PredictiveConfig::learn_turn_rate`], a reading taken while a
+    /// side or both rumble sent a second or more ago still holds (the user acting on it,
+    /// as the model turns: at its largest rate) is how fast this user turns; once there
+    /// are 30 such readings (a second of turning), the model turns at the median of the
+    /// last 300, between 15°/s and the rate configured (a model turning faster than
+    /// configured would warn later than it was measured with).
+    pub fn observe_turn(&mut self, t_s: f64, yaw_rate_rad_s: Option<f64>) {
+        if !self.config.learn_turn_rate {
+            return;
+        }
+        let Some(rate) = yaw_rate_rad_s.filter(|r| r.is_finite()) else {
+            return;
+        };
+        let acting = self.sent.back().is_some_and(|&(since, state)| {
+            matches!(state, Rumble::Left | Rumble::Right | Rumble::Both) && t_s - since >= TURN_SETTLE_S
+        });
+        if !acting {
+            return;
+        }
+        if self.turns.len() == TURN_SAMPLES {
+            self.turns.pop_front();
+        }
+        self.turns.push_back(rate.abs().to_degrees());
+        if self.turns.len() >= TURN_SAMPLES_MIN {
+            let mut sorted: Vec<f64> = self.turns.iter().copied().collect();
+            let mid = sorted.len() / 2;
+            let (_, median, _) = sorted.select_nth_unstable_by(mid, f64::total_cmp);
+            let ceiling = self.configured_turn_deg_s.max(TURN_FLOOR_DEG_S);
+            self.config.user.turn_rate_deg_s = median.clamp(TURN_FLOOR_DEG_S, ceiling);
+        }
+    }
+
+    /// The turning rate the model has learnt so far, degrees per second (`None` before
+    /// it has enough readings, or when it does not learn).
+    pub fn learnt_turn_rate_deg_s(&self) -> Option<f64> {
+        (self.config.learn_turn_rate && self.turns.len() >= TURN_SAMPLES_MIN)
+            .then_some(self.config.user.turn_rate_deg_s)
     }
 
     /// The configuration.
@@ -1406,5 +1472,54 @@ mod tests {
         assert!((own.bearing_rad() + 0.5).abs() < 0.01, "{}", own.bearing_rad());
         own.update(t1 + 16.0 / 30.0, None, 0.4, Rumble::Left, walk);
         assert_eq!(own.bearing_rad(), 0.0);
+    }
+
+    #[test]
+    fn the_turning_rate_is_learnt_from_the_turns_made_on_a_rumble_and_never_above_the_configured_one() {
+        let config = PredictiveConfig { learn_turn_rate: true, ..PredictiveConfig::default() };
+        let frame = |k: u32| f64::from(k) / 30.0;
+        // a user turning at 30°/s on every rumble, walking straight (sway of 10°/s) when clear
+        let turning = |cue: &mut PredictiveCue, from: u32, to: u32, deg_s: f64, state: Rumble| {
+            for k in from..to {
+                let t = frame(k);
+                cue.sent(t, state);
+                let sway = if state == Rumble::None { 10.0 * (t * 5.0).sin() } else { 0.0 };
+                cue.observe_turn(t, Some((deg_s + sway).to_radians()));
+            }
+        };
+        let mut cue = PredictiveCue::new(config);
+        turning(&mut cue, 0, 300, 0.0, Rumble::None);
+        assert_eq!(cue.learnt_turn_rate_deg_s(), None, "walking straight on, nothing felt: nothing learnt");
+        // a left rumble: the first second is the reaction, not the turn
+        turning(&mut cue, 300, 330, 0.0, Rumble::Left);
+        turning(&mut cue, 330, 345, -30.0, Rumble::Left);
+        assert_eq!(cue.learnt_turn_rate_deg_s(), None, "{:?}", cue.turns);
+        assert_eq!(cue.config().user.turn_rate_deg_s, 60.0, "the typical user's until learnt");
+        turning(&mut cue, 345, 360, -30.0, Rumble::Left);
+        let learnt = cue.learnt_turn_rate_deg_s().unwrap_or_default();
+        assert!((learnt - 30.0).abs() < 1e-9, "{learnt}");
+        assert_eq!(cue.config().user.turn_rate_deg_s, learnt, "the model turns at it");
+        // a second episode, both sides: turning in place at 30°/s, and the sway while
+        // walking clear between them is not a turn
+        turning(&mut cue, 360, 420, 5.0, Rumble::None);
+        turning(&mut cue, 420, 480, 30.0, Rumble::Both);
+        assert!((cue.learnt_turn_rate_deg_s().unwrap_or_default() - 30.0).abs() < 1e-9);
+
+        // a user who turns at 90°/s is still modelled at the configured 60°/s; one who
+        // does not turn at all at 15°/s
+        for (deg_s, modelled) in [(90.0, 60.0), (0.0, 15.0)] {
+            let mut cue = PredictiveCue::new(config);
+            turning(&mut cue, 0, 90, deg_s, Rumble::Right);
+            assert_eq!(cue.learnt_turn_rate_deg_s(), Some(modelled), "turning at {deg_s}°/s");
+        }
+        // without learning, or without the gyro, the model stays as configured
+        for (learn, rate) in [(false, Some(0.5)), (true, None), (true, Some(f64::NAN))] {
+            let mut cue = PredictiveCue::new(PredictiveConfig { learn_turn_rate: learn, ..config });
+            for k in 0..90 {
+                cue.sent(frame(k), Rumble::Left);
+                cue.observe_turn(frame(k), rate);
+            }
+            assert_eq!((cue.learnt_turn_rate_deg_s(), cue.config().user.turn_rate_deg_s), (None, 60.0));
+        }
     }
 }

@@ -167,19 +167,28 @@ pub struct CourseArgs {
     #[arg(long)]
     pub oracle_turn_rate_deg_s: Option<f64>,
     /// The cue from where the user heads (issue 32's predictive cue): each frame the
-    /// device walks a model of the typical user ahead along the route it knows (the goal
+    /// device walks a model of the user (--cue-model) ahead along the route it knows (the goal
     /// for a user heading for its sound), under each rumble state, against what the
     /// perception holds, and sends one under which nothing is touched; clear whenever
     /// clear is safe. The user's place on the route: --pose. Needs --body-gyro (the body's heading under the cane's sweep).
     #[arg(long, requires = "body_gyro", conflicts_with = "oracle")]
     pub predictive: bool,
     /// The predictive cue guarding the body alone, with no map and no route: each frame
-    /// it walks the typical user ahead the way they last walked free (from the body
+    /// it walks a model of the user (--cue-model) ahead the way they last walked free (from the body
     /// gyro), lets the cane touch what stands in the way (the user turns away from it,
     /// as a cane user does) and warns only when the body would touch something all the
     /// same. Needs --body-gyro.
     #[arg(long, requires = "body_gyro", conflicts_with_all = ["oracle", "predictive"])]
     pub body_guard: bool,
+    /// With --predictive or --body-guard: whose walking the cue's model of the user
+    /// is. `typical`: the typical user's (1 m/s, 60°/s, 0.5 s), whoever walks, as in
+    /// the compute agent, which learns nothing of its user. `user`: this user's mean
+    /// (--walk-speed-m-s, --turn-rate-deg-s, --reaction-s), as a device that had learnt
+    /// them would know it (each walk still draws its reaction 25 % either side).
+    /// `learnt`: the typical user's to begin with, the turning rate then learnt from
+    /// the body gyro while the user turns on a rumble (never above 60°/s).
+    #[arg(long, value_enum, default_value_t = walk::CueModel::Typical)]
+    pub cue_model: walk::CueModel,
     /// With --predictive or --guide spoken: where the device takes the user to be: `filter`, the compute
     /// agent's particle filter on the world's floor plan (the cost functions decide
     /// while it does not track); `truth`, the simulator's, only to tell the filter's
@@ -360,6 +369,7 @@ impl CourseArgs {
             oracle_turn_rate_deg_s,
             predictive,
             body_guard,
+            cue_model,
             pose,
             ways_round,
             localization_map,
@@ -486,10 +496,22 @@ impl CourseArgs {
             self.predictive || self.guide == GuideKind::Spoken || self.pose == walk::PoseSource::Filter,
             "--pose goes with --predictive or --guide spoken"
         );
+        anyhow::ensure!(
+            self.cue_model == walk::CueModel::Typical || self.predictive || self.body_guard,
+            "--cue-model goes with --predictive or --body-guard"
+        );
+        let modelled = match self.cue_model {
+            walk::CueModel::User => c.clone(),
+            walk::CueModel::Typical | walk::CueModel::Learnt => {
+                WalkConfig { user: virtual_user::UserParams::default(), ..c.clone() }
+            }
+        };
+        let learn_turn_rate = self.cue_model == walk::CueModel::Learnt;
+        let cue = PredictiveConfig { learn_turn_rate, ..walk::predictive_for(&modelled) };
         c.predictive = if self.body_guard {
-            Some(PredictiveConfig { guards: Guards::Body, own_way: true, ..walk::predictive_for(&c) })
+            Some(PredictiveConfig { guards: Guards::Body, own_way: true, ..cue })
         } else {
-            self.predictive.then(|| walk::predictive_for(&c))
+            self.predictive.then_some(cue)
         };
         c.pose = self.pose;
         // the particle filter runs for the predictive cue or the spoken guide, on --pose filter
@@ -691,6 +713,10 @@ fn summary_text(args: &CourseArgs, config: &WalkConfig, world: &World, result: &
     if let Some(l) = study::localization_line(result.walks.iter()) {
         s.push_str(&l);
     }
+    let learning = config.predictive.is_some_and(|p| p.learn_turn_rate);
+    if let Some(l) = study::learnt_turn_line(result.walks.iter(), learning) {
+        s.push_str(&l);
+    }
     for w in result.walks.iter().filter(|w| !w.completed) {
         let why =
             if w.way_through == Some(false) { ": there is no way through (0.5 m wide) from the start" } else { "" };
@@ -754,7 +780,12 @@ fn config_lines(args: &CourseArgs, config: &WalkConfig, worlds: &str) -> String 
             ),
             (Some(_), walk::PoseSource::Filter) => " (predictive: from the route and the particle filter's place)".into(),
             (Some(_), walk::PoseSource::Truth) => " (predictive: from the route and the true place)".into(),
-        },
+        } + &config.predictive.map_or_else(String::new, |p| {
+            format!(
+                " (its model: {:.2} m/s, turning {:.0}°/s, reacting in {:.2} s)",
+                p.user.walk_speed_m_s, p.user.turn_rate_deg_s, p.user.reaction_s
+            )
+        }),
         args.cost,
         on_off(!args.no_memory),
         on_off(!args.no_hysteresis),

@@ -106,6 +106,34 @@ pub fn localization_line<'a>(walks: impl Iterator<Item = &'a WalkOutcome>) -> Op
     ))
 }
 
+/// With the predictive cue learning the user's turning rate (`learning`), one line: the
+/// rates its model had learnt by the end of each walk (median and range), and in how
+/// many walks the user turned too little on a rumble to learn it.
+pub fn learnt_turn_line<'a>(walks: impl Iterator<Item = &'a WalkOutcome>, learning: bool) -> Option<String> {
+    if !learning {
+        return None;
+    }
+    let (mut learnt, mut none) = (Vec::new(), 0);
+    for w in walks {
+        match w.learnt_turn_rate_deg_s {
+            Some(r) => learnt.push(r),
+            None => none += 1,
+        }
+    }
+    learnt.sort_by(f64::total_cmp);
+    let unlearnt = format!("{none} of {} walks learnt nothing", learnt.len() + none);
+    Some(match (learnt.first(), learnt.last()) {
+        (Some(lo), Some(hi)) => {
+            let n = learnt.len();
+            let median = if n % 2 == 1 { learnt[n / 2] } else { (learnt[n / 2 - 1] + learnt[n / 2]) / 2.0 };
+            format!(
+                "the cue's model learnt a turning rate of {median:.1}°/s (median; {lo:.1}-{hi:.1}°/s), {unlearnt}\n"
+            )
+        }
+        _ => format!("the cue's model learnt no turning rate: {unlearnt}\n"),
+    })
+}
+
 /// Contacts of one part by how long before them the user felt a cue: the warning's
 /// lead time against the walk's reaction time says whether a contact was the cue's
 /// fault (none, or too late to act on) or the user's reaction to it.
@@ -299,6 +327,7 @@ mod tests {
             missed: None,
             unguided_m: None,
             ways_round: None,
+            learnt_turn_rate_deg_s: None,
             trace: Vec::new(),
         }
     }
@@ -337,6 +366,21 @@ mod tests {
         assert_eq!(
             localization_line(walks.iter()).as_deref(),
             Some("the filter: 2 of 4 walks tracked more than 1 m off (47 of 2700 frames tracked), 1 turned more than 45° (12 frames)\n")
+        );
+    }
+
+    #[test]
+    fn the_learnt_turn_line_gives_the_median_and_range_of_the_rates_learnt_and_the_walks_that_learnt_none() {
+        let with = |rate| WalkOutcome { learnt_turn_rate_deg_s: rate, ..walk_with(0.5, &[]) };
+        let walks = [with(Some(31.0)), with(None), with(Some(29.0)), with(Some(30.5)), with(Some(28.0))];
+        assert_eq!(learnt_turn_line(walks.iter(), false), None, "the cue does not learn");
+        assert_eq!(
+            learnt_turn_line(walks.iter(), true).as_deref(),
+            Some("the cue's model learnt a turning rate of 29.8°/s (median; 28.0-31.0°/s), 1 of 5 walks learnt nothing\n")
+        );
+        assert_eq!(
+            learnt_turn_line(walks[1..2].iter(), true).as_deref(),
+            Some("the cue's model learnt no turning rate: 1 of 1 walks learnt nothing\n")
         );
     }
 

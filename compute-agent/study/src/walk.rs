@@ -191,6 +191,21 @@ pub struct WalkConfig {
     pub ways_round: bool,
 }
 
+/// Whose walking the predictive cue's model of the user is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CueModel {
+    /// The typical user's ([`UserParams::default`]), whoever walks: the compute
+    /// agent's.
+    Typical,
+    /// The typical user's to begin with, the turning rate then learnt from the body
+    /// gyro while the user acts on a rumble ([`PredictiveConfig::learn_turn_rate`]).
+    Learnt,
+    /// This walk's user's mean walking speed, turning rate and reaction: a device that
+    /// had learnt them.
+    User,
+}
+
 /// Where the predictive cue takes the user to be.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -440,6 +455,10 @@ pub struct WalkOutcome {
     /// With the spoken guide: ways round what the camera found (`--ways-round`): laid,
     /// looked for without one found, and found but within a sidestep of the route.
     pub ways_round: Option<(u64, u64, u64)>,
+    /// With the predictive cue learning the user's turning rate (`--cue-model learnt`):
+    /// the rate its model had learnt by the walk's end, degrees per second (`None`:
+    /// not learnt, or too little turning on a rumble to learn it).
+    pub learnt_turn_rate_deg_s: Option<f64>,
     /// One row per camera frame when [`WalkConfig::trace`] asked for it.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
@@ -680,9 +699,10 @@ fn device_route(world: &World, config: &WalkConfig) -> Vec<[f64; 2]> {
     }
 }
 
-/// The predictive cue's model of this study's typical user and cane: the device is
-/// taken to have learnt the user's walking speed, turning rate and reaction (each
-/// walk's user reacts up to 25 % off it), and to know its cane.
+/// The predictive cue's model of `config`'s user and cane: the device is taken to have
+/// learnt the user's walking speed, turning rate and reaction (each walk's user reacts
+/// up to 25 % off it; give a config with the typical user for a device that has learnt
+/// nothing), and to know its cane.
 pub fn predictive_for(config: &WalkConfig) -> PredictiveConfig {
     let (u, m) = (&config.user, &config.mount);
     let reach_m = (m.cane_length_m.powi(2) - m.handle_height_m.powi(2)).max(0.0).sqrt();
@@ -996,6 +1016,7 @@ impl<'w> Walk<'w> {
             missed: (config.guide == GuideKind::Spoken).then_some((0, 0)),
             unguided_m: (config.guide == GuideKind::Spoken).then_some((0.0, 0.0)),
             ways_round: None,
+            learnt_turn_rate_deg_s: None,
             trace: Vec::new(),
         };
         Self {
@@ -1108,6 +1129,7 @@ impl<'w> Walk<'w> {
     pub fn finish(mut self) -> WalkOutcome {
         self.out.assists = self.guide.assists();
         self.out.ways_round = self.spoken.as_ref().filter(|_| self.config.ways_round).map(SpokenDevice::detours);
+        self.out.learnt_turn_rate_deg_s = self.frame_step.learnt_turn_rate_deg_s();
         if self.tracker.is_some() {
             let (pos2, head2, n, over, turned) = self.tracked_error;
             // never tracked: no error to give (NaN, `null` in JSON)

@@ -211,8 +211,9 @@ fn line(label: &str, walks: usize, r: &Row) -> String {
     )
 }
 
-/// A group's walks as a table: a line per world (the mean of its walks), the group's mean.
-fn group_table(name: &str, walks: &GroupWalks) -> String {
+/// A group's walks as a table: a line per world (the mean of its walks), the group's
+/// mean; and what the filter and the cue's model learnt (`config`'s) did on them.
+fn group_table(name: &str, walks: &GroupWalks, config: &WalkConfig) -> String {
     let mut s = format!("{:<28} {HEADER}", "world");
     for (world, study) in &walks.worlds {
         if let Some(avg) = &study.average {
@@ -223,6 +224,10 @@ fn group_table(name: &str, walks: &GroupWalks) -> String {
         s.push_str(&line(&format!("{name} (mean)"), walks.rows.len(), avg));
     }
     if let Some(l) = crate::study::localization_line(walks.walks()) {
+        s.push_str(&l);
+    }
+    let learning = config.predictive.is_some_and(|p| p.learn_turn_rate);
+    if let Some(l) = crate::study::learnt_turn_line(walks.walks(), learning) {
         s.push_str(&l);
     }
     s
@@ -248,10 +253,10 @@ pub fn text(args: &CourseArgs, report: &Report) -> anyhow::Result<String> {
             args.runs,
             g.this.rows.len()
         );
-        s.push_str(&group_table(&g.group.name, &g.this));
-        if let (Some((flags, _, _)), Some(v)) = (&versus, &g.versus) {
+        s.push_str(&group_table(&g.group.name, &g.this, &config));
+        if let (Some((flags, _, c)), Some(v)) = (&versus, &g.versus) {
             let _ = writeln!(s, "versus `{flags}`, the same walks:");
-            s.push_str(&group_table(&g.group.name, v));
+            s.push_str(&group_table(&g.group.name, v, c));
             let _ = writeln!(s, "difference walk by walk (versus minus this), {} walks:", g.this.rows.len());
             match g.difference() {
                 Some(d) => s.push_str(&compare::lines(&d)),

@@ -463,6 +463,42 @@ fn options_and_worlds_the_course_cannot_serve_are_refused_before_walking() {
 }
 
 #[test]
+fn the_cues_model_is_the_typical_user_unless_told_to_know_this_one() {
+    // the compute agent's cue models the typical user whoever walks; the study does the
+    // same unless --cue-model user gives it this user's mean (a device that had learnt it)
+    let user =
+        "--runs 1 --body-gyro --predictive --pose truth --reaction-s 0.8 --walk-speed-m-s 1.3 --turn-rate-deg-s 40";
+    let config = |line: &str| {
+        let cli = Cli::parse_from(std::iter::once("course").chain(line.split_whitespace()));
+        cli.args.walk_config().unwrap_or_else(|e| panic!("{line}: {e:#}"))
+    };
+    let modelled = |line: &str| {
+        let c = config(line);
+        let m = c.predictive.unwrap_or_else(|| panic!("{line}: no predictive cue")).user;
+        ((c.user.reaction_s, c.user.walk_speed_m_s), (m.reaction_s, m.walk_speed_m_s, m.turn_rate_deg_s))
+    };
+    assert_eq!(
+        modelled(user),
+        ((0.8, 1.3), (0.5, 1.0, 60.0)),
+        "the user walks as told, the cue models the typical one"
+    );
+    assert_eq!(modelled(&format!("{user} --cue-model user")), ((0.8, 1.3), (0.8, 1.3, 40.0)));
+    // learnt: the typical user's to begin with, the turning rate learnt on the walk
+    assert_eq!(modelled(&format!("{user} --cue-model learnt")), ((0.8, 1.3), (0.5, 1.0, 60.0)));
+    let learns = |line: &str| config(line).predictive.is_some_and(|p| p.learn_turn_rate);
+    assert!(
+        learns(&format!("{user} --cue-model learnt")) && !learns(user) && !learns(&format!("{user} --cue-model user"))
+    );
+    let guard = "--runs 1 --body-gyro --body-guard --reaction-s 0.8 --cue-model user";
+    assert_eq!(config(guard).predictive.map(|p| p.user.reaction_s), Some(0.8));
+    let parsed = |line: &str| Cli::parse_from(std::iter::once("course").chain(line.split_whitespace())).args;
+    let v = parsed(user).with_flags("--cue-model user").unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(v.walk_config().ok().and_then(|c| c.predictive).map(|p| p.user.reaction_s), Some(0.8));
+    let e = parsed("--runs 1 --reaction-s 0.8 --cue-model user").walk_config().map(|_| ()).unwrap_err();
+    assert!(format!("{e:#}").contains("--cue-model goes with --predictive or --body-guard"), "{e:#}");
+}
+
+#[test]
 fn versus_walks_the_same_seeds_and_tells_a_switch_that_matters_from_the_spread() {
     let parsed = |line: &str| Cli::parse_from(std::iter::once("course").chain(line.split_whitespace())).args;
     let base = parsed("--runs 4 --cost cacf");
@@ -635,6 +671,33 @@ fn the_predictive_cue_takes_the_user_past_the_bench_where_the_cost_functions_hol
     let held: Vec<_> = (1..=4).map(|seed| walk(&w, &base, seed)).collect();
     let through: Vec<_> = held.iter().map(|o| o.completed).collect();
     assert!(through.contains(&false), "the cost functions let every walk through: {through:?}");
+}
+
+#[test]
+fn the_cue_learns_how_fast_the_user_turns_on_the_rumble_from_the_body_gyro() {
+    // --cue-model learnt: the typical user's model (60°/s) to begin with; the body gyro
+    // (sway, noise, bias) read while the user acts on a rumble gives the user's own rate
+    // Taylor's course, the user heading for the music's sound: a rumble every 2 s or so
+    let w = match World::builtin("taylor-course") {
+        Some(Ok(w)) => w,
+        other => panic!("taylor-course: {:?}", other.map(|r| r.err())),
+    };
+    let base = WalkConfig { body_gyro: true, ..quick(30.0) };
+    for turn_rate_deg_s in [30.0, 60.0] {
+        let user = study::virtual_user::UserParams { turn_rate_deg_s, ..base.user };
+        let typical = study::walk::predictive_for(&base);
+        let config = WalkConfig {
+            user,
+            predictive: Some(perception::predictive::PredictiveConfig { learn_turn_rate: true, ..typical }),
+            pose: study::walk::PoseSource::Truth,
+            ..base.clone()
+        };
+        for seed in 1..=2 {
+            let out = walk(&w, &config, seed);
+            let learnt = out.learnt_turn_rate_deg_s.unwrap_or_else(|| panic!("seed {seed}: nothing learnt: {} signals, {}", out.signals, out.verdict()));
+            assert!((learnt - turn_rate_deg_s).abs() < 3.0, "seed {seed}: {learnt:.1}°/s for {turn_rate_deg_s}°/s");
+        }
+    }
 }
 
 /// The walk config of `--body-guard`: the predictive cue guarding the body alone on the
