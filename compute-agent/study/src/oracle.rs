@@ -85,15 +85,15 @@ pub struct OracleConfig {
     /// The turning rate the oracle takes the user to have, degrees per second (`None`:
     /// the user's own).
     pub turn_rate_deg_s: Option<f64>,
-    /// Reaction times tried, as fractions of the typical user's: a state is safe only
-    /// if it is for the quickest and the slowest (each walk's user is up to 25 % off).
+    /// Reaction times tried, as fractions of the study's user's mean: a state is safe
+    /// only if it is for the quickest and the slowest (each walk's user is up to 25 % off).
     pub reaction_factors: [f64; 2],
 }
 
 impl OracleConfig {
     /// An oracle that knows `knows` and checks against `sees`: 2.5 s ahead (a reaction
     /// time, slowing down and a turn), 5 cm margin, 60 steps/s, cues deferred while a
-    /// warning 0.1 s later would still do, reaction times 25 % either side of typical.
+    /// warning 0.1 s later would still do, reaction times 25 % either side of the mean.
     pub fn new(knows: Knows, sees: Sees) -> Self {
         Self {
             knows,
@@ -186,8 +186,8 @@ pub struct Now<'a> {
     pub t_s: f64,
     /// The user, with what they felt so far.
     pub user: &'a VirtualUser,
-    /// How the oracle takes the user to walk and react: the typical user, not this
-    /// walk's own reaction time.
+    /// How the oracle takes the user to walk and react: the study's user as configured
+    /// (its mean reaction), not this walk's own draw of the reaction time.
     pub assumed: UserParams,
     /// What the user heads for, in its present state.
     pub guide: &'a dyn Guide,

@@ -694,7 +694,9 @@ fn the_cue_learns_how_fast_the_user_turns_on_the_rumble_from_the_body_gyro() {
         };
         for seed in 1..=2 {
             let out = walk(&w, &config, seed);
-            let learnt = out.learnt_turn_rate_deg_s.unwrap_or_else(|| panic!("seed {seed}: nothing learnt: {} signals, {}", out.signals, out.verdict()));
+            let learnt = out
+                .learnt_turn_rate_deg_s
+                .unwrap_or_else(|| panic!("seed {seed}: nothing learnt: {} signals, {}", out.signals, out.verdict()));
             assert!((learnt - turn_rate_deg_s).abs() < 3.0, "seed {seed}: {learnt:.1}°/s for {turn_rate_deg_s}°/s");
         }
     }
