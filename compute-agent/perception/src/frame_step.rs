@@ -301,8 +301,12 @@ impl ComputeStep {
                 let answer = self.rejections.blind().then(|| rejections::blind().hazard(input.seq, active, Vec::new()));
                 let blind =
                     answer.clone().filter(|_| tell).map(|hazard| Blind { hazard, intent: cue_unavailable(&self.cue) });
-                if let (Some(p), Some(_)) = (self.predictive.as_mut(), &blind) {
-                    p.sent(input.capture_ns as f64 * 1e-9, Rumble::Both);
+                if let Some(p) = self.predictive.as_mut() {
+                    let t_s = input.capture_ns as f64 * 1e-9;
+                    p.refused(t_s);
+                    if blind.is_some() {
+                        p.sent(t_s, Rumble::Both);
+                    }
                 }
                 StepOutput::Refused { error, blind, answer }
             }

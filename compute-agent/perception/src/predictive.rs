@@ -264,6 +264,8 @@ pub struct PredictiveCue {
     turns: VecDeque<f64>,
     /// The model's turning rate as configured, degrees per second.
     configured_turn_deg_s: f64,
+    /// When the last frame was refused, seconds.
+    refused_s: Option<f64>,
 }
 
 /// How far ahead the point lies that a user walking straight on heads for, metres.
@@ -317,13 +319,22 @@ impl PredictiveCue {
             pending: VecDeque::new(),
             turns: VecDeque::new(),
             configured_turn_deg_s: config.user.turn_rate_deg_s,
+            refused_s: None,
         }
+    }
+
+    /// A frame the perception refused at `t_s`: for a while the user may feel the
+    /// device offline instead of the rumble (and turns as told for that, not as for the
+    /// rumble), so the turning rate is not learnt until a second after it.
+    pub fn refused(&mut self, t_s: f64) {
+        self.refused_s = Some(t_s);
     }
 
     /// Takes the body's yaw rate at `t_s` (radians per second, the gyro's reading; `None`
     /// without one). With [`PredictiveConfig::learn_turn_rate`], a reading taken while a
-    /// side or both rumble sent a second or more ago still holds (the user acting on it,
-    /// as the model turns: at its largest rate) is how fast this user turns; once there
+    /// side or both rumble sent a second or more ago still holds, and no frame was
+    /// refused in that second (the user acting on the rumble, as the model turns: at its
+    /// largest rate, not on the device gone offline) is how fast this user turns; once there
     /// are 30 such readings (a second of turning), the model turns at the median of the
     /// last 300, between 15°/s and the rate configured (a model turning faster than
     /// configured would warn later than it was measured with).
@@ -334,9 +345,10 @@ impl PredictiveCue {
         let Some(rate) = yaw_rate_rad_s.filter(|r| r.is_finite()) else {
             return;
         };
+        let settled = |from: f64| t_s - from >= TURN_SETTLE_S;
         let acting = self.sent.back().is_some_and(|&(since, state)| {
-            matches!(state, Rumble::Left | Rumble::Right | Rumble::Both) && t_s - since >= TURN_SETTLE_S
-        });
+            matches!(state, Rumble::Left | Rumble::Right | Rumble::Both) && settled(since)
+        }) && self.refused_s.is_none_or(settled);
         if !acting {
             return;
         }
@@ -1512,6 +1524,21 @@ mod tests {
             turning(&mut cue, 0, 90, deg_s, Rumble::Right);
             assert_eq!(cue.learnt_turn_rate_deg_s(), Some(modelled), "turning at {deg_s}°/s");
         }
+        // frames refused: the user feels the device offline and turns as told for that
+        // (here at half the rate), which is not their turn on the rumble: nothing is
+        // taken until a second after the last refused frame
+        let mut cue = PredictiveCue::new(config);
+        turning(&mut cue, 0, 60, 30.0, Rumble::Left);
+        let learnt = |cue: &PredictiveCue| cue.learnt_turn_rate_deg_s().map(|r| (r * 1e6).round() / 1e6);
+        assert_eq!((learnt(&cue), cue.turns.len()), (Some(30.0), 30));
+        for k in 60..90 {
+            cue.refused(frame(k));
+        }
+        turning(&mut cue, 90, 119, 15.0, Rumble::Left);
+        assert_eq!((learnt(&cue), cue.turns.len()), (Some(30.0), 30), "offline turning taken");
+        turning(&mut cue, 120, 125, 30.0, Rumble::Left);
+        assert_eq!(cue.turns.len(), 35, "a second after the last refused frame");
+
         // without learning, or without the gyro, the model stays as configured
         for (learn, rate) in [(false, Some(0.5)), (true, None), (true, Some(f64::NAN))] {
             let mut cue = PredictiveCue::new(PredictiveConfig { learn_turn_rate: learn, ..config });
