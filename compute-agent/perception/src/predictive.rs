@@ -333,11 +333,11 @@ impl PredictiveCue {
     /// Takes the body's yaw rate at `t_s` (radians per second, the gyro's reading; `None`
     /// without one). With [`PredictiveConfig::learn_turn_rate`], a reading taken while a
     /// side or both rumble sent a second or more ago still holds, and no frame was
-    /// refused in that second (the user acting on the rumble, as the model turns: at its
-    /// largest rate, not on the device gone offline) is how fast this user turns; once there
-    /// are 30 such readings (a second of turning), the model turns at the median of the
-    /// last 300, between 15°/s and the rate configured (a model turning faster than
-    /// configured would warn later than it was measured with).
+    /// refused in that second (the user acting on the rumble, as the model turns: at
+    /// its largest rate; not on the device gone offline), is how fast this user turns;
+    /// once there are 30 such readings (a second of turning), the model turns at the
+    /// median of the last 300, between 15°/s and the rate configured (a model turning
+    /// faster than configured would warn later than it was measured with).
     pub fn observe_turn(&mut self, t_s: f64, yaw_rate_rad_s: Option<f64>) {
         if !self.config.learn_turn_rate {
             return;
