@@ -8,7 +8,7 @@
 //! Only the stamping of latencies and the publishing are the agent's.
 
 use schemas::depth_codec::{self, CodecError};
-use schemas::{DepthFrame, HapticIntent, Hazard, OdomIncrement, Rumble};
+use schemas::{DepthFrame, GroundState, HapticIntent, Hazard, OdomIncrement, Rumble};
 
 use crate::odometry::{ImplausibleStep, MotionSince};
 use crate::predictive::{Ahead, OwnWay, PredictiveConfig, PredictiveCue, Way};
@@ -252,6 +252,9 @@ impl ComputeStep {
                 if let Some(p) = self.predictive.as_mut() {
                     let yaw_rate = perception.body_yaw_rate_rad_s.map(f64::from);
                     let speed = f64::from(perception.speed_m_s);
+                    if perception.ground == GroundState::Degraded {
+                        p.offline_at(t_s);
+                    }
                     p.observe_turn(t_s, yaw_rate);
                     let own = p.config().own_way;
                     if own {
@@ -303,7 +306,7 @@ impl ComputeStep {
                     answer.clone().filter(|_| tell).map(|hazard| Blind { hazard, intent: cue_unavailable(&self.cue) });
                 if let Some(p) = self.predictive.as_mut() {
                     let t_s = input.capture_ns as f64 * 1e-9;
-                    p.refused(t_s);
+                    p.offline_at(t_s);
                     if blind.is_some() {
                         p.sent(t_s, Rumble::Both);
                     }

@@ -264,8 +264,9 @@ pub struct PredictiveCue {
     turns: VecDeque<f64>,
     /// The model's turning rate as configured, degrees per second.
     configured_turn_deg_s: f64,
-    /// When the last frame was refused, seconds.
-    refused_s: Option<f64>,
+    /// When the last frame was that the user may have felt as the device offline,
+    /// seconds.
+    offline_s: Option<f64>,
 }
 
 /// How far ahead the point lies that a user walking straight on heads for, metres.
@@ -319,22 +320,24 @@ impl PredictiveCue {
             pending: VecDeque::new(),
             turns: VecDeque::new(),
             configured_turn_deg_s: config.user.turn_rate_deg_s,
-            refused_s: None,
+            offline_s: None,
         }
     }
 
-    /// A frame the perception refused at `t_s`: for a while the user may feel the
-    /// device offline instead of the rumble (and turns as told for that, not as for the
-    /// rumble), so the turning rate is not learnt until a second after it.
-    pub fn refused(&mut self, t_s: f64) {
-        self.refused_s = Some(t_s);
+    /// A frame at `t_s` the user may feel as the device offline instead of the rumble
+    /// (the perception refused it, or found the ground degraded: the feedback's watchdog
+    /// says detection is offline): the user turns as told for that, not as for the
+    /// rumble, so the turning rate is not learnt until a second after it.
+    pub fn offline_at(&mut self, t_s: f64) {
+        self.offline_s = Some(t_s);
     }
 
     /// Takes the body's yaw rate at `t_s` (radians per second, the gyro's reading; `None`
     /// without one). With [`PredictiveConfig::learn_turn_rate`], a reading taken while a
-    /// side or both rumble sent a second or more ago still holds, and no frame was
-    /// refused in that second (the user acting on the rumble, as the model turns: at
-    /// its largest rate; not on the device gone offline), is how fast this user turns;
+    /// side or both rumble sent a second or more ago still holds, and no frame in that
+    /// second could be felt as the device offline ([`PredictiveCue::offline_at`]: the
+    /// user acting on the rumble, as the model turns, at its largest rate), is how fast
+    /// this user turns;
     /// once there are 30 such readings (a second of turning), the model turns at the
     /// median of the last 300, between 15°/s and the rate configured (a model turning
     /// faster than configured would warn later than it was measured with).
@@ -348,7 +351,7 @@ impl PredictiveCue {
         let settled = |from: f64| t_s - from >= TURN_SETTLE_S;
         let acting = self.sent.back().is_some_and(|&(since, state)| {
             matches!(state, Rumble::Left | Rumble::Right | Rumble::Both) && settled(since)
-        }) && self.refused_s.is_none_or(settled);
+        }) && self.offline_s.is_none_or(settled);
         if !acting {
             return;
         }
@@ -1532,7 +1535,7 @@ mod tests {
         let learnt = |cue: &PredictiveCue| cue.learnt_turn_rate_deg_s().map(|r| (r * 1e6).round() / 1e6);
         assert_eq!((learnt(&cue), cue.turns.len()), (Some(30.0), 30));
         for k in 60..90 {
-            cue.refused(frame(k));
+            cue.offline_at(frame(k));
         }
         turning(&mut cue, 90, 119, 15.0, Rumble::Left);
         assert_eq!((learnt(&cue), cue.turns.len()), (Some(30.0), 30), "offline turning taken");
