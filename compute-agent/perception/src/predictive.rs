@@ -262,6 +262,8 @@ pub struct PredictiveCue {
     /// How fast the user turned while acting on a rumble, degrees per second: the last
     /// [`TURN_SAMPLES`] readings ([`PredictiveCue::observe_turn`]).
     turns: VecDeque<f64>,
+    /// `turns` copied for its median, kept between frames.
+    turns_sorted: Vec<f64>,
     /// The model's turning rate as configured, degrees per second.
     configured_turn_deg_s: f64,
     /// When the last frame was that the user may have felt as the device offline,
@@ -319,6 +321,7 @@ impl PredictiveCue {
             cane_armed: Vec::new(),
             pending: VecDeque::new(),
             turns: VecDeque::new(),
+            turns_sorted: Vec::with_capacity(TURN_SAMPLES),
             configured_turn_deg_s: config.user.turn_rate_deg_s,
             offline_s: None,
         }
@@ -360,9 +363,11 @@ impl PredictiveCue {
         }
         self.turns.push_back(rate.abs().to_degrees());
         if self.turns.len() >= TURN_SAMPLES_MIN {
-            let mut sorted: Vec<f64> = self.turns.iter().copied().collect();
-            let mid = sorted.len() / 2;
-            let (_, median, _) = sorted.select_nth_unstable_by(mid, f64::total_cmp);
+            self.turns_sorted.clear();
+            self.turns_sorted.extend(&self.turns);
+            let mid = self.turns_sorted.len() / 2;
+            let (_, median, _) = self.turns_sorted.select_nth_unstable_by(mid, f64::total_cmp);
+            let median = *median;
             let ceiling = self.configured_turn_deg_s.max(TURN_FLOOR_DEG_S);
             self.config.user.turn_rate_deg_s = median.clamp(TURN_FLOOR_DEG_S, ceiling);
         }

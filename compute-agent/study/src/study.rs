@@ -124,8 +124,7 @@ pub fn learnt_turn_line<'a>(walks: impl Iterator<Item = &'a WalkOutcome>, learni
     let unlearnt = format!("{none} of {} walks learnt nothing", learnt.len() + none);
     Some(match (learnt.first(), learnt.last()) {
         (Some(lo), Some(hi)) => {
-            let n = learnt.len();
-            let median = if n % 2 == 1 { learnt[n / 2] } else { (learnt[n / 2 - 1] + learnt[n / 2]) / 2.0 };
+            let median = planning::movingai::median(&learnt);
             format!(
                 "the cue's model learnt a turning rate of {median:.1}°/s (median; {lo:.1}-{hi:.1}°/s), {unlearnt}\n"
             )
